@@ -1,0 +1,1 @@
+"""Compute kernels (deform, rasterize) with Warp, OpenCL and NumPy-reference backends."""

@@ -1,0 +1,1 @@
+"""What flows through signcast: the avatar, motion, video I/O, segmentation."""

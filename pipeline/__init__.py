@@ -1,0 +1,1 @@
+"""signcast command line, orchestration, scenarios and progress."""
