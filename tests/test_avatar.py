@@ -1,0 +1,99 @@
+"""The vendored MakeHuman avatar: asset contents, SMS bone transform, skin weights, influence volumes."""
+import numpy as np
+import pytest
+
+from media import rotations
+from media.avatar import PART_BODY, PART_HEAD, PART_LEFT_HAND, PART_RIGHT_HAND, BoneTransform, load_avatar
+from media.errors import SigncastError
+from media.influence import InfluenceVolume, affectedness, dominant_agreement, falloff, fit_volumes, influence_weights
+
+
+@pytest.fixture(scope="module")
+def avatar():
+    return load_avatar()
+
+
+def test_avatar_keeps_body_skin_and_eyes_in_metres(avatar):
+    assert avatar.vertices.shape == (13524, 3)
+    assert np.count_nonzero(avatar.triangle_shape == 0) == 26756          # the body group, split into triangles
+    assert set(np.unique(avatar.triangle_shape)) == {0, 1, 2}              # body, left eye, right eye
+    height = avatar.vertices[:, 1].max() - avatar.vertices[:, 1].min()
+    assert 1.55 < height < 1.80                                            # a person, in metres
+    assert avatar.triangles.max() < len(avatar.vertices)
+
+
+def test_avatar_parts_follow_the_body(avatar):
+    centroid = avatar.vertices[avatar.triangles].mean(axis=1)
+    part = avatar.triangle_part
+    assert set(np.unique(part)) == {PART_BODY, PART_HEAD, PART_LEFT_HAND, PART_RIGHT_HAND}
+    assert centroid[part == PART_HEAD, 1].mean() > 0.6                      # the head is on top
+    assert centroid[part == PART_LEFT_HAND, 0].mean() > 0.35               # the avatar's left is +X
+    assert centroid[part == PART_RIGHT_HAND, 0].mean() < -0.35
+    assert np.count_nonzero(part == PART_LEFT_HAND) == np.count_nonzero(part == PART_RIGHT_HAND)
+
+
+def test_skeleton_is_ordered_parents_first_with_joints_on_the_mesh(avatar):
+    skeleton = avatar.skeleton
+    assert len(skeleton) == 163
+    assert all(p < b for b, p in enumerate(skeleton.parents))
+    lo, hi = avatar.vertices.min(axis=0) - 0.01, avatar.vertices.max(axis=0) + 0.01
+    assert np.all((skeleton.heads >= lo) & (skeleton.heads <= hi))
+    wrist = skeleton.heads[skeleton.index("wrist.L")]
+    elbow = skeleton.heads[skeleton.index("lowerarm01.L")]
+    assert 0.2 < np.linalg.norm(wrist - elbow) < 0.32                      # a forearm
+    with pytest.raises(SigncastError, match="unknown bone"):
+        skeleton.index("tail")
+
+
+def test_skin_weights_are_normalised_rows(avatar):
+    weights = avatar.weights
+    sums = np.add.reduceat(weights.values, weights.indptr[:-1])
+    assert np.allclose(sums, 1.0, atol=1e-5)
+    assert weights.n_vertices == len(avatar.vertices)
+    dominant = weights.dominant_bone()
+    assert avatar.skeleton.names[dominant[avatar.triangles[avatar.triangle_part == PART_LEFT_HAND][0, 0]]].endswith(".L")
+
+
+def test_bone_transform_composes_eq_3_5():
+    center = np.array([1.0, 2.0, 3.0])
+    rotation = rotations.from_axis_angle([0, 0, 1], np.pi / 2)
+    transform = BoneTransform(center=center, rotation=rotation, translation=np.array([0.0, 0.0, 1.0]),
+                              scale=np.array([2.0, 1.0, 1.0]))
+    m = transform.matrix()
+    assert np.allclose(m @ np.append(center, 1), np.append(center + [0, 0, 1], 1))   # the centre stays, then translates
+    # A point one unit along +X from the centre is scaled to 2 units, then rotated onto +Y.
+    assert np.allclose(m @ np.append(center + [1, 0, 0], 1), np.append(center + [0, 2, 1], 1))
+    oriented = BoneTransform(center=np.zeros(3), scale=np.array([2.0, 1.0, 1.0]), scale_orientation=rotation)
+    assert np.allclose(oriented.matrix()[:3, :3], np.diag([1.0, 2.0, 1.0]))            # the scale axis turned onto Y
+
+
+@pytest.mark.parametrize("code,expected", [(-1, 0.125), (0, 0.25), (1, 0.5), (2, np.sin(np.pi / 4)), (3, np.sqrt(0.5)), (4, np.cbrt(0.5))])
+def test_six_falloff_functions(code, expected):
+    assert falloff(code, np.array([0.5]))[0] == pytest.approx(expected)
+    assert falloff(code, np.array([0.0, 1.0])).tolist() == [0.0, 1.0]
+
+
+def test_influence_volume_zones_and_half_sphere_caps():
+    head, tail = np.zeros(3), np.array([0.0, 1.0, 0.0])
+    volume = InfluenceVolume(np.array([0.0, 1.0]), np.array([0.1, 0.1]), np.array([0.3, 0.3]), falloff=1)
+    points = np.array([[0.05, 0.5, 0], [0.2, 0.5, 0], [0.4, 0.5, 0], [0, -0.2, 0], [0, 1.35, 0], [0.2, -0.2, 0]])
+    mu = affectedness(points, head, tail, volume)
+    assert mu[0] == 1.0 and mu[2] == 0.0
+    assert mu[1] == pytest.approx(0.5)                  # halfway through the ring, linear falloff
+    assert mu[3] == pytest.approx(0.5)                  # 0.2 before the head, on the cap
+    assert mu[4] == 0.0                                 # 0.35 past the tail: outside the cap
+    assert mu[5] == pytest.approx((0.3 - np.hypot(0.2, 0.2)) / 0.2)
+
+
+def test_influence_volume_weights_agree_with_makehuman(avatar):
+    skeleton, reference = avatar.skeleton, avatar.weights
+    used = np.zeros(len(skeleton), dtype=bool)
+    used[reference.bones] = True
+    bones = np.flatnonzero(used & (np.linalg.norm(skeleton.tails - skeleton.heads, axis=1) > 1e-6))
+    volumes = fit_volumes(avatar.vertices.astype(np.float64), skeleton, bones)
+    computed = influence_weights(avatar.vertices, skeleton, bones, volumes)
+    overall = dominant_agreement(computed, reference)
+    hands = dominant_agreement(computed, reference, np.isin(avatar.vertex_part(), [PART_LEFT_HAND, PART_RIGHT_HAND]))
+    print(f"dominant bone agreement with MakeHuman weights: {overall:.1%} overall, {hands:.1%} on the hands")
+    assert overall > 0.5 and hands > 0.75
+    assert np.allclose(np.add.reduceat(computed.values, computed.indptr[:-1]), 1.0, atol=1e-5)

@@ -1,0 +1,64 @@
+"""BVH export and import: exact round trip and an independent parser."""
+import numpy as np
+import pytest
+
+from media import rotations
+from media.avatar import load_avatar
+from media.bvh import read_bvh, write_bvh
+from media.errors import SigncastError
+from media.kinematics import joint_positions
+from media.motion import Motion
+
+
+@pytest.fixture(scope="module")
+def skeleton():
+    return load_avatar().skeleton
+
+
+@pytest.fixture(scope="module")
+def random_motion(skeleton):
+    rng = np.random.default_rng(1)
+    motion = Motion.rest(skeleton.names, 6, fps=25.0)
+    motion.rotations = rotations.canonical(rotations.from_axis_angle(rng.normal(size=(6, len(skeleton), 3)), rng.uniform(0, 2.5, (6, len(skeleton)))))
+    motion.root_translation = rng.normal(size=(6, 3)) * 0.1
+    return motion
+
+
+def test_bvh_round_trip_is_exact_to_1e6(tmp_path, skeleton, random_motion):
+    path = tmp_path / "m.bvh"
+    write_bvh(path, random_motion, skeleton)
+    back, hierarchy = read_bvh(path)
+    order = [back.bone_names.index(name) for name in skeleton.names]
+    dot = np.abs(np.sum(random_motion.rotations * back.rotations[:, order], axis=-1))
+    assert np.all(1 - dot < 1e-12)
+    assert np.abs(back.root_translation - random_motion.root_translation).max() < 1e-6
+    assert back.fps == pytest.approx(25.0)
+    rebuilt = hierarchy.to_skeleton()
+    assert np.abs(rebuilt.heads[order] - skeleton.heads).max() < 1e-6
+    assert np.abs(joint_positions(rebuilt, back)[:, order] - joint_positions(skeleton, random_motion)).max() < 1e-6
+
+
+def test_bvh_opens_in_an_independent_parser(tmp_path, skeleton, random_motion):
+    bvh = pytest.importorskip("bvh", reason="the independent parser `bvh` (pip install bvh) is a test extra")
+    path = tmp_path / "m.bvh"
+    write_bvh(path, random_motion, skeleton)
+    parsed = bvh.Bvh(path.read_text())
+    assert parsed.nframes == 6 and parsed.frame_time == pytest.approx(0.04)
+    assert sorted(parsed.get_joints_names()) == sorted(skeleton.names)
+    wrist = skeleton.index("wrist.R")
+    z, x, y = np.radians(parsed.frame_joint_channels(3, "wrist.R", ["Zrotation", "Xrotation", "Yrotation"]))
+    q = rotations.multiply(rotations.multiply(rotations.from_axis_angle([0, 0, 1], z), rotations.from_axis_angle([1, 0, 0], x)),
+                           rotations.from_axis_angle([0, 1, 0], y))
+    assert rotations.angle_between(q, random_motion.rotations[3, wrist]) < 1e-6
+    offset = np.array(parsed.joint_offset("wrist.R")) / 100.0
+    assert np.allclose(offset, skeleton.offsets()[wrist], atol=1e-6)
+
+
+def test_bvh_rejects_truncated_file(tmp_path, skeleton, random_motion):
+    path = tmp_path / "m.bvh"
+    write_bvh(path, random_motion, skeleton)
+    path.write_text(path.read_text()[:-200])
+    with pytest.raises(SigncastError, match="not a valid BVH"):
+        read_bvh(path)
+    with pytest.raises(SigncastError, match="not found"):
+        read_bvh(tmp_path / "missing.bvh")
