@@ -1,0 +1,227 @@
+"""Skinning kernels: linear blend skinning (seamless SMS skin) and rigid segments (FBA-style body).
+
+Entry points `skin` and `skin_rigid` take explicit arrays and a backend ("warp", "opencl",
+"numpy", "auto"). Bone matrices map rest-pose world points to posed world points (metres), so
+no inverse bind matrix is involved: v' = sum_b w_b M_b v.
+"""
+
+import functools
+from typing import NamedTuple
+
+import numpy as np
+
+from kernels import backends
+from kernels._arrays import UploadCache, as_array, check_indices
+from kernels.errors import KernelError
+
+
+class SparseWeights(NamedTuple):
+    """Per-vertex bone weights in CSR form: indptr (V+1,) int32, bones (nnz,) int32, values (nnz,) float32."""
+    indptr: np.ndarray
+    bones: np.ndarray
+    values: np.ndarray
+
+
+def _checked(rest, bone_matrices) -> tuple[np.ndarray, np.ndarray]:
+    rest = as_array("rest", rest, np.float32, (None, 3))
+    bone_matrices = as_array("bone_matrices", bone_matrices, np.float32, (None, 4, 4))
+    return rest, bone_matrices
+
+
+def _checked_weights(weights, n_vertices: int, n_bones: int) -> SparseWeights:
+    try:
+        indptr, bones, values = weights.indptr, weights.bones, weights.values
+    except AttributeError:
+        raise KernelError("weights: expected CSR weights with indptr, bones and values") from None
+    indptr = as_array("weights.indptr", indptr, np.int32, (n_vertices + 1,))
+    bones = as_array("weights.bones", bones, np.int32, (None,))
+    values = as_array("weights.values", values, np.float32, (len(bones),))
+    if indptr[0] != 0 or indptr[-1] != len(bones) or np.any(np.diff(indptr) < 0):
+        raise KernelError("weights.indptr: must rise from 0 to the number of entries")
+    check_indices("weights.bones", bones, n_bones)
+    return SparseWeights(indptr, bones, values)
+
+
+def skin(rest, weights, bone_matrices, *, backend: str = "auto") -> np.ndarray:
+    """Linear blend skinning.
+
+    rest: (V, 3) float32 rest-pose positions, metres.
+    weights: CSR rows per vertex (anything with indptr, bones, values; see SparseWeights); rows sum to 1.
+    bone_matrices: (B, 4, 4) float32, rest-to-posed world transform of each bone.
+    Returns (V, 3) float32 posed positions, metres.
+    """
+    rest, bone_matrices = _checked(rest, bone_matrices)
+    weights = _checked_weights(weights, len(rest), len(bone_matrices))
+    return _IMPLEMENTATIONS[backends.resolve(backend)].skin(rest, weights, bone_matrices)
+
+
+def skin_rigid(rest, dominant_bone, bone_matrices, *, backend: str = "auto") -> np.ndarray:
+    """Segmented body: every vertex follows one bone rigidly (seams open at the joints).
+
+    rest: (V, 3) float32 metres; dominant_bone: (V,) int32 bone of each vertex;
+    bone_matrices: (B, 4, 4) float32. Returns (V, 3) float32 posed positions.
+    """
+    rest, bone_matrices = _checked(rest, bone_matrices)
+    dominant_bone = as_array("dominant_bone", dominant_bone, np.int32, (len(rest),))
+    check_indices("dominant_bone", dominant_bone, len(bone_matrices))
+    return _IMPLEMENTATIONS[backends.resolve(backend)].skin_rigid(rest, dominant_bone, bone_matrices)
+
+
+# --- NumPy: the oracle ----------------------------------------------------------------------------
+
+class _NumpySkinning:
+    @staticmethod
+    def skin(rest, weights, bone_matrices):
+        rows = np.repeat(np.arange(len(rest)), np.diff(weights.indptr))
+        matrices = bone_matrices.astype(np.float64)[weights.bones]                     # (nnz, 4, 4)
+        points = rest.astype(np.float64)[rows]                                          # (nnz, 3)
+        moved = np.einsum("nij,nj->ni", matrices[:, :3, :3], points) + matrices[:, :3, 3]
+        weighted = moved * weights.values.astype(np.float64)[:, None]
+        posed = np.zeros((len(rest), 3))
+        np.add.at(posed, rows, weighted)
+        return posed.astype(np.float32)
+
+    @staticmethod
+    def skin_rigid(rest, dominant_bone, bone_matrices):
+        matrices = bone_matrices.astype(np.float64)[dominant_bone]
+        posed = np.einsum("vij,vj->vi", matrices[:, :3, :3], rest.astype(np.float64)) + matrices[:, :3, 3]
+        return posed.astype(np.float32)
+
+
+# --- Warp -----------------------------------------------------------------------------------------
+
+@functools.cache
+def _warp_kernels():
+    wp = backends.warp()
+
+    @wp.kernel
+    def linear_blend(rest: wp.array(dtype=wp.vec3), indptr: wp.array(dtype=wp.int32),
+                     bones: wp.array(dtype=wp.int32), values: wp.array(dtype=wp.float32),
+                     matrices: wp.array(dtype=wp.mat44), posed: wp.array(dtype=wp.vec3)):
+        v = wp.tid()
+        p = rest[v]
+        total = wp.vec3(0.0, 0.0, 0.0)
+        for k in range(indptr[v], indptr[v + 1]):
+            total += values[k] * wp.transform_point(matrices[bones[k]], p)
+        posed[v] = total
+
+    @wp.kernel
+    def rigid(rest: wp.array(dtype=wp.vec3), dominant_bone: wp.array(dtype=wp.int32),
+              matrices: wp.array(dtype=wp.mat44), posed: wp.array(dtype=wp.vec3)):
+        v = wp.tid()
+        posed[v] = wp.transform_point(matrices[dominant_bone[v]], rest[v])
+
+    return linear_blend, rigid
+
+
+class _WarpSkinning:
+    """Device buffers live as long as the process; the rest mesh and weights upload once."""
+
+    def __init__(self):
+        self._uploads = None
+        self._outputs = {}
+
+    def _setup(self):
+        wp, device = backends.warp(), backends.warp_device()
+        if self._uploads is None:
+            self._uploads = UploadCache(lambda a: wp.array(a, device=device))
+            self._points = UploadCache(lambda a: wp.array(a, dtype=wp.vec3, device=device))
+        return wp, device
+
+    def _launch(self, kernel, rest, arguments, bone_matrices):
+        wp, device = self._setup()
+        n = len(rest)
+        if n not in self._outputs:
+            self._outputs[n] = wp.empty(n, dtype=wp.vec3, device=device)
+        posed = self._outputs[n]
+        matrices = wp.array(bone_matrices, dtype=wp.mat44, device=device)
+        wp.launch(kernel, dim=n, device=device, inputs=[self._points.get("rest", rest), *arguments, matrices, posed])
+        return posed.numpy().copy()
+
+    def skin(self, rest, weights, bone_matrices):
+        self._setup()
+        linear_blend, _ = _warp_kernels()
+        arguments = [self._uploads.get("indptr", weights.indptr), self._uploads.get("bones", weights.bones),
+                     self._uploads.get("values", weights.values)]
+        return self._launch(linear_blend, rest, arguments, bone_matrices)
+
+    def skin_rigid(self, rest, dominant_bone, bone_matrices):
+        self._setup()
+        _, rigid = _warp_kernels()
+        return self._launch(rigid, rest, [self._uploads.get("dominant", dominant_bone)], bone_matrices)
+
+
+# --- OpenCL ---------------------------------------------------------------------------------------
+
+_OPENCL_SOURCE = r"""
+#pragma OPENCL FP_CONTRACT OFF
+float3 transform_point(__global const float *m, float3 p) {
+    return (float3)(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],
+                    m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                    m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+}
+
+__kernel void linear_blend(__global const float *rest, __global const int *indptr,
+                           __global const int *bones, __global const float *values,
+                           __global const float *matrices, __global float *posed) {
+    int v = get_global_id(0);
+    float3 p = vload3(v, rest);
+    float3 total = (float3)(0.0f);
+    for (int k = indptr[v]; k < indptr[v + 1]; ++k)
+        total += values[k] * transform_point(matrices + 16 * bones[k], p);
+    vstore3(total, v, posed);
+}
+
+__kernel void rigid(__global const float *rest, __global const int *dominant_bone,
+                    __global const float *matrices, __global float *posed) {
+    int v = get_global_id(0);
+    vstore3(transform_point(matrices + 16 * dominant_bone[v], vload3(v, rest)), v, posed);
+}
+"""
+
+
+class _OpenCLSkinning:
+    def __init__(self):
+        self._cache = None
+        self._buffers = {}
+
+    def _setup(self):
+        import pyopencl as cl
+        context, queue = backends.opencl_queue()
+        if self._cache is None:
+            self._cache = UploadCache(lambda a: cl.Buffer(context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a))
+        if not hasattr(self, "_kernels"):
+            program = backends.opencl_program(_OPENCL_SOURCE)
+            self._kernels = {"linear_blend": program.linear_blend, "rigid": program.rigid}
+        return cl, context, queue, self._kernels
+
+    def _buffer(self, name, nbytes):
+        import pyopencl as cl
+        context, _ = backends.opencl_queue()
+        if self._buffers.get(name, (None, -1))[1] != nbytes:
+            self._buffers[name] = (cl.Buffer(context, cl.mem_flags.READ_WRITE, nbytes), nbytes)
+        return self._buffers[name][0]
+
+    def _run(self, kernel, n, arguments, bone_matrices):
+        cl, context, queue, _ = self._setup()
+        matrices = self._buffer("matrices", bone_matrices.nbytes)
+        cl.enqueue_copy(queue, matrices, bone_matrices, is_blocking=False)
+        posed = np.empty((n, 3), dtype=np.float32)
+        posed_d = self._buffer("posed", posed.nbytes)
+        kernel(queue, (n,), None, *arguments, matrices, posed_d)
+        cl.enqueue_copy(queue, posed, posed_d, is_blocking=True)
+        return posed
+
+    def skin(self, rest, weights, bone_matrices):
+        _, _, _, kernels = self._setup()
+        arguments = [self._cache.get("rest", rest), self._cache.get("indptr", weights.indptr),
+                     self._cache.get("bones", weights.bones), self._cache.get("values", weights.values)]
+        return self._run(kernels["linear_blend"], len(rest), arguments, bone_matrices)
+
+    def skin_rigid(self, rest, dominant_bone, bone_matrices):
+        _, _, _, kernels = self._setup()
+        arguments = [self._cache.get("rest", rest), self._cache.get("dominant", dominant_bone)]
+        return self._run(kernels["rigid"], len(rest), arguments, bone_matrices)
+
+
+_IMPLEMENTATIONS = {"numpy": _NumpySkinning(), "warp": _WarpSkinning(), "opencl": _OpenCLSkinning()}
