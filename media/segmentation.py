@@ -42,7 +42,7 @@ class SegmentationSettings:
     clothes_band: float = 0.2          # lower fraction of the frame where clothes colours are sampled
     clothes_learn_frames: int = 5
     clothes_distance: float = 12.0     # Lab distance under which a signer pixel counts as clothes
-    min_part_area: float = 0.004       # smallest head/hand component, fraction of the frame area
+    min_part_area: float = 0.01        # smallest head/hand component, fraction of the frame area
 
 
 def _check_frames(frames: np.ndarray) -> np.ndarray:
