@@ -153,7 +153,8 @@ def lookup(language: str, unit: str) -> LexiconEntry:
 def split_word(language: str, word: str) -> list[str]:
     """Split `word` into the language's units, longest match first, case-insensitively.
 
-    Whitespace is kept as the unit " " (a pause). Returns units as written in the lexicon, e.g.
+    Whitespace is kept as the unit " " (a pause); an accented letter the lexicon lacks is spelled as
+    its base letter (Greek tonos: ό -> Ο) when that exists. Returns units as written in the lexicon, e.g.
     ssp "LLAMA" -> ["LL", "A", "M", "A"]; a character no unit covers raises SigncastError.
     """
     table = {normalize_unit(entry.unit): entry.unit for entry in entries(language)}
@@ -176,6 +177,12 @@ def split_word(language: str, word: str) -> list[str]:
                 position += size
                 break
         else:
+            # a letter with an accent the lexicon lacks (Greek tonos, French acute) is spelled as its base letter
+            base = unicodedata.normalize("NFD", text[position])[0]
+            if base != text[position] and base in table:
+                result.append(table[base])
+                position += 1
+                continue
             raise SigncastError(f"cannot fingerspell {word!r} in {check_language(language)}: no letter "
                                 f"{text[position]!r}; the lexicon has: {' '.join(units(language))}")
     return result

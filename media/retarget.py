@@ -1,0 +1,479 @@
+"""Retargeting MediaPipe Holistic keypoints (a lexicon clip) to the avatar's skeleton.
+
+- Torso: spine01..05 lean with the shoulder line, neck01..03 and head follow the eyes (roll) and
+  the nose between the ears (yaw), from the pose landmarks.
+- Arms: the shoulder->elbow and elbow->wrist directions are lifted to 3D with the avatar's bone
+  lengths (media.lifting; the hand is in front of the body, so dz >= 0), and the palm's rotation
+  comes from the wrist, index and little-finger knuckles (a weak-perspective triangle fit, its
+  depth-mirror chosen closest to the forearm: wrist joint limits). CCD IK with joint limits
+  (media.ik) then poses upperarm01 (3 DOF), lowerarm01 (elbow hinge), lowerarm02 (forearm twist)
+  and wrist (flexion, deviation) to reach elbow, wrist and palm orientation together.
+- Fingers: every phalanx from the 21 hand landmarks, in its parent's posed frame: flexion towards
+  the palm and (at the knuckles and the thumb's base) abduction, each clamped to joint limits;
+  the sign of each phalanx's depth is the one that respects the limits best (fingers flex
+  towards the palm). Metacarpals stay at rest.
+- A hand the clip never shows (ASL has no left hand) keeps its arm and fingers at rest; points
+  missing in some frames take the nearest frame that has them. No output is ever NaN.
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from media import ik, lifting, rotations
+from media.avatar import Skeleton, load_avatar
+from media.errors import SigncastError
+from media.kinematics import bone_matrices, joint_positions
+from media.lexicon import HAND_COMPONENTS, POSE_COMPONENT, POSE_POINTS, SignClip
+from media.motion import Motion
+
+SIDES = {"left": "L", "right": "R"}
+TORSO_BONES = ("spine05", "spine04", "spine03", "spine02", "spine01", "neck01", "neck02", "neck03", "head")
+ARM_BONES = ("clavicle", "shoulder01", "upperarm01", "upperarm02", "lowerarm01", "lowerarm02", "wrist",
+             "metacarpal1", "metacarpal2", "metacarpal3", "metacarpal4")
+# (bone, head landmark, tail landmark) of each phalanx, proximal first; finger1 is the thumb.
+FINGER_CHAINS = {
+    "thumb": (("finger1-1", 1, 2), ("finger1-2", 2, 3), ("finger1-3", 3, 4)),
+    "index": (("finger2-1", 5, 6), ("finger2-2", 6, 7), ("finger2-3", 7, 8)),
+    "middle": (("finger3-1", 9, 10), ("finger3-2", 10, 11), ("finger3-3", 11, 12)),
+    "ring": (("finger4-1", 13, 14), ("finger4-2", 14, 15), ("finger4-3", 15, 16)),
+    "little": (("finger5-1", 17, 18), ("finger5-2", 18, 19), ("finger5-3", 19, 20)),
+}
+# Joint limits in degrees: (flexion min, max), (abduction min, max), relative to the rest pose.
+FINGER_LIMITS = {
+    1: ((-20.0, 95.0), (-25.0, 25.0)),     # knuckle (MCP): flexion and spread
+    2: ((-5.0, 115.0), (0.0, 0.0)),        # PIP: hinge
+    3: ((-10.0, 90.0), (0.0, 0.0)),        # DIP: hinge
+}
+THUMB_LIMITS = {
+    1: ((-50.0, 70.0), (-50.0, 60.0)),     # carpometacarpal: the thumb's own two axes
+    2: ((-20.0, 75.0), (-15.0, 15.0)),     # MCP
+    3: ((-20.0, 90.0), (0.0, 0.0)),        # IP: hinge
+}
+PALM_LANDMARKS = (0, 5, 17)   # wrist, index knuckle, little-finger knuckle
+MIN_HAND_FRAMES = 1
+
+
+@dataclass
+class Retargeted:
+    """motion: the avatar Motion at the clip's fps. followed: bone name -> (T, 3) world unit
+    direction the bone was posed to follow (lifted keypoints); projected: bone name -> (T, 2)
+    the keypoints' own frontal-plane direction (not unit: metres); hands: sides retargeted."""
+    motion: Motion
+    followed: dict[str, np.ndarray]
+    projected: dict[str, np.ndarray]
+    hands: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class _Rig:
+    skeleton: Skeleton
+    names: tuple[str, ...]
+
+
+def driven_bones(skeleton: Skeleton) -> tuple[str, ...]:
+    """Bones a retargeted motion carries (torso, both arms and hands)."""
+    names = list(TORSO_BONES)
+    for side in SIDES.values():
+        names += [f"{bone}.{side}" for bone in ARM_BONES]
+        names += [f"{bone}.{side}" for chain in FINGER_CHAINS.values() for bone, _, _ in chain]
+    missing = [name for name in names if name not in skeleton._index]
+    if missing:
+        raise SigncastError(f"the avatar lacks bones needed for retargeting: {', '.join(missing[:5])}")
+    return tuple(names)
+
+
+# --------------------------------------------------------------------------- keypoint clean-up
+
+def _filled(points: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Points (T, N, D) where invalid (T, N) entries take the nearest valid frame of the same point."""
+    filled = points.copy()
+    frames = np.arange(len(points))
+    for n in range(points.shape[1]):
+        good = np.flatnonzero(valid[:, n])
+        if len(good) == 0 or len(good) == len(points):
+            continue
+        nearest = good[np.clip(np.searchsorted(good, frames), 0, len(good) - 1)]
+        before = good[np.clip(np.searchsorted(good, frames) - 1, 0, len(good) - 1)]
+        nearest = np.where(np.abs(before - frames) <= np.abs(nearest - frames), before, nearest)
+        filled[:, n] = points[nearest, n]
+    return filled
+
+
+def _smoothed(points: np.ndarray) -> np.ndarray:
+    """A light [1, 2, 1] / 4 temporal filter (T, N, D): MediaPipe jitters by a pixel or two."""
+    if len(points) < 3:
+        return points
+    padded = np.concatenate([points[:1], points, points[-1:]])
+    return 0.25 * padded[:-2] + 0.5 * padded[1:-1] + 0.25 * padded[2:]
+
+
+def _component(clip: SignClip, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(points (T, N, 2) pixels, filled and smoothed; valid (T, N) as recorded)."""
+    if name not in clip.points:
+        raise SigncastError(f"clip has no {name} keypoints; a MediaPipe Holistic .pose file is needed")
+    points = clip.points[name][..., :2]
+    valid = clip.confidence[name] > 0
+    return _smoothed(_filled(points, valid)), valid
+
+
+# --------------------------------------------------------------------------- rig geometry
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
+
+
+def _head(skeleton: Skeleton, name: str) -> np.ndarray:
+    return skeleton.heads[skeleton.index(name)]
+
+
+def _bone_vector(skeleton: Skeleton, name: str) -> np.ndarray:
+    i = skeleton.index(name)
+    return skeleton.tails[i] - skeleton.heads[i]
+
+
+def _palmar_normal(skeleton: Skeleton, side: str) -> np.ndarray:
+    """Rest-pose unit normal out of the palm of hand `side` ('L'/'R')."""
+    index = _head(skeleton, f"finger2-1.{side}")
+    little = _head(skeleton, f"finger5-1.{side}")
+    middle = _head(skeleton, f"finger3-1.{side}")
+    wrist = _head(skeleton, f"wrist.{side}")
+    across = index - little if side == "R" else little - index
+    return _unit(np.cross(across, middle - wrist))
+
+
+def _arm_chain(skeleton: Skeleton, side: str) -> list[ik.ChainJoint]:
+    """upperarm01 (3 DOF), lowerarm01 (elbow hinge), lowerarm02 (forearm twist), wrist (2 DOF)."""
+    mirror = 1.0 if side == "L" else -1.0
+    shoulder = _head(skeleton, f"upperarm01.{side}")
+    elbow = _head(skeleton, f"lowerarm01.{side}")
+    wrist = _head(skeleton, f"wrist.{side}")
+    upper_dir = _unit(elbow - shoulder)
+    fore_dir = _unit(wrist - elbow)
+    hinge = _unit(np.cross(upper_dir, fore_dir)) * -1.0
+    # sign: positive hinge angle flexes (turns the forearm towards the upper arm)
+    if np.dot(rotations.rotate(rotations.from_axis_angle(hinge, 0.1), fore_dir), -upper_dir) < np.dot(fore_dir, -upper_dir):
+        hinge = -hinge
+    rest_flexion = np.degrees(np.arccos(np.clip(np.dot(upper_dir, fore_dir), -1, 1)))
+    palmar = _palmar_normal(skeleton, side)
+    lateral = _unit(np.cross(fore_dir, palmar))
+    rad = np.radians
+    return [
+        ik.ChainJoint(f"upperarm01.{side}", shoulder,
+                      np.array([[1.0, 0, 0], [0, 0, 1.0], upper_dir]),
+                      rad(np.array([-170.0, -70.0 if side == "L" else -110.0, -90.0])),
+                      rad(np.array([50.0, 110.0 if side == "L" else 70.0, 90.0]))),
+        ik.ChainJoint(f"lowerarm01.{side}", elbow, hinge[None],
+                      rad(np.array([-rest_flexion])), rad(np.array([150.0 - rest_flexion]))),
+        ik.ChainJoint(f"lowerarm02.{side}", _head(skeleton, f"lowerarm02.{side}"), _bone_vector(skeleton, f"lowerarm02.{side}")[None] / np.linalg.norm(_bone_vector(skeleton, f"lowerarm02.{side}")),
+                      rad(np.array([-90.0])), rad(np.array([90.0]))),
+        ik.ChainJoint(f"wrist.{side}", wrist, np.stack([lateral, palmar]),
+                      rad(np.array([-80.0, -35.0])), rad(np.array([80.0, 35.0]))),
+    ]
+
+
+# --------------------------------------------------------------------------- the parts
+
+def _torso_rotations(pose: np.ndarray, pose_valid: np.ndarray) -> dict[str, np.ndarray]:
+    """Local rotations (T, 4) of spine, neck and head bones from pose landmarks (T, 33, 2) pixels."""
+    n_frames = len(pose)
+    index = {name: i for i, name in enumerate(POSE_POINTS)}
+    plane = lifting.to_plane(pose, 1.0)
+    result = {}
+
+    def roll_of(left: str, right: str) -> np.ndarray:
+        v = plane[:, index[left]] - plane[:, index[right]]
+        ok = pose_valid[:, index[left]].any() and pose_valid[:, index[right]].any()
+        return np.arctan2(v[:, 1], v[:, 0]) if ok else np.zeros(n_frames)
+
+    shoulder_roll = np.clip(roll_of("LEFT_SHOULDER", "RIGHT_SHOULDER"), -0.35, 0.35)
+    head_roll = np.clip(roll_of("LEFT_EYE", "RIGHT_EYE"), -0.6, 0.6) - shoulder_roll
+    ears = 0.5 * (plane[:, index["LEFT_EAR"]] + plane[:, index["RIGHT_EAR"]])
+    ear_span = np.maximum(np.linalg.norm(plane[:, index["LEFT_EAR"]] - plane[:, index["RIGHT_EAR"]], axis=-1), 1e-6)
+    yaw = np.arcsin(np.clip(2.0 * (plane[:, index["NOSE"], 0] - ears[:, 0]) / ear_span, -0.8, 0.8))
+    if not (pose_valid[:, index["NOSE"]].any() and pose_valid[:, index["LEFT_EAR"]].any()):
+        yaw = np.zeros(n_frames)
+    z_axis = np.array([0.0, 0.0, 1.0])
+    y_axis = np.array([0.0, 1.0, 0.0])
+    for bone, share in (("spine03", 0.2), ("spine02", 0.4), ("spine01", 0.4)):
+        result[bone] = rotations.from_axis_angle(np.broadcast_to(z_axis, (n_frames, 3)), share * shoulder_roll)
+    for bone, share in (("neck01", 0.25), ("neck02", 0.25), ("neck03", 0.25), ("head", 0.25)):
+        result[bone] = rotations.multiply(
+            rotations.from_axis_angle(np.broadcast_to(z_axis, (n_frames, 3)), share * head_roll),
+            rotations.from_axis_angle(np.broadcast_to(y_axis, (n_frames, 3)), share * yaw))
+    return result
+
+
+def _choose_phalanx(candidates: tuple[np.ndarray, np.ndarray], parent_world: np.ndarray, basis: np.ndarray,
+                    limits: tuple[tuple[float, float], tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
+    """Pick the depth sign and clamp: returns (local rotation (T, 4), posed world direction (T, 3),
+    limit violation (T,) radians of the chosen sign).
+
+    candidates: two (T, 3) world directions; parent_world: (T, 4); basis: rows e1 (rest bone
+    direction), e2 (towards the palm), e3 = e1 x e2, in the parent's rest frame.
+    """
+    (flex_lo, flex_hi), (abd_lo, abd_hi) = np.radians(limits)
+    inverse = rotations.conjugate(parent_world)
+    options = []
+    for direction in candidates:
+        local = rotations.rotate(inverse, direction) @ basis.T        # components along e1, e2, e3
+        flexion = np.arctan2(local[:, 1], local[:, 0])
+        abduction = np.arcsin(np.clip(local[:, 2], -1.0, 1.0))
+        violation = (np.maximum(flex_lo - flexion, 0) + np.maximum(flexion - flex_hi, 0)
+                     + np.maximum(abd_lo - abduction, 0) + np.maximum(abduction - abd_hi, 0))
+        cost = violation + 0.2 * np.abs(abduction) + 0.5 * np.maximum(-flexion, 0)
+        options.append((cost, flexion, abduction))
+    # cost of the chosen option (violation + preference terms) is what the caller sums
+    take_second = options[1][0] < options[0][0] - 1e-9
+    flexion = np.clip(np.where(take_second, options[1][1], options[0][1]), flex_lo, flex_hi)
+    abduction = np.clip(np.where(take_second, options[1][2], options[0][2]), abd_lo, abd_hi)
+    local_dir = (np.cos(abduction) * np.cos(flexion))[:, None] * basis[0] \
+        + (np.cos(abduction) * np.sin(flexion))[:, None] * basis[1] + np.sin(abduction)[:, None] * basis[2]
+    local_q = rotations.between(np.broadcast_to(basis[0], local_dir.shape), local_dir)
+    violation = np.where(take_second, options[1][0], options[0][0])
+    return local_q, rotations.rotate(parent_world, local_dir), violation
+
+
+def _hand_template(skeleton: Skeleton, side: str) -> np.ndarray:
+    """(3, 3) rest positions of the wrist, index knuckle and little-finger knuckle."""
+    return np.stack([_head(skeleton, f"wrist.{side}"), _head(skeleton, f"finger2-1.{side}"),
+                     _head(skeleton, f"finger5-1.{side}")])
+
+
+# --------------------------------------------------------------------------- main entry
+
+def retarget(clip: SignClip, skeleton: Skeleton | None = None) -> Retargeted:
+    """Retarget one clip of MediaPipe Holistic keypoints to the avatar (Motion at the clip's fps)."""
+    skeleton = skeleton or load_avatar().skeleton
+    names = driven_bones(skeleton)
+    column = {name: k for k, name in enumerate(names)}
+    n_frames = clip.n_frames
+    local = np.zeros((n_frames, len(names), 4))
+    local[..., 0] = 1.0
+    followed: dict[str, np.ndarray] = {}
+    projected: dict[str, np.ndarray] = {}
+
+    pose_all, pose_valid_all = _component(clip, POSE_COMPONENT)
+    pose, pose_valid = pose_all[:, :len(POSE_POINTS)], pose_valid_all[:, :len(POSE_POINTS)]
+    point = {name: i for i, name in enumerate(POSE_POINTS)}
+    for shoulder in ("LEFT_SHOULDER", "RIGHT_SHOULDER"):
+        if not pose_valid[:, point[shoulder]].any():
+            raise SigncastError("clip shows no shoulders: cannot scale the signer to the avatar")
+    avatar_shoulders = np.linalg.norm(_head(skeleton, "upperarm01.L") - _head(skeleton, "upperarm01.R"))
+    shoulder_px = np.linalg.norm(pose[:, point["LEFT_SHOULDER"]] - pose[:, point["RIGHT_SHOULDER"]], axis=-1)
+    body_scale = float(np.percentile(shoulder_px, 75)) / avatar_shoulders      # pixels per metre
+
+    for bone, q in _torso_rotations(pose, pose_valid).items():
+        local[:, column[bone]] = q
+
+    hands = []
+    for hand, side in SIDES.items():
+        hand_points, hand_valid = _component(clip, HAND_COMPONENTS[hand])
+        seen = np.all(hand_valid, axis=1)
+        if seen.sum() < MIN_HAND_FRAMES:
+            continue
+        hands.append(hand)
+        # frames where the hand was not seen take the nearest frame where it was (whole hand at once)
+        frames = np.flatnonzero(seen)
+        nearest = frames[np.abs(frames[None, :] - np.arange(n_frames)[:, None]).argmin(axis=1)]
+        hand_points = hand_points[nearest]
+        _retarget_arm_and_hand(skeleton, side, hand.upper(), pose, pose_valid, hand_points, body_scale,
+                               local, column, followed, projected, names)
+    motion = Motion(clip.fps, names, rotations.canonical(rotations.normalize(local)), np.zeros((n_frames, 3)))
+    return Retargeted(motion, followed, projected, tuple(hands))
+
+
+def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_points, body_scale,
+                           local, column, followed, projected, names) -> None:
+    n_frames = len(pose)
+    point = {name: i for i, name in enumerate(POSE_POINTS)}
+    shoulder_px = pose[:, point[f"{hand_prefix}_SHOULDER"]]
+    elbow_px = pose[:, point[f"{hand_prefix}_ELBOW"]]
+    elbow_seen = pose_valid[:, point[f"{hand_prefix}_ELBOW"]].any()
+    wrist_px = hand_points[:, 0]
+
+    # --- arm directions lifted with the avatar's lengths, hand in front of the body (dz >= 0)
+    shoulder_rest = _head(skeleton, f"upperarm01.{side}")
+    elbow_rest = _head(skeleton, f"lowerarm01.{side}")
+    wrist_rest = _head(skeleton, f"wrist.{side}")
+    upper_len = np.linalg.norm(elbow_rest - shoulder_rest)
+    fore_len = np.linalg.norm(wrist_rest - elbow_rest)
+    upper_2d = lifting.to_plane(elbow_px - shoulder_px, body_scale)
+    fore_2d = lifting.to_plane(wrist_px - elbow_px, body_scale)
+    upper_dir, _ = lifting.lift_directions(upper_2d, lifting.true_lengths(upper_2d, upper_len))
+    fore_dir, _ = lifting.lift_directions(fore_2d, lifting.true_lengths(fore_2d, fore_len))
+    if not elbow_seen:   # no elbow: the whole arm points at the wrist
+        arm_2d = lifting.to_plane(wrist_px - shoulder_px, body_scale)
+        upper_dir, _ = lifting.lift_directions(arm_2d, lifting.true_lengths(arm_2d, upper_len + fore_len))
+        fore_dir = upper_dir
+
+    # --- palm rotation from the wrist / index knuckle / little knuckle triangle
+    template = _hand_template(skeleton, side)
+    observed = lifting.to_plane(hand_points[:, list(PALM_LANDMARKS)], 1.0)
+    rotation_a, rotation_b, hand_scale = lifting.fit_triangle(observed, template)
+    hand_forward = _unit(_head(skeleton, f"finger3-1.{side}") - wrist_rest)
+    forward_a = rotation_a @ hand_forward
+    forward_b = rotation_b @ hand_forward
+    # The two depth mirrors of the palm are told apart by the fingers (they must flex towards
+    # the palm within their limits) and, more weakly, by the wrist (the hand continues the forearm).
+    plane = lifting.to_plane(hand_points, float(np.median(hand_scale)))
+    costs = []
+    for rotation, forward in ((rotation_a, forward_a), (rotation_b, forward_b)):
+        _, _, finger_cost = _finger_pose(skeleton, side, rotations.from_matrix(rotation), plane)
+        wrist_bend = np.arccos(np.clip(np.sum(forward * fore_dir, axis=-1), -1.0, 1.0))
+        costs.append(finger_cost + 0.5 * wrist_bend)
+    use_b = _majority(costs[1] < costs[0])
+    palm_rotation = np.where(use_b[:, None, None], rotation_b, rotation_a)
+
+    # --- CCD IK of the arm from the posed shoulder girdle
+    torso = Motion(25.0, names, local, np.zeros((n_frames, 3)))
+    base = bone_matrices(skeleton, torso)[:, skeleton.index(f"shoulder01.{side}")]
+    shoulder_world = np.einsum("tij,j->ti", base[:, :3, :3], shoulder_rest) + base[:, :3, 3]
+    elbow_target = shoulder_world + upper_len * upper_dir
+    wrist_target = elbow_target + fore_len * fore_dir
+    chain = _arm_chain(skeleton, side)
+    targets = ik.IKTargets(points=[(0, elbow_rest, elbow_target, 0.5), (1, wrist_rest, wrist_target, 1.0)],
+                           orientation=(3, palm_rotation, 0.005))
+    angles = ik.solve_ccd(chain, base, targets)
+    for joint, q in zip(chain, ik.local_quaternions(chain, angles)):
+        local[:, column[joint.name]] = q
+    followed[f"upperarm.{side}"] = upper_dir
+    followed[f"forearm.{side}"] = fore_dir
+    projected[f"upperarm.{side}"] = upper_2d
+    projected[f"forearm.{side}"] = fore_2d
+
+    # --- fingers, in the posed wrist frame actually reached
+    arm_motion = Motion(25.0, names, local, np.zeros((n_frames, 3)))
+    world = _world_quaternions(skeleton, arm_motion, f"wrist.{side}")
+    finger_local, finger_followed, _ = _finger_pose(skeleton, side, world, plane)
+    for name, q in finger_local.items():
+        local[:, column[name]] = q
+    followed.update(finger_followed)
+    for finger_chain in FINGER_CHAINS.values():
+        for bone, head_lm, tail_lm in finger_chain:
+            projected[f"{bone}.{side}"] = plane[:, tail_lm] - plane[:, head_lm]
+
+
+def _finger_pose(skeleton: Skeleton, side: str, wrist_world: np.ndarray, plane: np.ndarray):
+    """Every phalanx of hand `side` under a posed wrist (world rotation (T, 4)).
+
+    plane: (T, 21, 2) hand landmarks in the frontal plane, metres. Returns (local rotations
+    {bone: (T, 4)}, followed directions {bone: (T, 3)}, cost (T,): the summed joint-limit
+    violation in radians, how badly this wrist rotation fits fingers that flex towards the palm).
+    """
+    palmar = _palmar_normal(skeleton, side)
+    local, followed = {}, {}
+    cost = np.zeros(len(plane))
+    for finger, chain_bones in FINGER_CHAINS.items():
+        parent_world = wrist_world
+        limits_table = THUMB_LIMITS if finger == "thumb" else FINGER_LIMITS
+        for level, (bone, head_lm, tail_lm) in enumerate(chain_bones, start=1):
+            name = f"{bone}.{side}"
+            rest_vector = _bone_vector(skeleton, name)
+            e1 = _unit(rest_vector)
+            e2 = _unit(palmar - np.dot(palmar, e1) * e1)
+            basis = np.stack([e1, e2, np.cross(e1, e2)])
+            bone_2d = plane[:, tail_lm] - plane[:, head_lm]
+            candidates = lifting.lift_directions(bone_2d, lifting.true_lengths(bone_2d, np.linalg.norm(rest_vector)))
+            q_local, direction, violation = _choose_phalanx(candidates, parent_world, basis, limits_table[level])
+            local[name] = q_local
+            followed[name] = _pick_closest(candidates, direction)
+            cost += violation
+            parent_world = rotations.multiply(parent_world, q_local)
+    return local, followed, cost
+
+
+def _majority(flags: np.ndarray, radius: int = 2) -> np.ndarray:
+    """Each frame's flag replaced by the majority over +-radius frames (no one-frame flips)."""
+    padded = np.concatenate([np.repeat(flags[:1], radius), flags, np.repeat(flags[-1:], radius)]).astype(float)
+    window = np.convolve(padded, np.ones(2 * radius + 1), mode="valid")
+    return window > radius
+
+
+def _pick_closest(candidates: tuple[np.ndarray, np.ndarray], direction: np.ndarray) -> np.ndarray:
+    first, second = candidates
+    closer_second = np.sum(second * direction, axis=-1) > np.sum(first * direction, axis=-1)
+    return np.where(closer_second[:, None], second, first)
+
+
+def _world_quaternions(skeleton: Skeleton, motion: Motion, bone: str) -> np.ndarray:
+    """(T, 4) world rotation of one bone: the product of local rotations along its ancestry."""
+    chain = []
+    i = skeleton.index(bone)
+    while i >= 0:
+        chain.append(skeleton.names[i])
+        i = int(skeleton.parents[i])
+    world = np.zeros((motion.n_frames, 4))
+    world[:, 0] = 1.0
+    index = {name: k for k, name in enumerate(motion.bone_names)}
+    for name in reversed(chain):
+        if name in index:
+            world = rotations.multiply(world, motion.rotations[:, index[name]])
+    return world
+
+
+@functools.lru_cache(maxsize=1)
+def _default_skeleton() -> Skeleton:
+    return load_avatar().skeleton
+
+
+def retarget_clip(clip: SignClip, skeleton: Skeleton | None = None) -> Motion:
+    """The avatar Motion (at the clip's fps) of one clip."""
+    return retarget(clip, skeleton).motion
+
+
+# --------------------------------------------------------------------------- accuracy
+
+BONE_GROUPS = {
+    "arm": ("upperarm", "forearm"),
+    "thumb": tuple(bone for bone, _, _ in FINGER_CHAINS["thumb"]),
+    "fingers": tuple(bone for finger in ("index", "middle", "ring", "little") for bone, _, _ in FINGER_CHAINS[finger]),
+}
+
+
+def posed_directions(skeleton: Skeleton, motion: Motion, side: str) -> dict[str, np.ndarray]:
+    """(T, 3) unit world directions from forward kinematics of the bones `followed` describes."""
+    heads = joint_positions(skeleton, motion)
+    tails = joint_positions(skeleton, motion, tails=True)
+    h = lambda name: heads[:, skeleton.index(f"{name}.{side}")]
+    result = {
+        f"upperarm.{side}": _unit(h("lowerarm01") - h("upperarm01")),
+        f"forearm.{side}": _unit(h("wrist") - h("lowerarm01")),
+    }
+    for chain in FINGER_CHAINS.values():
+        for bone, _, _ in chain:
+            i = skeleton.index(f"{bone}.{side}")
+            result[f"{bone}.{side}"] = _unit(tails[:, i] - heads[:, i])
+    return result
+
+
+def direction_errors(retargeted: Retargeted, skeleton: Skeleton | None = None,
+                     min_projected_share: float = 0.3) -> dict[str, dict[str, list[float]]]:
+    """Angles (degrees) between each retargeted bone's FK direction and the keypoint direction it follows.
+
+    Returns {"3d": {group: [angles]}, "2d": {group: [angles]}} with groups arm, thumb, fingers:
+    "3d" against the lifted keypoint direction, "2d" in the image plane against the keypoints'
+    own direction (only where the bone's image is at least `min_projected_share` of its length,
+    as a foreshortened bone's image direction is meaningless).
+    """
+    skeleton = skeleton or load_avatar().skeleton
+    errors = {"3d": {group: [] for group in BONE_GROUPS}, "2d": {group: [] for group in BONE_GROUPS}}
+    for hand in retargeted.hands:
+        side = SIDES[hand]
+        posed = posed_directions(skeleton, retargeted.motion, side)
+        for group, bones in BONE_GROUPS.items():
+            for bone in bones:
+                key = f"{bone}.{side}"
+                target = retargeted.followed[key]
+                cosine = np.clip(np.sum(posed[key] * target, axis=-1), -1.0, 1.0)
+                errors["3d"][group].extend(np.degrees(np.arccos(cosine)).tolist())
+                image = retargeted.projected[key]
+                image_len = np.linalg.norm(image, axis=-1)
+                posed_2d = posed[key][:, :2]
+                posed_len = np.linalg.norm(posed_2d, axis=-1)
+                usable = (image_len >= min_projected_share * np.max(image_len)) & (posed_len > 1e-6)
+                cos_2d = np.sum(image * posed_2d, axis=-1) / np.maximum(image_len * posed_len, 1e-12)
+                errors["2d"][group].extend(np.degrees(np.arccos(np.clip(cos_2d[usable], -1, 1))).tolist())
+    return errors
