@@ -477,3 +477,27 @@ def direction_errors(retargeted: Retargeted, skeleton: Skeleton | None = None,
                 cos_2d = np.sum(image * posed_2d, axis=-1) / np.maximum(image_len * posed_len, 1e-12)
                 errors["2d"][group].extend(np.degrees(np.arccos(np.clip(cos_2d[usable], -1, 1))).tolist())
     return errors
+
+
+def lexicon_accuracy(language: str, units: list[str] | None = None) -> dict[str, dict[str, float]]:
+    """Mean direction error (degrees) per bone group over a language's letters (all if units is None).
+
+    Returns {"3d": {"arm": .., "thumb": .., "fingers": .., "all": ..}, "2d": {...}}: the angle between
+    each retargeted bone's FK direction and the keypoint direction it follows, over every frame of
+    every letter (see direction_errors).
+    """
+    from media import lexicon
+
+    skeleton = load_avatar().skeleton
+    pooled = {"3d": {group: [] for group in BONE_GROUPS}, "2d": {group: [] for group in BONE_GROUPS}}
+    for unit in units if units is not None else lexicon.units(language):
+        result = retarget(lexicon.read_clip(lexicon.lookup(language, unit)), skeleton)
+        for kind, groups in direction_errors(result, skeleton).items():
+            for group, angles in groups.items():
+                pooled[kind][group].extend(angles)
+    report = {}
+    for kind, groups in pooled.items():
+        report[kind] = {group: float(np.mean(angles)) if angles else float("nan") for group, angles in groups.items()}
+        everything = [a for angles in groups.values() for a in angles]
+        report[kind]["all"] = float(np.mean(everything)) if everything else float("nan")
+    return report

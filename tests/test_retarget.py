@@ -1,0 +1,147 @@
+"""Retargeting real lexicon keypoints to the avatar: lifting, CCD IK, handshapes, accuracy."""
+import numpy as np
+import pytest
+
+from media import ik, lexicon, lifting, retarget, rotations
+from media.avatar import load_avatar
+from media.kinematics import joint_positions, world_rotations
+
+
+@pytest.fixture(scope="module")
+def skeleton():
+    return load_avatar().skeleton
+
+
+@pytest.fixture(scope="module")
+def asl(skeleton):
+    return {letter: retarget.retarget(lexicon.read_clip(lexicon.lookup("ase", letter)), skeleton) for letter in "ABGLV"}
+
+
+def _fingertip_to_palm(skeleton, motion, side="R"):
+    heads = joint_positions(skeleton, motion)
+    tails = joint_positions(skeleton, motion, tails=True)
+    tips = tails[:, [skeleton.index(f"finger{f}-3.{side}") for f in range(2, 6)]]
+    palm = heads[:, [skeleton.index(f"finger{f}-1.{side}") for f in range(2, 6)] + [skeleton.index(f"wrist.{side}")]].mean(axis=1)
+    return np.median(np.linalg.norm(tips - palm[:, None], axis=-1).mean(axis=1))
+
+
+def test_out_of_plane_component_from_known_length():
+    assert lifting.out_of_plane(np.array([0.03, 0.04]), 0.13) == pytest.approx(0.12)
+    assert lifting.out_of_plane(np.array([0.3, 0.4]), 0.1) == 0.0   # longer image than bone: in the plane
+    towards, away = lifting.lift_directions(np.array([[0.0, 0.05]]), 0.1)
+    assert towards[0, 2] > 0 > away[0, 2]
+    np.testing.assert_allclose(np.linalg.norm(towards, axis=-1), 1.0)
+
+
+def test_triangle_fit_recovers_rotation_and_scale_up_to_depth_mirror():
+    template = np.array([[0.0, 0.0, 0.0], [0.02, 0.09, 0.01], [-0.04, 0.08, 0.0]])
+    truth = rotations.to_matrix(rotations.from_axis_angle(np.array([[0.3, -0.5, 0.8]]), np.array([0.9])))
+    posed = np.einsum("tij,nj->tni", truth, template) * 1500.0       # pixels per metre
+    rotation_a, rotation_b, scale = lifting.fit_triangle(posed[..., :2], template)
+    assert scale[0] == pytest.approx(1500.0, rel=1e-6)
+    errors = [np.abs(r[0] - truth[0]).max() for r in (rotation_a, rotation_b)]
+    assert min(errors) < 1e-6
+    mirror = np.diag([1.0, 1.0, -1.0])
+    np.testing.assert_allclose(np.einsum("ij,nj->ni", rotation_a[0], template)[:, :2],
+                               np.einsum("ij,nj->ni", rotation_b[0], template)[:, :2], atol=1e-9)
+    np.testing.assert_allclose(mirror @ rotation_a[0] @ template.T, rotation_b[0] @ template.T, atol=1e-9)
+
+
+def test_ccd_reaches_a_reachable_target_and_respects_limits():
+    chain = [
+        ik.ChainJoint("shoulder", np.zeros(3), np.eye(3), np.full(3, -np.pi), np.full(3, np.pi)),
+        ik.ChainJoint("elbow", np.array([0.0, -0.3, 0.0]), np.array([[1.0, 0.0, 0.0]]), np.array([-2.5]), np.array([0.0])),
+    ]
+    base = np.tile(np.eye(4), (2, 1, 1))
+    hand_rest = np.array([0.0, -0.6, 0.0])
+    goal = np.array([[0.2, -0.3, 0.25], [0.0, -0.6, 0.0]])           # reachable (|goal| < 0.6)
+    targets = ik.IKTargets(points=[(1, hand_rest, goal, 1.0)])
+    angles = ik.solve_ccd(chain, base, targets, max_passes=100)
+    reached = ik.chain_transforms(chain, angles, base)[1]
+    hand = np.einsum("tij,j->ti", reached[:, :3, :3], hand_rest) + reached[:, :3, 3]
+    np.testing.assert_allclose(hand, goal, atol=1e-3)
+    # an elbow that may only bend one way cannot reach a goal needing the other: clamped, best effort
+    limited = ik.solve_ccd(chain, base, ik.IKTargets(points=[(1, hand_rest, np.array([[0.0, -0.3, 0.3]] * 2), 1.0)]))
+    assert np.all(limited[1] <= 0.0) and np.all(limited[1] >= -2.5)
+
+
+def test_fist_a_and_flat_hand_b_differ_in_fingertip_to_palm_distance(skeleton, asl):
+    fist = _fingertip_to_palm(skeleton, asl["A"].motion)
+    flat = _fingertip_to_palm(skeleton, asl["B"].motion)
+    assert flat > 0.075 and fist < 0.045                               # metres
+    assert flat > 2.0 * fist
+
+
+def test_retargeted_letters_have_no_nan_and_unit_quaternions(asl):
+    for result in asl.values():
+        q = result.motion.rotations
+        assert np.all(np.isfinite(q))
+        np.testing.assert_allclose(np.linalg.norm(q, axis=-1), 1.0, atol=1e-9)
+
+
+def test_absent_left_hand_holds_the_rest_pose(asl):
+    motion = asl["B"].motion
+    assert asl["B"].hands == ("right",)
+    for bone in ("upperarm01.L", "lowerarm01.L", "wrist.L", "finger2-2.L", "finger1-1.L"):
+        np.testing.assert_allclose(motion.rotations[:, motion.bone(bone)], np.tile([1.0, 0, 0, 0], (motion.n_frames, 1)))
+
+
+def test_signing_hand_is_in_front_of_the_body_at_chest_to_head_height(skeleton, asl):
+    for result in asl.values():
+        heads = joint_positions(skeleton, result.motion)
+        wrist = heads[:, skeleton.index("wrist.R")]
+        shoulder = heads[:, skeleton.index("upperarm01.R")]
+        chest = heads[:, skeleton.index("spine02")]
+        assert np.all(wrist[:, 2] > shoulder[:, 2] + 0.03)            # in front
+        assert np.all(wrist[:, 1] > chest[:, 1])                       # above the lower chest
+        assert np.all(wrist[:, 1] < heads[:, skeleton.index("head"), 1] + 0.1)
+
+
+def test_palm_of_b_faces_the_viewer(skeleton, asl):
+    motion = asl["B"].motion
+    world = world_rotations(skeleton, motion)[:, skeleton.index("wrist.R")]
+    palmar = rotations.rotate(world, np.broadcast_to(retarget._palmar_normal(skeleton, "R"), (motion.n_frames, 3)))
+    assert np.median(palmar[:, 2]) > 0.6
+
+
+def test_handshapes_follow_keypoints_l_has_index_up_and_thumb_out(skeleton, asl):
+    motion = asl["L"].motion
+    heads = joint_positions(skeleton, motion)
+    tails = joint_positions(skeleton, motion, tails=True)
+    t = motion.n_frames * 2 // 3
+    index_dir = tails[t, skeleton.index("finger2-3.R")] - heads[t, skeleton.index("finger2-1.R")]
+    middle_tip = np.linalg.norm(tails[t, skeleton.index("finger3-3.R")] - heads[t, skeleton.index("wrist.R")])
+    index_tip = np.linalg.norm(tails[t, skeleton.index("finger2-3.R")] - heads[t, skeleton.index("wrist.R")])
+    assert index_dir[1] > 0.8 * np.linalg.norm(index_dir)             # the index points up
+    assert index_tip > middle_tip + 0.03                               # the middle finger is folded
+
+
+def test_left_handed_language_moves_the_left_arm_only(skeleton):
+    result = retarget.retarget(lexicon.read_clip(lexicon.lookup("ise", "B")), skeleton)
+    assert result.hands == ("left",)
+    motion = result.motion
+    assert rotations.angle_between(motion.rotations[:, motion.bone("lowerarm01.L")], np.array([1.0, 0, 0, 0])).max() > 0.2
+    np.testing.assert_allclose(motion.rotations[:, motion.bone("upperarm01.R")], np.tile([1.0, 0, 0, 0], (motion.n_frames, 1)))
+    wrist = joint_positions(skeleton, motion)[:, skeleton.index("wrist.L")]
+    assert np.all(wrist[:, 0] > 0.1)                                   # on the avatar's left (+X)
+
+
+def test_bone_directions_follow_keypoints_within_a_few_degrees(skeleton, asl):
+    for kind in ("2d", "3d"):
+        pooled = {group: [] for group in retarget.BONE_GROUPS}
+        for result in asl.values():
+            for group, angles in retarget.direction_errors(result, skeleton)[kind].items():
+                pooled[group].extend(angles)
+        assert np.mean(pooled["arm"]) < 5.0, kind
+        assert np.mean(pooled["fingers"]) < 15.0, kind
+        assert np.mean(pooled["thumb"]) < 15.0, kind
+
+
+def test_missing_hand_frames_take_the_nearest_seen_frame(skeleton):
+    clip = lexicon.read_clip(lexicon.lookup("ase", "B"))
+    clip.confidence["RIGHT_HAND_LANDMARKS"][5:9] = 0.0                 # hand lost for 4 frames
+    clip.points["RIGHT_HAND_LANDMARKS"][5:9] = 0.0
+    motion = retarget.retarget(clip, skeleton).motion
+    assert np.all(np.isfinite(motion.rotations))
+    finger = motion.bone("finger3-2.R")
+    assert rotations.angle_between(motion.rotations[6, finger], motion.rotations[4, finger]) < 0.3
