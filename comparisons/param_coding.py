@@ -1,0 +1,278 @@
+"""Coding machinery shared by the FBA and BBA streams: quantisation, range fields, predictive
+frames with adaptive arithmetic coding, and 16-frame DCT segments with fixed VLC tables.
+
+Parameters are integer time series (T, P) (BAP units, or BBA values in the same units), each
+with an integer base quantisation step; the global Q (1..31) multiplies it (seed 004 "BAP
+Coding": Quantum(i) x Global_Quantization_Value).
+
+Predictive (seed 000 §2.1 Fig. 2.8; mpeg4-facts.md §2.3-2.5): an intra frame codes each masked
+value's level quant(v, step) with that parameter's intra model; a P frame codes
+quant(v - previous decoded value, step) with its P model. Levels are arithmetic-coded as
+symbol = level - range_min over the alphabet [range_min, range_max], which an intra frame sends
+as `ceil(|bound| / 60)` fields in base-step units (RANGE_DELTA 60, visage FBAEncoder.cpp).
+Chosen here: 7-bit range fields instead of the standard's 5 bits, so every angle in (-pi, pi]
+fits at every Q (5 bits cap |level x Q| at 1860 base steps: +-68 degrees for step 64).
+
+DCT (seed 000 §2.1 Fig. 2.9, §2.4.2): per parameter, segments of 16 frames, orthonormal DCT-II;
+DC step = base step x Q, AC step = base step x Q / 3; the DC level of an inter segment is
+predicted from the previous segment's; JPEG-style size categories (category = bit length of
+|level|, then sign and the low bits) coded with Huffman tables designed offline from training
+data (tools/train_param_vlc.py) and shipped in comparisons/tables/param_vlc.json.
+"""
+from __future__ import annotations
+
+import functools
+import json
+from pathlib import Path
+
+import numpy as np
+
+from comparisons.bitstream import BitReader, BitWriter
+from comparisons.entropy import ArithmeticDecoder, ArithmeticEncoder, CanonicalHuffman, FrequencyModel
+from media.errors import SigncastError
+
+RANGE_DELTA = 60
+RANGE_BITS = 7
+MAX_RANGE_FIELD = (1 << RANGE_BITS) - 1
+DEFAULT_RANGE_FIELD = 31                     # visage default +-1859 (FBACodingParameters.h)
+SEGMENT = 16
+N_CATEGORIES = 21                            # categories 0..20
+MAX_RUN = SEGMENT - 2                        # runs of zero AC coefficients 0..14
+AC_EOB = 0
+TABLE_PATH = Path(__file__).resolve().parent / "tables" / "param_vlc.json"
+
+
+def check_q(q: int) -> int:
+    if not (isinstance(q, (int, np.integer)) and 1 <= int(q) <= 31):
+        raise SigncastError(f"bad global quantisation value Q={q}: choose an integer in 1..31")
+    return int(q)
+
+
+def quantize(values: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Level 0 if |v| <= step/2, else sign(v) (|v| + step//2) // step (visage quant())."""
+    values = np.asarray(values, dtype=np.int64)
+    step = np.asarray(step, dtype=np.int64)
+    magnitude = (np.abs(values) + step // 2) // step
+    magnitude = np.where(2 * np.abs(values) <= step, 0, magnitude)
+    return np.sign(values) * magnitude
+
+
+# --------------------------------------------------------------------------- predictive frames
+
+def level_limit(q: int) -> int:
+    """Largest |level| a 7-bit range field can announce at this Q."""
+    return MAX_RANGE_FIELD * RANGE_DELTA // q
+
+
+def predictive_levels(values: np.ndarray, held: np.ndarray, steps: np.ndarray, q: int):
+    """Levels of one intra period of masked parameters.
+
+    values: (T, P) int64; held: (P,) decoder values before the period (unused here: intra levels
+    are absolute); steps: (P,) effective steps. Returns intra (P,), p_levels (T-1, P) and the
+    decoder's reconstruction (T, P)."""
+    limit = level_limit(q)
+    intra = np.clip(quantize(values[0], steps), -limit, limit)
+    recon = np.empty_like(values)
+    recon[0] = intra * steps
+    p_levels = np.empty((len(values) - 1, values.shape[1]), dtype=np.int64)
+    for t in range(1, len(values)):
+        level = np.clip(quantize(values[t] - recon[t - 1], steps), -limit, limit)
+        p_levels[t - 1] = level
+        recon[t] = recon[t - 1] + level * steps
+    return intra, p_levels, recon
+
+
+def range_fields(levels: np.ndarray, q: int) -> tuple[np.ndarray, np.ndarray]:
+    """(max_field, min_field) per parameter: smallest fields whose alphabet holds the levels (N, P)."""
+    if len(levels) == 0:
+        zero = np.zeros(levels.shape[1], dtype=np.int64)
+        return zero, zero
+    top = np.maximum(levels.max(axis=0), 0)
+    bottom = np.maximum(-levels.min(axis=0), 0)
+    return -(-top * q // RANGE_DELTA), -(-bottom * q // RANGE_DELTA)
+
+
+def alphabet(max_field: np.ndarray, min_field: np.ndarray, q: int) -> tuple[np.ndarray, np.ndarray]:
+    """(range_min, range_max) levels announced by the fields."""
+    return -(np.asarray(min_field) * RANGE_DELTA // q), np.asarray(max_field) * RANGE_DELTA // q
+
+
+def write_range_fields(writer: BitWriter, fields: np.ndarray) -> None:
+    """fields: (4, P) I max, I min, P max, P min; a marker bit before every 4 parameters."""
+    for row in fields:
+        for j, value in enumerate(row):
+            if j % 4 == 0:
+                writer.write_bit(1)
+            writer.write(int(value), RANGE_BITS)
+
+
+def read_range_fields(reader: BitReader, n: int) -> np.ndarray:
+    fields = np.zeros((4, n), dtype=np.int64)
+    for r in range(4):
+        for j in range(n):
+            if j % 4 == 0 and reader.read_bit() != 1:
+                raise SigncastError("corrupt stream: missing marker bit in the range fields")
+            fields[r, j] = reader.read(RANGE_BITS)
+    return fields
+
+
+def make_models(low: np.ndarray, high: np.ndarray) -> list[FrequencyModel]:
+    return [FrequencyModel(int(h - l + 1)) for l, h in zip(low, high)]
+
+
+def write_levels(writer: BitWriter, levels: np.ndarray, models: list[FrequencyModel], low: np.ndarray) -> None:
+    """One frame's levels, arithmetic-coded and flushed."""
+    encoder = ArithmeticEncoder(writer)
+    for level, model, base in zip(levels, models, low):
+        encoder.encode(model, int(level - base))
+    encoder.finish()
+
+
+def read_levels(reader: BitReader, models: list[FrequencyModel], low: np.ndarray) -> np.ndarray:
+    decoder = ArithmeticDecoder(reader)
+    levels = np.array([decoder.decode(model) for model in models], dtype=np.int64) + low
+    decoder.finish()
+    return levels
+
+
+# --------------------------------------------------------------------------- DCT segments
+
+@functools.lru_cache(maxsize=1)
+def dct_matrix() -> np.ndarray:
+    """(16, 16) orthonormal DCT-II: coefficients = D @ samples."""
+    n = np.arange(SEGMENT)
+    k = n[:, None]
+    d = np.sqrt(2.0 / SEGMENT) * np.cos((2 * n[None, :] + 1) * k * np.pi / (2 * SEGMENT))
+    d[0] /= np.sqrt(2.0)
+    return d
+
+
+def dct_steps(steps: np.ndarray, q: int) -> tuple[np.ndarray, np.ndarray]:
+    """(DC step, AC step) per parameter: base x Q and base x Q / 3."""
+    steps = np.asarray(steps, dtype=np.float64)
+    return steps * q, steps * q / 3.0
+
+
+def dct_levels(segment: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """segment: (16, P) values -> DC levels (P,), AC levels (15, P) (round half away from zero)."""
+    coefficients = dct_matrix() @ segment.astype(np.float64)
+    dc = np.sign(coefficients[0]) * np.floor(np.abs(coefficients[0]) / dc_step + 0.5)
+    ac = np.sign(coefficients[1:]) * np.floor(np.abs(coefficients[1:]) / ac_step + 0.5)
+    return dc.astype(np.int64), ac.astype(np.int64)
+
+
+def dct_reconstruct(dc: np.ndarray, ac: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> np.ndarray:
+    """(16, P) int64 values from levels."""
+    coefficients = np.concatenate([(dc * dc_step)[None], ac * ac_step], axis=0)
+    return np.round(dct_matrix().T @ coefficients).astype(np.int64)
+
+
+def category(value: int) -> int:
+    return min(abs(int(value)).bit_length(), N_CATEGORIES - 1)
+
+
+def ac_symbols(ac: np.ndarray) -> list[tuple[int, int]]:
+    """(symbol, level) pairs of one parameter's 15 AC levels: run/category symbols, then EOB."""
+    out = []
+    run = 0
+    last = int(np.max(np.flatnonzero(ac))) if np.any(ac) else -1
+    for k in range(last + 1):
+        if ac[k] == 0:
+            run += 1
+            continue
+        out.append((1 + run * (N_CATEGORIES - 1) + category(ac[k]) - 1, int(ac[k])))
+        run = 0
+    if last < SEGMENT - 2:
+        out.append((AC_EOB, 0))
+    return out
+
+
+N_AC_SYMBOLS = 1 + (MAX_RUN + 1) * (N_CATEGORIES - 1)
+
+
+@functools.lru_cache(maxsize=2)
+def vlc_tables(path: str = str(TABLE_PATH)) -> dict[str, CanonicalHuffman]:
+    """The fixed VLC tables: 'dc_intra', 'dc_inter', 'ac' (designed by tools/train_param_vlc.py)."""
+    try:
+        data = json.loads(Path(path).read_text())
+        return {name: CanonicalHuffman(data["code_lengths"][name]) for name in ("dc_intra", "dc_inter", "ac")}
+    except FileNotFoundError:
+        raise SigncastError(f"VLC tables not found at {path}: run tools/train_param_vlc.py") from None
+    except (KeyError, ValueError) as error:
+        raise SigncastError(f"bad VLC table file {path}: {error}") from None
+
+
+def _write_value_bits(writer: BitWriter, value: int, cat: int) -> None:
+    if cat:
+        magnitude = abs(value)
+        if magnitude >> cat:
+            raise SigncastError(f"DCT level {value} exceeds the largest category")
+        writer.write_bit(1 if value < 0 else 0)
+        writer.write(magnitude - (1 << (cat - 1)), cat - 1)
+
+
+def _read_value_bits(reader: BitReader, cat: int) -> int:
+    if not cat:
+        return 0
+    negative = reader.read_bit()
+    magnitude = (1 << (cat - 1)) + reader.read(cat - 1)
+    return -magnitude if negative else magnitude
+
+
+def write_dct_block(writer: BitWriter, tables: dict, dc_value: int, intra: bool, ac: np.ndarray) -> None:
+    """One parameter's segment: DC (level, or difference from the previous DC) then AC run/levels."""
+    cat = category(dc_value)
+    tables["dc_intra" if intra else "dc_inter"].encode(writer, cat)
+    _write_value_bits(writer, dc_value, cat)
+    for symbol, level in ac_symbols(ac):
+        tables["ac"].encode(writer, symbol)
+        if symbol != AC_EOB:
+            _write_value_bits(writer, level, category(level))
+
+
+def read_dct_block(reader: BitReader, tables: dict, intra: bool) -> tuple[int, np.ndarray]:
+    cat = tables["dc_intra" if intra else "dc_inter"].decode(reader)
+    dc_value = _read_value_bits(reader, cat)
+    ac = np.zeros(SEGMENT - 1, dtype=np.int64)
+    k = 0
+    while k < SEGMENT - 1:
+        symbol = tables["ac"].decode(reader)
+        if symbol == AC_EOB:
+            break
+        run, cat = divmod(symbol - 1, N_CATEGORIES - 1)
+        k += run
+        if k >= SEGMENT - 1:
+            raise SigncastError("corrupt stream: AC run past the end of the segment")
+        ac[k] = _read_value_bits(reader, cat + 1)
+        k += 1
+    return dc_value, ac
+
+
+def dct_symbol_counts(segments: list[tuple[np.ndarray, np.ndarray, bool]]) -> dict[str, np.ndarray]:
+    """Symbol counts for table design. segments: (dc values (P,), AC levels (15, P), intra)."""
+    counts = {"dc_intra": np.zeros(N_CATEGORIES, np.int64), "dc_inter": np.zeros(N_CATEGORIES, np.int64),
+              "ac": np.zeros(N_AC_SYMBOLS, np.int64)}
+    for dc_values, ac, intra in segments:
+        for p, dc in enumerate(dc_values):
+            counts["dc_intra" if intra else "dc_inter"][category(dc)] += 1
+            for symbol, _ in ac_symbols(ac[:, p]):
+                counts["ac"][symbol] += 1
+    return counts
+
+
+def frame_rate_fields(fps: float) -> tuple[int, int, int]:
+    """(frame_rate 8 bits, seconds 4 bits, frequency_offset) with fps = (rate + seconds/16) [x 1000/1001]."""
+    for offset in (0, 1):
+        nominal = fps * (1001 / 1000 if offset else 1)
+        rate = int(np.floor(nominal + 1e-6))
+        seconds = int(round((nominal - rate) * 16))
+        if seconds < 16 and 1 <= rate <= 255 and abs(rate + seconds / 16 - nominal) < 1e-3:
+            return rate, seconds, offset
+    raise SigncastError(f"frame rate {fps} cannot be signalled (rate + n/16 fps, optionally x 1000/1001)")
+
+
+def fps_from_fields(rate: int, seconds: int, offset: int) -> float:
+    if rate == 0:
+        raise SigncastError("corrupt stream: frame rate 0")
+    fps = rate + seconds / 16
+    return round(fps * 1000 / 1001, 2) if offset else fps
