@@ -1,0 +1,362 @@
+"""The container every motion coder of seed 002 writes: header, entropy-coded symbol streams, raw bits, CRC.
+
+A coded motion is one `bytes` object:
+
+    magic "SCM1" | coder id (u8) | entropy stage id (u8) | q (u8) | T (u32) | D (u16) | fps x 1000 (u32)
+    | sections ... | CRC-32 of everything before it (u32)
+
+Each section is one of
+    b"S" varint(alphabet) varint(count) varint(n_bytes) bytes   symbols in [0, alphabet), entropy coded
+    b"R" varint(count) varint(n_bytes) bytes                    integers of known bit widths, packed MSB first
+    b"H" varint(n_bytes) bytes                                  coder side information (fixed layout per coder)
+
+Writer and reader are used in the same order by a coder's encoder and decoder. The reader checks
+every length and the CRC, so corrupt or truncated input raises SigncastError instead of decoding
+to wrong motion. The entropy stage is a parameter (`EntropyStage`): `arithmetic` (default: the adaptive
+multi-symbol arithmetic coder of comparisons/entropy.py, one adaptive model per section), `huffman`
+(static canonical Huffman of comparisons/entropy.py, code lengths sent in the section) or `fixed`
+(ceil(log2(alphabet)) bits per symbol, i.e. no entropy coding).
+"""
+from __future__ import annotations
+
+import struct
+import zlib
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from media.errors import SigncastError
+
+MAGIC = b"SCM1"
+_HEADER = struct.Struct("<4sBBBIHI")
+_MAX_MAGNITUDE_CLASS = 40
+
+
+# ---------------------------------------------------------------- entropy stages
+
+@dataclass(frozen=True)
+class EntropyStage:
+    """A lossless coder of a symbol array: encode(symbols (n,) int64, alphabet) -> bytes and
+    decode(bytes, n, alphabet) -> symbols (n,) int64."""
+    name: str
+    stage_id: int
+    encode: Callable[[np.ndarray, int], bytes]
+    decode: Callable[[bytes, int, int], np.ndarray]
+
+
+def _fixed_width(alphabet: int) -> int:
+    return max(int(alphabet - 1).bit_length(), 0)
+
+
+def _fixed_encode(symbols: np.ndarray, alphabet: int) -> bytes:
+    width = _fixed_width(alphabet)
+    return pack_bits(symbols, np.full(len(symbols), width))
+
+
+def _fixed_decode(data: bytes, count: int, alphabet: int) -> np.ndarray:
+    width = _fixed_width(alphabet)
+    return unpack_bits(data, np.full(count, width))
+
+
+ARITHMETIC_INCREMENT = 16  # count added per coded symbol: faster adaptation than +1 on short motion clips
+
+
+def _arithmetic_encode(symbols: np.ndarray, alphabet: int) -> bytes:
+    from comparisons.bitstream import BitWriter
+    from comparisons.entropy import ArithmeticEncoder, FrequencyModel
+    writer = BitWriter()
+    model = FrequencyModel(alphabet, ARITHMETIC_INCREMENT)
+    encoder = ArithmeticEncoder(writer)
+    for symbol in symbols.tolist():
+        encoder.encode(model, symbol)
+    encoder.finish()
+    return writer.getvalue()
+
+
+def _arithmetic_decode(data: bytes, count: int, alphabet: int) -> np.ndarray:
+    from comparisons.bitstream import BitReader
+    from comparisons.entropy import ArithmeticDecoder, FrequencyModel
+    reader = BitReader(data)
+    model = FrequencyModel(alphabet, ARITHMETIC_INCREMENT)
+    decoder = ArithmeticDecoder(reader)
+    symbols = [decoder.decode(model) for _ in range(count)]
+    decoder.finish()
+    if (reader.pos + 7) // 8 != len(data):
+        raise SigncastError("corrupt arithmetic-coded section: data does not end where the symbols do")
+    return np.asarray(symbols, dtype=np.int64)
+
+
+def _huffman_encode(symbols: np.ndarray, alphabet: int) -> bytes:
+    """Static canonical Huffman: the code lengths of the used symbols, then the codes."""
+    from comparisons.bitstream import BitWriter
+    from comparisons.entropy import CanonicalHuffman, huffman_code_lengths
+    lengths = huffman_code_lengths(np.bincount(symbols, minlength=alphabet), max_length=24)
+    writer = BitWriter()
+    used = [s for s, n in enumerate(lengths) if n]
+    index_bits = max(int(alphabet - 1).bit_length(), 1)
+    writer.write(len(used), index_bits + 1)
+    for symbol in used:
+        writer.write(symbol, index_bits)
+        writer.write(lengths[symbol], 5)
+    code = CanonicalHuffman(lengths)
+    for symbol in symbols.tolist():
+        code.encode(writer, symbol)
+    return writer.getvalue()
+
+
+def _huffman_decode(data: bytes, count: int, alphabet: int) -> np.ndarray:
+    from comparisons.bitstream import BitReader
+    from comparisons.entropy import CanonicalHuffman
+    reader = BitReader(data)
+    index_bits = max(int(alphabet - 1).bit_length(), 1)
+    lengths = [0] * alphabet
+    for _ in range(reader.read(index_bits + 1)):
+        symbol = reader.read(index_bits)
+        if symbol >= alphabet:
+            raise SigncastError("corrupt Huffman section: symbol outside the alphabet")
+        lengths[symbol] = reader.read(5)
+    code = CanonicalHuffman(lengths)
+    symbols = [code.decode(reader) for _ in range(count)]
+    if (reader.pos + 7) // 8 != len(data):
+        raise SigncastError("corrupt Huffman section: data does not end where the symbols do")
+    return np.asarray(symbols, dtype=np.int64)
+
+
+_STAGES: dict[str, EntropyStage] = {
+    "fixed": EntropyStage("fixed", 0, _fixed_encode, _fixed_decode),
+    "arithmetic": EntropyStage("arithmetic", 1, _arithmetic_encode, _arithmetic_decode),
+    "huffman": EntropyStage("huffman", 2, _huffman_encode, _huffman_decode),
+}
+STAGE_NAMES = tuple(_STAGES)
+DEFAULT_STAGE = "arithmetic"
+
+
+def entropy_stage(name: str) -> EntropyStage:
+    if name not in _STAGES:
+        raise SigncastError(f"unknown entropy stage {name!r}; choose from {', '.join(_STAGES)}")
+    return _STAGES[name]
+
+
+def _stage_by_id(stage_id: int) -> EntropyStage:
+    for stage in _STAGES.values():
+        if stage.stage_id == stage_id:
+            return stage
+    raise SigncastError(f"corrupt motion stream: unknown entropy stage id {stage_id}")
+
+
+# ---------------------------------------------------------------- bit packing
+
+def pack_bits(values: np.ndarray, widths: np.ndarray) -> bytes:
+    """Non-negative integers `values` (n,) written MSB first in `widths` (n,) bits each (<= 62)."""
+    values = np.asarray(values, dtype=np.int64)
+    widths = np.asarray(widths, dtype=np.int64)
+    if len(values) == 0 or widths.sum() == 0:
+        return b""
+    if np.any(values < 0) or np.any(values >> widths != 0):
+        raise ValueError("value does not fit its bit width")
+    max_width = int(widths.max())
+    shifts = np.arange(max_width - 1, -1, -1)
+    bits = (values[:, None] >> shifts[None, :]) & 1
+    keep = shifts[None, :] < widths[:, None]
+    return np.packbits(bits[keep].astype(np.uint8)).tobytes()
+
+
+def unpack_bits(data: bytes, widths: np.ndarray) -> np.ndarray:
+    """Inverse of pack_bits: integers (n,) int64 of the given widths."""
+    widths = np.asarray(widths, dtype=np.int64)
+    total = int(widths.sum())
+    if (total + 7) // 8 != len(data):
+        raise SigncastError("corrupt motion stream: raw bit section has the wrong length")
+    if total == 0:
+        return np.zeros(len(widths), dtype=np.int64)
+    bits = np.unpackbits(np.frombuffer(data, dtype=np.uint8))[:total].astype(np.int64)
+    max_width = int(widths.max())
+    shifts = np.arange(max_width - 1, -1, -1)
+    keep = shifts[None, :] < widths[:, None]
+    grid = np.zeros((len(widths), max_width), dtype=np.int64)
+    grid[keep] = bits
+    return (grid << shifts[None, :]).sum(axis=1)
+
+
+def magnitude_classes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Signed integers -> (class, mantissa, mantissa width), JPEG style.
+
+    class = bit length of |v| (0 for v = 0); the mantissa holds the sign and the bits of |v| below
+    its leading one, so it takes `class` bits. The classes go through the entropy stage, the
+    mantissas are sent raw."""
+    values = np.asarray(values, dtype=np.int64)
+    magnitude = np.abs(values)
+    nonzero = magnitude > 0
+    classes = np.frexp(magnitude.astype(np.float64))[1].astype(np.int64)  # bit length, exact below 2**53
+    if np.any(classes > _MAX_MAGNITUDE_CLASS):
+        raise ValueError("integer too large for the magnitude-class code")
+    sign = (values < 0).astype(np.int64)
+    low = magnitude - np.where(nonzero, np.left_shift(1, np.maximum(classes - 1, 0)), 0)
+    mantissa = np.where(nonzero, (sign << np.maximum(classes - 1, 0)) | low, 0)
+    return classes, mantissa, classes.copy()
+
+
+def from_magnitude_classes(classes: np.ndarray, mantissa: np.ndarray) -> np.ndarray:
+    classes = np.asarray(classes, dtype=np.int64)
+    mantissa = np.asarray(mantissa, dtype=np.int64)
+    nonzero = classes > 0
+    top = np.maximum(classes - 1, 0)
+    sign = np.where(nonzero, mantissa >> top, 0)
+    low = mantissa & (np.left_shift(1, top) - 1)
+    magnitude = np.where(nonzero, np.left_shift(1, top) + low, 0)
+    return np.where(sign == 1, -magnitude, magnitude)
+
+
+# ---------------------------------------------------------------- varints
+
+def _varint(value: int) -> bytes:
+    if value < 0:
+        raise ValueError("varint must be non-negative")
+    out = bytearray()
+    while True:
+        byte = value & 0x7F
+        value >>= 7
+        if value:
+            out.append(byte | 0x80)
+        else:
+            out.append(byte)
+            return bytes(out)
+
+
+# ---------------------------------------------------------------- writer / reader
+
+@dataclass(frozen=True)
+class StreamInfo:
+    """What the fixed header says: coder id, q, frames T, DOFs D, fps."""
+    coder_id: int
+    q: int
+    n_frames: int
+    n_dofs: int
+    fps: float
+
+
+class StreamWriter:
+    """Builds one coded motion; sections are written in the order the decoder reads them."""
+
+    def __init__(self, coder_id: int, q: int, n_frames: int, n_dofs: int, fps: float, stage: str | None = None):
+        self.stage = entropy_stage(stage or DEFAULT_STAGE)
+        if not (0 <= q < 256):
+            raise SigncastError(f"quality index {q} out of range 0..255")
+        if not (0 < n_frames < 2**32 and 0 < n_dofs < 2**16):
+            raise SigncastError(f"cannot code {n_frames} frames x {n_dofs} DOFs")
+        self.parts = [_HEADER.pack(MAGIC, coder_id, self.stage.stage_id, q, n_frames, n_dofs,
+                                   int(round(fps * 1000)))]
+
+    def header(self, payload: bytes) -> None:
+        self.parts += [b"H", _varint(len(payload)), payload]
+
+    def symbols(self, symbols: np.ndarray, alphabet: int) -> None:
+        symbols = np.asarray(symbols, dtype=np.int64).ravel()
+        if alphabet < 1 or (len(symbols) and (symbols.min() < 0 or symbols.max() >= alphabet)):
+            raise ValueError(f"symbols outside alphabet of {alphabet}")
+        data = self.stage.encode(symbols, alphabet) if len(symbols) else b""
+        self.parts += [b"S", _varint(alphabet), _varint(len(symbols)), _varint(len(data)), data]
+
+    def raw(self, values: np.ndarray, widths: np.ndarray) -> None:
+        values = np.asarray(values, dtype=np.int64).ravel()
+        data = pack_bits(values, np.asarray(widths, dtype=np.int64).ravel())
+        self.parts += [b"R", _varint(len(values)), _varint(len(data)), data]
+
+    def signed(self, values: np.ndarray) -> None:
+        """Signed integers as entropy-coded magnitude classes plus raw mantissas."""
+        classes, mantissa, widths = magnitude_classes(np.asarray(values).ravel())
+        self.symbols(classes, _MAX_MAGNITUDE_CLASS + 1)
+        self.raw(mantissa, widths)
+
+    def finish(self) -> bytes:
+        body = b"".join(self.parts)
+        return body + struct.pack("<I", zlib.crc32(body))
+
+
+class StreamReader:
+    """Reads what StreamWriter wrote, checking lengths and the CRC; raises SigncastError on damage."""
+
+    def __init__(self, data: bytes, coder_id: int, coder_name: str):
+        data = bytes(data)
+        self.name = coder_name
+        if len(data) < _HEADER.size + 4:
+            raise SigncastError(f"corrupt {coder_name} stream: truncated ({len(data)} bytes)")
+        body, (crc,) = data[:-4], struct.unpack("<I", data[-4:])
+        if zlib.crc32(body) != crc:
+            raise SigncastError(f"corrupt {coder_name} stream: checksum mismatch (damaged or truncated)")
+        magic, cid, stage_id, q, n_frames, n_dofs, fps_milli = _HEADER.unpack_from(body)
+        if magic != MAGIC:
+            raise SigncastError(f"not a signcast motion stream (magic {magic!r})")
+        if cid != coder_id:
+            raise SigncastError(f"{coder_name} decoder got a stream of coder id {cid}")
+        self.stage = _stage_by_id(stage_id)
+        self.info = StreamInfo(cid, q, n_frames, n_dofs, fps_milli / 1000.0)
+        self.body = body
+        self.pos = _HEADER.size
+
+    def _fail(self, what: str) -> SigncastError:
+        return SigncastError(f"corrupt {self.name} stream: {what}")
+
+    def _varint(self) -> int:
+        value, shift = 0, 0
+        while True:
+            if self.pos >= len(self.body) or shift > 63:
+                raise self._fail("bad length field")
+            byte = self.body[self.pos]
+            self.pos += 1
+            value |= (byte & 0x7F) << shift
+            shift += 7
+            if not byte & 0x80:
+                return value
+
+    def _tag(self, tag: bytes) -> None:
+        if self.body[self.pos:self.pos + 1] != tag:
+            raise self._fail(f"expected section {tag!r}")
+        self.pos += 1
+
+    def _take(self, n: int) -> bytes:
+        if self.pos + n > len(self.body):
+            raise self._fail("section runs past the end")
+        chunk = self.body[self.pos:self.pos + n]
+        self.pos += n
+        return chunk
+
+    def header(self) -> bytes:
+        self._tag(b"H")
+        return self._take(self._varint())
+
+    def symbols(self, alphabet: int, count: int | None = None) -> np.ndarray:
+        self._tag(b"S")
+        got_alphabet, got_count = self._varint(), self._varint()
+        if got_alphabet != alphabet or (count is not None and got_count != count):
+            raise self._fail("symbol section does not match the coder's layout")
+        data = self._take(self._varint())
+        if got_count == 0:
+            return np.zeros(0, dtype=np.int64)
+        try:
+            symbols = np.asarray(self.stage.decode(data, got_count, alphabet), dtype=np.int64)
+        except SigncastError:
+            raise
+        except Exception as error:  # a damaged entropy payload must not escape as a traceback
+            raise self._fail(f"entropy payload undecodable ({error})") from None
+        if len(symbols) != got_count or symbols.min() < 0 or symbols.max() >= alphabet:
+            raise self._fail("symbols out of range")
+        return symbols
+
+    def raw(self, widths: np.ndarray) -> np.ndarray:
+        self._tag(b"R")
+        count = self._varint()
+        widths = np.asarray(widths, dtype=np.int64).ravel()
+        if count != len(widths):
+            raise self._fail("raw section does not match the coder's layout")
+        return unpack_bits(self._take(self._varint()), widths)
+
+    def signed(self, count: int | None = None) -> np.ndarray:
+        classes = self.symbols(_MAX_MAGNITUDE_CLASS + 1, count)
+        mantissa = self.raw(classes)
+        return from_magnitude_classes(classes, mantissa)
+
+    def finish(self) -> None:
+        if self.pos != len(self.body):
+            raise self._fail(f"{len(self.body) - self.pos} unexpected bytes after the last section")

@@ -1,0 +1,403 @@
+"""Model-based coders of DOF trajectories (seed 002 ch. 8): posture-based, gesture-based and hybrid.
+
+All three work per joint group (the groups of the shipped tables, e.g. a hand's finger DOFs) on
+DOF trajectories (T, D) radians at `fps`, and write the container of comparisons/coded_streams.py.
+They are scored with VPSNR (motion is re-synthesised, not waveform-matched).
+
+- posture (§8.2.1, §8.4.1, §8.4.3): a key frame each time the group's accumulated posture change
+  s(n) = sum ||theta(m) - theta(m-1)|| (radians) crosses a multiple of d; each key posture is sent
+  as the index of the nearest entry of the group's posture table (greedy d-spaced postures of the
+  training split, joint angles: the seed found joint positions better, angles keep the decoder
+  free of forward kinematics); lags between keys are sent; the receiver Hermite-interpolates with
+  the slopes of eqs. 8-7/8-8 (zero slope at the first and last key). q picks d.
+- gesture (§8.2.2, §8.4.2, §8.4.4): boundaries at the group's speed minima below an adaptive
+  threshold tau = beta * (moving average of the speed over nWin); segments longer than nMax are
+  re-searched with beta raised by 0.25 (cap 3) and split evenly when that fails. Each segment,
+  time-warped to nNorm = 16 samples, is matched to the group's gesture table with the end-weighted
+  distance of eqs. 8-12/8-13 (a = 1, b = 0.5, RMS radians); if the best match is farther than E,
+  it falls back to posture interpolation toward the nearest posture-table entry of its end frame.
+  Segments are joined with the raised cosine of eq. 8-9 over nBlend frames. q picks (nMin, nMax).
+- hybrid (§8.5): the same gesture segmentation, then per DOF a DCT of each segment keeping the
+  first 3 coefficients (mean and two cosine amplitudes) quantised with the Appendix III bit
+  allocations (4,3,2) ... (7,7,5) = q 0..7; ranges: mean in the DOF range, amplitudes within
+  +-1/2 and +-1/4 of it; the first frames of a segment are blended with the previous one.
+Frame counts of the seed (30 Hz) are scaled to `fps`.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from scipy.fft import dct
+from scipy.signal import savgol_filter
+
+from comparisons.coded_streams import StreamReader, StreamWriter
+from comparisons.vector_quantization import TABLES_DIR, nearest
+from comparisons.waveform_coders import DofCoder, uniform_index, uniform_value
+from media.errors import SigncastError
+
+MODEL_TABLE_PATH = TABLES_DIR / "model_tables.npz"
+N_NORM = 16
+SEED_FPS = 30.0
+
+
+def _frames(count_at_30: float, fps: float) -> int:
+    return max(int(round(count_at_30 * fps / SEED_FPS)), 1)
+
+
+# ---------------------------------------------------------------- segmentation
+
+def posture_keys(group: np.ndarray, distance: float) -> np.ndarray:
+    """Key frames (sorted, first and last included) where the accumulated change crosses k * distance."""
+    steps = np.linalg.norm(np.diff(group, axis=0), axis=1)
+    travelled = np.concatenate([[0.0], np.cumsum(steps)])
+    level = np.floor(travelled / distance)
+    keys = np.flatnonzero(np.diff(level) > 0) + 1
+    return np.unique(np.concatenate([[0], keys, [len(group) - 1]])).astype(np.int64)
+
+
+def group_speed(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Scalar speed omega (8-2, per frame) and its derivative alpha (8-3), from 7-sample cubic fits."""
+    if len(group) >= 7:
+        velocity = savgol_filter(group, 7, 3, deriv=1, axis=0)
+        omega = np.linalg.norm(velocity, axis=1)
+        alpha = savgol_filter(omega, 7, 3, deriv=1)
+    else:
+        omega = np.linalg.norm(np.gradient(group, axis=0), axis=1) if len(group) > 1 else np.zeros(len(group))
+        alpha = np.gradient(omega) if len(group) > 1 else np.zeros(len(group))
+    return omega, alpha
+
+
+def gesture_boundaries(group: np.ndarray, fps: float, n_min: int, n_max: int, beta: float = 0.75,
+                       window_s: float = 20 / SEED_FPS) -> np.ndarray:
+    """Segment boundaries (frames, first and last included) at speed minima (§8.2.2)."""
+    n = len(group)
+    if n < 2:
+        return np.array([0], dtype=np.int64)
+    omega, alpha = group_speed(group)
+    n_win = max(int(round(window_s * fps)), 1)
+    padded = np.concatenate([np.full(n_win - 1, omega[0]), omega])
+    average = np.convolve(padded, np.ones(n_win) / n_win, mode="valid")
+    minimum = np.zeros(n, dtype=bool)
+    minimum[1:] = (alpha[:-1] < 0) & (alpha[1:] >= 0)
+
+    def search(start: int, stop: int, scale: float) -> list[int]:
+        picked, last = [], start
+        for frame in range(start + n_min, stop - n_min + 1):
+            if minimum[frame] and omega[frame] < scale * average[frame] and frame - last >= n_min:
+                picked.append(frame)
+                last = frame
+        return picked
+
+    bounds = [0] + search(0, n - 1, beta) + [n - 1]
+    result = [0]
+    for start, stop in zip(bounds[:-1], bounds[1:]):
+        inner, scale = [], beta
+        while stop - start > n_max and not inner and scale < 3.0:
+            scale += 0.25
+            inner = search(start, stop, scale)
+        pieces = [start] + inner + [stop]
+        for a, b in zip(pieces[:-1], pieces[1:]):
+            count = -(-(b - a) // n_max)
+            result += [int(round(a + (b - a) * k / count)) for k in range(1, count + 1)]
+    return np.unique(np.asarray(result, dtype=np.int64))
+
+
+# ---------------------------------------------------------------- interpolation
+
+def hermite_fill(keys: np.ndarray, values: np.ndarray, n_frames: int) -> np.ndarray:
+    """Cubic Hermite through key frames (8-5, 8-6) with decoder-estimated slopes (8-7, 8-8). (T, K)."""
+    out = np.empty((n_frames, values.shape[1]))
+    if len(keys) == 1:
+        out[:] = values[0]
+        return out
+    lags = np.diff(keys).astype(np.float64)  # r(m)
+    secants = np.diff(values, axis=0) / lags[:, None]  # per frame
+    slopes = np.zeros_like(values)
+    s = lags[1:] / (lags[:-1] + lags[1:])
+    slopes[1:-1] = s[:, None] * secants[:-1] + (1.0 - s)[:, None] * secants[1:]
+    for m in range(len(keys) - 1):
+        a, b = keys[m], keys[m + 1]
+        t = (np.arange(a, b + 1) - a) / (b - a)
+        h00, h10 = 2 * t ** 3 - 3 * t ** 2 + 1, t ** 3 - 2 * t ** 2 + t
+        h01, h11 = -2 * t ** 3 + 3 * t ** 2, t ** 3 - t ** 2
+        r = b - a
+        out[a:b + 1] = (h00[:, None] * values[m] + h10[:, None] * r * slopes[m]
+                        + h01[:, None] * values[m + 1] + h11[:, None] * r * slopes[m + 1])
+    return out
+
+
+def raised_cosine(n: int) -> np.ndarray:
+    """w(t) = (1 + cos(pi t)) / 2 at t = 0, 1/(n-1), ..., 1 (eq. 8-9): 1 -> 0."""
+    if n == 1:
+        return np.ones(1)
+    return (1.0 + np.cos(np.pi * np.arange(n) / (n - 1))) / 2.0
+
+
+def warp(segment: np.ndarray, length: int) -> np.ndarray:
+    """Linear time warp of (L, K) to (length, K)."""
+    source = np.linspace(0.0, 1.0, len(segment))
+    target = np.linspace(0.0, 1.0, length)
+    if len(segment) == 1:
+        return np.repeat(segment, length, axis=0)
+    return np.stack([np.interp(target, source, segment[:, k]) for k in range(segment.shape[1])], axis=1)
+
+
+def gesture_weights(n_norm: int = N_NORM, a: float = 1.0, b: float = 0.5) -> np.ndarray:
+    """End-emphasising weights of eq. 8-13 for samples n = 1..N."""
+    n = np.arange(1, n_norm + 1, dtype=np.float64)
+    return np.where(n <= n_norm / 2, b + (a - b) / n, b + (a - b) / (n_norm - n + 1))
+
+
+def gesture_distance(warped: np.ndarray, table: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Weighted RMS distance (radians) of warped (N, K) to each table entry (M, N, K), eq. 8-12."""
+    squared = np.einsum("mnk,n->m", (table - warped[None]) ** 2, weights)
+    return np.sqrt(squared / (weights.sum() * warped.shape[1]))
+
+
+# ---------------------------------------------------------------- tables
+
+def load_model_tables(path: Path = MODEL_TABLE_PATH) -> dict[str, np.ndarray]:
+    try:
+        with np.load(path, allow_pickle=False) as tables:
+            return {key: tables[key] for key in tables.files}
+    except OSError:
+        raise SigncastError(f"posture/gesture tables missing ({path}): run tools/train_vq_codebooks.py") from None
+
+
+def _table_groups(tables: dict, dof_names: list[str]) -> tuple[list[str], list[np.ndarray]]:
+    position = {name: i for i, name in enumerate(dof_names)}
+    names, groups = [], []
+    for group in [str(g) for g in tables["groups"]]:
+        members = [str(n) for n in tables[f"{group}_names"]]
+        if any(m not in position for m in members):
+            raise SigncastError(f"model table group {group} does not match this DOF layout")
+        names.append(group)
+        groups.append(np.array([position[m] for m in members], dtype=np.int64))
+    covered = sorted(np.concatenate(groups).tolist()) if groups else []
+    if covered != list(range(len(dof_names))):
+        raise SigncastError("the model table groups do not cover every DOF exactly once")
+    return names, groups
+
+
+# ---------------------------------------------------------------- coders
+
+class _GroupCoder(DofCoder):
+    quality_measure = "vpsnr"
+    min_frames = 2
+
+    def __init__(self, lower, upper, groups: list[np.ndarray], postures: list[np.ndarray],
+                 gestures: list[np.ndarray] | None = None, *, stage: str | None = None):
+        super().__init__(lower, upper, stage=stage)
+        self.groups = [np.asarray(g, dtype=np.int64) for g in groups]
+        self.postures = [np.asarray(p, dtype=np.float64) for p in postures]
+        self.gestures = [np.asarray(g, dtype=np.float64) for g in gestures] if gestures is not None else None
+
+    def _write_keys(self, writer: StreamWriter, keys: np.ndarray) -> None:
+        writer.signed(np.diff(keys) - 1)
+
+    def _read_keys(self, reader: StreamReader, n_frames: int) -> np.ndarray:
+        keys = np.concatenate([[0], np.cumsum(reader.signed() + 1)]).astype(np.int64)
+        if np.any(np.diff(keys) < 1) or keys[-1] != n_frames - 1:
+            raise SigncastError(f"corrupt {self.name} stream: key frames do not span the clip")
+        return keys
+
+
+class PostureCoder(_GroupCoder):
+    """Posture-based coding: key postures by posture distance, posture-table indices, Hermite."""
+
+    name, coder_id, unit = "posture", 10, "posture distance d (rad)"
+    settings = tuple(1.6 / k for k in (1, 2, 3, 4, 5, 6, 8))
+
+    def _encode(self, writer, dofs, fps, distance):
+        recon = np.empty_like(dofs)
+        for group, table in zip(self.groups, self.postures):
+            keys = posture_keys(dofs[:, group], distance)
+            index = nearest(dofs[keys][:, group], table)
+            self._write_keys(writer, keys)
+            writer.symbols(index, len(table))
+            recon[:, group] = hermite_fill(keys, table[index], len(dofs))
+        return recon
+
+    def _decode(self, reader, n_frames, fps, distance):
+        recon = np.empty((n_frames, self.n_dofs))
+        for group, table in zip(self.groups, self.postures):
+            keys = self._read_keys(reader, n_frames)
+            index = reader.symbols(len(table), len(keys))
+            recon[:, group] = hermite_fill(keys, table[index], n_frames)
+        return recon
+
+
+class GestureCoder(_GroupCoder):
+    """Gesture-based coding: speed-minimum segments matched to a gesture table, posture fallback."""
+
+    name, coder_id, unit = "gesture", 11, "(nMin, nMax) at 30 Hz"
+    settings = ((5, 60), (5, 45), (4, 36), (4, 28), (3, 20), (3, 14))
+    fit_threshold = 0.12  # E: weighted RMS radians per DOF
+    blend_at_30 = 10
+
+    def _synthesise(self, table, postures, start_value, lengths, flags, indices, fallbacks, n_blend):
+        """The receiver: segments of `lengths` (frames incl. both ends) from gesture entries or posture
+        fallbacks, raised-cosine joined to the previous segment's last frame."""
+        out = [start_value[None]]
+        previous = start_value
+        g_used = p_used = 0
+        for length, is_gesture in zip(lengths, flags):
+            if is_gesture:
+                segment = warp(table[indices[g_used]], length + 1)
+                g_used += 1
+                blend = min(n_blend, length + 1)
+                w = raised_cosine(blend)[:, None]
+                segment[:blend] = w * previous + (1.0 - w) * segment[:blend]
+            else:
+                target = postures[fallbacks[p_used]]
+                p_used += 1
+                w = raised_cosine(length + 1)[:, None]
+                segment = w * previous + (1.0 - w) * target
+            out.append(segment[1:])
+            previous = segment[-1]
+        return np.concatenate(out)
+
+    def _encode(self, writer, dofs, fps, setting):
+        n_min, n_max = (_frames(v, fps) for v in setting)
+        n_blend = _frames(self.blend_at_30, fps)
+        weights = gesture_weights()
+        recon = np.empty_like(dofs)
+        for group, postures, table in zip(self.groups, self.postures, self.gestures):
+            x = dofs[:, group]
+            bounds = gesture_boundaries(x, fps, n_min, n_max)
+            start = int(nearest(x[:1], postures)[0])
+            flags, indices, fallbacks = [], [], []
+            for a, b in zip(bounds[:-1], bounds[1:]):
+                distances = gesture_distance(warp(x[a:b + 1], N_NORM), table, weights)
+                best = int(distances.argmin())
+                if distances[best] <= self.fit_threshold:
+                    flags.append(1)
+                    indices.append(best)
+                else:
+                    flags.append(0)
+                    fallbacks.append(int(nearest(x[b:b + 1], postures)[0]))
+            self._write_keys(writer, bounds)
+            writer.symbols(np.array(flags, dtype=np.int64), 2)
+            writer.symbols(np.array(indices, dtype=np.int64), len(table))
+            writer.symbols(np.array([start] + fallbacks, dtype=np.int64), len(postures))
+            recon[:, group] = self._synthesise(table, postures, postures[start], np.diff(bounds), flags,
+                                               indices, fallbacks, n_blend)
+        return recon
+
+    def _decode(self, reader, n_frames, fps, setting):
+        n_blend = _frames(self.blend_at_30, fps)
+        recon = np.empty((n_frames, self.n_dofs))
+        for group, postures, table in zip(self.groups, self.postures, self.gestures):
+            bounds = self._read_keys(reader, n_frames)
+            flags = reader.symbols(2, len(bounds) - 1)
+            indices = reader.symbols(len(table), int(flags.sum()))
+            posture_index = reader.symbols(len(postures), 1 + int((flags == 0).sum()))
+            recon[:, group] = self._synthesise(table, postures, postures[posture_index[0]], np.diff(bounds),
+                                               flags, indices, posture_index[1:], n_blend)
+        return recon
+
+
+HYBRID_ALLOCATIONS = ((4, 3, 2), (4, 4, 2), (5, 4, 3), (5, 5, 3), (6, 5, 4), (6, 6, 4), (7, 6, 5), (7, 7, 5))
+
+
+class HybridCoder(_GroupCoder):
+    """Hybrid: gesture segmentation, then per DOF the first 3 DCT coefficients of each segment."""
+
+    name, coder_id, unit = "hybrid", 12, "bits for DCT coefficients 0, 1, 2"
+    settings = HYBRID_ALLOCATIONS
+    segmentation_at_30 = (5, 60)
+    blend_at_30 = 3
+
+    def _quantisers(self, bits):
+        """(lower, width, levels) per coefficient: mean over the range, amplitudes symmetric."""
+        return [(self.lower, self.width, 1 << bits[0]),
+                (-self.width / 2, self.width, (1 << bits[1]) - 1),
+                (-self.width / 4, self.width / 2, (1 << bits[2]) - 1)]
+
+    def _segment_values(self, coefficients: np.ndarray, length: int) -> np.ndarray:
+        """(3, K) mean and cosine amplitudes -> (length, K)."""
+        n = np.arange(length)
+        basis = np.stack([np.ones(length)] + [np.cos(np.pi * k * (2 * n + 1) / (2 * length)) for k in (1, 2)])
+        return basis.T @ coefficients
+
+    def _synthesise(self, group, bounds, index, quantisers):
+        """Receiver: segments [a, b) (the last one includes the final frame) from quantised coefficients."""
+        n_frames = bounds[-1] + 1
+        ends = list(bounds[1:-1]) + [n_frames]
+        out = np.empty((n_frames, len(group)))
+        previous = None
+        for s, (a, b) in enumerate(zip(bounds[:-1], ends)):
+            coefficients = np.stack([uniform_value(index[k][s], lo[group], width[group], levels)
+                                     for k, (lo, width, levels) in enumerate(quantisers)])
+            values = self._segment_values(coefficients, b - a)
+            if previous is not None:
+                blend = min(self._n_blend, b - a)
+                w = raised_cosine(blend + 2)[1:-1, None]
+                values[:blend] = w * previous + (1.0 - w) * values[:blend]
+            out[a:b] = values
+            previous = values[-1]
+        return out
+
+    def _encode(self, writer, dofs, fps, bits):
+        quantisers = self._quantisers(bits)
+        n_min, n_max = (_frames(v, fps) for v in self.segmentation_at_30)
+        self._n_blend = _frames(self.blend_at_30, fps)
+        recon = np.empty_like(dofs)
+        for group in self.groups:
+            x = dofs[:, group]
+            bounds = gesture_boundaries(x, fps, n_min, n_max)
+            ends = list(bounds[1:-1]) + [len(dofs)]
+            index = [[], [], []]
+            for a, b in zip(bounds[:-1], ends):
+                length = b - a
+                c = dct(x[a:b], type=2, norm="ortho", axis=0)
+                c = np.concatenate([c, np.zeros((3, c.shape[1]))])[:3]
+                values = [c[0] / np.sqrt(length), c[1] * np.sqrt(2.0 / length), c[2] * np.sqrt(2.0 / length)]
+                for k, (lo, width, levels) in enumerate(quantisers):
+                    index[k].append(uniform_index(values[k], lo[group], width[group], levels))
+            index = [np.array(ix, dtype=np.int64).reshape(-1, len(group)) for ix in index]
+            self._write_keys(writer, bounds)
+            writer.signed(np.diff(index[0], axis=0, prepend=0))
+            for k in (1, 2):
+                writer.symbols(index[k], quantisers[k][2])
+            recon[:, group] = self._synthesise(group, bounds, index, quantisers)
+        return recon
+
+    def _decode(self, reader, n_frames, fps, bits):
+        quantisers = self._quantisers(bits)
+        self._n_blend = _frames(self.blend_at_30, fps)
+        recon = np.empty((n_frames, self.n_dofs))
+        for group in self.groups:
+            bounds = self._read_keys(reader, n_frames)
+            n_segments = len(bounds) - 1
+            index = [np.cumsum(reader.signed(n_segments * len(group)).reshape(n_segments, len(group)), axis=0)]
+            if index[0].min() < 0 or index[0].max() >= quantisers[0][2]:
+                raise SigncastError("corrupt hybrid stream: segment mean out of range")
+            for k in (1, 2):
+                index.append(reader.symbols(quantisers[k][2], n_segments * len(group)).reshape(n_segments, len(group)))
+            recon[:, group] = self._synthesise(group, bounds, index, quantisers)
+        return recon
+
+
+def _load(dof_names, tables):
+    tables = tables if tables is not None else load_model_tables()
+    names, groups = _table_groups(tables, list(dof_names))
+    postures = [tables[f"posture_{g}"] for g in names]
+    gestures = [tables[f"gesture_{g}"] for g in names]
+    return groups, postures, gestures
+
+
+def posture_coder(lower, upper, dof_names, tables=None, stage=None) -> PostureCoder:
+    groups, postures, _ = _load(dof_names, tables)
+    return PostureCoder(lower, upper, groups, postures, stage=stage)
+
+
+def gesture_coder(lower, upper, dof_names, tables=None, stage=None) -> GestureCoder:
+    groups, postures, gestures = _load(dof_names, tables)
+    return GestureCoder(lower, upper, groups, postures, gestures, stage=stage)
+
+
+def hybrid_coder(lower, upper, dof_names, tables=None, stage=None) -> HybridCoder:
+    groups, postures, _ = _load(dof_names, tables)
+    return HybridCoder(lower, upper, groups, postures, stage=stage)

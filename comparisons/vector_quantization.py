@@ -1,0 +1,186 @@
+"""Vector quantisation of DOF trajectories (seed 002 §7.9): spatial VQ per joint group, temporal VQ per DOF.
+
+Codebooks are trained offline with LBG (binary splitting + Lloyd/k-means iterations, Euclidean
+distance) on a training split of the lexicon by tools/train_vq_codebooks.py and shipped in
+comparisons/tables/vq_codebooks.npz; they are part of the codec, known to both ends, never sent.
+
+- Spatial VQ (`svq`): each frame of a joint group (e.g. a hand's finger angles) becomes the index of
+  the nearest code vector of that group's codebook. q picks the codebook size (16 ... 512).
+- Temporal VQ (`tvq`): each DOF is cut into blocks of 6 consecutive samples; a block is coded as the
+  nearest code vector of (block - last decoded sample of the previous block), a closed-loop
+  (predictive) VQ so one codebook serves every DOF whatever its mean. The first frame is sent as
+  16-bit values.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from comparisons.coded_streams import StreamReader, StreamWriter
+from comparisons.waveform_coders import DofCoder, _read_first_frame, _write_first_frame
+from media.errors import SigncastError
+
+TABLES_DIR = Path(__file__).resolve().parent / "tables"
+VQ_TABLE_PATH = TABLES_DIR / "vq_codebooks.npz"
+CODEBOOK_SIZES = (16, 32, 64, 128, 256, 512)
+TEMPORAL_DIMENSION = 6
+
+
+# ---------------------------------------------------------------- training
+
+def nearest(vectors: np.ndarray, codebook: np.ndarray, chunk: int = 4096) -> np.ndarray:
+    """Index (N,) of the nearest code vector (Euclidean) for each of vectors (N, k); codebook (M, k)."""
+    vectors = np.asarray(vectors, dtype=np.float64)
+    codebook = np.asarray(codebook, dtype=np.float64)
+    norms = np.einsum("mk,mk->m", codebook, codebook)
+    out = np.empty(len(vectors), dtype=np.int64)
+    for start in range(0, len(vectors), chunk):
+        block = vectors[start:start + chunk]
+        out[start:start + chunk] = (norms[None, :] - 2.0 * block @ codebook.T).argmin(axis=1)
+    return out
+
+
+def train_codebook(vectors: np.ndarray, size: int, iterations: int = 15, seed: int = 0) -> np.ndarray:
+    """LBG: start from the centroid, split every code vector in two, refine with Lloyd iterations,
+    until `size` vectors. Empty cells are re-seeded at the worst-coded training vector. (size, k)."""
+    vectors = np.asarray(vectors, dtype=np.float64)
+    if len(vectors) < size:
+        raise SigncastError(f"{len(vectors)} training vectors cannot train a codebook of {size}")
+    rng = np.random.default_rng(seed)
+    codebook = vectors.mean(axis=0, keepdims=True)
+    spread = vectors.std(axis=0) + 1e-9
+    while len(codebook) < size:
+        n_new = min(len(codebook), size - len(codebook))
+        jitter = 1e-2 * spread * rng.standard_normal((n_new, vectors.shape[1]))
+        codebook = np.concatenate([codebook, codebook[:n_new] + jitter])
+        codebook[:n_new] -= jitter
+        for _ in range(iterations):
+            index = nearest(vectors, codebook)
+            counts = np.bincount(index, minlength=len(codebook))
+            sums = np.zeros_like(codebook)
+            np.add.at(sums, index, vectors)
+            filled = counts > 0
+            codebook[filled] = sums[filled] / counts[filled, None]
+            if not filled.all():
+                errors = np.sum((vectors - codebook[index]) ** 2, axis=1)
+                worst = np.argsort(errors)[::-1][:int((~filled).sum())]
+                codebook[~filled] = vectors[worst]
+    return codebook
+
+
+def temporal_vectors(dofs: np.ndarray, dimension: int = TEMPORAL_DIMENSION) -> np.ndarray:
+    """Training vectors of temporal VQ: per DOF, blocks of `dimension` samples minus the sample before."""
+    vectors = []
+    for start in range(1, len(dofs) - dimension + 1, dimension):
+        block = dofs[start:start + dimension].T  # (D, dimension)
+        vectors.append(block - dofs[start - 1][:, None])
+    return np.concatenate(vectors) if vectors else np.zeros((0, dimension))
+
+
+# ---------------------------------------------------------------- tables
+
+def load_vq_tables(path: Path = VQ_TABLE_PATH) -> dict[str, np.ndarray]:
+    try:
+        with np.load(path, allow_pickle=False) as tables:
+            return {key: tables[key] for key in tables.files}
+    except OSError:
+        raise SigncastError(f"VQ codebooks missing ({path}): run tools/train_vq_codebooks.py") from None
+
+
+def group_layout(tables: dict[str, np.ndarray], dof_names: list[str]) -> list[tuple[str, np.ndarray]]:
+    """(group name, DOF indices into dof_names) for every spatial-VQ group of the tables."""
+    position = {name: i for i, name in enumerate(dof_names)}
+    layout = []
+    for group in [str(g) for g in tables["svq_groups"]]:
+        names = [str(n) for n in tables[f"svq_{group}_names"]]
+        missing = [n for n in names if n not in position]
+        if missing:
+            raise SigncastError(f"VQ group {group} needs DOFs this layout lacks: {', '.join(missing[:5])}")
+        layout.append((group, np.array([position[n] for n in names], dtype=np.int64)))
+    covered = np.concatenate([idx for _, idx in layout]) if layout else np.zeros(0, np.int64)
+    if sorted(covered.tolist()) != list(range(len(dof_names))):
+        raise SigncastError("the VQ groups of the tables do not cover every DOF exactly once")
+    return layout
+
+
+# ---------------------------------------------------------------- coders
+
+class SpatialVQ(DofCoder):
+    """Spatial VQ: one codebook index per joint group per frame (§7.9.1)."""
+
+    name, coder_id, unit = "svq", 8, "codebook size"
+    settings = CODEBOOK_SIZES
+
+    def __init__(self, lower, upper, groups: list[np.ndarray], codebooks: list[dict[int, np.ndarray]], *,
+                 stage: str | None = None):
+        """groups: DOF indices per group; codebooks: per group, {size: (size, len(group)) radians}."""
+        super().__init__(lower, upper, stage=stage)
+        self.groups = [np.asarray(g, dtype=np.int64) for g in groups]
+        self.codebooks = [{int(k): np.asarray(v, dtype=np.float64) for k, v in books.items()} for books in codebooks]
+
+    def _encode(self, writer, dofs, fps, size):
+        recon = np.empty_like(dofs)
+        for group, books in zip(self.groups, self.codebooks):
+            index = nearest(dofs[:, group], books[size])
+            writer.symbols(index, size)
+            recon[:, group] = books[size][index]
+        return recon
+
+    def _decode(self, reader, n_frames, fps, size):
+        recon = np.empty((n_frames, self.n_dofs))
+        for group, books in zip(self.groups, self.codebooks):
+            recon[:, group] = books[size][reader.symbols(size, n_frames)]
+        return recon
+
+
+class TemporalVQ(DofCoder):
+    """Temporal VQ: blocks of 6 samples per DOF, predicted from the last decoded sample (§7.9.2)."""
+
+    name, coder_id, unit = "tvq", 9, "codebook size"
+    settings = CODEBOOK_SIZES
+
+    def __init__(self, lower, upper, codebooks: dict[int, np.ndarray], *, stage: str | None = None):
+        """codebooks: {size: (size, 6) radians} shared by all DOFs."""
+        super().__init__(lower, upper, stage=stage)
+        self.codebooks = {int(k): np.asarray(v, dtype=np.float64) for k, v in codebooks.items()}
+
+    def _run(self, first, n_frames, book, dofs=None, symbols=None):
+        dim = book.shape[1]
+        n_blocks = -(-(n_frames - 1) // dim)
+        recon = np.empty((1 + n_blocks * dim, self.n_dofs))
+        recon[0] = first
+        if dofs is not None:
+            padded = np.pad(dofs, ((0, len(recon) - n_frames), (0, 0)), mode="edge")
+            symbols = np.empty((n_blocks, self.n_dofs), dtype=np.int64)
+        for b in range(n_blocks):
+            start = 1 + b * dim
+            anchor = recon[start - 1]
+            if dofs is not None:
+                symbols[b] = nearest((padded[start:start + dim] - anchor).T, book)
+            recon[start:start + dim] = (anchor[:, None] + book[symbols[b]]).T
+        return recon[:n_frames], symbols
+
+    def _encode(self, writer, dofs, fps, size):
+        first = _write_first_frame(writer, self, dofs[0])
+        recon, symbols = self._run(first, len(dofs), self.codebooks[size], dofs=dofs)
+        writer.symbols(symbols, size)
+        return recon
+
+    def _decode(self, reader, n_frames, fps, size):
+        first = _read_first_frame(reader, self)
+        n_blocks = -(-(n_frames - 1) // TEMPORAL_DIMENSION)
+        symbols = reader.symbols(size, n_blocks * self.n_dofs).reshape(n_blocks, self.n_dofs)
+        return self._run(first, n_frames, self.codebooks[size], symbols=symbols)[0]
+
+
+def spatial_vq(lower, upper, dof_names: list[str], tables: dict | None = None, stage: str | None = None) -> SpatialVQ:
+    tables = tables if tables is not None else load_vq_tables()
+    layout = group_layout(tables, dof_names)
+    books = [{size: tables[f"svq_{group}_{size}"] for size in CODEBOOK_SIZES} for group, _ in layout]
+    return SpatialVQ(lower, upper, [idx for _, idx in layout], books, stage=stage)
+
+
+def temporal_vq(lower, upper, tables: dict | None = None, stage: str | None = None) -> TemporalVQ:
+    tables = tables if tables is not None else load_vq_tables()
+    return TemporalVQ(lower, upper, {size: tables[f"tvq_{size}"] for size in CODEBOOK_SIZES}, stage=stage)

@@ -1,0 +1,520 @@
+"""Waveform coders of DOF trajectories (seed 002 ch. 7): each DOF coded on its own, no model of the action.
+
+Every coder works on DOF trajectories `dofs` (T, D) float64 radians sampled at `fps` Hz, with per-DOF
+ranges `lower`, `upper` (D,) radians (the avatar's joint limits: known to both ends, never sent).
+`encode(dofs, fps, q) -> (bytes, reconstruction (T, D))`; `decode(bytes) -> (T, D)` returns exactly the
+encoder's reconstruction. `q` indexes the coder's `settings` (0 = coarsest, lowest rate).
+The container, entropy stage and corruption checks are comparisons/coded_streams.py.
+
+Choices the seed leaves open (digest §7.4) and the values used here:
+- quantiser ranges: the DOF ranges; first frames of predictive coders: 16-bit uniform in the range;
+- difference limits of DPCM/ADPCM: forward adaptive, the clip's largest frame difference per DOF rounded
+  up on a 1/8-octave grid (1 byte per DOF of side information);
+- non-uniform quantiser: mu-law with mu = 16 (values, about the range centre) and mu = 32 (differences);
+  N levels (a power of two) become N - 1 symmetric mid-tread levels so that a still DOF costs ~0 bits;
+- ADPCM: order 2, autocorrelation method on the last round(fps) decoded samples (Hamming window,
+  mean removed, 1e-3 white-noise correction), mu-law difference quantiser (as DPCM) whose scale adapts with Jayant multipliers
+  beta(k) = 0.9 + 1.6 (k/M)^4 within [limit/4, 2 limit];
+- dead reckoning: constant velocity, 7-sample least-squares slope (3 frames sender delay, compensated),
+  value step E/2, velocity step E/8 per frame;
+- DCT: N = 16, orthonormal DCT-II, Appendix III bit allocations (non-adaptive, no edge smoothing),
+  DC predicted from the previous block, AC ranges = largest |coefficient| in the clip (float32 header);
+- wavelet: orthonormal Haar, full dyadic decomposition of 16-sample blocks, uniform step (dead zone
+  of rounding = the thresholding that keeps the largest coefficients), approximation predicted.
+"""
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+from scipy.fft import dct, idct
+
+from comparisons.coded_streams import StreamReader, StreamWriter
+from media.errors import SigncastError
+
+FIRST_FRAME_BITS = 16
+DIFF_LIMIT_BASE = 1e-5  # radians per frame, bottom of the 1/8-octave grid
+
+
+class DofCoder:
+    """Base of every motion coder: checks, container, exact decode."""
+
+    name = "base"
+    coder_id = 0
+    settings: tuple = ()
+    unit = ""  # what a setting is: "levels", "degrees", ...
+    quality_measure = "psnr"  # waveform coders are scored with PSNR, model-based ones with VPSNR
+    min_frames = 1
+
+    def __init__(self, lower: np.ndarray, upper: np.ndarray, *, stage: str | None = None):
+        self.lower = np.asarray(lower, dtype=np.float64).ravel()
+        self.upper = np.asarray(upper, dtype=np.float64).ravel()
+        if self.lower.shape != self.upper.shape or not np.all(np.isfinite(self.lower)) \
+                or not np.all(np.isfinite(self.upper)) or np.any(self.upper < self.lower):
+            raise SigncastError("DOF ranges must be finite (D,) arrays with upper >= lower")
+        self.width = np.maximum(self.upper - self.lower, 1e-9)
+        self.stage = stage
+
+    @property
+    def n_dofs(self) -> int:
+        return len(self.lower)
+
+    def check(self, dofs: np.ndarray, fps: float, q: int) -> np.ndarray:
+        dofs = np.asarray(dofs, dtype=np.float64)
+        if dofs.ndim != 2 or dofs.shape[1] != self.n_dofs or len(dofs) < self.min_frames:
+            raise SigncastError(f"{self.name}: DOF trajectories must be (T >= {self.min_frames}, {self.n_dofs}), "
+                                f"got {dofs.shape}")
+        if not np.all(np.isfinite(dofs)):
+            raise SigncastError(f"{self.name}: DOF trajectories hold NaN or infinite values")
+        if not (np.isfinite(fps) and fps > 0):
+            raise SigncastError(f"{self.name}: bad frame rate {fps}")
+        if not (isinstance(q, (int, np.integer)) and 0 <= q < len(self.settings)):
+            raise SigncastError(f"{self.name}: q must be an integer 0..{len(self.settings) - 1} "
+                                f"({self.unit}: {', '.join(map(str, self.settings))}), got {q!r}")
+        return dofs
+
+    def encode(self, dofs: np.ndarray, fps: float, q: int) -> tuple[bytes, np.ndarray]:
+        """(T, D) radians -> (stream bytes, the reconstruction the decoder will produce (T, D))."""
+        dofs = self.check(dofs, fps, q)
+        writer = StreamWriter(self.coder_id, int(q), len(dofs), self.n_dofs, fps, self.stage)
+        recon = self._encode(writer, dofs, fps, self.settings[q])
+        return writer.finish(), recon
+
+    def decode(self, data: bytes) -> np.ndarray:
+        return self.decode_with_fps(data)[0]
+
+    def decode_with_fps(self, data: bytes) -> tuple[np.ndarray, float]:
+        """Bytes -> ((T, D) radians, fps). Raises SigncastError on damaged input."""
+        reader = StreamReader(data, self.coder_id, self.name)
+        info = reader.info
+        if info.n_dofs != self.n_dofs or info.q >= len(self.settings):
+            raise SigncastError(f"corrupt {self.name} stream: layout does not match this coder")
+        try:
+            recon = self._decode(reader, info.n_frames, info.fps, self.settings[info.q])
+        except (IndexError, ValueError, OverflowError, struct.error) as error:
+            raise SigncastError(f"corrupt {self.name} stream: {error}") from None
+        reader.finish()
+        return recon, info.fps
+
+    def _encode(self, writer: StreamWriter, dofs: np.ndarray, fps: float, setting) -> np.ndarray:
+        raise NotImplementedError
+
+    def _decode(self, reader: StreamReader, n_frames: int, fps: float, setting) -> np.ndarray:
+        raise NotImplementedError
+
+
+# ---------------------------------------------------------------- shared quantisers
+
+def uniform_index(x: np.ndarray, lower: np.ndarray, width: np.ndarray, levels: int) -> np.ndarray:
+    """Cell index of x in `levels` equal cells over [lower, lower + width] (input clamped)."""
+    return np.clip(np.floor((x - lower) / width * levels), 0, levels - 1).astype(np.int64)
+
+
+def uniform_value(index: np.ndarray, lower: np.ndarray, width: np.ndarray, levels: int) -> np.ndarray:
+    """Cell midpoints (seed 002 eq. 7-3)."""
+    return lower + (index + 0.5) * (width / levels)
+
+
+def mu_compress(u: np.ndarray, mu: float) -> np.ndarray:
+    """Bipolar mu-law on u in [-1, 1] (seed 002 eq. 7-5, expander form)."""
+    return np.sign(u) * np.log1p(mu * np.abs(u)) / np.log1p(mu)
+
+
+def mu_expand(c: np.ndarray, mu: float) -> np.ndarray:
+    return np.sign(c) * np.expm1(np.abs(c) * np.log1p(mu)) / mu
+
+
+def _write_first_frame(writer: StreamWriter, coder: DofCoder, first: np.ndarray) -> np.ndarray:
+    levels = 1 << FIRST_FRAME_BITS
+    index = uniform_index(first, coder.lower, coder.width, levels)
+    writer.raw(index, np.full(len(index), FIRST_FRAME_BITS))
+    return uniform_value(index, coder.lower, coder.width, levels)
+
+
+def _read_first_frame(reader: StreamReader, coder: DofCoder) -> np.ndarray:
+    levels = 1 << FIRST_FRAME_BITS
+    index = reader.raw(np.full(coder.n_dofs, FIRST_FRAME_BITS))
+    return uniform_value(index, coder.lower, coder.width, levels)
+
+
+def _diff_limit_codes(dofs: np.ndarray) -> np.ndarray:
+    largest = np.abs(np.diff(dofs, axis=0)).max(axis=0) if len(dofs) > 1 else np.zeros(dofs.shape[1])
+    codes = np.ceil(8 * np.log2(np.maximum(largest, DIFF_LIMIT_BASE) / DIFF_LIMIT_BASE))
+    return np.clip(codes, 0, 255).astype(np.int64)
+
+
+def _diff_limits(codes: np.ndarray) -> np.ndarray:
+    return DIFF_LIMIT_BASE * np.exp2(codes / 8.0)
+
+
+def _write_diff_limits(writer: StreamWriter, dofs: np.ndarray) -> np.ndarray:
+    codes = _diff_limit_codes(dofs)
+    writer.header(codes.astype(np.uint8).tobytes())
+    return _diff_limits(codes)
+
+
+def _read_diff_limits(reader: StreamReader, n_dofs: int) -> np.ndarray:
+    payload = reader.header()
+    if len(payload) != n_dofs:
+        raise SigncastError("corrupt stream: difference-limit header has the wrong size")
+    return _diff_limits(np.frombuffer(payload, dtype=np.uint8).astype(np.int64))
+
+
+# ---------------------------------------------------------------- direct quantisation
+
+class UniformQuantizer(DofCoder):
+    """Direct uniform quantisation of each DOF within its range, N levels (seed 002 §7.2.1)."""
+
+    name, coder_id, unit = "quant", 1, "levels"
+    settings = (8, 16, 32, 64, 128, 256)
+
+    def _encode(self, writer, dofs, fps, levels):
+        index = uniform_index(dofs, self.lower, self.width, levels)
+        for d in range(self.n_dofs):  # one adaptive context per DOF
+            writer.symbols(index[:, d], levels)
+        return uniform_value(index, self.lower, self.width, levels)
+
+    def _decode(self, reader, n_frames, fps, levels):
+        index = np.stack([reader.symbols(levels, n_frames) for _ in range(self.n_dofs)], axis=1)
+        return uniform_value(index, self.lower, self.width, levels)
+
+
+class CompandedQuantizer(DofCoder):
+    """Non-uniform (mu-law companded) quantisation of each DOF about its range centre (§7.2.2)."""
+
+    name, coder_id, unit = "nuquant", 2, "levels"
+    settings = (8, 16, 32, 64, 128, 256)
+    mu = 16.0
+
+    def _table(self, levels: int) -> np.ndarray:
+        half = (levels - 2) // 2  # N - 1 mid-tread levels: -half..half
+        c = np.arange(-half, half + 1) / half
+        centre, radius = (self.upper + self.lower) / 2, self.width / 2
+        return centre[None, :] + mu_expand(c, self.mu)[:, None] * radius[None, :]  # (levels-1, D)
+
+    def _encode(self, writer, dofs, fps, levels):
+        half = (levels - 2) // 2
+        centre, radius = (self.upper + self.lower) / 2, self.width / 2
+        u = np.clip((dofs - centre) / radius, -1.0, 1.0)
+        index = np.rint(mu_compress(u, self.mu) * half).astype(np.int64) + half
+        for d in range(self.n_dofs):
+            writer.symbols(index[:, d], 2 * half + 1)
+        return np.take_along_axis(self._table(levels), index, axis=0)
+
+    def _decode(self, reader, n_frames, fps, levels):
+        half = (levels - 2) // 2
+        index = np.stack([reader.symbols(2 * half + 1, n_frames) for _ in range(self.n_dofs)], axis=1)
+        return np.take_along_axis(self._table(levels), index, axis=0)
+
+
+# ---------------------------------------------------------------- predictive coders
+
+class DpcmCoder(DofCoder):
+    """First-order DPCM from the decoded previous value, mu-law difference quantiser (§7.5)."""
+
+    name, coder_id, unit = "dpcm", 3, "levels"
+    settings = (4, 8, 16, 32, 64, 128, 256)
+    mu = 32.0
+
+    def _steps(self, levels: int, limits: np.ndarray) -> np.ndarray:
+        half = (levels - 2) // 2
+        c = np.arange(-half, half + 1) / half
+        return mu_expand(c, self.mu)[None, :] * limits[:, None]  # (D, 2 half + 1)
+
+    def _run(self, first, steps, n_frames, half, dofs=None, symbols=None):
+        """The loop both ends run: closed-loop prediction; encodes (dofs given) or decodes (symbols)."""
+        recon = np.empty((n_frames, self.n_dofs))
+        recon[0] = first
+        if dofs is not None:
+            symbols = np.empty((n_frames - 1, self.n_dofs), dtype=np.int64)
+            grid = steps  # (D, K) reconstruction offsets, ascending
+        rows = np.arange(self.n_dofs)
+        for t in range(1, n_frames):
+            prediction = recon[t - 1]
+            if dofs is not None:
+                error = dofs[t] - prediction
+                symbols[t - 1] = np.abs(grid - error[:, None]).argmin(axis=1)
+            recon[t] = np.clip(prediction + steps[rows, symbols[t - 1]], self.lower, self.upper)
+        return recon, symbols
+
+    def _encode(self, writer, dofs, fps, levels):
+        half = (levels - 2) // 2
+        first = _write_first_frame(writer, self, dofs[0])
+        limits = _write_diff_limits(writer, dofs)
+        recon, symbols = self._run(first, self._steps(levels, limits), len(dofs), half, dofs=dofs)
+        writer.symbols(symbols, 2 * half + 1)
+        return recon
+
+    def _decode(self, reader, n_frames, fps, levels):
+        half = (levels - 2) // 2
+        first = _read_first_frame(reader, self)
+        limits = _read_diff_limits(reader, self.n_dofs)
+        symbols = reader.symbols(2 * half + 1, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs)
+        return self._run(first, self._steps(levels, limits), n_frames, half, symbols=symbols)[0]
+
+
+class AdpcmCoder(DofCoder):
+    """Adaptive predictive coding (§7.6): order-2 predictor adapted on decoded samples, Jayant-adapted quantiser."""
+
+    name, coder_id, unit = "adpcm", 4, "levels"
+    settings = (4, 8, 16, 32, 64, 128, 256)
+
+    def _run(self, first, limits, n_frames, fps, half, dofs=None, symbols=None):
+        window = max(int(round(fps)), 8)
+        taper = np.hamming(window)
+        recon = np.empty((n_frames, self.n_dofs))
+        recon[0] = first
+        if dofs is not None:
+            symbols = np.empty((n_frames - 1, self.n_dofs), dtype=np.int64)
+        grid = mu_expand(np.arange(-half, half + 1) / half, DpcmCoder.mu)  # (K,) in [-1, 1]
+        scale = limits.copy()
+        scale_min, scale_max = limits / 4.0, limits * 2.0
+        rows = np.arange(self.n_dofs)
+        for t in range(1, n_frames):
+            if t < 3:
+                prediction = recon[t - 1]
+            else:
+                start = max(0, t - window)
+                past = recon[start:t]
+                mean = past.mean(axis=0)
+                seg = (past - mean) * taper[window - len(past):, None]
+                r0 = np.einsum("td,td->d", seg, seg) * (1.0 + 1e-3) + 1e-18
+                r1 = np.einsum("td,td->d", seg[1:], seg[:-1])
+                r2 = np.einsum("td,td->d", seg[2:], seg[:-2])
+                det = r0 * r0 - r1 * r1
+                a1 = r1 * (r0 - r2) / det
+                a2 = (r0 * r2 - r1 * r1) / det
+                prediction = mean + a1 * (recon[t - 1] - mean) + a2 * (recon[t - 2] - mean)
+            offsets = scale[:, None] * grid[None, :]  # (D, K)
+            if dofs is not None:
+                symbols[t - 1] = np.abs(offsets - (dofs[t] - prediction)[:, None]).argmin(axis=1)
+            k = symbols[t - 1] - half
+            recon[t] = np.clip(prediction + offsets[rows, symbols[t - 1]], self.lower, self.upper)
+            scale = np.clip(scale * (0.9 + 1.6 * (k / half) ** 4), scale_min, scale_max)
+        return recon, symbols
+
+    def _encode(self, writer, dofs, fps, levels):
+        half = (levels - 2) // 2
+        first = _write_first_frame(writer, self, dofs[0])
+        limits = _write_diff_limits(writer, dofs)
+        recon, symbols = self._run(first, limits, len(dofs), fps, half, dofs=dofs)
+        writer.symbols(symbols, 2 * half + 1)
+        return recon
+
+    def _decode(self, reader, n_frames, fps, levels):
+        half = (levels - 2) // 2
+        first = _read_first_frame(reader, self)
+        limits = _read_diff_limits(reader, self.n_dofs)
+        symbols = reader.symbols(2 * half + 1, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs)
+        return self._run(first, limits, n_frames, fps, half, symbols=symbols)[0]
+
+
+# ---------------------------------------------------------------- dead reckoning
+
+def least_squares_slope(dofs: np.ndarray, half_window: int = 3) -> np.ndarray:
+    """Centred least-squares slope (per frame) over 2*half_window+1 samples, edges padded. (T, D)."""
+    padded = np.pad(dofs, ((half_window, half_window), (0, 0)), mode="edge")
+    lags = np.arange(-half_window, half_window + 1)
+    n = len(dofs)
+    slope = sum(k * padded[half_window + k:half_window + k + n] for k in lags)
+    return slope / float(np.sum(lags ** 2))
+
+
+class DeadReckoningCoder(DofCoder):
+    """Dead reckoning (§7.7): the receiver extrapolates at constant velocity; the sender sends a value
+    and velocity correction only when the receiver's error exceeds the threshold E."""
+
+    name, coder_id, unit = "deadreck", 5, "degrees"
+    settings = (16.0, 8.0, 4.0, 2.0, 1.0, 0.5, 0.25, 0.125)
+
+    def _encode(self, writer, dofs, fps, threshold_deg):
+        threshold = np.radians(threshold_deg)
+        value_step, velocity_step = threshold / 2.0, threshold / 8.0
+        slopes = least_squares_slope(dofs)
+        n_frames = len(dofs)
+        recon = np.empty_like(dofs)
+        recon[0] = _write_first_frame(writer, self, dofs[0])
+        velocity = np.zeros(self.n_dofs)
+        flags = np.zeros((n_frames - 1, self.n_dofs), dtype=np.int64)
+        value_codes, velocity_codes = [], []
+        for t in range(1, n_frames):
+            guess = recon[t - 1] + velocity
+            update = np.abs(dofs[t] - guess) > threshold
+            flags[t - 1] = update
+            if update.any():
+                dv = np.rint((dofs[t][update] - guess[update]) / value_step).astype(np.int64)
+                dw = np.rint((slopes[t][update] - velocity[update]) / velocity_step).astype(np.int64)
+                value_codes.append(dv)
+                velocity_codes.append(dw)
+                guess[update] = guess[update] + dv * value_step
+                velocity[update] = velocity[update] + dw * velocity_step
+            recon[t] = guess
+        writer.symbols(flags, 2)
+        writer.signed(np.concatenate(value_codes) if value_codes else np.zeros(0, np.int64))
+        writer.signed(np.concatenate(velocity_codes) if velocity_codes else np.zeros(0, np.int64))
+        return recon
+
+    def _decode(self, reader, n_frames, fps, threshold_deg):
+        threshold = np.radians(threshold_deg)
+        value_step, velocity_step = threshold / 2.0, threshold / 8.0
+        recon = np.empty((n_frames, self.n_dofs))
+        recon[0] = _read_first_frame(reader, self)
+        flags = reader.symbols(2, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs).astype(bool)
+        n_updates = int(flags.sum())
+        value_codes = reader.signed(n_updates)
+        velocity_codes = reader.signed(n_updates)
+        velocity = np.zeros(self.n_dofs)
+        used = 0
+        for t in range(1, n_frames):
+            guess = recon[t - 1] + velocity
+            update = flags[t - 1]
+            count = int(update.sum())
+            if count:
+                dv = value_codes[used:used + count]
+                dw = velocity_codes[used:used + count]
+                used += count
+                guess[update] = guess[update] + dv * value_step
+                velocity[update] = velocity[update] + dw * velocity_step
+            recon[t] = guess
+        return recon
+
+
+# ---------------------------------------------------------------- transform coders
+
+BLOCK = 16
+
+# Appendix III "Transform": bits per DCT coefficient 0..15, from the coarsest (q = 0) to the finest.
+DCT_ALLOCATIONS = (
+    (5, 4, 3, 3, 2, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0),
+    (6, 5, 4, 4, 3, 3, 2, 2, 0, 0, 0, 0, 0, 0, 0, 0),
+    (7, 6, 5, 4, 4, 3, 3, 3, 2, 2, 0, 0, 0, 0, 0, 0),
+    (8, 7, 6, 5, 5, 4, 4, 3, 3, 2, 2, 0, 0, 0, 0, 0),
+    (8, 7, 7, 6, 6, 5, 4, 4, 3, 3, 2, 2, 0, 0, 0, 0),
+    (10, 9, 9, 8, 8, 7, 6, 6, 5, 5, 4, 4, 3, 3, 2, 2),  # finer than the seed's rows, to reach high PSNR
+)
+
+
+def to_blocks(dofs: np.ndarray, block: int = BLOCK) -> np.ndarray:
+    """(T, D) -> (D, n_blocks, block), the last block padded by repeating the last frame."""
+    n_blocks = -(-len(dofs) // block)
+    padded = np.pad(dofs, ((0, n_blocks * block - len(dofs)), (0, 0)), mode="edge")
+    return padded.T.reshape(dofs.shape[1], n_blocks, block)
+
+
+def from_blocks(blocks: np.ndarray, n_frames: int) -> np.ndarray:
+    return blocks.reshape(blocks.shape[0], -1).T[:n_frames].copy()
+
+
+class DctCoder(DofCoder):
+    """DCT block coding, N = 16, per-coefficient bit allocation (§7.8.1)."""
+
+    name, coder_id, unit = "dct", 6, "allocation row"
+    settings = tuple(range(len(DCT_ALLOCATIONS)))
+
+    def _dc_grid(self):
+        return self.lower * np.sqrt(BLOCK), self.width * np.sqrt(BLOCK)
+
+    @staticmethod
+    def _ac_levels(bits: int) -> int:
+        return max((1 << bits) - 1, 1)
+
+    def _reconstruct(self, dc_index, ac_index, ranges, allocation, n_frames):
+        n_dofs, n_blocks = dc_index.shape
+        coeffs = np.zeros((n_dofs, n_blocks, BLOCK))
+        lower, width = self._dc_grid()
+        coeffs[:, :, 0] = uniform_value(dc_index, lower[:, None], width[:, None], 1 << allocation[0])
+        for k in range(1, BLOCK):
+            levels = self._ac_levels(allocation[k])
+            if levels > 1:
+                half = (levels - 1) // 2
+                coeffs[:, :, k] = ac_index[k] * (ranges[k] / half)
+        return from_blocks(idct(coeffs, type=2, norm="ortho", axis=-1), n_frames)
+
+    def _encode(self, writer, dofs, fps, row):
+        allocation = DCT_ALLOCATIONS[row]
+        coeffs = dct(to_blocks(dofs), type=2, norm="ortho", axis=-1)
+        ranges = np.abs(coeffs).max(axis=(0, 1)).astype(np.float32).astype(np.float64)
+        ranges = np.maximum(ranges, 1e-9).astype(np.float32)
+        writer.header(ranges.tobytes())
+        ranges = ranges.astype(np.float64)
+        lower, width = self._dc_grid()
+        dc_index = uniform_index(coeffs[:, :, 0], lower[:, None], width[:, None], 1 << allocation[0])
+        writer.signed(np.diff(dc_index, axis=1, prepend=0))
+        ac_index = {}
+        for k in range(1, BLOCK):
+            levels = self._ac_levels(allocation[k])
+            if levels > 1:
+                half = (levels - 1) // 2
+                ac_index[k] = np.clip(np.rint(coeffs[:, :, k] / (ranges[k] / half)), -half, half).astype(np.int64)
+                writer.symbols(ac_index[k] + half, levels)
+        return self._reconstruct(dc_index, ac_index, ranges, allocation, len(dofs))
+
+    def _decode(self, reader, n_frames, fps, row):
+        allocation = DCT_ALLOCATIONS[row]
+        payload = reader.header()
+        if len(payload) != 4 * BLOCK:
+            raise SigncastError("corrupt dct stream: coefficient-range header has the wrong size")
+        ranges = np.frombuffer(payload, dtype=np.float32).astype(np.float64)
+        if not np.all(np.isfinite(ranges)) or np.any(ranges <= 0):
+            raise SigncastError("corrupt dct stream: bad coefficient ranges")
+        n_blocks = -(-n_frames // BLOCK)
+        dc_index = np.cumsum(reader.signed(self.n_dofs * n_blocks).reshape(self.n_dofs, n_blocks), axis=1)
+        if dc_index.min() < 0 or dc_index.max() >= 1 << allocation[0]:
+            raise SigncastError("corrupt dct stream: DC index out of range")
+        ac_index = {}
+        for k in range(1, BLOCK):
+            levels = self._ac_levels(allocation[k])
+            if levels > 1:
+                half = (levels - 1) // 2
+                ac_index[k] = reader.symbols(levels, self.n_dofs * n_blocks).reshape(self.n_dofs, n_blocks) - half
+        return self._reconstruct(dc_index, ac_index, ranges, allocation, n_frames)
+
+
+def haar_forward(blocks: np.ndarray) -> list[np.ndarray]:
+    """Orthonormal Haar, full dyadic decomposition along the last axis (length a power of two).
+    Returns [approximation, coarsest detail, ..., finest detail]."""
+    details = []
+    approx = blocks
+    while approx.shape[-1] > 1:
+        even, odd = approx[..., 0::2], approx[..., 1::2]
+        details.append((even - odd) / np.sqrt(2.0))
+        approx = (even + odd) / np.sqrt(2.0)
+    return [approx] + details[::-1]
+
+
+def haar_inverse(bands: list[np.ndarray]) -> np.ndarray:
+    approx = bands[0]
+    for detail in bands[1:]:
+        even = (approx + detail) / np.sqrt(2.0)
+        odd = (approx - detail) / np.sqrt(2.0)
+        approx = np.stack([even, odd], axis=-1).reshape(*approx.shape[:-1], -1)
+    return approx
+
+
+class WaveletCoder(DofCoder):
+    """Time-frequency coder (§7.8.2): Haar wavelet of 16-sample blocks, uniform step per q."""
+
+    name, coder_id, unit = "wavelet", 7, "step (rad)"
+    settings = tuple(0.32 / 2 ** k for k in range(8))
+
+    def _encode(self, writer, dofs, fps, step):
+        bands = haar_forward(to_blocks(dofs))
+        indices = [np.rint(band / step).astype(np.int64) for band in bands]
+        writer.signed(np.diff(indices[0][..., 0], axis=1, prepend=0))
+        for index in indices[1:]:
+            writer.signed(index)
+        return from_blocks(haar_inverse([index * step for index in indices]), len(dofs))
+
+    def _decode(self, reader, n_frames, fps, step):
+        n_blocks = -(-n_frames // BLOCK)
+        approx = np.cumsum(reader.signed(self.n_dofs * n_blocks).reshape(self.n_dofs, n_blocks), axis=1)
+        indices = [approx[..., None]]
+        width = 1
+        while width < BLOCK:
+            indices.append(reader.signed(self.n_dofs * n_blocks * width).reshape(self.n_dofs, n_blocks, width))
+            width *= 2
+        return from_blocks(haar_inverse([index * step for index in indices]), n_frames)
+
+
+WAVEFORM_CODERS = {cls.name: cls for cls in (UniformQuantizer, CompandedQuantizer, DpcmCoder, AdpcmCoder,
+                                             DeadReckoningCoder, DctCoder, WaveletCoder)}
