@@ -66,12 +66,28 @@ def ssim(reference: np.ndarray, decoded: np.ndarray, mask: np.ndarray | None = N
 def quality_fields(reference: np.ndarray, decoded: np.ndarray, skin: np.ndarray | None,
                    region: np.ndarray | None = None) -> dict[str, float]:
     """psnr / ssim over the frame, psnr_skin / ssim_skin inside the skin mask, and psnr_object / ssim_object
-    inside the transmitted region when given (objects that leave parts of the frame unsent)."""
-    fields = {"psnr": psnr(reference, decoded), "ssim": ssim(reference, decoded)}
-    if skin is not None:
-        fields["psnr_skin"] = psnr(reference, decoded, skin)
-        fields["ssim_skin"] = ssim(reference, decoded, skin)
+    inside the transmitted region when given (objects that leave parts of the frame unsent).
+
+    Computes the squared error and the SSIM map once per frame and pools them per region.
+    """
+    reference, decoded, skin = _check(reference, decoded, skin)
     if region is not None:
-        fields["psnr_object"] = psnr(reference, decoded, region)
-        fields["ssim_object"] = ssim(reference, decoded, region)
+        _, _, region = _check(reference, decoded, region)
+    if min(reference.shape[1:3]) < 7:
+        raise SigncastError(f"frames of {reference.shape[2]}x{reference.shape[1]} are too small for SSIM (7x7 window)")
+    ref_y, dec_y = luma(reference), luma(decoded)
+    error = (ref_y - dec_y) ** 2
+    ssim_map = np.stack([structural_similarity(ref_y[t], dec_y[t], data_range=255.0, full=True)[1]
+                         for t in range(len(ref_y))])
+    regions = {"": None, "_skin": skin, "_object": region}
+    fields = {}
+    for suffix, mask in regions.items():
+        if suffix and mask is None:
+            continue
+        if mask is not None and not mask.any():
+            fields["psnr" + suffix] = fields["ssim" + suffix] = float("nan")
+            continue
+        mse = float(error.mean() if mask is None else error[mask].mean())
+        fields["psnr" + suffix] = math.inf if mse == 0 else 10.0 * math.log10(255.0 ** 2 / mse)
+        fields["ssim" + suffix] = float(ssim_map.mean() if mask is None else ssim_map[mask].mean())
     return fields

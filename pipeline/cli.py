@@ -17,6 +17,7 @@ from media.errors import SigncastError
 COMMAND_MODULES = [
     "pipeline.commands.lexicon",
     "pipeline.commands.motion",
+    "pipeline.commands.video",
 ]
 
 
