@@ -156,6 +156,10 @@ class Muscle:
     weights: (K,) NURBS weights; knots: (K + degree + 1,) knot vector; degree: curve degree;
     radius: tube radius in metres; falloff: code of eq. 3.3/3.6 (-1 x^3, 0 x^2, 1 x, 2 sin, 3 sqrt, 4 cbrt);
     driver: (bone index, max bulge in metres) — the joint whose flexion swells the muscle.
+    bulge_direction: (3,) unit vector (rest pose) along which control points move when the muscle
+    contracts; bulge_profile: (K,) share of max_bulge for each control point; bulge_weight: NURBS
+    weight factor the profiled control points reach at full contraction; flexion_bones: (proximal,
+    joint, distal) bones whose heads give the driving joint's flexion angle.
     """
     name: str
     bone: int
@@ -167,6 +171,10 @@ class Muscle:
     falloff: int
     driver_bone: int
     max_bulge: float
+    bulge_direction: np.ndarray | None = None
+    bulge_profile: np.ndarray | None = None
+    bulge_weight: float = 1.0
+    flexion_bones: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)

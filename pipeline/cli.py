@@ -18,6 +18,7 @@ COMMAND_MODULES = [
     "pipeline.commands.lexicon",
     "pipeline.commands.motion",
     "pipeline.commands.video",
+    "pipeline.commands.render",
 ]
 
 
