@@ -31,6 +31,7 @@ CODECS = {
 GOP = 12
 B_FRAMES = 2
 _AV1_MIN_SIZE = 64
+_PICTURE_TYPES = {1: "I", 2: "P", 3: "B", 4: "S", 5: "SI", 6: "SP", 7: "BI"}  # FFmpeg's AVPictureType
 
 os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1 prints its configuration to stderr unless told otherwise
 
@@ -105,7 +106,7 @@ def decode_video(data: bytes, codec: str) -> tuple[np.ndarray, list[str]]:
         with av.open(io.BytesIO(data), format=CODECS[codec][0]) as container:
             for frame in container.decode(video=0):
                 frames.append(frame.to_ndarray(format="rgb24"))
-                types.append(getattr(frame.pict_type, "name", str(frame.pict_type)))
+                types.append(_PICTURE_TYPES.get(int(frame.pict_type), "?"))
     except av.error.FFmpegError as error:
         raise SigncastError(f"cannot decode {codec} stream: {error}") from None
     if not frames:

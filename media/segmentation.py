@@ -6,7 +6,8 @@ Labels, one byte per pixel: 0 background, 1 body/clothes, 2 head, 3 left hand, 4
 - NSV2O (`segment_signer`): signer vs background. A background colour model (Gaussian mixture) is learned
   from the frame border (top rows, upper parts of the left and right columns) and the signer model from the
   bottom-centre of the frame; OpenCV's GrabCut refines the split per frame with a graph cut, seeded by the
-  previous frame's mask. Morphological opening and closing, then the largest connected component is kept.
+  previous frame's mask. Morphological opening and closing, then the large connected components are kept (a hand
+  held apart from the body is its own component).
 - NSV3O (`segment_parts`): inside the signer, a clothes colour model (k-means clusters in CIE Lab) is learned
   from the lower part of the signer mask in the first frames; skin is the complement of background and
   clothes (the source's approach: skin colours spread too widely to be modelled directly). After opening and
@@ -43,6 +44,7 @@ class SegmentationSettings:
     clothes_learn_frames: int = 5
     clothes_distance: float = 12.0     # Lab distance under which a signer pixel counts as clothes
     min_part_area: float = 0.01        # smallest head/hand component, fraction of the frame area
+    min_signer_component: float = 0.005  # smallest signer component kept (head, hands apart from the body)
 
 
 def _check_frames(frames: np.ndarray) -> np.ndarray:
@@ -60,12 +62,16 @@ def _open_close(mask: np.ndarray, kernel_px: int) -> np.ndarray:
     return cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel)
 
 
-def _largest_component(mask: np.ndarray) -> np.ndarray:
+def _large_components(mask: np.ndarray, min_area: int) -> np.ndarray:
+    """The connected components of mask with at least min_area pixels (the largest one at least)."""
     count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
     if count <= 1:
         return np.zeros(mask.shape, bool)
-    largest = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-    return labels == largest
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    keep = np.flatnonzero(areas >= min_area) + 1
+    if not len(keep):
+        keep = [1 + int(np.argmax(areas))]
+    return np.isin(labels, keep)
 
 
 def segment_signer(frames: np.ndarray, settings: SegmentationSettings = SegmentationSettings()) -> np.ndarray:
@@ -79,6 +85,7 @@ def segment_signer(frames: np.ndarray, settings: SegmentationSettings = Segmenta
     background_model = np.zeros((1, 65), np.float64)
     signer_model = np.zeros((1, 65), np.float64)
     masks = np.zeros(frames.shape[:3], bool)
+    min_area = max(1, int(settings.min_signer_component * height * width))
     previous = None
     for index, rgb in enumerate(frames):
         seeds = np.full((height, width), cv2.GC_PR_BGD, np.uint8)
@@ -97,7 +104,7 @@ def segment_signer(frames: np.ndarray, settings: SegmentationSettings = Segmenta
         except cv2.error as error:
             raise SigncastError(f"colour segmentation failed on frame {index}: {error.msg}") from None
         signer = (seeds == cv2.GC_FGD) | (seeds == cv2.GC_PR_FGD)
-        signer = _largest_component(_open_close(signer, settings.kernel_px))
+        signer = _large_components(_open_close(signer, settings.kernel_px), min_area)
         masks[index] = signer
         previous = signer if signer.any() else None
     return masks
