@@ -147,22 +147,42 @@ def _write_predictive_period(writer: BitWriter, block: np.ndarray, held: np.ndar
     return after, True
 
 
-def _write_dct_period(writer: BitWriter, block: np.ndarray, held: np.ndarray, q: int, fps: float,
-                      is_last_period: bool) -> np.ndarray:
-    tables = pc.vlc_tables()
+def dct_period(block: np.ndarray, held: np.ndarray, q: int):
+    """The DCT coder's decisions for one intra period: (mask (296,) bool, coded order, DC step,
+    AC step, segments [(n_frames, DC levels (P,), AC levels (15, P))])."""
     steps_all = bap_table.steps()
     mask = _changed_mask(block, held, steps_all * q)
     order = coded_order(mask)
     dc_step, ac_step = pc.dct_steps(steps_all[order], q)
+    segments = []
+    for start in range(0, len(block), pc.SEGMENT):
+        segment = block[start:start + pc.SEGMENT, order]
+        segments.append((len(segment), *pc.dct_levels(segment, dc_step, ac_step)))
+    return mask, order, dc_step, ac_step, segments
+
+
+def dct_training_symbols(values: np.ndarray, q: int, intra_segments: int = DEFAULT_INTRA_SEGMENTS) -> list:
+    """(DC values as coded, AC levels, intra) of every segment the DCT coder would code (VLC design)."""
+    held = np.zeros(bap_table.N_BAPS, dtype=np.int64)
+    out = []
+    period = intra_segments * pc.SEGMENT
+    for start in range(0, len(values), period):
+        mask, order, dc_step, ac_step, segments = dct_period(values[start:start + period], held, q)
+        previous = None
+        for k, (n, dc, ac) in enumerate(segments):
+            out.append((dc if k == 0 else dc - previous, ac, k == 0))
+            previous = dc
+            held[order] = pc.dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
+    return out
+
+
+def _write_dct_period(writer: BitWriter, block: np.ndarray, held: np.ndarray, q: int, fps: float,
+                      is_last_period: bool) -> np.ndarray:
+    tables = pc.vlc_tables()
+    mask, order, dc_step, ac_step, segments = dct_period(block, held, q)
     previous_dc = None
     after = held.copy()
-    starts = list(range(0, len(block), pc.SEGMENT))
-    for k, start in enumerate(starts):
-        segment = block[start:start + pc.SEGMENT, order]
-        n = len(segment)
-        if n < pc.SEGMENT:
-            segment = np.concatenate([segment, np.repeat(segment[-1:], pc.SEGMENT - n, axis=0)])
-        dc, ac = pc.dct_levels(segment, dc_step, ac_step)
+    for k, (n, dc, ac) in enumerate(segments):
         intra = k == 0
         if intra:
             writer.start_code(PLANE_START_CODE)
@@ -172,7 +192,7 @@ def _write_dct_period(writer: BitWriter, block: np.ndarray, held: np.ndarray, q:
             write_group_masks(writer, mask)
             writer.write_bit(0)
             writer.write_bit(DCT)
-        last = is_last_period and k == len(starts) - 1
+        last = is_last_period and k == len(segments) - 1
         writer.write_bit(int(last))
         if last:
             writer.write(n - 1, 4)
@@ -285,9 +305,9 @@ def _read_dct_segment(reader: BitReader, state: list, intra: bool, held: np.ndar
     if reader.read_bit():
         n = reader.read(4) + 1
     dc = np.zeros(len(order), dtype=np.int64)
-    ac = np.zeros((pc.SEGMENT - 1, len(order)), dtype=np.int64)
+    ac = np.zeros((n - 1, len(order)), dtype=np.int64)
     for p in range(len(order)):
-        dc[p], ac[:, p] = pc.read_dct_block(reader, tables, intra)
+        dc[p], ac[:, p] = pc.read_dct_block(reader, tables, intra, n)
     if not intra:
         dc += previous_dc
     state[4] = dc

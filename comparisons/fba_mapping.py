@@ -136,10 +136,19 @@ def _frame(skeleton: Skeleton, bone: str, base: str, side: str) -> np.ndarray:
     return np.stack([flexion, long_axis, abduction], axis=1)
 
 
-@functools.lru_cache(maxsize=4)
+_MAPS: dict[int, AvatarBapMap] = {}
+
+
 def avatar_bap_map(skeleton: Skeleton | None = None) -> AvatarBapMap:
-    """The BAP assignment for `skeleton` (default: the signcast avatar's)."""
+    """The BAP assignment for `skeleton` (default: the signcast avatar's); cached per skeleton."""
     skeleton = skeleton or load_avatar().skeleton
+    cached = _MAPS.get(id(skeleton))
+    if cached is None or cached.skeleton is not skeleton:
+        cached = _MAPS[id(skeleton)] = _build_map(skeleton)
+    return cached
+
+
+def _build_map(skeleton: Skeleton) -> AvatarBapMap:
     next_extension = bap_table.N_STANDARD_BAPS + 1
     bones = []
     for base, joint in AVATAR_JOINTS:

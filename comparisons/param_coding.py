@@ -137,12 +137,14 @@ def read_levels(reader: BitReader, models: list[FrequencyModel], low: np.ndarray
 
 # --------------------------------------------------------------------------- DCT segments
 
-@functools.lru_cache(maxsize=1)
-def dct_matrix() -> np.ndarray:
-    """(16, 16) orthonormal DCT-II: coefficients = D @ samples."""
-    n = np.arange(SEGMENT)
+@functools.lru_cache(maxsize=SEGMENT)
+def dct_matrix(size: int = SEGMENT) -> np.ndarray:
+    """(size, size) orthonormal DCT-II: coefficients = D @ samples. A stream's last segment may
+    be shorter than 16 frames; it is transformed at its own length (chosen here: padding it
+    would make decode -> re-encode differ, and the XML round trip must be exact)."""
+    n = np.arange(size)
     k = n[:, None]
-    d = np.sqrt(2.0 / SEGMENT) * np.cos((2 * n[None, :] + 1) * k * np.pi / (2 * SEGMENT))
+    d = np.sqrt(2.0 / size) * np.cos((2 * n[None, :] + 1) * k * np.pi / (2 * size))
     d[0] /= np.sqrt(2.0)
     return d
 
@@ -154,17 +156,17 @@ def dct_steps(steps: np.ndarray, q: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def dct_levels(segment: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """segment: (16, P) values -> DC levels (P,), AC levels (15, P) (round half away from zero)."""
-    coefficients = dct_matrix() @ segment.astype(np.float64)
+    """segment: (n <= 16, P) values -> DC levels (P,), AC levels (n - 1, P) (round half away from zero)."""
+    coefficients = dct_matrix(len(segment)) @ segment.astype(np.float64)
     dc = np.sign(coefficients[0]) * np.floor(np.abs(coefficients[0]) / dc_step + 0.5)
     ac = np.sign(coefficients[1:]) * np.floor(np.abs(coefficients[1:]) / ac_step + 0.5)
     return dc.astype(np.int64), ac.astype(np.int64)
 
 
 def dct_reconstruct(dc: np.ndarray, ac: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> np.ndarray:
-    """(16, P) int64 values from levels."""
+    """(n, P) int64 values from levels (n = 1 + number of AC rows)."""
     coefficients = np.concatenate([(dc * dc_step)[None], ac * ac_step], axis=0)
-    return np.round(dct_matrix().T @ coefficients).astype(np.int64)
+    return np.round(dct_matrix(len(coefficients)).T @ coefficients).astype(np.int64)
 
 
 def category(value: int) -> int:
@@ -172,7 +174,8 @@ def category(value: int) -> int:
 
 
 def ac_symbols(ac: np.ndarray) -> list[tuple[int, int]]:
-    """(symbol, level) pairs of one parameter's 15 AC levels: run/category symbols, then EOB."""
+    """(symbol, level) pairs of one parameter's AC levels (up to 15): run/category symbols, then
+    EOB unless the last coefficient is nonzero."""
     out = []
     run = 0
     last = int(np.max(np.flatnonzero(ac))) if np.any(ac) else -1
@@ -182,7 +185,7 @@ def ac_symbols(ac: np.ndarray) -> list[tuple[int, int]]:
             continue
         out.append((1 + run * (N_CATEGORIES - 1) + category(ac[k]) - 1, int(ac[k])))
         run = 0
-    if last < SEGMENT - 2:
+    if last < len(ac) - 1:
         out.append((AC_EOB, 0))
     return out
 
@@ -230,18 +233,19 @@ def write_dct_block(writer: BitWriter, tables: dict, dc_value: int, intra: bool,
             _write_value_bits(writer, level, category(level))
 
 
-def read_dct_block(reader: BitReader, tables: dict, intra: bool) -> tuple[int, np.ndarray]:
+def read_dct_block(reader: BitReader, tables: dict, intra: bool, size: int = SEGMENT) -> tuple[int, np.ndarray]:
+    """One parameter's block of a segment of `size` frames: (DC value as coded, AC levels (size - 1,))."""
     cat = tables["dc_intra" if intra else "dc_inter"].decode(reader)
     dc_value = _read_value_bits(reader, cat)
-    ac = np.zeros(SEGMENT - 1, dtype=np.int64)
+    ac = np.zeros(size - 1, dtype=np.int64)
     k = 0
-    while k < SEGMENT - 1:
+    while k < size - 1:
         symbol = tables["ac"].decode(reader)
         if symbol == AC_EOB:
             break
         run, cat = divmod(symbol - 1, N_CATEGORIES - 1)
         k += run
-        if k >= SEGMENT - 1:
+        if k >= size - 1:
             raise SigncastError("corrupt stream: AC run past the end of the segment")
         ac[k] = _read_value_bits(reader, cat + 1)
         k += 1

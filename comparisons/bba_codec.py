@@ -1,0 +1,642 @@
+"""MPEG-4 BBA (bone-based animation, SMS) stream: data model, binary writer and reader, Motion glue.
+
+Per frame (seed 000 §3.4.4, preda-digest.md §2.4-2.5): an animationMaskVector (KeyFrameIndex,
+the IDs 0..1023 of the bones updated, a hierarchical mask per bone) and an animationValueVector
+(Euler angles in the rotation order, translations), coded with the FBA coders reused on SMS values
+(frame-predictive + arithmetic coding, or 16-frame DCT; comparisons/param_coding.py). A frame
+start code precedes every frame (for the DCT coder: every 16-frame segment), so a server can cut
+a frame short and a decoder resynchronises; muscle data follows its own start code so a weak
+terminal can skip it.
+
+Binary layout (field widths and start-code values are signcast's; the thesis gives neither):
+
+    BBA start code 0x000001D0
+    header: version u8 (30 = 3.0), frame_rate u8, seconds u4, frequency_offset u1, coding u2
+            (0 predictive, 1 DCT), keyframes u1, Q u5, intra period u6, rotationOrder u5,
+            tight_ranges u1, number of bones u10, per bone: boneID u10, animatable mask
+            (5 level-1 bits + level-2 bits of the set types), step exponent u4 (step = 2^e units),
+            [tight ranges: per animatable value I max, I min, P max, P min, 7 bits each]
+    per frame (segment): frame start code 0x000001D1, is_intra u1, KeyFrameIndex u5,
+            [DCT: frames - 1 u4], [P: same_mask u1], [NSBB u10, per bone boneID u10 +
+            hierarchical mask], values (arithmetic-coded levels, or DCT blocks), NSBM u10;
+            if NSBM > 0: muscle start code 0x000001D2, per muscle: muscleID u10, NCP u6, NK u6,
+            MM bits (4 per control point, 1 per knot), values s20
+    end code 0x000001D3
+
+Hierarchical bone mask: a bone's header announces which of the 16 elementary motions it may
+carry; in a frame, one level-1 bit per announced motion type (translation, rotation, scale,
+scaleOrientation, center) and, for each set type, one bit per announced elementary motion. A
+bone with one animatable angle costs 2 bits, a bone with all 16 costs 21, the 2..21 of the thesis.
+
+Units: angles 1e-5 rad (the BBA schema bound +-314159 = pi), translations mm. rotationOrder is an
+SBBone field, not stream data; signcast sends one order for all bones in the header (Shoemake
+packing, see ORDER_NAMES).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from comparisons import bap_table
+from comparisons import keyframes as kf
+from comparisons import param_coding as pc
+from comparisons.bitstream import BitReader, BitWriter, find_start_codes
+from comparisons.fba_mapping import avatar_bap_map
+from media import rotations
+from media.avatar import Skeleton, load_avatar
+from media.errors import SigncastError
+from media.motion import Motion
+
+BBA_START_CODE, FRAME_START_CODE, MUSCLE_START_CODE, END_CODE = 0xD0, 0xD1, 0xD2, 0xD3
+VERSION = 30
+MASK_FIELDS = ("TranslationOnX", "TranslationOnY", "TranslationOnZ",
+               "RotationOnAxis1", "RotationOnAxis2", "RotationOnAxis3",
+               "ScaleOnX", "ScaleOnY", "ScaleOnZ",
+               "ScaleOrientationOnAxeX", "ScaleOrientationOnAxeY", "ScaleOrientationOnAxeZ", "ScaleOrientationValue",
+               "CenterOnX", "CenterOnY", "CenterOnZ")
+MASK_TYPES = (("isTranslation", (0, 1, 2)), ("isRotation", (3, 4, 5)), ("isScale", (6, 7, 8)),
+              ("isScaleOrientation", (9, 10, 11, 12)), ("isCenter", (13, 14, 15)))
+ROTATION_BITS = (3, 4, 5)
+TRANSLATION_BITS = (0, 1, 2)
+MUSCLE_VALUE_BITS = 20
+DEFAULT_INTRA_PERIOD = 32
+DEFAULT_INTRA_SEGMENTS = 4
+
+
+def _order_names() -> tuple[str, ...]:
+    """Shoemake's packing code = ((first_axis * 2 + parity) * 2 + repetition) * 2 + frame."""
+    names = []
+    for code in range(24):
+        frame, rest = code & 1, code >> 1
+        repetition, rest = rest & 1, rest >> 1
+        parity, first = rest & 1, rest >> 1
+        second = (first + 1 + parity) % 3
+        third = first if repetition else 3 - first - second
+        axes = "".join("XYZ"[a] for a in (first, second, third))
+        names.append(axes + "s" if frame == 0 else axes[::-1] + "r")
+    return tuple(names)
+
+
+ORDER_NAMES = _order_names()
+
+
+@dataclass
+class MuscleUpdate:
+    """One SBMuscle's update: NCP control points, NK knots, mask bits (4 per control point:
+    x, y, z, weight; then 1 per knot) and one integer value per set bit."""
+    muscle_id: int
+    n_control_points: int
+    n_knots: int
+    mask: list[int]
+    values: list[int]
+
+
+@dataclass
+class BBAFrame:
+    """kfi: KeyFrameIndex (frames to interpolate before this one); bones: boneID -> 16-bit mask
+    (bit k = MASK_FIELDS[k]); values: boneID -> integers for the set bits in bit order."""
+    kfi: int
+    bones: dict[int, int]
+    values: dict[int, list[int]]
+    muscles: list[MuscleUpdate] = field(default_factory=list)
+
+
+@dataclass
+class BBAHeader:
+    name: str
+    fps: float
+    coding: str = "pred"             # "pred" or "dct"
+    q: int = 1
+    intra_period: int = DEFAULT_INTRA_PERIOD   # frames (pred) or segments (dct)
+    keyframes: bool = False
+    rotation_order: int = 0
+
+
+@dataclass
+class BBAStream:
+    header: BBAHeader
+    frames: list[BBAFrame]
+
+
+def _bits(mask: int) -> list[int]:
+    return [k for k in range(16) if mask >> k & 1]
+
+
+def _keys(frame: BBAFrame) -> list[tuple[int, int]]:
+    return [(bone, bit) for bone in sorted(frame.bones) for bit in _bits(frame.bones[bone])]
+
+
+def _flat_values(frame: BBAFrame) -> list[int]:
+    return [v for bone in sorted(frame.bones) for v in frame.values[bone]]
+
+
+_EXPONENTS: dict[int, tuple[Skeleton, dict[int, int]]] = {}
+
+
+def _rotation_step_exponents(skeleton: Skeleton) -> dict[int, int]:
+    """boneID (skeleton index) -> log2 of the rotation step: the finest FBA step of the BAPs the
+    bone maps to (the thesis used the FBA ranges converted to SMS units), else 2^7."""
+    cached = _EXPONENTS.get(id(skeleton))
+    if cached and cached[0] is skeleton:
+        return cached[1]
+    exponents = {}
+    bap_map = avatar_bap_map(skeleton)
+    for bone in bap_map.bones:
+        step = min(bap_table.bap(i).step for i in bone.baps)
+        exponents[skeleton.index(bone.bone)] = int(round(np.log2(step)))
+    _EXPONENTS[id(skeleton)] = (skeleton, exponents)
+    return exponents
+
+
+def step_of(bone_id: int, bit: int, skeleton: Skeleton) -> int:
+    if bit in TRANSLATION_BITS:
+        return 2
+    return 1 << _rotation_step_exponents(skeleton).get(bone_id, 7)
+
+
+# --------------------------------------------------------------------------------- writing
+
+def _write_fps(writer: BitWriter, fps: float) -> None:
+    rate, seconds, offset = pc.frame_rate_fields(fps)
+    writer.write(rate, 8)
+    writer.write(seconds, 4)
+    writer.write_bit(offset)
+
+
+def _write_animatable(writer: BitWriter, mask: int) -> None:
+    for _, bits in MASK_TYPES:
+        writer.write_bit(int(any(mask >> b & 1 for b in bits)))
+    for _, bits in MASK_TYPES:
+        if any(mask >> b & 1 for b in bits):
+            for b in bits:
+                writer.write_bit(mask >> b & 1)
+
+
+def _read_animatable(reader: BitReader) -> int:
+    present = [reader.read_bit() for _ in MASK_TYPES]
+    mask = 0
+    for flag, (_, bits) in zip(present, MASK_TYPES):
+        if flag:
+            for b in bits:
+                mask |= reader.read_bit() << b
+    if present and mask == 0 and any(present):
+        raise SigncastError("corrupt BBA stream: an announced motion type has no elementary motion")
+    return mask
+
+
+def _write_bone_mask(writer: BitWriter, mask: int, animatable: int) -> None:
+    for _, bits in MASK_TYPES:
+        allowed = [b for b in bits if animatable >> b & 1]
+        if allowed:
+            used = any(mask >> b & 1 for b in allowed)
+            writer.write_bit(int(used))
+            if used:
+                for b in allowed:
+                    writer.write_bit(mask >> b & 1)
+
+
+def _read_bone_mask(reader: BitReader, animatable: int) -> int:
+    mask = 0
+    for _, bits in MASK_TYPES:
+        allowed = [b for b in bits if animatable >> b & 1]
+        if allowed and reader.read_bit():
+            for b in allowed:
+                mask |= reader.read_bit() << b
+    return mask
+
+
+def _units(stream: BBAStream) -> list[list[int]]:
+    """Frame indices of each coded unit: one frame (predictive) or a 16-frame segment (DCT)."""
+    n = len(stream.frames)
+    if stream.header.coding == "dct":
+        return [list(range(s, min(s + pc.SEGMENT, n))) for s in range(0, n, pc.SEGMENT)]
+    return [[t] for t in range(n)]
+
+
+def _intra_flags(stream: BBAStream, units: list[list[int]]) -> list[bool]:
+    flags = []
+    for k, unit in enumerate(units):
+        changed = k == 0 or stream.frames[unit[0]].bones != stream.frames[units[k - 1][0]].bones
+        flags.append(bool(k % stream.header.intra_period == 0 or changed))
+    return flags
+
+
+def _check_stream(stream: BBAStream) -> None:
+    h = stream.header
+    pc.check_q(h.q)
+    if h.coding not in ("pred", "dct"):
+        raise SigncastError(f"unknown BBA coding {h.coding!r}: choose 'pred' or 'dct'")
+    if not 1 <= h.intra_period <= 63:
+        raise SigncastError(f"BBA intra period {h.intra_period} outside 1..63")
+    if not 0 <= h.rotation_order < 24:
+        raise SigncastError(f"rotationOrder {h.rotation_order} outside 0..23")
+    if not stream.frames:
+        raise SigncastError("a BBA stream needs at least one frame")
+    for frame in stream.frames:
+        if not 0 <= frame.kfi <= kf.MAX_KFI:
+            raise SigncastError(f"KeyFrameIndex {frame.kfi} outside 0..31")
+        if h.coding == "dct" and (frame.kfi or frame.muscles):
+            raise SigncastError("the DCT BBA coder carries neither key frames nor muscles")
+        for bone, mask in frame.bones.items():
+            if not 0 <= bone <= 1023:
+                raise SigncastError(f"boneID {bone} outside 0..1023")
+            if len(frame.values.get(bone, ())) != bin(mask).count("1"):
+                raise SigncastError(f"bone {bone}: {bin(mask).count('1')} mask bits but "
+                                    f"{len(frame.values.get(bone, ()))} values")
+
+
+def _levels(stream: BBAStream, units, intra_flags, skeleton):
+    """First pass: quantised levels of every unit (what the decoder will rebuild)."""
+    q = stream.header.q
+    held: dict[tuple[int, int], int] = {}
+    per_unit = []
+    for unit, intra in zip(units, intra_flags):
+        frame = stream.frames[unit[0]]
+        keys = _keys(frame)
+        steps = np.array([step_of(b, k, skeleton) for b, k in keys], dtype=np.int64)
+        values = np.array([_flat_values(stream.frames[t]) for t in unit], dtype=np.int64).reshape(len(unit), len(keys))
+        if stream.header.coding == "pred":
+            previous = np.array([held.get(key, 0) for key in keys], dtype=np.int64)
+            target = values[0] if intra else values[0] - previous
+            level = np.clip(pc.quantize(target, steps * q), -pc.level_limit(q), pc.level_limit(q))
+            recon = level * steps * q + (0 if intra else previous)
+            per_unit.append((keys, steps, level))
+            held.update(zip(keys, recon.tolist()))
+        else:
+            n = len(unit)
+            dc_step, ac_step = pc.dct_steps(steps, q)
+            dc, ac = pc.dct_levels(values, dc_step, ac_step)
+            per_unit.append((keys, steps, dc, ac, n))
+    return per_unit
+
+
+def write_stream(stream: BBAStream, skeleton: Skeleton | None = None) -> bytes:
+    """Binary BBA stream of `stream` (values are quantised here)."""
+    skeleton = skeleton or load_avatar().skeleton
+    _check_stream(stream)
+    units = _units(stream)
+    intra_flags = _intra_flags(stream, units)
+    levels = _levels(stream, units, intra_flags, skeleton)
+    bones = sorted({b for f in stream.frames for b in f.bones})
+    animatable = {b: 0 for b in bones}
+    for frame in stream.frames:
+        for b, m in frame.bones.items():
+            animatable[b] |= m
+    keys = [(b, k) for b in bones for k in _bits(animatable[b])]
+    if stream.header.coding == "pred":
+        q = stream.header.q
+        i_levels = {key: [] for key in keys}
+        p_levels = {key: [] for key in keys}
+        for (unit_keys, _, level), intra in zip(levels, intra_flags):
+            for key, value in zip(unit_keys, level.tolist()):
+                (i_levels if intra else p_levels)[key].append(value)
+        fields = np.zeros((4, len(keys)), dtype=np.int64)
+        for j, key in enumerate(keys):
+            for r, source in ((0, i_levels[key]), (2, p_levels[key])):
+                top, bottom = pc.range_fields(np.array(source or [0], dtype=np.int64)[:, None], q)
+                fields[r, j], fields[r + 1, j] = top[0], bottom[0]
+        fits_default = bool(np.all(fields <= pc.DEFAULT_RANGE_FIELD))
+        candidates = [_write(stream, units, intra_flags, levels, bones, animatable, keys, fields, True, skeleton)]
+        if fits_default:
+            default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
+            candidates.append(_write(stream, units, intra_flags, levels, bones, animatable, keys, default, False, skeleton))
+        return min(candidates, key=len)
+    return _write(stream, units, intra_flags, levels, bones, animatable, keys, None, False, skeleton)
+
+
+def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, tight, skeleton) -> bytes:
+    h = stream.header
+    writer = BitWriter()
+    writer.start_code(BBA_START_CODE)
+    writer.write(VERSION, 8)
+    _write_fps(writer, h.fps)
+    writer.write(0 if h.coding == "pred" else 1, 2)
+    writer.write_bit(int(h.keyframes))
+    writer.write(h.q, 5)
+    writer.write(h.intra_period, 6)
+    writer.write(h.rotation_order, 5)
+    writer.write_bit(int(tight))
+    writer.write(len(bones), 10)
+    for b in bones:
+        writer.write(b, 10)
+        _write_animatable(writer, animatable[b])
+        exponent = _rotation_step_exponents(skeleton).get(b, 7)
+        writer.write(exponent, 4)
+    if tight:
+        pc.write_range_fields(writer, fields)
+    models = None
+    if h.coding == "pred":
+        low_i, high_i = pc.alphabet(fields[0], fields[1], h.q)
+        low_p, high_p = pc.alphabet(fields[2], fields[3], h.q)
+        key_index = {key: j for j, key in enumerate(keys)}
+    tables = pc.vlc_tables() if h.coding == "dct" else None
+    previous_dc = None
+    for k, (unit, intra) in enumerate(zip(units, intra_flags)):
+        frame = stream.frames[unit[0]]
+        writer.start_code(FRAME_START_CODE)
+        writer.write_bit(int(intra))
+        writer.write(frame.kfi, 5)
+        if h.coding == "dct":
+            writer.write(len(unit) - 1, 4)
+        if not intra:
+            writer.write_bit(int(frame.bones == stream.frames[units[k - 1][0]].bones))
+        if intra or frame.bones != stream.frames[units[k - 1][0]].bones:
+            writer.write(len(frame.bones), 10)
+            for b in sorted(frame.bones):
+                writer.write(b, 10)
+                _write_bone_mask(writer, frame.bones[b], animatable[b])
+        if h.coding == "pred":
+            unit_keys, _, level = levels[k]
+            idx = np.array([key_index[key] for key in unit_keys], dtype=np.int64)
+            if intra:
+                models = {"I": pc.make_models(low_i, high_i), "P": pc.make_models(low_p, high_p)}
+            chosen, low = (models["I"], low_i) if intra else (models["P"], low_p)
+            pc.write_levels(writer, level, [chosen[j] for j in idx], low[idx] if len(idx) else low[:0])
+        else:
+            unit_keys, steps, dc, ac, n = levels[k]
+            dc_values = dc if intra else dc - previous_dc
+            for p in range(len(unit_keys)):
+                pc.write_dct_block(writer, tables, int(dc_values[p]), intra, ac[:, p])
+            previous_dc = dc
+        writer.write(len(frame.muscles), 10)
+        if frame.muscles:
+            writer.start_code(MUSCLE_START_CODE)
+            for muscle in frame.muscles:
+                writer.write(muscle.muscle_id, 10)
+                writer.write(muscle.n_control_points, 6)
+                writer.write(muscle.n_knots, 6)
+                if len(muscle.mask) != 4 * muscle.n_control_points + muscle.n_knots or sum(muscle.mask) != len(muscle.values):
+                    raise SigncastError(f"muscle {muscle.muscle_id}: mask and values do not match NCP/NK")
+                for bit in muscle.mask:
+                    writer.write_bit(bit)
+                for value in muscle.values:
+                    writer.write_signed(value, MUSCLE_VALUE_BITS)
+    writer.start_code(END_CODE)
+    return writer.getvalue()
+
+
+# --------------------------------------------------------------------------------- reading
+
+@dataclass
+class _DecoderState:
+    header: BBAHeader
+    bones: dict[int, int]                     # boneID -> animatable mask
+    exponents: dict[int, int]
+    keys: list[tuple[int, int]]
+    fields: np.ndarray | None
+    held: dict = field(default_factory=dict)
+    models: dict | None = None
+    previous_bones: dict | None = None
+    previous_dc: np.ndarray | None = None
+    synced: bool = False
+
+
+def _read_header(reader: BitReader) -> _DecoderState:
+    if reader.read_start_code() != BBA_START_CODE:
+        raise SigncastError("not a BBA stream: it does not start with the BBA start code")
+    if reader.read(8) != VERSION:
+        raise SigncastError("unsupported BBA stream version")
+    fps = pc.fps_from_fields(reader.read(8), reader.read(4), reader.read_bit())
+    coding = reader.read(2)
+    if coding > 1:
+        raise SigncastError(f"corrupt BBA stream: coding type {coding}")
+    keyframes = bool(reader.read_bit())
+    q = reader.read(5)
+    intra_period = reader.read(6)
+    order = reader.read(5)
+    if q == 0 or intra_period == 0 or order >= 24:
+        raise SigncastError("corrupt BBA stream header")
+    tight = reader.read_bit()
+    bones, exponents = {}, {}
+    for _ in range(reader.read(10)):
+        b = reader.read(10)
+        bones[b] = _read_animatable(reader)
+        exponents[b] = reader.read(4)
+    keys = [(b, k) for b in sorted(bones) for k in _bits(bones[b])]
+    fields = None
+    if coding == 0:
+        fields = pc.read_range_fields(reader, len(keys)) if tight else np.full((4, len(keys)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64)
+    header = BBAHeader("", fps, "pred" if coding == 0 else "dct", q, intra_period, keyframes, order)
+    return _DecoderState(header, bones, exponents, keys, fields)
+
+
+def _step(state: _DecoderState, bone: int, bit: int) -> int:
+    return 2 if bit in TRANSLATION_BITS else 1 << state.exponents[bone]
+
+
+def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool) -> list[BBAFrame]:
+    h = state.header
+    intra = bool(reader.read_bit())
+    kfi = reader.read(5)
+    n_frames = reader.read(4) + 1 if h.coding == "dct" else 1
+    same = False if intra else bool(reader.read_bit())
+    if not intra and not state.synced:
+        raise SigncastError("predicted frame without a decoded reference")
+    if same:
+        bones = dict(state.previous_bones)
+    else:
+        bones = {}
+        for _ in range(reader.read(10)):
+            b = reader.read(10)
+            if b not in state.bones:
+                raise SigncastError(f"corrupt BBA frame: bone {b} is not in the stream header")
+            bones[b] = _read_bone_mask(reader, state.bones[b])
+    keys = [(b, k) for b in sorted(bones) for k in _bits(bones[b])]
+    steps = np.array([_step(state, b, k) for b, k in keys], dtype=np.int64)
+    if h.coding == "pred":
+        index = {key: j for j, key in enumerate(state.keys)}
+        idx = np.array([index[key] for key in keys], dtype=np.int64)
+        low_i, high_i = pc.alphabet(state.fields[0], state.fields[1], h.q)
+        low_p, high_p = pc.alphabet(state.fields[2], state.fields[3], h.q)
+        if intra:
+            state.models = {"I": pc.make_models(low_i, high_i), "P": pc.make_models(low_p, high_p)}
+        chosen, low = (state.models["I"], low_i) if intra else (state.models["P"], low_p)
+        level = pc.read_levels(reader, [chosen[j] for j in idx], low[idx] if len(idx) else low[:0])
+        previous = np.array([state.held.get(key, 0) for key in keys], dtype=np.int64)
+        recon = level * steps * h.q + (0 if intra else previous)
+        rows = recon[None]
+    else:
+        tables = pc.vlc_tables()
+        dc = np.zeros(len(keys), dtype=np.int64)
+        ac = np.zeros((n_frames - 1, len(keys)), dtype=np.int64)
+        for p in range(len(keys)):
+            dc[p], ac[:, p] = pc.read_dct_block(reader, tables, intra, n_frames)
+        if not intra:
+            if state.previous_dc is None or len(state.previous_dc) != len(dc):
+                raise SigncastError("corrupt BBA stream: DCT segment without a DC reference")
+            dc += state.previous_dc
+        state.previous_dc = dc
+        dc_step, ac_step = pc.dct_steps(steps, h.q)
+        rows = pc.dct_reconstruct(dc, ac, dc_step, ac_step)
+    n_muscles = reader.read(10)
+    muscles = []
+    if n_muscles and not skip_muscles:
+        if reader.read_start_code() != MUSCLE_START_CODE:
+            raise SigncastError("corrupt BBA frame: muscle data without its start code")
+        for _ in range(n_muscles):
+            muscle_id, ncp, nk = reader.read(10), reader.read(6), reader.read(6)
+            mask = [reader.read_bit() for _ in range(4 * ncp + nk)]
+            values = [reader.read_signed(MUSCLE_VALUE_BITS) for _ in range(sum(mask))]
+            muscles.append(MuscleUpdate(muscle_id, ncp, nk, mask, values))
+    state.held.update(zip(keys, rows[-1].tolist()))
+    state.previous_bones = bones
+    state.synced = True
+    frames = []
+    for row in rows:
+        values, j = {}, 0
+        for b in sorted(bones):
+            count = bin(bones[b]).count("1")
+            values[b] = row[j:j + count].tolist()
+            j += count
+        frames.append(BBAFrame(kfi, dict(bones), values, muscles if not frames else []))
+    return frames
+
+
+def _check_unit_end(reader: BitReader, end_byte: int, allow_muscles: bool) -> None:
+    """The unit's data must end with next_start_code() stuffing exactly at the next start code."""
+    if allow_muscles and reader.pos < 8 * end_byte:
+        return
+    remaining = 8 * end_byte - reader.pos
+    stuffing = [(reader.data[p >> 3] >> (7 - (p & 7))) & 1 for p in range(reader.pos, 8 * end_byte)]
+    if not 1 <= remaining <= 8 or stuffing != [0] + [1] * (remaining - 1):
+        raise SigncastError("corrupt BBA frame: its data does not end at the next start code")
+
+
+def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = False) -> tuple[BBAStream, list[int]]:
+    """Decode a binary BBA stream. Returns the stream (reconstructed values) and the indices of
+    units (frames, or DCT segments) that were lost.
+
+    resilient: a damaged unit is dropped and decoding resumes at the next start code (predicted
+    units after it are lost until the next intra unit); without it, damage raises SigncastError.
+    skip_muscles: ignore muscle data (a weak terminal), jumping to the next frame start code."""
+    data = bytes(data)
+    reader = BitReader(data)
+    state = _read_header(reader)
+    if not reader.at_start_code():
+        raise SigncastError("corrupt BBA stream: header does not end at a start code")
+    codes = find_start_codes(data, reader.pos // 8)
+    if not codes or codes[-1][1] != END_CODE:
+        raise SigncastError("truncated BBA stream: the end code is missing")
+    if codes[-1][0] + 4 != len(data):
+        raise SigncastError("corrupt BBA stream: data after the end code")
+    frames: list[BBAFrame] = []
+    lost: list[int] = []
+    unit_index = -1
+    for k, (position, code) in enumerate(codes[:-1]):
+        if code == MUSCLE_START_CODE:
+            continue
+        if code != FRAME_START_CODE:
+            if resilient:
+                continue
+            raise SigncastError(f"corrupt BBA stream: unexpected start code 0x{code:02X}")
+        unit_index += 1
+        end = codes[k + 1][0]
+        has_muscles = codes[k + 1][1] == MUSCLE_START_CODE
+        stop = codes[k + 2][0] if has_muscles and k + 2 < len(codes) else end
+        reader = BitReader(data, start_byte=position + 4, end_byte=stop if (has_muscles and not skip_muscles) else end)
+        try:
+            unit = _read_unit(reader, state, skip_muscles or not has_muscles)
+            _check_unit_end(reader, stop if (has_muscles and not skip_muscles) else end, False)
+        except SigncastError:
+            if not resilient:
+                raise
+            state.synced = False
+            state.previous_dc = None
+            lost.append(unit_index)
+            n = pc.SEGMENT if state.header.coding == "dct" else 1
+            hold = frames[-1] if frames else BBAFrame(0, {}, {})
+            frames.extend(BBAFrame(0, dict(hold.bones), dict(hold.values)) for _ in range(n))
+            continue
+        frames.extend(unit)
+    if not frames:
+        raise SigncastError("corrupt BBA stream: no frames")
+    return BBAStream(state.header, frames), lost
+
+
+# --------------------------------------------------------------------------------- Motion glue
+
+def motion_to_stream(motion: Motion, q: int, coding: str = "pred", *, keyframes: bool = False,
+                     threshold_rad: float | None = None, intra_period: int | None = None,
+                     rotation_order: int = 0, name: str = "signcast", skeleton: Skeleton | None = None) -> BBAStream:
+    """The encoder's analysis: bone IDs (skeleton indices), Euler values (1e-5 rad, mm), masks of
+    the values that change in each intra period, and key frames (KeyFrameIndex) when asked."""
+    skeleton = skeleton or load_avatar().skeleton
+    q = pc.check_q(q)
+    if keyframes and coding != "pred":
+        raise SigncastError("key frames are coded with the predictive BBA coder only")
+    bone_ids = [skeleton.index(name_) for name_ in motion.bone_names]
+    order = ORDER_NAMES[rotation_order]
+    angles = rotations.to_euler(motion.rotations, order)                  # (T, B, 3)
+    rot = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
+    trans = np.round(motion.root_translation / bap_table.TRANSLATION_UNIT_M).astype(np.int64)
+    root = int(np.flatnonzero(skeleton.parents < 0)[0])
+    keys_frames = np.arange(motion.n_frames)
+    if keyframes:
+        keys_frames = kf.key_frames(motion, threshold_rad if threshold_rad is not None else kf.default_threshold_rad(q))
+    # value columns: (boneID, bit)
+    columns, series = [], []
+    for j, b in enumerate(bone_ids):
+        if b == root:
+            for axis, bit in enumerate(TRANSLATION_BITS):
+                columns.append((b, bit))
+                series.append(trans[:, axis])
+        for axis, bit in enumerate(ROTATION_BITS):
+            columns.append((b, bit))
+            series.append(rot[:, j, axis])
+    if root not in bone_ids:
+        for axis, bit in enumerate(TRANSLATION_BITS):
+            columns.append((root, bit))
+            series.append(trans[:, axis])
+    values = np.stack(series, axis=1)[keys_frames]                       # (K, C)
+    steps = np.array([step_of(b, bit, skeleton) for b, bit in columns], dtype=np.int64)
+    if intra_period is None:
+        intra_period = DEFAULT_INTRA_PERIOD if coding == "pred" else DEFAULT_INTRA_SEGMENTS
+    period = intra_period * (pc.SEGMENT if coding == "dct" else 1)
+    held = np.zeros(len(columns), dtype=np.int64)
+    frames = []
+    for start in range(0, len(values), period):
+        block = values[start:start + period]
+        changed = np.any(pc.quantize(block - held, steps * q) != 0, axis=0)
+        for t in range(len(block)):
+            bones, vals = {}, {}
+            for c in np.flatnonzero(changed):
+                b, bit = columns[c]
+                bones[b] = bones.get(b, 0) | (1 << bit)
+            for b in bones:
+                vals[b] = [int(block[t, columns.index((b, bit))]) for bit in _bits(bones[b])]
+            index = start + t
+            kfi = int(keys_frames[index] - keys_frames[index - 1] - 1) if index else 0
+            frames.append(BBAFrame(kfi, bones, vals))
+        held = np.where(changed, block[-1], held)
+    header = BBAHeader(name, motion.fps, coding, q, intra_period, keyframes, rotation_order)
+    return BBAStream(header, frames)
+
+
+def stream_to_motion(stream: BBAStream, skeleton: Skeleton | None = None) -> Motion:
+    """Motion of the decoded stream: held values, Euler -> quaternions, key frames expanded."""
+    skeleton = skeleton or load_avatar().skeleton
+    bones = sorted({b for f in stream.frames for b in f.bones})
+    root = int(np.flatnonzero(skeleton.parents < 0)[0])
+    rotated = sorted({b for f in stream.frames for b in f.bones if f.bones[b] & 0b111000} | {root})
+    for b in bones:
+        if b >= len(skeleton):
+            raise SigncastError(f"BBA stream animates bone {b}, the avatar has {len(skeleton)}")
+    order = ORDER_NAMES[stream.header.rotation_order]
+    held: dict[tuple[int, int], int] = {}
+    quats, trans = [], []
+    for frame in stream.frames:
+        for b in sorted(frame.bones):
+            for bit, value in zip(_bits(frame.bones[b]), frame.values[b]):
+                held[(b, bit)] = value
+        angles = np.array([[held.get((b, bit), 0) for bit in ROTATION_BITS] for b in rotated], dtype=np.float64)
+        q = rotations.from_euler(angles * bap_table.ROTATION_UNIT_RAD, order)
+        t = np.array([held.get((root, bit), 0) for bit in TRANSLATION_BITS], dtype=np.float64) * bap_table.TRANSLATION_UNIT_M
+        if frame.kfi and quats:
+            q_mid, t_mid = kf.expand(quats[-1], trans[-1], q, t, frame.kfi)
+            quats.extend(q_mid)
+            trans.extend(t_mid)
+        quats.append(q)
+        trans.append(t)
+    names = tuple(skeleton.names[b] for b in rotated)
+    return Motion(stream.header.fps, names, np.array(quats), np.array(trans))
