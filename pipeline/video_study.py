@@ -163,10 +163,10 @@ def write_tables(records: list[dict], out_dir: Path) -> list[Path]:
 
     def columns(r: dict) -> list:
         area = _area(r)
-        return [r["solution"], r["clip"], f"{r['width']}x{r['height']}", "" if area is None else f"{area:.1f}%",
+        return [r["solution"], r["codec"], r["clip"], f"{r['width']}x{r['height']}", "" if area is None else f"{area:.1f}%",
                 r["fps"], r["q"], r["kbps"], r["kbps"] - r["shape_kbps"], r["shape_kbps"], r["psnr"],
                 r.get("psnr_object", r["psnr"]), r.get("psnr_skin"), r.get("ssim_skin")]
-    header = ["solution", "clip", "resolution", "object area", "fps", "Q", "kbps", "texture kbps", "shape kbps",
+    header = ["solution", "codec", "clip", "resolution", "object area", "fps", "Q", "kbps", "texture kbps", "shape kbps",
               "frame PSNR dB", "sent-region PSNR dB", "skin PSNR dB", "skin SSIM"]
     tables = {
         "table_rate_vs_q.csv": [r for r in points if r["sweep"] == "q"],

@@ -96,29 +96,38 @@ def _natural(args: argparse.Namespace):
 
 
 def _synthetic(args: argparse.Namespace, progress: bool):
+    from tqdm import tqdm
+
+    from kernels.raster import FLAT_PALETTE
     from media import segmentation
+    from media.avatar import load_avatar
     from media.fingerspelling import fingerspell
-    from media.render import render_motion
+    from media.motion import Motion
+    from media.render import RenderSettings, render_motion
 
     language, word = args.ssv
     width, height = args.size
     if width < 32 or height < 32 or width % 2 or height % 2:
         raise SigncastError(f"bad --size {width} {height}: even numbers, at least 32")
     motion = fingerspell(language, word, fps=args.fps)
-    shaded = render_motion(motion, width=width, height=height, look="shaded")
-    flat = render_motion(motion, width=width, height=height, look="flat")
-    frames, truth = shaded.frames, shaded.labels
     if args.frames is not None:
-        frames, truth, flat_frames = frames[:args.frames], truth[:args.frames], flat.frames[:args.frames]
-    else:
-        flat_frames = flat.frames
-    from kernels.raster import FLAT_PALETTE
+        count = min(args.frames, motion.n_frames)
+        motion = Motion(motion.fps, motion.bone_names, motion.rotations[:count], motion.root_translation[:count])
+    avatar = load_avatar()
+    renders = {}
+    for look in ("shaded", "flat"):
+        with tqdm(total=motion.n_frames, desc=f"render {look}", unit="frame", disable=not progress) as bar:
+            renders[look] = render_motion(avatar, motion, RenderSettings(width=width, height=height, look=look),
+                                          progress=bar.update)
+    frames, truth = renders["shaded"]
     palette = {label: tuple(int(c) for c in colour) for label, colour in enumerate(FLAT_PALETTE)}
-    by_flat_colour = segmentation.labels_from_flat(flat_frames, palette)
+    by_flat_colour = segmentation.labels_from_flat(renders["flat"][0], palette)
     by_colour = segmentation.segment_parts(frames)
     clip = f"ssv-{language}-{word}"
-    records, lines = [], ["segmentation IoU against the label buffer (signer, skin, head, left hand, right hand, clothes):"]
-    for method, labels in (("flat-colour rendering", by_flat_colour), ("colour segmentation of the shaded rendering", by_colour)):
+    records = []
+    lines = ["segmentation IoU against the renderer's label buffer:"]
+    for method, labels in (("flat-colour rendering", by_flat_colour),
+                           ("colour segmentation of the shaded rendering", by_colour)):
         iou = segmentation.iou_per_label(labels, truth)
         records.append({"kind": "segmentation", "clip": clip, "method": method,
                         **{f"iou_{k}": v for k, v in iou.items()}})

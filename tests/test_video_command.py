@@ -1,0 +1,67 @@
+"""`signcast video`: end to end on a few frames of the real carphone clip and of the rendered signer."""
+import csv
+
+import numpy as np
+import pytest
+
+from comparisons.records import read_records
+from pipeline.cli import main
+
+
+@pytest.mark.slow
+def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_path, capsys):
+    out = tmp_path / "carphone"
+    code = main(["video", "--video", "carphone", "--frames", "12", "--q", "12", "31", "--codecs", "libx264",
+                 "--out", str(out), "--no-progress"])
+    assert code == 0
+    records = read_records(out / "records.jsonl")
+    points = [r for r in records if r.get("kind") == "point"]
+    # 4 solutions x (2 Q + 3 frame rates + half resolution + x264)
+    assert len(points) == 4 * 7
+    by_key = {(r["solution"], r["codec"], r["q"], r["fps"], r["width"]): r for r in points}
+    nsv = by_key[("NSV", "mpeg4", 12, 25.0, 176)]
+    nsv3o = by_key[("NSV3O", "mpeg4", 12, 25.0, 176)]
+    assert nsv["kbps"] == pytest.approx(nsv["bits"] / nsv["duration_s"] / 1000)
+    assert nsv3o["kbps"] < nsv["kbps"] and nsv3o["shape_bits"] > 0
+    assert by_key[("NSV", "mpeg4", 31, 25.0, 176)]["kbps"] < nsv["kbps"]
+    assert by_key[("NSV", "mpeg4", 12, 10.0, 176)]["kbps"] < nsv["kbps"]
+    assert by_key[("NSV", "mpeg4", 12, 25.0, 88)]["kbps"] < nsv["kbps"]
+    assert 25 < nsv["psnr_skin"] < 40 and 0.5 < nsv3o["ssim_skin"] <= 1
+    plus = by_key[("NSV3O+C", "mpeg4", 12, 25.0, 176)]
+    assert plus["kbps"] == pytest.approx(nsv3o["kbps"] + plus["clothes_overload_kbps"])
+    assert all(r["versions"]["av"] for r in points)
+    for name in ("table_rate_vs_q.csv", "table_rate_vs_fps.csv", "table_rate_vs_resolution.csv", "table_codecs.csv",
+                 "fits_rate_vs_fps.csv", "table_clothes_overload.csv", "table_shape_coding.csv", "kbps_vs_q.png",
+                 "kbps_vs_fps.png", "psnr_vs_kbps.png", "masks_overlay.png"):
+        assert (out / name).stat().st_size > 0
+    with (out / "fits_rate_vs_fps.csv").open() as handle:
+        fits = list(csv.DictReader(handle))
+    assert {row["series"] for row in fits} == {"NSV · mpeg4", "NSV2O · mpeg4", "NSV3O · mpeg4", "NSV3O+C · mpeg4"}
+    assert all(float(row["slope kbps per fps"]) > 0 for row in fits)
+    printed = capsys.readouterr().out
+    assert "NSV3O+C" in printed and "Q=12" in printed
+
+
+@pytest.mark.slow
+def test_video_command_on_the_rendered_signer_reports_segmentation_iou(tmp_path, capsys):
+    out = tmp_path / "ssv"
+    code = main(["video", "--ssv", "ase", "HI", "--frames", "8", "--size", "160", "136", "--q", "12",
+                 "--codecs", "--out", str(out), "--no-progress"])
+    assert code == 0
+    records = read_records(out / "records.jsonl")
+    segmentation = {r["method"]: r for r in records if r.get("kind") == "segmentation"}
+    flat = segmentation["flat-colour rendering"]
+    assert flat["iou_signer"] > 0.97 and flat["iou_head"] > 0.9
+    assert segmentation["colour segmentation of the shaded rendering"]["iou_signer"] > 0.8
+    ssv = [r for r in records if r.get("kind") == "point" and r["solution"] == "SSV" and r["fps"] == 25.0
+           and r["width"] == 160]
+    assert ssv and ssv[0]["shape_bits"] > 0 and np.isfinite(ssv[0]["psnr_skin"])
+    assert (out / "colour_segmentation_overlay.png").is_file()
+
+
+def test_video_command_rejects_bad_arguments(tmp_path, capsys):
+    assert main(["video", "--video", "carphone", "--q", "6", "--out", str(tmp_path)]) == 2
+    assert main(["video", "--video", "carphone", "--q", "12", "40", "--out", str(tmp_path)]) == 2
+    assert main(["video", "--video", "no/such/file.mp4", "--out", str(tmp_path)]) == 2
+    assert main(["video", "--video", "carphone", "--codecs", "h263", "--out", str(tmp_path)]) == 2
+    assert "error:" in capsys.readouterr().err
