@@ -19,6 +19,7 @@ COMMAND_MODULES = [
     "pipeline.commands.motion",
     "pipeline.commands.video",
     "pipeline.commands.render",
+    "pipeline.commands.params",
 ]
 
 

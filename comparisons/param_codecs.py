@@ -1,0 +1,96 @@
+"""Registry of animation-parameter codecs: name -> object with `encode(motion, q) -> bytes` and
+`decode(data) -> Motion`.
+
+The interface is deliberately small so other coders (e.g. the seed-002 waveform and model-based
+coders) can register next to the MPEG-4 ones:
+
+    class MyCodec:
+        name = "my-codec"
+        description = "one line"
+        def encode(self, motion: Motion, q: int) -> bytes: ...
+        def decode(self, data: bytes) -> Motion: ...
+    register(MyCodec())
+
+`q` is the codec's quality knob (for the MPEG-4 coders the global quantisation value 1..31).
+`decode` must return a Motion of the same length and frame rate as the encoded one (bones the
+stream does not carry stay at rest) and raise SigncastError on damaged data. A reported size is
+len() of the bytes `encode` returned.
+"""
+from __future__ import annotations
+
+from typing import Protocol
+
+from comparisons import bba_codec, fba_codec
+from comparisons.fba_mapping import baps_to_motion, motion_to_baps
+from media.errors import SigncastError
+from media.motion import Motion
+
+
+class ParamCodec(Protocol):
+    name: str
+    description: str
+
+    def encode(self, motion: Motion, q: int) -> bytes: ...
+
+    def decode(self, data: bytes) -> Motion: ...
+
+
+class FbaCodec:
+    """MPEG-4 FBA BAP stream (comparisons/fba_codec.py) of the avatar's BAPs (fba_mapping)."""
+
+    def __init__(self, coding: str) -> None:
+        self.coding = coding
+        self.name = f"fba-{coding}"
+        self.description = ("FBA, frame-predictive + adaptive arithmetic coding" if coding == "pred"
+                            else "FBA, 16-frame DCT + Huffman VLC")
+
+    def encode(self, motion: Motion, q: int) -> bytes:
+        return fba_codec.encode_fba(motion_to_baps(motion), motion.fps, q, self.coding)
+
+    def decode(self, data: bytes) -> Motion:
+        values, fps = fba_codec.decode_fba(data)
+        return baps_to_motion(values, fps)
+
+
+class BbaCodec:
+    """MPEG-4 BBA stream (comparisons/bba_codec.py) of the avatar's bones."""
+
+    def __init__(self, coding: str, keyframes: bool = False) -> None:
+        self.coding = coding
+        self.keyframes = keyframes
+        self.name = "bba-key" if keyframes else f"bba-{coding}"
+        self.description = {"pred": "BBA, frame-predictive + adaptive arithmetic coding",
+                            "dct": "BBA, 16-frame DCT + Huffman VLC"}[coding] + (
+            ", key frames + interpolation" if keyframes else "")
+
+    def encode(self, motion: Motion, q: int) -> bytes:
+        stream = bba_codec.motion_to_stream(motion, q, self.coding, keyframes=self.keyframes)
+        return bba_codec.write_stream(stream)
+
+    def decode(self, data: bytes) -> Motion:
+        stream, _ = bba_codec.read_stream(data)
+        return bba_codec.stream_to_motion(stream)
+
+
+REGISTRY: dict[str, ParamCodec] = {}
+
+
+def register(codec: ParamCodec) -> None:
+    if not getattr(codec, "name", None):
+        raise SigncastError("a parameter codec needs a name")
+    REGISTRY[codec.name] = codec
+
+
+def get_codec(name: str) -> ParamCodec:
+    try:
+        return REGISTRY[name]
+    except KeyError:
+        raise SigncastError(f"unknown parameter codec {name!r}; known: {', '.join(REGISTRY)}") from None
+
+
+def codec_names() -> list[str]:
+    return list(REGISTRY)
+
+
+for _codec in (FbaCodec("pred"), FbaCodec("dct"), BbaCodec("pred"), BbaCodec("dct"), BbaCodec("pred", keyframes=True)):
+    register(_codec)
