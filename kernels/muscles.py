@@ -94,12 +94,12 @@ class MuscleBinding(NamedTuple):
 
 
 def bind(rest, control_points, knots, degree: int, radius: float, falloff_code: int = 1,
-         samples: int = 4096) -> MuscleBinding:
+         samples: int = 512) -> MuscleBinding:
     """Find the skin vertices inside a muscle's tube and their closest curve points (eq. 3.6).
 
     rest: (V, 3) bind-pose positions, metres; control_points (K, 4) (x, y, z, w) in the same pose;
     radius: tube radius, metres. The closest point is searched on `samples` points of the curve,
-    then refined by a few steps of golden-section search on the neighbouring interval.
+    then refined by golden-section search on the neighbouring interval.
     """
     rest = as_array("rest", rest, np.float64, (None, 3))
     control_points, knots = _check_curve(control_points, knots, degree)
@@ -109,17 +109,21 @@ def bind(rest, control_points, knots, degree: int, radius: float, falloff_code: 
     lo, hi = knots[degree], knots[len(control_points)]
     grid = np.linspace(lo, hi, samples)
     curve = evaluate(control_points, knots, degree, grid)
-    from scipy.spatial import cKDTree
-    tree = cKDTree(curve)
     spacing = np.max(np.linalg.norm(np.diff(curve, axis=0), axis=1))
-    distance, nearest = tree.query(rest, distance_upper_bound=radius + spacing)
-    candidates = np.flatnonzero(np.isfinite(distance))
+    reach = radius + spacing
+    near_box = np.all((rest >= curve.min(axis=0) - reach) & (rest <= curve.max(axis=0) + reach), axis=1)
+    candidates = np.flatnonzero(near_box)
+    nearest = np.empty(len(candidates), dtype=np.int64)
+    for start in range(0, len(candidates), 1024):  # blocks keep the distance matrix small
+        block = rest[candidates[start:start + 1024]]
+        squared = ((block[:, None, :] - curve[None, :, :]) ** 2).sum(axis=2)
+        nearest[start:start + 1024] = np.argmin(squared, axis=1)
     step = grid[1] - grid[0]
-    a = np.maximum(grid[nearest[candidates]] - step, lo)
-    b = np.minimum(grid[nearest[candidates]] + step, hi)
+    a = np.maximum(grid[nearest] - step, lo)
+    b = np.minimum(grid[nearest] + step, hi)
     points = rest[candidates]
     golden = (np.sqrt(5) - 1) / 2
-    for _ in range(24):
+    for _ in range(30):
         c, d = b - golden * (b - a), a + golden * (b - a)
         fc = np.linalg.norm(evaluate(control_points, knots, degree, c) - points, axis=1)
         fd = np.linalg.norm(evaluate(control_points, knots, degree, d) - points, axis=1)

@@ -3,16 +3,18 @@
 One entry point, `rasterize`, with three bodies that follow the same steps and the same arithmetic:
 
 1. project: each vertex to window coordinates, snapped to 1/256 pixel (integers), and depth in [0, 1];
-2. (shaded look) light: each vertex's Lambert intensity from its normal (sum of the adjacent faces'
-   area-weighted normals): ambient + key * max(n . l, 0);
-3. raster: one thread per triangle walks its bounding box; coverage is decided with exact integer
-   edge functions at pixel centres and the top-left fill rule, so neighbouring triangles never
-   share or miss a pixel and every backend covers the same pixels. Each covered pixel takes an
-   atomic minimum of a 64-bit key `depth * 2^32 + triangle`, so depth ties resolve to the lower
-   triangle id whatever the thread order (one pass, deterministic);
-4. resolve: each pixel decodes its key into triangle id, label, depth and colour.
+2. raster: one thread per triangle culls back faces, lights the face (shaded look: Lambert of its
+   normal, ambient + key * max(n . l, 0)) and walks its bounding box; coverage is decided with
+   exact integer edge functions at pixel centres and the top-left fill rule, so neighbouring
+   triangles never share or miss a pixel and every backend covers the same pixels. Each covered
+   pixel takes an atomic minimum of a 64-bit key `depth * 2^32 + triangle`, so depth ties resolve
+   to the lower triangle id whatever the thread order (one pass, deterministic);
+3. resolve: each pixel decodes its key into triangle id, label, depth and colour.
 
-Looks: "shaded" (Gouraud-interpolated Lambert on a per-triangle albedo, uniform background) and
+At the default sizes a triangle of the avatar covers a few pixels, so per-face lighting is as
+smooth as interpolated normals would be, and costs no per-vertex normal pass.
+
+Looks: "shaded" (Lambert per face on a per-triangle albedo, uniform background) and
 "flat" (seed 000 §4.2.2's modified appearance: one uniform colour per part, no light, so masks can
 be read back by colour). Labels are always hard (no anti-aliasing).
 """
@@ -92,34 +94,6 @@ class _Scene:
         self.colour, self.palette, self.background, self.light, self.cull = colour, palette, background, light, cull
 
 
-@functools.lru_cache(maxsize=4)
-def _vertex_faces_cached(key) -> tuple[np.ndarray, np.ndarray]:
-    triangles, n_vertices = key.triangles, key.n_vertices
-    corners = triangles.reshape(-1)
-    order = np.argsort(corners, kind="stable")
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(corners, minlength=n_vertices))]).astype(np.int32)
-    return indptr, (order // 3).astype(np.int32)
-
-
-class _TrianglesKey:
-    """Hashable by content, so the adjacency of a mesh is built once."""
-
-    def __init__(self, triangles, n_vertices):
-        self.triangles, self.n_vertices = triangles, n_vertices
-        self._hash = hash((triangles.shape, n_vertices, triangles[:64].tobytes(), triangles[-64:].tobytes()))
-
-    def __hash__(self):
-        return self._hash
-
-    def __eq__(self, other):
-        return self.n_vertices == other.n_vertices and np.array_equal(self.triangles, other.triangles)
-
-
-def vertex_faces(triangles: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
-    """CSR of the triangles around each vertex: indptr (V+1,) int32, triangle ids (3F,) int32."""
-    return _vertex_faces_cached(_TrianglesKey(triangles, n_vertices))
-
-
 # --- NumPy: the oracle ----------------------------------------------------------------------------
 
 def _project_numpy(positions, camera, width, height):
@@ -152,17 +126,18 @@ def _top_left_bias(ax, ay, bx, by):
     return np.where((dy < 0) | ((dy == 0) & (dx > 0)), 0, 1)
 
 
-def _vertex_intensity_numpy(positions, triangles, light):
-    p = positions[triangles]                                       # (F, 3, 3)
-    face_normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # area-weighted, float32
-    normals = np.zeros_like(positions)
-    indptr, faces = vertex_faces(triangles, len(positions))
-    rows = np.repeat(np.arange(len(positions)), np.diff(indptr))
-    np.add.at(normals, rows, face_normals[faces])
-    length = np.linalg.norm(normals, axis=1)
-    normals /= np.where(length > 0, length, 1)[:, None]
-    lambert = np.maximum(normals @ light[:3], np.float32(0))
-    return (light[3] + light[4] * lambert).astype(np.float32)
+def _face_shade_numpy(positions, triangles, flipped, light):
+    """(F,) float32 Lambert factor of each face, ambient + diffuse * max(n . l, 0), float32 throughout."""
+    p0, p1, p2 = (positions[triangles[:, k]] for k in range(3))
+    e1, e2 = p1 - p0, p2 - p0
+    nx = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+    ny = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+    nz = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    length = np.sqrt(nx * nx + ny * ny + nz * nz)
+    towards = nx * light[0] + ny * light[1] + nz * light[2]
+    cosine = np.where(length > 0, towards / np.where(length > 0, length, np.float32(1)), np.float32(0))
+    cosine = np.where(flipped, -cosine, cosine)
+    return (light[3] + light[4] * np.maximum(cosine, np.float32(0))).astype(np.float32)
 
 
 class _NumpyRaster:
@@ -212,11 +187,11 @@ class _NumpyRaster:
         key = (z * DEPTH_SCALE).astype(np.int64) * ID_SCALE + t
         keys = np.full(W * H, EMPTY_KEY, dtype=np.int64)
         np.minimum.at(keys, py * W + px, key)
-        intensity = _vertex_intensity_numpy(s.positions, s.triangles, s.light) if s.shaded else None
-        return self._resolve(s, keys, fx, fy, intensity)
+        shade = _face_shade_numpy(s.positions, s.triangles, flip, s.light) if s.shaded else None
+        return self._resolve(s, keys, shade)
 
     @staticmethod
-    def _resolve(s, keys, fx, fy, intensity):
+    def _resolve(s, keys, shade):
         W, H = s.width, s.height
         covered = keys != EMPTY_KEY
         triangle_id = np.where(covered, keys % ID_SCALE, -1).astype(np.int32)
@@ -228,15 +203,8 @@ class _NumpyRaster:
             rgb = np.broadcast_to(s.background, (W * H, 3)).copy()
             pixel = np.flatnonzero(covered)
             t = triangle_id[pixel]
-            cx, cy = (pixel % W) * SUBPIXEL + SUBPIXEL // 2, (pixel // W) * SUBPIXEL + SUBPIXEL // 2
-            a, b, c = (s.triangles[t, k] for k in range(3))
-            area = _edge(fx[a], fy[a], fx[b], fy[b], fx[c], fy[c]).astype(np.float32)
-            l0 = _edge(fx[b], fy[b], fx[c], fy[c], cx, cy).astype(np.float32) / area
-            l1 = _edge(fx[c], fy[c], fx[a], fy[a], cx, cy).astype(np.float32) / area
-            l2 = _edge(fx[a], fy[a], fx[b], fy[b], cx, cy).astype(np.float32) / area
-            shade = l0 * intensity[a] + l1 * intensity[b] + l2 * intensity[c]
-            value = s.colour[t].astype(np.float32) * shade[:, None] + np.float32(0.5)
-            rgb[pixel] = np.clip(value, 0, 255).astype(np.uint8)
+            value = s.colour[t].astype(np.float32) * shade[t][:, None] + np.float32(0.5)
+            rgb[pixel] = np.minimum(value, np.float32(255)).astype(np.uint8)
         return (rgb.reshape(H, W, 3), labels.reshape(H, W), triangle_id.reshape(H, W), depth.reshape(H, W))
 
 
@@ -261,6 +229,22 @@ def _warp_kernels():
         if dy < wp.int64(0) or (dy == wp.int64(0) and dx > wp.int64(0)):
             return wp.int64(0)
         return wp.int64(1)
+
+    @wp.func
+    def face_shade(p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, flipped: wp.int32, light: wp.vec3,
+                   ambient: wp.float32, diffuse: wp.float32):
+        e1 = p1 - p0
+        e2 = p2 - p0
+        nx = e1[1] * e2[2] - e1[2] * e2[1]
+        ny = e1[2] * e2[0] - e1[0] * e2[2]
+        nz = e1[0] * e2[1] - e1[1] * e2[0]
+        length = wp.sqrt(nx * nx + ny * ny + nz * nz)
+        cosine = float(0.0)
+        if length > 0.0:
+            cosine = (nx * light[0] + ny * light[1] + nz * light[2]) / length
+        if flipped != 0:
+            cosine = -cosine
+        return ambient + diffuse * wp.max(cosine, 0.0)
 
     @wp.kernel
     def project(positions: wp.array(dtype=wp.vec3), m: wp.mat44, width: wp.float32, height: wp.float32,
@@ -291,26 +275,11 @@ def _warp_kernels():
             valid[v] = 0
 
     @wp.kernel
-    def vertex_intensity(positions: wp.array(dtype=wp.vec3), triangles: wp.array(dtype=wp.int32),
-                         face_indptr: wp.array(dtype=wp.int32), faces: wp.array(dtype=wp.int32),
-                         light: wp.vec3, ambient: wp.float32, diffuse: wp.float32,
-                         intensity: wp.array(dtype=wp.float32)):
-        v = wp.tid()
-        n = wp.vec3(0.0, 0.0, 0.0)
-        for k in range(face_indptr[v], face_indptr[v + 1]):
-            t = faces[k]
-            a = positions[triangles[3 * t]]
-            n += wp.cross(positions[triangles[3 * t + 1]] - a, positions[triangles[3 * t + 2]] - a)
-        length = wp.length(n)
-        if length > 0.0:
-            n = n / length
-        intensity[v] = ambient + diffuse * wp.max(wp.dot(n, light), 0.0)
-
-    @wp.kernel
-    def raster(triangles: wp.array(dtype=wp.int32), fixed_x: wp.array(dtype=wp.int64),
-               fixed_y: wp.array(dtype=wp.int64), depth: wp.array(dtype=wp.float32),
-               valid: wp.array(dtype=wp.int32), width: wp.int32, height: wp.int32, cull: wp.int32,
-               keys: wp.array(dtype=wp.int64)):
+    def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec3),
+               fixed_x: wp.array(dtype=wp.int64), fixed_y: wp.array(dtype=wp.int64),
+               depth: wp.array(dtype=wp.float32), valid: wp.array(dtype=wp.int32), width: wp.int32,
+               height: wp.int32, cull: wp.int32, shaded: wp.int32, light: wp.vec3, ambient: wp.float32,
+               diffuse: wp.float32, keys: wp.array(dtype=wp.int64), shade: wp.array(dtype=wp.float32)):
         t = wp.tid()
         i0 = triangles[3 * t]
         i1 = triangles[3 * t + 1]
@@ -329,10 +298,11 @@ def _warp_kernels():
         area = edge(x0, y0, x1, y1, x2, y2)
         if area == wp.int64(0):
             return
+        flipped = int(0)
         if area > wp.int64(0):
             if cull != 0:
                 return
-            # orient clockwise in window space like a front face
+            # a back face drawn anyway: orient it clockwise in window space like a front face
             x1 = fixed_x[i2]
             y1 = fixed_y[i2]
             x2 = fixed_x[i1]
@@ -340,35 +310,40 @@ def _warp_kernels():
             z1 = depth[i2]
             z2 = depth[i1]
             area = -area
+            flipped = 1
+        if wp.max(wp.max(x0, x1), x2) < wp.int64(0) or wp.max(wp.max(y0, y1), y2) < wp.int64(0):
+            return
         xmin = wp.max(wp.min(wp.min(x0, x1), x2), wp.int64(0)) / SUB
         xmax = wp.min(wp.max(wp.max(x0, x1), x2) / SUB, wp.int64(width - 1))
         ymin = wp.max(wp.min(wp.min(y0, y1), y2), wp.int64(0)) / SUB
         ymax = wp.min(wp.max(wp.max(y0, y1), y2) / SUB, wp.int64(height - 1))
-        if wp.max(wp.max(x0, x1), x2) < wp.int64(0) or wp.max(wp.max(y0, y1), y2) < wp.int64(0):
+        if xmax < xmin or ymax < ymin:
             return
-        # walking order (v0, v2, v1) turns counter-clockwise: edge functions are positive inside
+        if shaded != 0:
+            shade[t] = face_shade(positions[i0], positions[i1], positions[i2], flipped, light, ambient, diffuse)
+        # walking order a, b, c = v0, v2, v1 turns counter-clockwise: edge functions are positive inside
         ax = x0
         ay = y0
         bx = x2
         by = y2
-        cx_ = x1
-        cy_ = y1
-        b0 = top_left_bias(bx, by, cx_, cy_)
-        b1 = top_left_bias(cx_, cy_, ax, ay)
+        cx = x1
+        cy = y1
+        b0 = top_left_bias(bx, by, cx, cy)
+        b1 = top_left_bias(cx, cy, ax, ay)
         b2 = top_left_bias(ax, ay, bx, by)
         inverse_area = 1.0 / wp.float32(-area)
         dz1 = z1 - z0
         dz2 = z2 - z0
         start_x = xmin * SUB + HALF_SUB
         start_y = ymin * SUB + HALF_SUB
-        row0 = edge(bx, by, cx_, cy_, start_x, start_y)
-        row1 = edge(cx_, cy_, ax, ay, start_x, start_y)
+        row0 = edge(bx, by, cx, cy, start_x, start_y)
+        row1 = edge(cx, cy, ax, ay, start_x, start_y)
         row2 = edge(ax, ay, bx, by, start_x, start_y)
-        step_x0 = -(cy_ - by) * SUB
-        step_x1 = -(ay - cy_) * SUB
+        step_x0 = -(cy - by) * SUB
+        step_x1 = -(ay - cy) * SUB
         step_x2 = -(by - ay) * SUB
-        step_y0 = (cx_ - bx) * SUB
-        step_y1 = (ax - cx_) * SUB
+        step_y0 = (cx - bx) * SUB
+        step_y1 = (ax - cx) * SUB
         step_y2 = (bx - ax) * SUB
         for py in range(wp.int32(ymin), wp.int32(ymax) + 1):
             e0 = row0
@@ -390,11 +365,9 @@ def _warp_kernels():
             row2 += step_y2
 
     @wp.kernel
-    def resolve(keys: wp.array(dtype=wp.int64), triangles: wp.array(dtype=wp.int32),
-                triangle_part: wp.array(dtype=wp.uint8), fixed_x: wp.array(dtype=wp.int64),
-                fixed_y: wp.array(dtype=wp.int64), intensity: wp.array(dtype=wp.float32),
-                colour: wp.array(dtype=wp.uint8), palette: wp.array(dtype=wp.uint8),
-                background: wp.vec3, width: wp.int32, shaded: wp.int32,
+    def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uint8),
+                shade: wp.array(dtype=wp.float32), colour: wp.array(dtype=wp.uint8),
+                palette: wp.array(dtype=wp.uint8), background: wp.array(dtype=wp.uint8), shaded: wp.int32,
                 rgb: wp.array(dtype=wp.uint8), labels: wp.array(dtype=wp.uint8),
                 triangle_id: wp.array(dtype=wp.int32), depth_out: wp.array(dtype=wp.float32)):
         i = wp.tid()
@@ -403,14 +376,8 @@ def _warp_kernels():
             labels[i] = wp.uint8(0)
             triangle_id[i] = -1
             depth_out[i] = wp.inf
-            if shaded != 0:
-                rgb[3 * i] = wp.uint8(background[0])
-                rgb[3 * i + 1] = wp.uint8(background[1])
-                rgb[3 * i + 2] = wp.uint8(background[2])
-            else:
-                rgb[3 * i] = palette[0]
-                rgb[3 * i + 1] = palette[1]
-                rgb[3 * i + 2] = palette[2]
+            for k in range(3):
+                rgb[3 * i + k] = background[k]
             return
         t = wp.int32(key % KEY_SCALE)
         label = triangle_part[t]
@@ -418,29 +385,19 @@ def _warp_kernels():
         triangle_id[i] = t
         depth_out[i] = wp.float32(key / KEY_SCALE) / 2147483648.0
         if shaded == 0:
-            rgb[3 * i] = palette[3 * wp.int32(label)]
-            rgb[3 * i + 1] = palette[3 * wp.int32(label) + 1]
-            rgb[3 * i + 2] = palette[3 * wp.int32(label) + 2]
-            return
-        a = triangles[3 * t]
-        b = triangles[3 * t + 1]
-        c = triangles[3 * t + 2]
-        cx = wp.int64(i % width) * SUB + HALF_SUB
-        cy = wp.int64(i / width) * SUB + HALF_SUB
-        area = wp.float32(edge(fixed_x[a], fixed_y[a], fixed_x[b], fixed_y[b], fixed_x[c], fixed_y[c]))
-        l0 = wp.float32(edge(fixed_x[b], fixed_y[b], fixed_x[c], fixed_y[c], cx, cy)) / area
-        l1 = wp.float32(edge(fixed_x[c], fixed_y[c], fixed_x[a], fixed_y[a], cx, cy)) / area
-        l2 = wp.float32(edge(fixed_x[a], fixed_y[a], fixed_x[b], fixed_y[b], cx, cy)) / area
-        shade = l0 * intensity[a] + l1 * intensity[b] + l2 * intensity[c]
-        for k in range(3):
-            value = wp.float32(colour[3 * t + k]) * shade + 0.5
-            rgb[3 * i + k] = wp.uint8(wp.clamp(value, 0.0, 255.0))
+            for k in range(3):
+                rgb[3 * i + k] = palette[3 * wp.int32(label) + k]
+        else:
+            s = shade[t]
+            for k in range(3):
+                rgb[3 * i + k] = wp.uint8(wp.min(wp.float32(colour[3 * t + k]) * s + 0.5, 255.0))
 
-    return project, vertex_intensity, raster, resolve
+    return project, raster, resolve
 
 
 class _WarpRaster:
-    """Device buffers are allocated once per image size and mesh size; the mesh topology uploads once."""
+    """Device buffers are allocated once per image and mesh size; the mesh topology uploads once.
+    On the CPU device the outputs are fresh NumPy arrays that the kernels write into directly."""
 
     def __init__(self):
         self._uploads = None
@@ -455,36 +412,38 @@ class _WarpRaster:
 
     def render(self, s: _Scene):
         wp, device = backends.warp(), backends.warp_device()
-        project, vertex_intensity, raster, resolve = _warp_kernels()
+        project, raster, resolve = _warp_kernels()
         if self._uploads is None:
             self._uploads = UploadCache(lambda a: wp.array(a.reshape(-1), device=device))
         V, F, W, H = len(s.positions), len(s.triangles), s.width, s.height
-        positions = wp.array(s.positions, dtype=wp.vec3, device=device)
+        on_cpu = device == "cpu"
+        positions = wp.array(s.positions, dtype=wp.vec3, device=device, copy=not on_cpu)
         triangles = self._uploads.get("triangles", s.triangles)
         fixed_x, fixed_y = self._buffer("fixed_x", V, wp.int64), self._buffer("fixed_y", V, wp.int64)
         depth, valid = self._buffer("depth", V, wp.float32), self._buffer("valid", V, wp.int32)
         wp.launch(project, dim=V, device=device,
                   inputs=[positions, wp.mat44(s.camera), float(W), float(H), fixed_x, fixed_y, depth, valid])
-        intensity = self._buffer("intensity", V, wp.float32)
-        if s.shaded:
-            face_indptr, faces = vertex_faces(s.triangles, V)
-            wp.launch(vertex_intensity, dim=V, device=device,
-                      inputs=[positions, triangles, self._uploads.get("face_indptr", face_indptr),
-                              self._uploads.get("faces", faces), wp.vec3(*s.light[:3]), float(s.light[3]),
-                              float(s.light[4]), intensity])
         keys = self._buffer("keys", W * H, wp.int64)
         keys.fill_(int(EMPTY_KEY))
+        shade = self._buffer("shade", F, wp.float32)
         wp.launch(raster, dim=F, device=device,
-                  inputs=[triangles, fixed_x, fixed_y, depth, valid, W, H, int(s.cull), keys])
-        rgb, labels = self._buffer("rgb", 3 * W * H, wp.uint8), self._buffer("labels", W * H, wp.uint8)
-        triangle_id, depth_out = self._buffer("triangle_id", W * H, wp.int32), self._buffer("depth_out", W * H, wp.float32)
+                  inputs=[triangles, positions, fixed_x, fixed_y, depth, valid, W, H, int(s.cull), int(s.shaded),
+                          wp.vec3(*s.light[:3]), float(s.light[3]), float(s.light[4]), keys, shade])
+        host = (np.empty((H, W, 3), np.uint8), np.empty((H, W), np.uint8), np.empty((H, W), np.int32),
+                np.empty((H, W), np.float32))
+        if on_cpu:
+            outputs = [wp.array(a.reshape(-1), device=device, copy=False) for a in host]
+        else:
+            outputs = [self._buffer(name, a.size, dtype) for name, a, dtype in
+                       zip(("rgb", "labels", "triangle_id", "depth_out"), host, (wp.uint8, wp.uint8, wp.int32, wp.float32))]
+        background = s.background if s.shaded else s.palette[0]
         wp.launch(resolve, dim=W * H, device=device,
-                  inputs=[keys, triangles, self._uploads.get("part", s.triangle_part), fixed_x, fixed_y, intensity,
-                          self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette),
-                          wp.vec3(*s.background.astype(np.float32)), W, int(s.shaded),
-                          rgb, labels, triangle_id, depth_out])
-        return (rgb.numpy().reshape(H, W, 3).copy(), labels.numpy().reshape(H, W).copy(),
-                triangle_id.numpy().reshape(H, W).copy(), depth_out.numpy().reshape(H, W).copy())
+                  inputs=[keys, self._uploads.get("part", s.triangle_part), shade, self._uploads.get("colour", s.colour),
+                          self._uploads.get("palette", s.palette), wp.array(background, device=device),
+                          int(s.shaded), *outputs])
+        if on_cpu:
+            return host
+        return tuple(o.numpy().reshape(a.shape) for o, a in zip(outputs, host))
 
 
 # --- OpenCL ---------------------------------------------------------------------------------------
@@ -504,6 +463,18 @@ inline long edge(long ax, long ay, long bx, long by, long px, long py) {
 inline long top_left_bias(long ax, long ay, long bx, long by) {
     long dx = bx - ax, dy = by - ay;
     return (dy < 0 || (dy == 0 && dx > 0)) ? 0 : 1;
+}
+
+inline float face_shade(float3 p0, float3 p1, float3 p2, int flipped, float lx, float ly, float lz,
+                        float ambient, float diffuse) {
+    float3 e1 = p1 - p0, e2 = p2 - p0;
+    float nx = e1.y * e2.z - e1.z * e2.y;
+    float ny = e1.z * e2.x - e1.x * e2.z;
+    float nz = e1.x * e2.y - e1.y * e2.x;
+    float length = sqrt(nx * nx + ny * ny + nz * nz);
+    float cosine = length > 0.0f ? (nx * lx + ny * ly + nz * lz) / length : 0.0f;
+    if (flipped) cosine = -cosine;
+    return ambient + diffuse * fmax(cosine, 0.0f);
 }
 
 __kernel void project(__global const float *positions, __constant float *m, float width, float height,
@@ -526,25 +497,11 @@ __kernel void project(__global const float *positions, __constant float *m, floa
     valid[v] = ok;
 }
 
-__kernel void vertex_intensity(__global const float *positions, __global const int *triangles,
-                               __global const int *face_indptr, __global const int *faces,
-                               float lx, float ly, float lz, float ambient, float diffuse,
-                               __global float *intensity) {
-    int v = get_global_id(0);
-    float3 n = (float3)(0.0f);
-    for (int k = face_indptr[v]; k < face_indptr[v + 1]; ++k) {
-        int t = faces[k];
-        float3 a = vload3(triangles[3 * t], positions);
-        n += cross(vload3(triangles[3 * t + 1], positions) - a, vload3(triangles[3 * t + 2], positions) - a);
-    }
-    float length = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
-    if (length > 0.0f) n = n / length;
-    intensity[v] = ambient + diffuse * fmax(n.x * lx + n.y * ly + n.z * lz, 0.0f);
-}
-
-__kernel void raster(__global const int *triangles, __global const long *fixed_x, __global const long *fixed_y,
+__kernel void raster(__global const int *triangles, __global const float *positions,
+                     __global const long *fixed_x, __global const long *fixed_y,
                      __global const float *depth, __global const int *valid, int width, int height, int cull,
-                     __global long *keys) {
+                     int shaded, float lx, float ly, float lz, float ambient, float diffuse,
+                     __global long *keys, __global float *shade) {
     int t = get_global_id(0);
     int i0 = triangles[3 * t], i1 = triangles[3 * t + 1], i2 = triangles[3 * t + 2];
     if (!valid[i0] || !valid[i1] || !valid[i2]) return;
@@ -552,16 +509,23 @@ __kernel void raster(__global const int *triangles, __global const long *fixed_x
     float z0 = depth[i0], z1 = depth[i1], z2 = depth[i2];
     long area = edge(x0, y0, x1, y1, x2, y2);
     if (area == 0) return;
+    int flipped = 0;
     if (area > 0) {
         if (cull) return;
+        /* a back face drawn anyway: orient it clockwise in window space like a front face */
         long tx = x1, ty = y1; float tz = z1;
         x1 = x2; y1 = y2; z1 = z2; x2 = tx; y2 = ty; z2 = tz;
         area = -area;
+        flipped = 1;
     }
     if (max(max(x0, x1), x2) < 0 || max(max(y0, y1), y2) < 0) return;
     long xmin = max(min(min(x0, x1), x2), 0L) / SUB, xmax = min(max(max(x0, x1), x2) / SUB, (long)(width - 1));
     long ymin = max(min(min(y0, y1), y2), 0L) / SUB, ymax = min(max(max(y0, y1), y2) / SUB, (long)(height - 1));
-    /* walking order (v0, v2, v1) turns counter-clockwise: edge functions are positive inside */
+    if (xmax < xmin || ymax < ymin) return;
+    if (shaded)
+        shade[t] = face_shade(vload3(i0, positions), vload3(i1, positions), vload3(i2, positions), flipped,
+                              lx, ly, lz, ambient, diffuse);
+    /* walking order a, b, c = v0, v2, v1 turns counter-clockwise: edge functions are positive inside */
     long ax = x0, ay = y0, bx = x2, by = y2, cx = x1, cy = y1;
     long b0 = top_left_bias(bx, by, cx, cy), b1 = top_left_bias(cx, cy, ax, ay), b2 = top_left_bias(ax, ay, bx, by);
     float inverse_area = 1.0f / (float)(-area);
@@ -592,19 +556,15 @@ __kernel void raster(__global const int *triangles, __global const long *fixed_x
 
 __kernel void clear(__global long *keys) { keys[get_global_id(0)] = EMPTY; }
 
-__kernel void resolve(__global const long *keys, __global const int *triangles, __global const uchar *triangle_part,
-                      __global const long *fixed_x, __global const long *fixed_y, __global const float *intensity,
-                      __global const uchar *colour, __global const uchar *palette,
-                      uchar bg_r, uchar bg_g, uchar bg_b, int width, int shaded,
-                      __global uchar *rgb, __global uchar *labels, __global int *triangle_id,
-                      __global float *depth_out) {
+__kernel void resolve(__global const long *keys, __global const uchar *triangle_part, __global const float *shade,
+                      __global const uchar *colour, __global const uchar *palette, uchar bg_r, uchar bg_g,
+                      uchar bg_b, int shaded, __global uchar *rgb, __global uchar *labels,
+                      __global int *triangle_id, __global float *depth_out) {
     int i = get_global_id(0);
     long key = keys[i];
     if (key == EMPTY) {
         labels[i] = 0; triangle_id[i] = -1; depth_out[i] = INFINITY;
-        rgb[3 * i] = shaded ? bg_r : palette[0];
-        rgb[3 * i + 1] = shaded ? bg_g : palette[1];
-        rgb[3 * i + 2] = shaded ? bg_b : palette[2];
+        rgb[3 * i] = bg_r; rgb[3 * i + 1] = bg_g; rgb[3 * i + 2] = bg_b;
         return;
     }
     int t = (int)(key % KEY_SCALE);
@@ -613,17 +573,10 @@ __kernel void resolve(__global const long *keys, __global const int *triangles, 
     depth_out[i] = (float)(key / KEY_SCALE) / 2147483648.0f;
     if (!shaded) {
         for (int k = 0; k < 3; ++k) rgb[3 * i + k] = palette[3 * label + k];
-        return;
+    } else {
+        float s = shade[t];
+        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = (uchar)fmin((float)colour[3 * t + k] * s + 0.5f, 255.0f);
     }
-    int a = triangles[3 * t], b = triangles[3 * t + 1], c = triangles[3 * t + 2];
-    long cx = (long)(i % width) * SUB + HALF_SUB, cy = (long)(i / width) * SUB + HALF_SUB;
-    float area = (float)edge(fixed_x[a], fixed_y[a], fixed_x[b], fixed_y[b], fixed_x[c], fixed_y[c]);
-    float l0 = (float)edge(fixed_x[b], fixed_y[b], fixed_x[c], fixed_y[c], cx, cy) / area;
-    float l1 = (float)edge(fixed_x[c], fixed_y[c], fixed_x[a], fixed_y[a], cx, cy) / area;
-    float l2 = (float)edge(fixed_x[a], fixed_y[a], fixed_x[b], fixed_y[b], cx, cy) / area;
-    float shade = l0 * intensity[a] + l1 * intensity[b] + l2 * intensity[c];
-    for (int k = 0; k < 3; ++k)
-        rgb[3 * i + k] = (uchar)clamp((float)colour[3 * t + k] * shade + 0.5f, 0.0f, 255.0f);
 }
 """
 
@@ -648,8 +601,7 @@ class _OpenCLRaster:
         context, queue = backends.opencl_queue()
         if self._kernels is None:
             program = backends.opencl_program(_OPENCL_SOURCE)
-            self._kernels = {name: getattr(program, name)
-                             for name in ("project", "vertex_intensity", "raster", "clear", "resolve")}
+            self._kernels = {name: getattr(program, name) for name in ("project", "raster", "clear", "resolve")}
             self._uploads = UploadCache(lambda a: cl.Buffer(context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
                                                             hostbuf=np.ascontiguousarray(a)))
         k = self._kernels
@@ -662,28 +614,22 @@ class _OpenCLRaster:
         fixed_x, fixed_y = self._buffer("fixed_x", 8 * V), self._buffer("fixed_y", 8 * V)
         depth, valid = self._buffer("depth", 4 * V), self._buffer("valid", 4 * V)
         k["project"](queue, (V,), None, positions, camera, np.float32(W), np.float32(H), fixed_x, fixed_y, depth, valid)
-        intensity = self._buffer("intensity", 4 * V)
-        if s.shaded:
-            face_indptr, faces = vertex_faces(s.triangles, V)
-            k["vertex_intensity"](queue, (V,), None, positions, triangles, self._uploads.get("face_indptr", face_indptr),
-                                  self._uploads.get("faces", faces), *(np.float32(x) for x in s.light), intensity)
         keys = self._buffer("keys", 8 * W * H)
         k["clear"](queue, (W * H,), None, keys)
-        k["raster"](queue, (F,), None, triangles, fixed_x, fixed_y, depth, valid, np.int32(W), np.int32(H),
-                    np.int32(s.cull), keys)
-        rgb = np.empty((H, W, 3), np.uint8)
-        labels = np.empty((H, W), np.uint8)
-        triangle_id = np.empty((H, W), np.int32)
-        depth_out = np.empty((H, W), np.float32)
-        outputs = [self._buffer(name, array.nbytes) for name, array in
-                   (("rgb", rgb), ("labels", labels), ("triangle_id", triangle_id), ("depth_out", depth_out))]
-        k["resolve"](queue, (W * H,), None, keys, triangles, self._uploads.get("part", s.triangle_part), fixed_x, fixed_y,
-                     intensity, self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette),
-                     *(np.uint8(c) for c in s.background), np.int32(W), np.int32(s.shaded), *outputs)
-        for host, device_buffer in zip((rgb, labels, triangle_id, depth_out), outputs):
-            cl.enqueue_copy(queue, host, device_buffer, is_blocking=False)
+        shade = self._buffer("shade", 4 * F)
+        k["raster"](queue, (F,), None, triangles, positions, fixed_x, fixed_y, depth, valid, np.int32(W), np.int32(H),
+                    np.int32(s.cull), np.int32(s.shaded), *(np.float32(x) for x in s.light), keys, shade)
+        host = (np.empty((H, W, 3), np.uint8), np.empty((H, W), np.uint8), np.empty((H, W), np.int32),
+                np.empty((H, W), np.float32))
+        outputs = [self._buffer(name, a.nbytes) for name, a in zip(("rgb", "labels", "triangle_id", "depth_out"), host)]
+        background = s.background if s.shaded else s.palette[0]
+        k["resolve"](queue, (W * H,), None, keys, self._uploads.get("part", s.triangle_part), shade,
+                     self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette),
+                     *(np.uint8(c) for c in background), np.int32(s.shaded), *outputs)
+        for array, device_buffer in zip(host, outputs):
+            cl.enqueue_copy(queue, array, device_buffer, is_blocking=False)
         queue.finish()
-        return rgb, labels, triangle_id, depth_out
+        return host
 
 
 _IMPLEMENTATIONS = {"numpy": _NumpyRaster(), "warp": _WarpRaster(), "opencl": _OpenCLRaster()}
