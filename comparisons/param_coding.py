@@ -121,7 +121,10 @@ def make_models(low: np.ndarray, high: np.ndarray) -> list[FrequencyModel]:
 
 
 def write_levels(writer: BitWriter, levels: np.ndarray, models: list[FrequencyModel], low: np.ndarray) -> None:
-    """One frame's levels, arithmetic-coded and flushed."""
+    """One frame's levels, arithmetic-coded and flushed. Nothing is written when every alphabet
+    has a single symbol (the decoder knows the levels already)."""
+    if all(model.n == 1 for model in models):
+        return
     encoder = ArithmeticEncoder(writer)
     for level, model, base in zip(levels, models, low):
         encoder.encode(model, int(level - base))
@@ -129,6 +132,8 @@ def write_levels(writer: BitWriter, levels: np.ndarray, models: list[FrequencyMo
 
 
 def read_levels(reader: BitReader, models: list[FrequencyModel], low: np.ndarray) -> np.ndarray:
+    if all(model.n == 1 for model in models):
+        return np.asarray(low, dtype=np.int64).copy()
     decoder = ArithmeticDecoder(reader)
     levels = np.array([decoder.decode(model) for model in models], dtype=np.int64) + low
     decoder.finish()
