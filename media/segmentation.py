@@ -43,7 +43,9 @@ class SegmentationSettings:
     clothes_band: float = 0.2          # lower fraction of the frame where clothes colours are sampled
     clothes_learn_frames: int = 5
     clothes_distance: float = 12.0     # Lab distance under which a signer pixel counts as clothes
-    min_part_area: float = 0.01        # smallest head/hand component, fraction of the frame area
+    clothes_min_share: float = 0.005   # clothes clusters holding fewer of the samples are dropped
+    min_part_area: float = 0.002       # smallest head/hand component, fraction of the frame area
+    min_hand_to_head: float = 0.12     # a hand is at least this fraction of the head's area
     min_signer_component: float = 0.005  # smallest signer component kept (head, hands apart from the body)
 
 
@@ -126,9 +128,11 @@ def learn_clothes_colours(lab: np.ndarray, signer: np.ndarray,
         raise SigncastError("no clothes visible in the lower part of the frame: cannot learn the clothes colours")
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 0.5)
     cv2.setRNGSeed(0)
-    _, _, centres = cv2.kmeans(samples.astype(np.float32), settings.clothes_clusters, None, criteria, 3,
-                               cv2.KMEANS_PP_CENTERS)
-    return centres
+    _, members, centres = cv2.kmeans(samples.astype(np.float32), settings.clothes_clusters, None, criteria, 3,
+                                     cv2.KMEANS_PP_CENTERS)
+    # a tiny cluster is an outlier (a hand reaching into the band), not a clothes colour
+    share = np.bincount(members.ravel(), minlength=len(centres)) / len(members)
+    return centres[share >= settings.clothes_min_share]
 
 
 def colour_distance(lab: np.ndarray, centres: np.ndarray) -> np.ndarray:
@@ -139,12 +143,12 @@ def colour_distance(lab: np.ndarray, centres: np.ndarray) -> np.ndarray:
     return best
 
 
-def label_skin_components(skin: np.ndarray, min_area: int) -> np.ndarray:
+def label_skin_components(skin: np.ndarray, min_area: int, min_hand_to_head: float = 0.12) -> np.ndarray:
     """One frame's skin mask (H, W) bool -> labels (H, W) uint8 with 2 head, 3 left hand, 4 right hand.
 
-    The largest component is the head; the next two largest (each at least min_area pixels) are hands.
-    A hand on the image's right of the head is the signer's left hand; two hands on one side are told
-    apart by their order across the image.
+    The largest component (at least min_area pixels) is the head; the next two largest, each at least
+    min_area pixels and min_hand_to_head of the head's area, are hands. A hand on the image's right of the
+    head is the signer's left hand; two hands are told apart by their order across the image.
     """
     labels = np.zeros(skin.shape, np.uint8)
     count, components, stats, centroids = cv2.connectedComponentsWithStats(skin.astype(np.uint8), connectivity=8)
@@ -154,7 +158,9 @@ def label_skin_components(skin: np.ndarray, min_area: int) -> np.ndarray:
         return labels
     head = order[0]
     labels[components == head] = HEAD
-    hands = sorted(order[1:], key=lambda c: centroids[c][0])
+    head_area = stats[head, cv2.CC_STAT_AREA]
+    hands = sorted((c for c in order[1:] if stats[c, cv2.CC_STAT_AREA] >= min_hand_to_head * head_area),
+                   key=lambda c: centroids[c][0])
     head_x = centroids[head][0]
     if len(hands) == 2:
         labels[components == hands[0]] = RIGHT_HAND
@@ -183,7 +189,7 @@ def segment_parts(frames: np.ndarray, signer: np.ndarray | None = None,
     for t in range(len(frames)):
         skin = signer[t] & (colour_distance(lab[t], centres) > settings.clothes_distance)
         skin = _open_close(skin, settings.kernel_px).astype(bool) & signer[t]
-        parts = label_skin_components(skin, min_area)
+        parts = label_skin_components(skin, min_area, settings.min_hand_to_head)
         labels[t] = np.where(parts > 0, parts, np.where(signer[t], BODY, BACKGROUND))
     return labels
 
