@@ -4,8 +4,10 @@ The word is split into the language's lexicon units (longest match first, case-i
 CH, SCH, LL, RR, doubled letters, Greek, Cyrillic and Arabic letters; media.lexicon.split_word),
 each unit's clip is retargeted to the avatar (media.retarget, cached in memory), resampled to
 one frame rate, and consecutive letters are joined by a short slerp cross-fade: the last frames
-of one letter blend into the first frames of the next with smoothstep weights. A space holds
-the last pose for a short pause. Nothing is downloaded.
+of one letter blend into the first frames of the next with smoothstep weights. Every lexicon clip
+starts with the hand rising into place and ends with it dropping; inside a word those frames are
+cut (the hand stays up between letters, as in real fingerspelling), so only the first letter
+rises and the last one drops. A space holds the last pose for a short pause. Nothing is downloaded.
 """
 from __future__ import annotations
 
@@ -29,18 +31,58 @@ def check_fps(fps: float) -> float:
     return float(fps)
 
 
+RISE_SPEED = 0.15       # palm lengths per 1/25 s: faster vertical wrist motion at a clip's ends is the approach/retreat
+
+
+def held_span(clip: lexicon.SignClip) -> tuple[int, int]:
+    """Frames [start, stop) of a clip without the hand rising into place and dropping away.
+
+    Leading frames whose wrists move up faster than RISE_SPEED palm lengths per 1/25 s, and
+    trailing frames whose wrists move down that fast, are left out; a movement inside the letter
+    (J, Z) is kept. At least a third of the clip (and 3 frames) is always kept.
+    """
+    n_frames = clip.n_frames
+    heights, palms = [], []
+    for component in lexicon.HAND_COMPONENTS.values():
+        seen = np.all(clip.confidence[component] > 0, axis=1)
+        if seen.mean() < 0.25:
+            continue
+        points = clip.points[component]
+        frames = np.flatnonzero(seen)
+        heights.append(np.interp(np.arange(n_frames), frames, points[frames, 0, 1]))
+        palms.append(np.median(np.linalg.norm(points[frames, 9, :2] - points[frames, 0, :2], axis=-1)))
+    if not heights or n_frames < 4:
+        return 0, n_frames
+    speed = np.diff(np.mean(heights, axis=0)) * (25.0 / clip.fps) / max(float(np.mean(palms)), 1e-6)  # + is down
+    start, stop = 0, n_frames
+    while start < len(speed) and speed[start] < -RISE_SPEED:
+        start += 1
+    while stop - 1 > start and speed[stop - 2] > RISE_SPEED:
+        stop -= 1
+    if stop - start < max(3, n_frames // 3):
+        return 0, n_frames
+    return start, stop
+
+
 @functools.lru_cache(maxsize=2048)
-def _native_letter(language: str, unit: str) -> Motion:
-    """The retargeted clip of one unit at the clip's own frame rate (cached)."""
-    return retarget_clip(lexicon.read_clip(lexicon.lookup(language, unit)))
+def _native_letter(language: str, unit: str) -> tuple[Motion, tuple[int, int]]:
+    """The retargeted clip of one unit at the clip's own frame rate and its held span (cached)."""
+    clip = lexicon.read_clip(lexicon.lookup(language, unit))
+    return retarget_clip(clip), held_span(clip)
 
 
-def letter_motion(language: str, unit: str, fps: float = 25.0) -> Motion:
-    """One lexicon unit (e.g. 'A', 'CH') retargeted to the avatar, at `fps` frames per second."""
+def letter_motion(language: str, unit: str, fps: float = 25.0, *, keep_rise: bool = True,
+                  keep_drop: bool = True) -> Motion:
+    """One lexicon unit (e.g. 'A', 'CH') retargeted to the avatar, at `fps` frames per second.
+
+    keep_rise / keep_drop: keep the clip's frames of the hand rising into place / dropping away.
+    """
     fps = check_fps(fps)
     language = lexicon.check_language(language)
     entry = lexicon.lookup(language, unit)
-    return resample(_native_letter(language, entry.unit), fps)
+    motion, (start, stop) = _native_letter(language, entry.unit)
+    motion = motion.frames(0 if keep_rise else start, motion.n_frames if keep_drop else stop)
+    return resample(motion, fps)
 
 
 def _cross_fade(first: Motion, second: Motion, frames: int) -> Motion:
@@ -72,11 +114,12 @@ def fingerspell(language: str, word: str, fps: float = 25.0) -> Motion:
     transition = max(1, int(round(TRANSITION_S * fps)))
     motion: Motion | None = None
     pending_pause = False
-    for unit in units:
+    letters = [k for k, unit in enumerate(units) if unit != " "]
+    for k, unit in enumerate(units):
         if unit == " ":
             pending_pause = motion is not None
             continue
-        letter = letter_motion(language, unit, fps)
+        letter = letter_motion(language, unit, fps, keep_rise=k == letters[0], keep_drop=k == letters[-1])
         if motion is None:
             motion = letter
             continue

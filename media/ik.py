@@ -46,8 +46,15 @@ class IKTargets:
 
 
 def _axis_matrices(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """(T, K, 3, 3) rotation about each axis (K, 3) by each angle (T, K)."""
-    return rotations.to_matrix(rotations.from_axis_angle(np.broadcast_to(axes, angles.shape + (3,)), angles))
+    """(T, K, 3, 3) rotation about each unit axis (K, 3) by each angle (T, K) (Rodrigues)."""
+    axes = np.asarray(axes, dtype=np.float64)
+    cross = np.zeros(axes.shape[:-1] + (3, 3))
+    cross[..., 0, 1], cross[..., 0, 2], cross[..., 1, 2] = -axes[..., 2], axes[..., 1], -axes[..., 0]
+    cross[..., 1, 0], cross[..., 2, 0], cross[..., 2, 1] = axes[..., 2], -axes[..., 1], axes[..., 0]
+    outer = axes[..., :, None] * axes[..., None, :]
+    sin = np.sin(angles)[..., None, None]
+    cos = np.cos(angles)[..., None, None]
+    return cos * np.eye(3) + sin * cross + (1.0 - cos) * outer
 
 
 def joint_rotations(chain: list[ChainJoint], angles: list[np.ndarray]) -> list[np.ndarray]:
@@ -97,10 +104,11 @@ def goal(chain: list[ChainJoint], angles: list[np.ndarray], base: np.ndarray, ta
 
 
 def solve_ccd(chain: list[ChainJoint], base: np.ndarray, targets: IKTargets,
-              initial: list[np.ndarray] | None = None, max_passes: int = 30, tolerance: float = 1e-10) -> list[np.ndarray]:
+              initial: list[np.ndarray] | None = None, max_passes: int = 30, tolerance: float = 1e-9) -> list[np.ndarray]:
     """CCD with clamped joint limits; returns the angles (list of (T, K) radians, one per joint).
 
-    base: (T, 4, 4) world transform of the chain's parent; initial: starting angles (rest if None).
+    base: (T, 4, 4) world transform of the chain's parent; initial: starting angles (rest if None);
+    passes stop when no frame's E improves by more than `tolerance` (m^2) or after max_passes.
     """
     n_frames = len(base)
     angles = [np.zeros((n_frames, len(j.axes))) if initial is None else np.clip(initial[i], j.lower, j.upper).copy()
@@ -112,7 +120,7 @@ def solve_ccd(chain: list[ChainJoint], base: np.ndarray, targets: IKTargets,
             for k in range(len(joint.axes) - 1, -1, -1):
                 _optimise_angle(chain, angles, base, targets, j, k)
         energy = goal(chain, angles, base, targets)
-        if np.all(previous - energy <= tolerance * np.maximum(previous, 1e-6)):
+        if np.all(previous - energy <= tolerance):
             break
         previous = energy
     return angles

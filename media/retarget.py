@@ -53,7 +53,7 @@ THUMB_LIMITS = {
     3: ((-20.0, 90.0), (0.0, 0.0)),        # IP: hinge
 }
 PALM_LANDMARKS = (0, 5, 17)   # wrist, index knuckle, little-finger knuckle
-MIN_HAND_FRAMES = 1
+MIN_HAND_SHARE = 0.25       # a hand seen in fewer frames is a spurious detection
 
 
 @dataclass
@@ -142,6 +142,21 @@ def _palmar_normal(skeleton: Skeleton, side: str) -> np.ndarray:
     wrist = _head(skeleton, f"wrist.{side}")
     across = index - little if side == "R" else little - index
     return _unit(np.cross(across, middle - wrist))
+
+
+def _flexion_direction(skeleton: Skeleton, side: str, finger: str) -> np.ndarray:
+    """Rest-pose unit direction a finger flexes towards. Fingers: out of the palm. The thumb is
+    turned about its own axis (opposition), so its flexion plane is the one its rest-pose curl
+    shows: the rig's thumb is bent by ~13 degrees at its MCP joint, across the palm."""
+    palmar = _palmar_normal(skeleton, side)
+    if finger != "thumb":
+        return palmar
+    proximal = _unit(_bone_vector(skeleton, f"finger1-1.{side}"))
+    middle = _unit(_bone_vector(skeleton, f"finger1-2.{side}"))
+    curl = middle - np.dot(middle, proximal) * proximal
+    if np.linalg.norm(curl) < 0.05:          # a straight rest thumb: fall back to the palm's normal
+        return palmar
+    return _unit(curl)
 
 
 def _arm_chain(skeleton: Skeleton, side: str) -> list[ik.ChainJoint]:
@@ -272,7 +287,7 @@ def retarget(clip: SignClip, skeleton: Skeleton | None = None) -> Retargeted:
     for hand, side in SIDES.items():
         hand_points, hand_valid = _component(clip, HAND_COMPONENTS[hand])
         seen = np.all(hand_valid, axis=1)
-        if seen.sum() < MIN_HAND_FRAMES:
+        if seen.mean() < MIN_HAND_SHARE:
             continue
         hands.append(hand)
         # frames where the hand was not seen take the nearest frame where it was (whole hand at once)
@@ -363,17 +378,17 @@ def _finger_pose(skeleton: Skeleton, side: str, wrist_world: np.ndarray, plane: 
     {bone: (T, 4)}, followed directions {bone: (T, 3)}, cost (T,): the summed joint-limit
     violation in radians, how badly this wrist rotation fits fingers that flex towards the palm).
     """
-    palmar = _palmar_normal(skeleton, side)
     local, followed = {}, {}
     cost = np.zeros(len(plane))
     for finger, chain_bones in FINGER_CHAINS.items():
         parent_world = wrist_world
         limits_table = THUMB_LIMITS if finger == "thumb" else FINGER_LIMITS
+        flexes_towards = _flexion_direction(skeleton, side, finger)
         for level, (bone, head_lm, tail_lm) in enumerate(chain_bones, start=1):
             name = f"{bone}.{side}"
             rest_vector = _bone_vector(skeleton, name)
             e1 = _unit(rest_vector)
-            e2 = _unit(palmar - np.dot(palmar, e1) * e1)
+            e2 = _unit(flexes_towards - np.dot(flexes_towards, e1) * e1)
             basis = np.stack([e1, e2, np.cross(e1, e2)])
             bone_2d = plane[:, tail_lm] - plane[:, head_lm]
             candidates = lifting.lift_directions(bone_2d, lifting.true_lengths(bone_2d, np.linalg.norm(rest_vector)))

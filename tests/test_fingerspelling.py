@@ -3,7 +3,14 @@ import numpy as np
 import pytest
 
 from media import fingerspelling, lexicon, rotations
+from media.avatar import load_avatar
 from media.errors import SigncastError
+from media.kinematics import joint_positions
+
+
+@pytest.fixture(scope="module")
+def skeleton():
+    return load_avatar().skeleton
 
 
 def _max_step(motion, start, stop):
@@ -12,9 +19,9 @@ def _max_step(motion, start, stop):
 
 
 def test_word_is_its_letters_joined_by_cross_fades():
-    a = fingerspelling.letter_motion("ase", "A")
-    b = fingerspelling.letter_motion("ase", "B")
-    c = fingerspelling.letter_motion("ase", "C")
+    a = fingerspelling.letter_motion("ase", "A", keep_drop=False)
+    b = fingerspelling.letter_motion("ase", "B", keep_rise=False, keep_drop=False)
+    c = fingerspelling.letter_motion("ase", "C", keep_rise=False)
     word = fingerspelling.fingerspell("ase", "abc")
     overlap = round(fingerspelling.TRANSITION_S * 25)
     assert word.fps == 25.0
@@ -23,9 +30,23 @@ def test_word_is_its_letters_joined_by_cross_fades():
     np.testing.assert_allclose(word.rotations[-(c.n_frames - overlap):], c.rotations[overlap:])
 
 
+def test_hand_stays_up_between_letters(skeleton):
+    """Clips rise into place and drop away; inside a word only the first rises and the last drops."""
+    from media.lexicon import lookup, read_clip
+    start, stop = fingerspelling.held_span(read_clip(lookup("ase", "A")))
+    assert start >= 1 and stop <= 20                                  # ASL A: 21 frames, rise and drop cut
+    word = fingerspelling.fingerspell("ase", "ABBA")
+    wrist = joint_positions(skeleton, word)[:, skeleton.index("wrist.R"), 1]
+    shoulder = joint_positions(skeleton, word)[0, skeleton.index("upperarm01.R"), 1]
+    inner = wrist[5:-5]
+    assert inner.min() > shoulder - 0.1                               # no dip between letters
+    full = fingerspelling.letter_motion("ase", "A")
+    assert joint_positions(skeleton, full)[-1, skeleton.index("wrist.R"), 1] < inner.min()   # a lone letter drops
+
+
 def test_join_between_letters_is_smoother_than_a_cut():
-    a = fingerspelling.letter_motion("ase", "A")
-    b = fingerspelling.letter_motion("ase", "B")
+    a = fingerspelling.letter_motion("ase", "A", keep_drop=False)
+    b = fingerspelling.letter_motion("ase", "B", keep_rise=False)
     word = fingerspelling.fingerspell("ase", "AB")
     overlap = round(fingerspelling.TRANSITION_S * 25)
     cut = rotations.angle_between(a.rotations[-1], b.rotations[0]).max()
@@ -36,7 +57,8 @@ def test_join_between_letters_is_smoother_than_a_cut():
 def test_multi_letter_units_are_spelled_as_one_clip():
     word = fingerspelling.fingerspell("ssp", "LLAMA")
     overlap = round(fingerspelling.TRANSITION_S * 25)
-    parts = [fingerspelling.letter_motion("ssp", u) for u in ("LL", "A", "M", "A")]
+    units = ("LL", "A", "M", "A")
+    parts = [fingerspelling.letter_motion("ssp", u, keep_rise=k == 0, keep_drop=k == 3) for k, u in enumerate(units)]
     assert word.n_frames == sum(p.n_frames for p in parts) - 3 * overlap
 
 
@@ -54,6 +76,10 @@ def test_space_holds_a_pause_between_words():
     joined = fingerspelling.fingerspell("ase", "AB")
     spaced = fingerspelling.fingerspell("ase", "A B")
     assert spaced.n_frames == joined.n_frames + round(fingerspelling.PAUSE_S * 25)
+    a = fingerspelling.letter_motion("ase", "A", keep_drop=False)
+    hold = round(fingerspelling.PAUSE_S * 25) - round(fingerspelling.TRANSITION_S * 25)
+    held = spaced.rotations[a.n_frames - 1: a.n_frames + hold]
+    np.testing.assert_allclose(held, np.broadcast_to(a.rotations[-1], held.shape))   # the pose is held
 
 
 def test_letter_cache_returns_independent_copies():
