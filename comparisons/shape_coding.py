@@ -10,7 +10,8 @@ BABs and coded as differences. Pixels to the right of the current BAB that are n
 the BAB's last decoded column (border replication).
 
 Departures from the standard, stated: (1) probabilities are adaptive counts per context, reset at every
-intra frame (every `gop` frames), instead of the standard's fixed tables, which are not reproduced here;
+intra frame (every `gop` frames) to a prior skewed towards "the pixel repeats its neighbours / its
+motion-compensated pixel", instead of the standard's fixed tables, which are not reproduced here;
 (2) modes and motion-vector differences are binarised and coded by the same arithmetic coder instead of
 VLCs; (3) one arithmetic codeword covers the whole sequence; (4) no size conversion and no transposed
 scan (both lossy or optional tools); (5) every predicted frame refers to the previous frame in display order.
