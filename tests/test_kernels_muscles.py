@@ -1,9 +1,14 @@
 import numpy as np
 import pytest
 
+from kernels import backends
 from kernels.errors import KernelError
 from kernels.muscles import basis, bind, combine, displace, evaluate, falloff
-from tests.kernel_backends import ACCELERATED
+
+OPENCL_SKIP_REASON = ("no OpenCL device can build kernels (install Debian's pocl-opencl-icd; the PoCL bundled "
+                      "with pyopencl uses LLVM 14, which cannot target some newer CPUs)")
+ACCELERATED = ["warp", pytest.param("opencl", marks=pytest.mark.skipif(not backends.opencl_available(),
+                                                                     reason=OPENCL_SKIP_REASON))]
 
 
 def test_rational_quadratic_nurbs_draws_an_exact_quarter_circle():

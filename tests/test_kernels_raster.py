@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from kernels import backends
 from kernels.camera import view_projection
 from kernels.errors import KernelError
 from kernels.raster import FLAT_PALETTE, rasterize
@@ -9,7 +10,11 @@ from media.fingerspelling import fingerspell
 from media.kinematics import bone_matrices
 from media.render import signing_space_camera
 from kernels.skinning import skin
-from tests.kernel_backends import ACCELERATED
+
+OPENCL_SKIP_REASON = ("no OpenCL device can build kernels (install Debian's pocl-opencl-icd; the PoCL bundled "
+                      "with pyopencl uses LLVM 14, which cannot target some newer CPUs)")
+ACCELERATED = ["warp", pytest.param("opencl", marks=pytest.mark.skipif(not backends.opencl_available(),
+                                                                     reason=OPENCL_SKIP_REASON))]
 
 IDENTITY_CAMERA = np.eye(4, dtype=np.float32)   # positions are already clip coordinates with w = 1
 

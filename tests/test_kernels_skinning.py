@@ -1,12 +1,17 @@
 import numpy as np
 import pytest
 
+from kernels import backends
 from kernels.errors import KernelError
 from kernels.skinning import SparseWeights, skin, skin_rigid
 from media.avatar import load_avatar
 from media.fingerspelling import fingerspell
 from media.kinematics import bone_matrices
-from tests.kernel_backends import ACCELERATED
+
+OPENCL_SKIP_REASON = ("no OpenCL device can build kernels (install Debian's pocl-opencl-icd; the PoCL bundled "
+                      "with pyopencl uses LLVM 14, which cannot target some newer CPUs)")
+ACCELERATED = ["warp", pytest.param("opencl", marks=pytest.mark.skipif(not backends.opencl_available(),
+                                                                     reason=OPENCL_SKIP_REASON))]
 
 
 @pytest.fixture(scope="module")
