@@ -17,7 +17,6 @@
 """
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,12 +64,6 @@ class Retargeted:
     followed: dict[str, np.ndarray]
     projected: dict[str, np.ndarray]
     hands: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class _Rig:
-    skeleton: Skeleton
-    names: tuple[str, ...]
 
 
 def driven_bones(skeleton: Skeleton) -> tuple[str, ...]:
@@ -240,7 +233,6 @@ def _choose_phalanx(candidates: tuple[np.ndarray, np.ndarray], parent_world: np.
                      + np.maximum(abd_lo - abduction, 0) + np.maximum(abduction - abd_hi, 0))
         cost = violation + 0.2 * np.abs(abduction) + 0.5 * np.maximum(-flexion, 0)
         options.append((cost, flexion, abduction))
-    # cost of the chosen option (violation + preference terms) is what the caller sums
     take_second = options[1][0] < options[0][0] - 1e-9
     flexion = np.clip(np.where(take_second, options[1][1], options[0][1]), flex_lo, flex_hi)
     abduction = np.clip(np.where(take_second, options[1][2], options[0][2]), abd_lo, abd_hi)
@@ -427,11 +419,6 @@ def _world_quaternions(skeleton: Skeleton, motion: Motion, bone: str) -> np.ndar
         if name in index:
             world = rotations.multiply(world, motion.rotations[:, index[name]])
     return world
-
-
-@functools.lru_cache(maxsize=1)
-def _default_skeleton() -> Skeleton:
-    return load_avatar().skeleton
 
 
 def retarget_clip(clip: SignClip, skeleton: Skeleton | None = None) -> Motion:
