@@ -59,10 +59,10 @@ def test_contracted_biceps_pushes_the_upper_arm_skin_out(avatar):
 
 
 def test_signing_space_frames_the_head_and_both_hands_while_fingerspelling(avatar):
-    motion = fingerspell("ase", "AB", 25.0).frames(0, 40)
+    motion = fingerspell("ase", "AB", 25.0)
     frames, labels = render_motion(avatar, motion,
                                    RenderSettings(width=176, height=144, backend="warp"))
-    assert frames.shape == (40, 144, 176, 3) and labels.shape == (40, 144, 176)
+    assert frames.shape == (motion.n_frames, 144, 176, 3) and labels.shape == (motion.n_frames, 144, 176)
     for label in labels[::8]:
         assert {0, 1, 2, 3, 4} <= set(np.unique(label))
         assert not np.any(label[0] == 2)                  # the head is not cut at the top
