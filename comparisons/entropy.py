@@ -49,18 +49,17 @@ class FrequencyModel:
         self.increment = increment
         self.limit = limit
         self.counts = [1] * n_symbols
-        self._rebuild()
+        index = np.arange(1, n_symbols + 1)
+        self.tree = [0] + (index & -index).tolist()          # Fenwick tree of all-ones counts
+        self.total = n_symbols
+        self._top_bit = 1 << (n_symbols.bit_length() - 1)
 
     def _rebuild(self) -> None:
         n = self.n
-        tree = [0] * (n + 1)
-        for i, c in enumerate(self.counts, start=1):
-            tree[i] += c
-            j = i + (i & -i)
-            if j <= n:
-                tree[j] += tree[i]
-        self.tree = tree
-        self.total = sum(self.counts)
+        cumulative = np.concatenate([[0], np.cumsum(self.counts, dtype=np.int64)])
+        index = np.arange(1, n + 1)
+        self.tree = [0] + (cumulative[index] - cumulative[index - (index & -index)]).tolist()
+        self.total = int(cumulative[-1])
         self._top_bit = 1 << (n.bit_length() - 1)
 
     def _prefix(self, symbol: int) -> int:
@@ -225,6 +224,17 @@ def decode_sequence(data: bytes, n_symbols: int, increment: int = 1) -> list[int
         raise SigncastError(f"corrupt arithmetic-coded sequence: coded data ends at byte "
                             f"{(reader.pos + 7) // 8} of {len(data)}")
     return symbols
+
+
+def adaptive_code_length_bits(symbols, n_symbols: int, increment: int = 1) -> float:
+    """sum -log2 p(s) under the adaptive model: what an ideal coder with the same model would spend."""
+    model = FrequencyModel(n_symbols, increment)
+    bits = 0.0
+    for s in symbols:
+        low, high = model.interval(int(s))
+        bits -= np.log2((high - low) / model.total)
+        model.update(int(s))
+    return float(bits)
 
 
 def empirical_entropy_bits(symbols) -> float:

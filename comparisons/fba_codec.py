@@ -21,8 +21,8 @@ the mask keep their last value (0 at the start). The encoder masks in exactly th
 quantised value changes during the intra period, so unchanged groups cost 3 bits.
 
 Chosen here (no source): intra period 32 frames (predictive) and 4 segments (DCT); the 7-bit
-range fields (param_coding); the encoder picks tight (sent) or default (+-31 fields) ranges for an
-intra period by coding it both ways and keeping the shorter.
+range fields (param_coding); the encoder sends tight ranges for an intra period unless the default
+(+-31 fields) alphabets are estimated to cost less (log2 of the alphabet sizes per coded level).
 """
 from __future__ import annotations
 
@@ -176,6 +176,23 @@ def dct_training_symbols(values: np.ndarray, q: int, intra_segments: int = DEFAU
     return out
 
 
+def _prefer_tight_ranges(block: np.ndarray, held: np.ndarray, q: int) -> bool:
+    """Send per-BAP ranges when their 28 bits per masked BAP cost less than coding every level in
+    the default alphabets (estimated as log2 of the alphabet sizes), or when the defaults are too small."""
+    steps_all = bap_table.steps() * q
+    order = coded_order(_changed_mask(block, held, steps_all))
+    intra, p_levels, _ = pc.predictive_levels(block[:, order], held[order], steps_all[order], q)
+    fields = np.stack([*pc.range_fields(intra[None], q), *pc.range_fields(p_levels, q)])
+    if np.any(fields > pc.DEFAULT_RANGE_FIELD):
+        return True
+    def bits(f: np.ndarray) -> float:
+        i_low, i_high = pc.alphabet(f[0], f[1], q)
+        p_low, p_high = pc.alphabet(f[2], f[3], q)
+        return float(np.log2(i_high - i_low + 1).sum() + len(p_levels) * np.log2(p_high - p_low + 1).sum())
+    default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
+    return bits(fields) + 4 * pc.RANGE_BITS * len(order) < bits(default)
+
+
 def _write_dct_period(writer: BitWriter, block: np.ndarray, held: np.ndarray, q: int, fps: float,
                       is_last_period: bool) -> np.ndarray:
     tables = pc.vlc_tables()
@@ -226,13 +243,10 @@ def encode_fba(values: np.ndarray, fps: float, q: int, coding: str = "pred", *,
         if coding == "dct":
             held = _write_dct_period(writer, block, held, q, fps, start + period >= len(values))
             continue
-        trials = []
-        for tight in (True, False):
-            trial = BitWriter()
-            _, fits = _write_predictive_period(trial, block, held, q, fps, tight)
-            if fits:
-                trials.append((trial.n_bits, tight))
-        held, _ = _write_predictive_period(writer, block, held, q, fps, min(trials)[1])
+        tight = _prefer_tight_ranges(block, held, q)
+        held, fits = _write_predictive_period(writer, block, held, q, fps, tight)
+        if not fits:
+            raise SigncastError("internal error: an intra period did not fit its ranges")
     writer.start_code(END_CODE)
     return writer.getvalue()
 
