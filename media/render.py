@@ -98,7 +98,7 @@ def triangle_colours(avatar: Avatar) -> np.ndarray:
         centroids = avatar.vertices[avatar.triangles[faces]].mean(axis=1)
         centre = avatar.vertices[np.unique(avatar.triangles[faces])].mean(axis=0)
         radius = np.linalg.norm(centroids - centre, axis=1).max()
-        forward = centroids[:, 2] - centre[2] > 0.75 * radius
+        forward = centroids[:, 2] - centre[2] > 0.9 * radius
         colour[faces] = np.where(forward[:, None], IRIS, EYE_WHITE)
     return colour
 
