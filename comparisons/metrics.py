@@ -143,3 +143,21 @@ def vpsnr(original, decoded, fps: float, weights=VISUAL_WEIGHTS, bands=VISUAL_BA
     r = value_range(original)
     vpmse = np.where(r > 0, vmse(original, decoded, fps, weights, bands) / np.where(r > 0, r, 1) ** 2, np.nan)
     return _db(vpmse)
+
+
+def bap_group_errors(original, decoded) -> dict[str, tuple[float, float]]:
+    """Per BAP group (comparisons/bap_table.GROUP_MEMBERS, the seed-002 joint groups' counterpart):
+    (mean of w(n), max of m(n)) with a = 1 and b = the range of each moving BAP in the original;
+    groups with no moving BAP are left out. original, decoded: (N, 296) BAP values."""
+    from comparisons import bap_table
+
+    original, decoded = _pair(original, decoded)
+    out = {}
+    r = value_range(original)
+    for label, members in zip(bap_table.GROUP_LABELS, bap_table.GROUP_MEMBERS):
+        columns = [i - 1 for i in members if r[i - 1] > 0]
+        if columns:
+            a, b = np.ones(len(columns)), r[columns]
+            out[label] = (float(weighted_vector_error(original[:, columns], decoded[:, columns], a, b).mean()),
+                          float(max_weighted_error(original[:, columns], decoded[:, columns], a, b).max()))
+    return out

@@ -3,8 +3,9 @@ Q, decode it, and measure rate and distortion (the measurements behind seed 000 
 
 Per point: bits = 8 x len(coded bytes); kbps over the clip's duration at the coding frame rate;
 distortion eq. 2.6 over the rotation BAP vectors in rad^2 (both original and decoded motion mapped
-to BAPs, so FBA and BBA are scored alike); mean PSNR and VPSNR over the BAPs that move; joint
-position error (mm) by forward kinematics; and the size of the letter's `.pose` file as kbps, the
+to BAPs, so FBA and BBA are scored alike); mean PSNR and VPSNR over the BAPs that move; per
+BAP group the normalised weighted vector error and its maximum form; joint position error (mm) by
+forward kinematics; and the size of the letter's `.pose` file as kbps, the
 baseline of today's pose tools.
 """
 from __future__ import annotations
@@ -43,14 +44,16 @@ def measure_point(motion: Motion, codec_name: str, q: int) -> dict:
     start = time.perf_counter()
     decoded = codec.decode(data)
     decode_s = time.perf_counter() - start
-    original_baps = motion_to_baps(motion)[:, ROTATION_COLUMNS] * bap_table.ROTATION_UNIT_RAD
-    decoded_baps = motion_to_baps(decoded)[:, ROTATION_COLUMNS] * bap_table.ROTATION_UNIT_RAD
+    original_all, decoded_all = motion_to_baps(motion), motion_to_baps(decoded)
+    original_baps = original_all[:, ROTATION_COLUMNS] * bap_table.ROTATION_UNIT_RAD
+    decoded_baps = decoded_all[:, ROTATION_COLUMNS] * bap_table.ROTATION_UNIT_RAD
     moving = metrics.value_range(original_baps) > 0
     joint_mm = metrics.joint_position_error_mm(load_avatar().skeleton, motion, decoded)
     return {"bits": 8 * len(data), "distortion": metrics.distortion(original_baps, decoded_baps),
             "psnr": metrics.mean_db(metrics.psnr(original_baps[:, moving], decoded_baps[:, moving])),
             "vpsnr": metrics.mean_db(metrics.vpsnr(original_baps[:, moving], decoded_baps[:, moving], motion.fps)),
             "joint_error_mm_mean": float(joint_mm.mean()), "joint_error_mm_max": float(joint_mm.max()),
+            "group_errors": metrics.bap_group_errors(original_all, decoded_all),
             "encode_fps": motion.n_frames / encode_s, "decode_fps": motion.n_frames / decode_s,
             "frames": motion.n_frames}
 

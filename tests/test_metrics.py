@@ -61,3 +61,14 @@ def test_joint_position_error_is_zero_for_equal_motions_and_grows_with_rotation(
     assert metrics.joint_position_error_mm(skeleton, rest, rest).max() == 0
     error = metrics.joint_position_error_mm(skeleton, rest, moved)
     assert error[0].max() == 0 and 30 < error[1].max() < 200           # the hand moves by centimetres
+
+
+def test_bap_group_errors_cover_only_groups_that_move():
+    original = np.zeros((4, 296))
+    original[:, 37] = [0, 100, 200, 300]             # BAP 38, l_elbow_flexion, group "left arm 1"
+    decoded = original.copy()
+    decoded[1, 37] += 30
+    groups = metrics.bap_group_errors(original, decoded)
+    assert list(groups) == ["left arm 1"]
+    mean_w, max_m = groups["left arm 1"]
+    assert mean_w == pytest.approx((0.1 ** 2) / 4) and max_m == pytest.approx(0.1)
