@@ -29,7 +29,7 @@ def main() -> int:
     codes = args.languages.split(",") if args.languages else lexicon.languages()
     skeleton = load_avatar().skeleton
     retarget.retarget(lexicon.read_clip(lexicon.entries("ase")[0]), skeleton)          # warm-up
-    print(f"{'lang':5} {'clips':>5} {'s/clip':>7} {"hands":20} "
+    print(f"{'lang':5} {'clips':>5} {'s/clip':>7} {'hands':20} "
           f"{'3d arm':>7} {'thumb':>6} {'fingers':>7} {'2d arm':>7} {'thumb':>6} {'fingers':>7}")
     for code in codes:
         seconds, hands = [], {}

@@ -113,3 +113,26 @@ def _orthonormal_rows(r1: np.ndarray, r2: np.ndarray) -> np.ndarray:
     y = y - np.sum(x * y, axis=-1, keepdims=True) * x
     y /= np.maximum(np.linalg.norm(y, axis=-1, keepdims=True), 1e-12)
     return np.stack([x, y, np.cross(x, y)], axis=1)
+
+
+def open_hinge(projected: np.ndarray, depth: np.ndarray, towards_parent: np.ndarray, min_angle: float,
+               max_ratio: float = 4.0) -> np.ndarray:
+    """Unit directions (T, 3) of a bone past a hinge, coming out of the plane as far as its limit needs.
+
+    projected: (T, 2) frontal-plane vector of the bone; depth: (T,) dz >= 0 from its length;
+    towards_parent: (T, 3) unit vector from the hinge back along the parent bone; min_angle: the
+    smallest interior angle (radians) the hinge allows (180 deg - maximum flexion). A bone whose
+    image folds back onto its parent more than the hinge can bend must leave the image plane
+    (towards the viewer): dz grows from `depth` to the smallest value meeting the limit (at most
+    max_ratio times the image length).
+    """
+    projected = np.asarray(projected, dtype=np.float64)
+    image_length = np.maximum(np.linalg.norm(projected, axis=-1), 1e-9)
+    factors = np.linspace(0.0, max_ratio, 81)
+    depths = np.maximum(np.asarray(depth, dtype=np.float64)[:, None], factors[None, :] * image_length[:, None])  # (T, S)
+    vectors = np.concatenate([np.broadcast_to(projected[:, None, :], depths.shape + (2,)), depths[..., None]], axis=-1)
+    vectors /= np.linalg.norm(vectors, axis=-1, keepdims=True)
+    cosine = np.einsum("tsd,td->ts", vectors, towards_parent)
+    allowed = cosine <= np.cos(min_angle)
+    first = np.where(allowed.any(axis=1), np.argmax(allowed, axis=1), np.argmin(cosine, axis=1))
+    return vectors[np.arange(len(vectors)), first]

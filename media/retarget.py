@@ -51,7 +51,12 @@ THUMB_LIMITS = {
     2: ((-20.0, 75.0), (-15.0, 15.0)),     # MCP
     3: ((-20.0, 90.0), (0.0, 0.0)),        # IP: hinge
 }
+ELBOW_MAX_FLEXION = 150.0    # degrees
 PALM_LANDMARKS = (0, 5, 17)   # wrist, index knuckle, little-finger knuckle
+# Weights (per radian of frame-to-frame rotation) of the continuity term that keeps the discrete
+# depth choices (palm mirror, phalanx dz sign) from flickering; costs are radians of limit violation.
+PALM_STEP_WEIGHT = 30.0
+PHALANX_STEP_WEIGHT = 3.0
 MIN_HAND_SHARE = 0.25       # a hand seen in fewer frames is a spurious detection
 
 
@@ -174,7 +179,7 @@ def _arm_chain(skeleton: Skeleton, side: str) -> list[ik.ChainJoint]:
                       rad(np.array([-170.0, -70.0 if side == "L" else -110.0, -90.0])),
                       rad(np.array([50.0, 110.0 if side == "L" else 70.0, 90.0]))),
         ik.ChainJoint(f"lowerarm01.{side}", elbow, hinge[None],
-                      rad(np.array([-rest_flexion])), rad(np.array([150.0 - rest_flexion]))),
+                      rad(np.array([-rest_flexion])), rad(np.array([ELBOW_MAX_FLEXION - rest_flexion]))),
         ik.ChainJoint(f"lowerarm02.{side}", _head(skeleton, f"lowerarm02.{side}"), _bone_vector(skeleton, f"lowerarm02.{side}")[None] / np.linalg.norm(_bone_vector(skeleton, f"lowerarm02.{side}")),
                       rad(np.array([-90.0])), rad(np.array([90.0]))),
         ik.ChainJoint(f"wrist.{side}", wrist, np.stack([lateral, palmar]),
@@ -224,23 +229,48 @@ def _choose_phalanx(candidates: tuple[np.ndarray, np.ndarray], parent_world: np.
     """
     (flex_lo, flex_hi), (abd_lo, abd_hi) = np.radians(limits)
     inverse = rotations.conjugate(parent_world)
-    options = []
+    costs, directions = [], []
     for direction in candidates:
         local = rotations.rotate(inverse, direction) @ basis.T        # components along e1, e2, e3
         flexion = np.arctan2(local[:, 1], local[:, 0])
         abduction = np.arcsin(np.clip(local[:, 2], -1.0, 1.0))
         violation = (np.maximum(flex_lo - flexion, 0) + np.maximum(flexion - flex_hi, 0)
                      + np.maximum(abd_lo - abduction, 0) + np.maximum(abduction - abd_hi, 0))
-        cost = violation + 0.2 * np.abs(abduction) + 0.5 * np.maximum(-flexion, 0)
-        options.append((cost, flexion, abduction))
-    take_second = options[1][0] < options[0][0] - 1e-9
-    flexion = np.clip(np.where(take_second, options[1][1], options[0][1]), flex_lo, flex_hi)
-    abduction = np.clip(np.where(take_second, options[1][2], options[0][2]), abd_lo, abd_hi)
-    local_dir = (np.cos(abduction) * np.cos(flexion))[:, None] * basis[0] \
-        + (np.cos(abduction) * np.sin(flexion))[:, None] * basis[1] + np.sin(abduction)[:, None] * basis[2]
+        costs.append(violation + 0.2 * np.abs(abduction) + 0.5 * np.maximum(-flexion, 0))
+        flexion = np.clip(flexion, flex_lo, flex_hi)
+        abduction = np.clip(abduction, abd_lo, abd_hi)
+        directions.append((np.cos(abduction) * np.cos(flexion))[:, None] * basis[0]
+                          + (np.cos(abduction) * np.sin(flexion))[:, None] * basis[1]
+                          + np.sin(abduction)[:, None] * basis[2])
+    directions = np.stack(directions, axis=1)                          # (T, 2, 3) clamped, local
+    costs = np.stack(costs, axis=1)                                    # (T, 2)
+    steps = np.arccos(np.clip(np.einsum("tid,tjd->tij", directions[:-1], directions[1:]), -1.0, 1.0))
+    choice = smooth_choice(costs, PHALANX_STEP_WEIGHT * steps)
+    frames = np.arange(len(choice))
+    local_dir = directions[frames, choice]
     local_q = rotations.between(np.broadcast_to(basis[0], local_dir.shape), local_dir)
-    violation = np.where(take_second, options[1][0], options[0][0])
-    return local_q, rotations.rotate(parent_world, local_dir), violation
+    return local_q, rotations.rotate(parent_world, local_dir), costs[frames, choice]
+
+
+def smooth_choice(unary: np.ndarray, pairwise: np.ndarray) -> np.ndarray:
+    """The per-frame choice (T,) minimising sum_t unary[t, c_t] + sum_t pairwise[t, c_t, c_t+1] (Viterbi).
+
+    unary: (T, K) cost of each option per frame; pairwise: (T-1, K, K) cost of moving from option i
+    at frame t to option j at frame t+1 (here: how far the pose jumps, so a depth-mirror choice
+    does not flicker from frame to frame).
+    """
+    n_frames, n_options = unary.shape
+    total = unary[0].copy()
+    back = np.zeros((n_frames, n_options), dtype=np.int64)
+    for t in range(1, n_frames):
+        through = total[:, None] + pairwise[t - 1]                     # (from, to)
+        back[t] = np.argmin(through, axis=0)
+        total = through[back[t], np.arange(n_options)] + unary[t]
+    choice = np.empty(n_frames, dtype=np.int64)
+    choice[-1] = int(np.argmin(total))
+    for t in range(n_frames - 1, 0, -1):
+        choice[t - 1] = back[t, choice[t]]
+    return choice
 
 
 def _hand_template(skeleton: Skeleton, side: str) -> np.ndarray:
@@ -310,7 +340,9 @@ def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_p
     upper_2d = lifting.to_plane(elbow_px - shoulder_px, body_scale)
     fore_2d = lifting.to_plane(wrist_px - elbow_px, body_scale)
     upper_dir, _ = lifting.lift_directions(upper_2d, lifting.true_lengths(upper_2d, upper_len))
-    fore_dir, _ = lifting.lift_directions(fore_2d, lifting.true_lengths(fore_2d, fore_len))
+    fore_depth = lifting.out_of_plane(fore_2d, lifting.true_lengths(fore_2d, fore_len))
+    # an elbow bends at most ELBOW_MAX_FLEXION: a forearm whose image folds back further comes forward
+    fore_dir = lifting.open_hinge(fore_2d, fore_depth, -upper_dir, np.radians(180.0 - ELBOW_MAX_FLEXION + 5.0))
     if not elbow_seen:   # no elbow: the whole arm points at the wrist
         arm_2d = lifting.to_plane(wrist_px - shoulder_px, body_scale)
         upper_dir, _ = lifting.lift_directions(arm_2d, lifting.true_lengths(arm_2d, upper_len + fore_len))
@@ -331,7 +363,11 @@ def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_p
         _, _, finger_cost = _finger_pose(skeleton, side, rotations.from_matrix(rotation), plane)
         wrist_bend = np.arccos(np.clip(np.sum(forward * fore_dir, axis=-1), -1.0, 1.0))
         costs.append(finger_cost + 0.5 * wrist_bend)
-    use_b = _majority(costs[1] < costs[0])
+    options = np.stack([rotation_a, rotation_b], axis=1)                 # (T, 2, 3, 3)
+    relative = np.einsum("tikl,tjkm->tijlm", options[:-1], options[1:])   # R_t,i^T R_t+1,j
+    trace = np.einsum("tijkk->tij", relative)
+    steps = np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0))           # rotation angle between frames
+    use_b = smooth_choice(np.stack(costs, axis=1), PALM_STEP_WEIGHT * steps) == 1
     palm_rotation = np.where(use_b[:, None, None], rotation_b, rotation_a)
 
     # --- CCD IK of the arm from the posed shoulder girdle
@@ -390,13 +426,6 @@ def _finger_pose(skeleton: Skeleton, side: str, wrist_world: np.ndarray, plane: 
             cost += violation
             parent_world = rotations.multiply(parent_world, q_local)
     return local, followed, cost
-
-
-def _majority(flags: np.ndarray, radius: int = 2) -> np.ndarray:
-    """Each frame's flag replaced by the majority over +-radius frames (no one-frame flips)."""
-    padded = np.concatenate([np.repeat(flags[:1], radius), flags, np.repeat(flags[-1:], radius)]).astype(float)
-    window = np.convolve(padded, np.ones(2 * radius + 1), mode="valid")
-    return window > radius
 
 
 def _pick_closest(candidates: tuple[np.ndarray, np.ndarray], direction: np.ndarray) -> np.ndarray:

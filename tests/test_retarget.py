@@ -145,3 +145,31 @@ def test_missing_hand_frames_take_the_nearest_seen_frame(skeleton):
     assert np.all(np.isfinite(motion.rotations))
     finger = motion.bone("finger3-2.R")
     assert rotations.angle_between(motion.rotations[6, finger], motion.rotations[4, finger]) < 0.3
+
+
+def test_open_hinge_brings_a_folded_forearm_forward():
+    upper = np.array([[0.0, -1.0, 0.0]])                               # upper arm hangs down
+    forearm_image = np.array([[0.02, 0.22]])                           # forearm image points straight up, full length
+    direction = lifting.open_hinge(forearm_image, np.zeros(1), -upper, np.radians(35.0))
+    interior = np.degrees(np.arccos(direction[0] @ -upper[0]))
+    assert 35.0 <= interior < 40.0 and direction[0, 2] > 0               # just as far forward as the elbow needs
+    same = lifting.open_hinge(np.array([[0.2, 0.0]]), np.array([0.1]), -upper, np.radians(35.0))
+    np.testing.assert_allclose(same[0], np.array([0.2, 0.0, 0.1]) / np.linalg.norm([0.2, 0.0, 0.1]))
+
+
+def test_smooth_choice_keeps_a_depth_mirror_unless_the_evidence_is_strong():
+    flicker = np.array([[0.0, 0.1], [0.1, 0.0], [0.0, 0.1], [0.1, 0.0]])
+    jump = np.tile(np.array([[0.0, 3.0], [3.0, 0.0]]), (3, 1, 1))
+    assert retarget.smooth_choice(flicker, jump).tolist() == [0, 0, 0, 0]
+    strong = np.array([[0.0, 5.0], [5.0, 0.0], [5.0, 0.0], [5.0, 0.0]])
+    assert retarget.smooth_choice(strong, jump).tolist() == [0, 1, 1, 1]
+
+
+def test_palm_does_not_flip_while_the_hand_holds_still(skeleton):
+    for letter in "AI":
+        clip = lexicon.read_clip(lexicon.lookup("ase", letter))
+        world = world_rotations(skeleton, retarget.retarget(clip, skeleton).motion)[:, skeleton.index("wrist.R")]
+        keypoints = clip.points["RIGHT_HAND_LANDMARKS"][..., :2]
+        still = np.linalg.norm(np.diff(keypoints, axis=0), axis=-1).max(axis=1) < 4.0   # pixels between frames
+        steps = np.degrees(rotations.angle_between(world[1:], world[:-1]))
+        assert still.sum() >= 8 and steps[still].max() < 15.0, letter
