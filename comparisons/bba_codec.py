@@ -15,12 +15,12 @@ Binary layout (field widths and start-code values are signcast's; the thesis giv
             (0 predictive, 1 DCT), keyframes u1, Q u5, intra period u6, rotationOrder u5,
             tight_ranges u1, number of bones u10, per bone: boneID u10, animatable mask
             (5 level-1 bits + level-2 bits of the set types), step exponent u4 (step = 2^e units),
-            [tight ranges: per animatable value I max, I min, P max, P min, 7 bits each]
+            [tight ranges: per animatable value I max, I min, P max, P min, 7 bits each], CRC-8
     per frame (segment): frame start code 0x000001D1, is_intra u1, KeyFrameIndex u5,
             [DCT: frames - 1 u4], [P: same_mask u1], [NSBB u10, per bone boneID u10 +
-            hierarchical mask], values (arithmetic-coded levels, or DCT blocks), NSBM u10;
+            hierarchical mask], values (arithmetic-coded levels, or DCT blocks), NSBM u10, CRC-8;
             if NSBM > 0: muscle start code 0x000001D2, per muscle: muscleID u10, NCP u6, NK u6,
-            MM bits (4 per control point, 1 per knot), values s20
+            MM bits (4 per control point, 1 per knot), values s20; CRC-8
     end code 0x000001D3
 
 Hierarchical bone mask: a bone's header announces which of the 16 elementary motions it may
@@ -30,7 +30,8 @@ bone with one animatable angle costs 2 bits, a bone with all 16 costs 21, the 2.
 
 Units: angles 1e-5 rad (the BBA schema bound +-314159 = pi), translations mm. rotationOrder is an
 SBBone field, not stream data; signcast sends one order for all bones in the header (Shoemake
-packing, see ORDER_NAMES).
+packing, see ORDER_NAMES). The CRC-8 fields (polynomial 0x07 over the raw bits since the start
+code) are signcast's: they let a decoder tell a damaged frame from a good one before resynchronising.
 """
 from __future__ import annotations
 
@@ -41,7 +42,7 @@ import numpy as np
 from comparisons import bap_table
 from comparisons import keyframes as kf
 from comparisons import param_coding as pc
-from comparisons.bitstream import BitReader, BitWriter, find_start_codes
+from comparisons.bitstream import BitReader, BitWriter, crc8_bits, find_start_codes
 from comparisons.fba_mapping import avatar_bap_map
 from media import rotations
 from media.avatar import Skeleton, load_avatar
@@ -325,6 +326,7 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
         writer.write(exponent, 4)
     if tight:
         pc.write_range_fields(writer, fields)
+    _write_crc(writer, 32)                    # the header, after the 4-byte BBA start code
     models = None
     if h.coding == "pred":
         low_i, high_i = pc.alphabet(fields[0], fields[1], h.q)
@@ -335,6 +337,7 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
     for k, (unit, intra) in enumerate(zip(units, intra_flags)):
         frame = stream.frames[unit[0]]
         writer.start_code(FRAME_START_CODE)
+        unit_start = writer.n_bits
         writer.write_bit(int(intra))
         writer.write(frame.kfi, 5)
         if h.coding == "dct":
@@ -360,8 +363,10 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
                 pc.write_dct_block(writer, tables, int(dc_values[p]), intra, ac[:, p])
             previous_dc = dc
         writer.write(len(frame.muscles), 10)
+        _write_crc(writer, unit_start)
         if frame.muscles:
             writer.start_code(MUSCLE_START_CODE)
+            muscle_start = writer.n_bits
             for muscle in frame.muscles:
                 writer.write(muscle.muscle_id, 10)
                 writer.write(muscle.n_control_points, 6)
@@ -372,8 +377,21 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
                     writer.write_bit(bit)
                 for value in muscle.values:
                     writer.write_signed(value, MUSCLE_VALUE_BITS)
+            _write_crc(writer, muscle_start)
     writer.start_code(END_CODE)
     return writer.getvalue()
+
+
+def _write_crc(writer: BitWriter, start_bit: int) -> None:
+    """CRC-8 of the raw bits written since start_bit (signcast's; lets a decoder detect a damaged
+    frame before it resynchronises)."""
+    writer.write(crc8_bits(writer.getvalue(), start_bit, writer.n_bits), 8)
+
+
+def _check_crc(reader: BitReader, start_bit: int, what: str) -> None:
+    expected = crc8_bits(reader.data, start_bit, reader.pos)
+    if reader.read(8) != expected:
+        raise SigncastError(f"corrupt BBA stream: {what} fails its CRC check")
 
 
 # --------------------------------------------------------------------------------- reading
@@ -417,6 +435,7 @@ def _read_header(reader: BitReader) -> _DecoderState:
     fields = None
     if coding == 0:
         fields = pc.read_range_fields(reader, len(keys)) if tight else np.full((4, len(keys)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64)
+    _check_crc(reader, 32, "the header")
     header = BBAHeader("", fps, "pred" if coding == 0 else "dct", q, intra_period, keyframes, order)
     return _DecoderState(header, bones, exponents, keys, fields)
 
@@ -427,6 +446,7 @@ def _step(state: _DecoderState, bone: int, bit: int) -> int:
 
 def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool) -> list[BBAFrame]:
     h = state.header
+    unit_start = reader.pos
     intra = bool(reader.read_bit())
     kfi = reader.read(5)
     n_frames = reader.read(4) + 1 if h.coding == "dct" else 1
@@ -470,15 +490,18 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool) -> l
         dc_step, ac_step = pc.dct_steps(steps, h.q)
         rows = pc.dct_reconstruct(dc, ac, dc_step, ac_step)
     n_muscles = reader.read(10)
+    _check_crc(reader, unit_start, "a frame")
     muscles = []
     if n_muscles and not skip_muscles:
         if reader.read_start_code() != MUSCLE_START_CODE:
             raise SigncastError("corrupt BBA frame: muscle data without its start code")
+        muscle_start = reader.pos
         for _ in range(n_muscles):
             muscle_id, ncp, nk = reader.read(10), reader.read(6), reader.read(6)
             mask = [reader.read_bit() for _ in range(4 * ncp + nk)]
             values = [reader.read_signed(MUSCLE_VALUE_BITS) for _ in range(sum(mask))]
             muscles.append(MuscleUpdate(muscle_id, ncp, nk, mask, values))
+        _check_crc(reader, muscle_start, "muscle data")
     state.held.update(zip(keys, rows[-1].tolist()))
     state.previous_bones = bones
     state.synced = True

@@ -172,3 +172,15 @@ def find_start_codes(data: bytes, start: int = 0) -> list[tuple[int, int]]:
         found.append((position, data[position + 3]))
         position = data.find(START_CODE_PREFIX, position + 3)
     return found
+
+
+def crc8_bits(data: bytes, start_bit: int, end_bit: int) -> int:
+    """CRC-8 (polynomial x^8 + x^2 + x + 1, 0x07, initial 0) of the raw bits [start_bit, end_bit)."""
+    crc = 0
+    for position in range(start_bit, end_bit):
+        bit = (data[position >> 3] >> (7 - (position & 7))) & 1
+        feedback = ((crc >> 7) & 1) ^ bit
+        crc = (crc << 1) & 0xFF
+        if feedback:
+            crc ^= 0x07
+    return crc

@@ -15,6 +15,8 @@ Amd.1; seed 000 §2.1; seed 004 "BAP Grouping"):
         predictive P plane: the arithmetic-coded residual levels
         DCT plane (a 16-frame segment): is_last u1 [+ frames-1 u4], per masked BAP a DCT block
     visual_object_sequence_end_code 0x000001B1
+    CRC-32 (zlib) of all the bytes before it, 4 bytes (signcast's container check, not in the standard:
+    the FBA syntax itself has no check, so bit errors in Huffman-coded DCT data would decode silently)
 
 Masks (which BAPs are sent) are set at each intra plane and hold until the next; BAPs outside
 the mask keep their last value (0 at the start). The encoder masks in exactly the BAPs whose
@@ -25,6 +27,8 @@ range fields (param_coding); the encoder sends tight ranges for an intra period 
 (+-31 fields) alphabets are estimated to cost less (log2 of the alphabet sizes per coded level).
 """
 from __future__ import annotations
+
+import zlib
 
 import numpy as np
 
@@ -248,11 +252,16 @@ def encode_fba(values: np.ndarray, fps: float, q: int, coding: str = "pred", *,
         if not fits:
             raise SigncastError("internal error: an intra period did not fit its ranges")
     writer.start_code(END_CODE)
-    return writer.getvalue()
+    data = writer.getvalue()
+    return data + zlib.crc32(data).to_bytes(4, "big")
 
 
 def decode_fba(data: bytes) -> tuple[np.ndarray, float]:
     """(values (T, 296) int64, fps) of an FBA stream; SigncastError if it is corrupt or truncated."""
+    data = bytes(data)
+    if len(data) < 12 or zlib.crc32(data[:-4]).to_bytes(4, "big") != data[-4:]:
+        raise SigncastError("corrupt or truncated FBA stream: checksum mismatch")
+    data = data[:-4]
     reader = BitReader(data)
     if reader.read_start_code() != OBJECT_START_CODE:
         raise SigncastError("not an FBA stream: it does not start with fba_object_start_code")

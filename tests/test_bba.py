@@ -141,3 +141,15 @@ def test_bba_rejects_bad_parameters():
         bba.motion_to_stream(motion, 32, "pred")
     with pytest.raises(SigncastError):
         bba.motion_to_stream(motion, 4, "dct", keyframes=True)
+
+
+def test_bba_stream_resyncs_after_a_bit_error_inside_a_frame():
+    motion = smooth_motion(n_frames=30, bones=ARM)
+    data = bba.write_stream(bba.motion_to_stream(motion, 4, "pred", intra_period=10))
+    clean, _ = bba.read_stream(data)
+    start, end = _frame_chunks(data)[13]
+    damaged = bytearray(data)
+    damaged[(start + end) // 2] ^= 0x10
+    decoded, lost = bba.read_stream(bytes(damaged), resilient=True)
+    assert lost == [13, 14, 15, 16, 17, 18, 19]
+    assert _values(decoded)[20:] == _values(clean)[20:] and _values(decoded)[:13] == _values(clean)[:13]

@@ -57,3 +57,15 @@ def test_params_command_writes_records_table_and_plot(tmp_path, capsys):
 def test_params_command_rejects_bad_arguments_with_exit_code_2(tmp_path, args, capsys):
     assert main(["params", "ase", "A", "--out", str(tmp_path)] + args) == 2
     assert "error" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["fba-pred", "fba-dct", "bba-pred", "bba-dct", "bba-key"])
+def test_every_codec_rejects_single_bit_errors(name):
+    codec = get_codec(name)
+    data = codec.encode(letter_motion("ase", "C", 10), 4)
+    rng = np.random.default_rng(7)
+    for _ in range(25):
+        damaged = bytearray(data)
+        damaged[rng.integers(len(damaged))] ^= 1 << int(rng.integers(8))
+        with pytest.raises(SigncastError):
+            codec.decode(bytes(damaged))
