@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from comparisons import bap_table, metrics
+from comparisons.bap_file import write_bap
 from comparisons.fba_mapping import motion_to_baps
 from comparisons.param_codecs import get_codec
 from comparisons.records import make_record, write_records
@@ -60,7 +61,9 @@ def measure_point(motion: Motion, codec_name: str, q: int) -> dict:
 
 def run_study(language: str, units: list[str], codecs: list[str], qs: list[int], fps: float, out_dir: Path,
               progress=None) -> list[dict]:
-    """Measure every (unit, codec, Q); writes records.jsonl, params_table.csv and PNG plots in out_dir."""
+    """Measure every (unit, codec, Q); writes records.jsonl, params_table.csv and PNG plots in out_dir,
+    and each letter's full-precision BAPs as a version 3.2 .bap file in out_dir/bap/ (for other
+    MPEG-4 body animation tools)."""
     for name in codecs:
         get_codec(name)
     out_dir = Path(out_dir)
@@ -69,6 +72,8 @@ def run_study(language: str, units: list[str], codecs: list[str], qs: list[int],
     for unit in units:
         motion = letter_motion(language, unit, fps)
         pose_kbps = pose_file_kbps(language, unit)
+        (out_dir / "bap").mkdir(exist_ok=True)
+        write_bap(out_dir / "bap" / f"{language}_{unit}.bap", motion_to_baps(motion), fps, f"{language}_{unit}")
         for name in codecs:
             solution = "FBA" if name.startswith("fba") else "BBA"
             for q in qs:

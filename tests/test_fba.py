@@ -139,3 +139,15 @@ def test_bap_file_round_trips_version_3_2_and_reads_3_1():
 def test_bap_file_reader_rejects_malformed_files(text):
     with pytest.raises(SigncastError):
         parse_bap(text)
+
+
+def test_real_fingerspelling_maps_to_baps_and_back_within_one_millimetre():
+    from media.fingerspelling import letter_motion
+
+    skeleton = load_avatar().skeleton
+    motion = letter_motion("ase", "J", 10)
+    values = motion_to_baps(motion)
+    back = baps_to_motion(values, motion.fps)
+    error_mm = 1000 * np.abs(joint_positions(skeleton, motion) - joint_positions(skeleton, back)).max()
+    assert error_mm < 1.0
+    assert np.any(values[:, 32] != 0) or np.any(values[:, 33] != 0)     # a shoulder flexes

@@ -50,6 +50,7 @@ def test_params_command_writes_records_table_and_plot(tmp_path, capsys):
     rows = list(csv.reader((out / "params_table.csv").open()))
     assert rows[0][:4] == ["sign", "frames", "pose_kbps", "Q=2 fba-pred kbps"] and [r[0] for r in rows[1:]] == ["A", "B"]
     assert (out / "params_rate.png").stat().st_size > 1000
+    assert sorted(p.name for p in (out / "bap").iterdir()) == ["ase_A.bap", "ase_B.bap"]
     assert "fba-pred" in capsys.readouterr().out
 
 
