@@ -297,12 +297,21 @@ def write_stream(stream: BBAStream, skeleton: Skeleton | None = None) -> bytes:
             for r, source in ((0, i_levels[key]), (2, p_levels[key])):
                 top, bottom = pc.range_fields(np.array(source or [0], dtype=np.int64)[:, None], q)
                 fields[r, j], fields[r + 1, j] = top[0], bottom[0]
-        fits_default = bool(np.all(fields <= pc.DEFAULT_RANGE_FIELD))
-        candidates = [_write(stream, units, intra_flags, levels, bones, animatable, keys, fields, True, skeleton)]
-        if fits_default:
+        # Tight ranges unless the default alphabets are estimated (log2 of alphabet sizes per coded
+        # level) to cost less than the range fields they save.
+        use_default = False
+        if np.all(fields <= pc.DEFAULT_RANGE_FIELD):
             default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
-            candidates.append(_write(stream, units, intra_flags, levels, bones, animatable, keys, default, False, skeleton))
-        return min(candidates, key=len)
+            counts = np.array([[len(i_levels[key]) for key in keys], [len(p_levels[key]) for key in keys]])
+
+            def estimate(f: np.ndarray) -> float:
+                i_low, i_high = pc.alphabet(f[0], f[1], q)
+                p_low, p_high = pc.alphabet(f[2], f[3], q)
+                return float((counts[0] * np.log2(i_high - i_low + 1)).sum() + (counts[1] * np.log2(p_high - p_low + 1)).sum())
+            use_default = estimate(default) < estimate(fields) + 4 * pc.RANGE_BITS * len(keys)
+        if use_default:
+            return _write(stream, units, intra_flags, levels, bones, animatable, keys, default, False, skeleton)
+        return _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, True, skeleton)
     return _write(stream, units, intra_flags, levels, bones, animatable, keys, None, False, skeleton)
 
 
