@@ -525,10 +525,8 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool) -> l
     return frames
 
 
-def _check_unit_end(reader: BitReader, end_byte: int, allow_muscles: bool) -> None:
+def _check_unit_end(reader: BitReader, end_byte: int) -> None:
     """The unit's data must end with next_start_code() stuffing exactly at the next start code."""
-    if allow_muscles and reader.pos < 8 * end_byte:
-        return
     remaining = 8 * end_byte - reader.pos
     stuffing = [(reader.data[p >> 3] >> (7 - (p & 7))) & 1 for p in range(reader.pos, 8 * end_byte)]
     if not 1 <= remaining <= 8 or stuffing != [0] + [1] * (remaining - 1):
@@ -540,7 +538,9 @@ def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = Fa
     units (frames, or DCT segments) that were lost.
 
     resilient: a damaged unit is dropped and decoding resumes at the next start code (predicted
-    units after it are lost until the next intra unit); without it, damage raises SigncastError.
+    units after it are lost until the next intra unit); each lost unit is concealed by holding the
+    last good frame (16 frames for a DCT segment, 1 for a frame, whose KeyFrameIndex is then
+    unknown and taken as 0); without it, damage raises SigncastError.
     skip_muscles: ignore muscle data (a weak terminal), jumping to the next frame start code."""
     data = bytes(data)
     reader = BitReader(data)
@@ -566,10 +566,11 @@ def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = Fa
         end = codes[k + 1][0]
         has_muscles = codes[k + 1][1] == MUSCLE_START_CODE
         stop = codes[k + 2][0] if has_muscles and k + 2 < len(codes) else end
-        reader = BitReader(data, start_byte=position + 4, end_byte=stop if (has_muscles and not skip_muscles) else end)
+        unit_end = stop if (has_muscles and not skip_muscles) else end
+        reader = BitReader(data, start_byte=position + 4, end_byte=unit_end)
         try:
             unit = _read_unit(reader, state, skip_muscles or not has_muscles)
-            _check_unit_end(reader, stop if (has_muscles and not skip_muscles) else end, False)
+            _check_unit_end(reader, unit_end)
         except SigncastError:
             if not resilient:
                 raise
