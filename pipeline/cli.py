@@ -15,6 +15,9 @@ from kernels.errors import KernelError
 from media.errors import SigncastError
 
 COMMAND_MODULES = [
+    "pipeline.commands.demo",
+    "pipeline.commands.compare",
+    "pipeline.commands.report",
     "pipeline.commands.lexicon",
     "pipeline.commands.motion",
     "pipeline.commands.video",

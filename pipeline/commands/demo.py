@@ -1,0 +1,23 @@
+"""`signcast demo`: the comparison on the bundled data with a small sweep (a few minutes on two cores)."""
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+
+from pipeline.commands.compare import add_scenario_arguments, execute
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "demo", help="the main job on the bundled data: the avatar fingerspells a word, the carphone clip, a small sweep",
+        description="Fingerspell a word with the avatar, take the bundled carphone clip, run the comparison of the six "
+                    "solutions on a small sweep, write the report and print its path and a summary table.")
+    add_scenario_arguments(parser)
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pipeline.compare import CompareSettings
+    settings = replace(CompareSettings.demo(), language=args.language, word=args.word, clip=args.video,
+                       size=args.size, backend=args.backend)
+    return execute(settings, args)
