@@ -16,7 +16,8 @@ They are scored with VPSNR (motion is re-synthesised, not waveform-matched).
   time-warped to nNorm = 16 samples, is matched to the group's gesture table with the end-weighted
   distance of eqs. 8-12/8-13 (a = 1, b = 0.5, RMS radians); if the best match is farther than E,
   it falls back to posture interpolation toward the nearest posture-table entry of its end frame.
-  Segments are joined with the raised cosine of eq. 8-9 over nBlend frames. q picks (nMin, nMax).
+  Segments are joined with the raised cosine of eq. 8-9 over nBlend frames. q picks (nMin, nMax,
+  beta): the seed does not say what its six operating points vary; here the segmentation density.
 - hybrid (§8.5): the same gesture segmentation, then per DOF a DCT of each segment keeping the
   first 3 coefficients (mean and two cosine amplitudes) quantised with the Appendix III bit
   allocations (4,3,2) ... (7,7,5) = q 0..7; ranges: mean in the DOF range, amplitudes within
@@ -32,7 +33,7 @@ from scipy.fft import dct
 from scipy.signal import savgol_filter
 
 from comparisons.coded_streams import StreamReader, StreamWriter
-from comparisons.vector_quantization import TABLES_DIR, nearest
+from comparisons.vector_quantization import TABLES_DIR, group_layout, nearest
 from comparisons.waveform_coders import DofCoder, uniform_index, uniform_value
 from media.errors import SigncastError
 
@@ -165,21 +166,6 @@ def load_model_tables(path: Path = MODEL_TABLE_PATH) -> dict[str, np.ndarray]:
         raise SigncastError(f"posture/gesture tables missing ({path}): run tools/train_vq_codebooks.py") from None
 
 
-def _table_groups(tables: dict, dof_names: list[str]) -> tuple[list[str], list[np.ndarray]]:
-    position = {name: i for i, name in enumerate(dof_names)}
-    names, groups = [], []
-    for group in [str(g) for g in tables["groups"]]:
-        members = [str(n) for n in tables[f"{group}_names"]]
-        if any(m not in position for m in members):
-            raise SigncastError(f"model table group {group} does not match this DOF layout")
-        names.append(group)
-        groups.append(np.array([position[m] for m in members], dtype=np.int64))
-    covered = sorted(np.concatenate(groups).tolist()) if groups else []
-    if covered != list(range(len(dof_names))):
-        raise SigncastError("the model table groups do not cover every DOF exactly once")
-    return names, groups
-
-
 # ---------------------------------------------------------------- coders
 
 class _GroupCoder(DofCoder):
@@ -231,8 +217,8 @@ class PostureCoder(_GroupCoder):
 class GestureCoder(_GroupCoder):
     """Gesture-based coding: speed-minimum segments matched to a gesture table, posture fallback."""
 
-    name, coder_id, unit = "gesture", 11, "(nMin, nMax) at 30 Hz"
-    settings = ((5, 60), (5, 45), (4, 36), (4, 28), (3, 20), (3, 14))
+    name, coder_id, unit = "gesture", 11, "(nMin, nMax at 30 Hz, beta)"
+    settings = ((12, 90, 0.5), (9, 75, 0.75), (7, 60, 1.0), (5, 45, 1.5), (4, 30, 2.0), (3, 20, 3.0))
     fit_threshold = 0.12  # E: weighted RMS radians per DOF
     blend_at_30 = 10
 
@@ -259,13 +245,13 @@ class GestureCoder(_GroupCoder):
         return np.concatenate(out)
 
     def _encode(self, writer, dofs, fps, setting):
-        n_min, n_max = (_frames(v, fps) for v in setting)
+        n_min, n_max = (_frames(v, fps) for v in setting[:2])
         n_blend = _frames(self.blend_at_30, fps)
         weights = gesture_weights()
         recon = np.empty_like(dofs)
         for group, postures, table in zip(self.groups, self.postures, self.gestures):
             x = dofs[:, group]
-            bounds = gesture_boundaries(x, fps, n_min, n_max)
+            bounds = gesture_boundaries(x, fps, n_min, n_max, beta=setting[2])
             start = int(nearest(x[:1], postures)[0])
             flags, indices, fallbacks = [], [], []
             for a, b in zip(bounds[:-1], bounds[1:]):
@@ -382,9 +368,10 @@ class HybridCoder(_GroupCoder):
 
 def _load(dof_names, tables):
     tables = tables if tables is not None else load_model_tables()
-    names, groups = _table_groups(tables, list(dof_names))
-    postures = [tables[f"posture_{g}"] for g in names]
-    gestures = [tables[f"gesture_{g}"] for g in names]
+    layout = group_layout(tables, list(dof_names), prefix="model")
+    groups = [idx for _, idx, _ in layout]
+    postures = [tables[f"posture_{g}"][:, columns] for g, _, columns in layout]
+    gestures = [tables[f"gesture_{g}"][:, :, columns] for g, _, columns in layout]
     return groups, postures, gestures
 
 

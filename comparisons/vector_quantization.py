@@ -41,32 +41,49 @@ def nearest(vectors: np.ndarray, codebook: np.ndarray, chunk: int = 4096) -> np.
     return out
 
 
-def train_codebook(vectors: np.ndarray, size: int, iterations: int = 15, seed: int = 0) -> np.ndarray:
-    """LBG: start from the centroid, split every code vector in two, refine with Lloyd iterations,
-    until `size` vectors. Empty cells are re-seeded at the worst-coded training vector. (size, k)."""
+def train_codebooks(vectors: np.ndarray, sizes, iterations: int = 12, seed: int = 0) -> dict[int, np.ndarray]:
+    """LBG: start from the centroid, split every code vector in two, refine with Lloyd iterations;
+    the codebook reached at each requested size (powers of two) is kept. Empty cells are re-seeded
+    at the worst-coded training vectors. Returns {size: (size, k)}."""
+    from scipy import sparse
+
     vectors = np.asarray(vectors, dtype=np.float64)
-    if len(vectors) < size:
-        raise SigncastError(f"{len(vectors)} training vectors cannot train a codebook of {size}")
+    sizes = sorted(int(s) for s in sizes)
+    if len(vectors) < sizes[-1]:
+        raise SigncastError(f"{len(vectors)} training vectors cannot train a codebook of {sizes[-1]}")
     rng = np.random.default_rng(seed)
     codebook = vectors.mean(axis=0, keepdims=True)
     spread = vectors.std(axis=0) + 1e-9
-    while len(codebook) < size:
-        n_new = min(len(codebook), size - len(codebook))
+    rows = np.arange(len(vectors))
+    books = {}
+    while len(codebook) < sizes[-1]:
+        n_new = min(len(codebook), sizes[-1] - len(codebook))
         jitter = 1e-2 * spread * rng.standard_normal((n_new, vectors.shape[1]))
         codebook = np.concatenate([codebook, codebook[:n_new] + jitter])
         codebook[:n_new] -= jitter
         for _ in range(iterations):
             index = nearest(vectors, codebook)
-            counts = np.bincount(index, minlength=len(codebook))
-            sums = np.zeros_like(codebook)
-            np.add.at(sums, index, vectors)
+            assign = sparse.csr_matrix((np.ones(len(vectors)), (index, rows)), shape=(len(codebook), len(vectors)))
+            counts = np.asarray(assign.sum(axis=1)).ravel()
+            sums = assign @ vectors
             filled = counts > 0
             codebook[filled] = sums[filled] / counts[filled, None]
             if not filled.all():
                 errors = np.sum((vectors - codebook[index]) ** 2, axis=1)
                 worst = np.argsort(errors)[::-1][:int((~filled).sum())]
                 codebook[~filled] = vectors[worst]
-    return codebook
+        if len(codebook) in sizes:
+            books[len(codebook)] = codebook.copy()
+    if 1 in sizes:
+        books[1] = vectors.mean(axis=0, keepdims=True)
+    return books
+
+
+def train_codebook(vectors: np.ndarray, size: int, iterations: int = 12, seed: int = 0) -> np.ndarray:
+    """One LBG codebook of `size` (a power of two) vectors."""
+    if size < 1 or size & (size - 1):
+        raise SigncastError(f"LBG codebook size must be a power of two, got {size}")
+    return train_codebooks(vectors, [size], iterations, seed)[size]
 
 
 def temporal_vectors(dofs: np.ndarray, dimension: int = TEMPORAL_DIMENSION) -> np.ndarray:
@@ -88,19 +105,21 @@ def load_vq_tables(path: Path = VQ_TABLE_PATH) -> dict[str, np.ndarray]:
         raise SigncastError(f"VQ codebooks missing ({path}): run tools/train_vq_codebooks.py") from None
 
 
-def group_layout(tables: dict[str, np.ndarray], dof_names: list[str]) -> list[tuple[str, np.ndarray]]:
-    """(group name, DOF indices into dof_names) for every spatial-VQ group of the tables."""
+def group_layout(tables: dict[str, np.ndarray], dof_names: list[str],
+                 prefix: str = "svq") -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """(group, DOF indices into dof_names, matching column indices of the group's tables) for each
+    group of the tables that has DOFs among dof_names. Every DOF must belong to exactly one group;
+    a group's codebooks restricted to the columns present stay valid codebooks of those DOFs."""
     position = {name: i for i, name in enumerate(dof_names)}
     layout = []
-    for group in [str(g) for g in tables["svq_groups"]]:
-        names = [str(n) for n in tables[f"svq_{group}_names"]]
-        missing = [n for n in names if n not in position]
-        if missing:
-            raise SigncastError(f"VQ group {group} needs DOFs this layout lacks: {', '.join(missing[:5])}")
-        layout.append((group, np.array([position[n] for n in names], dtype=np.int64)))
-    covered = np.concatenate([idx for _, idx in layout]) if layout else np.zeros(0, np.int64)
+    for group in [str(g) for g in tables[f"{prefix}_groups"]]:
+        members = [str(n) for n in tables[f"{prefix}_{group}_names"]]
+        columns = np.array([c for c, n in enumerate(members) if n in position], dtype=np.int64)
+        if len(columns):
+            layout.append((group, np.array([position[members[c]] for c in columns], dtype=np.int64), columns))
+    covered = np.concatenate([idx for _, idx, _ in layout]) if layout else np.zeros(0, np.int64)
     if sorted(covered.tolist()) != list(range(len(dof_names))):
-        raise SigncastError("the VQ groups of the tables do not cover every DOF exactly once")
+        raise SigncastError("the groups of the shipped tables do not cover these DOFs exactly once")
     return layout
 
 
@@ -177,8 +196,9 @@ class TemporalVQ(DofCoder):
 def spatial_vq(lower, upper, dof_names: list[str], tables: dict | None = None, stage: str | None = None) -> SpatialVQ:
     tables = tables if tables is not None else load_vq_tables()
     layout = group_layout(tables, dof_names)
-    books = [{size: tables[f"svq_{group}_{size}"] for size in CODEBOOK_SIZES} for group, _ in layout]
-    return SpatialVQ(lower, upper, [idx for _, idx in layout], books, stage=stage)
+    books = [{size: tables[f"svq_{group}_{size}"][:, columns] for size in CODEBOOK_SIZES}
+             for group, _, columns in layout]
+    return SpatialVQ(lower, upper, [idx for _, idx, _ in layout], books, stage=stage)
 
 
 def temporal_vq(lower, upper, tables: dict | None = None, stage: str | None = None) -> TemporalVQ:

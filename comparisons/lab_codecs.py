@@ -1,0 +1,205 @@
+"""The motion-coding laboratory of seed 002 as Motion codecs: Motion -> DOFs (T, D) -> bytes -> DOFs -> Motion.
+
+DOFs are the avatar's rotation BAPs (comparisons/fba_mapping.py: flexion, abduction, twist per bone,
+radians) of the signing bones: spine, neck, head, both arms and both hands (legs, pelvis and the
+root do not sign). Joint groups (seed 002 table 6-1, minus the legs): torso_head, left_arm,
+left_hand, right_arm, right_hand. DOF ranges (the quantiser limits, the role the joint limits play
+in seed 002) are measured on the training split of the lexicon and shipped in
+comparisons/tables/lab_dof_ranges.npz with the codebooks.
+
+A coded clip is b"SCL1" | coder id (u8) | active-DOF mask (ceil(D/8) bytes) | inner stream | CRC-32:
+DOFs that stay exactly 0 (the rest pose) in the clip are not coded, the others go to the coder.
+"""
+from __future__ import annotations
+
+import functools
+import struct
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from comparisons import bap_table
+from comparisons.coded_streams import DEFAULT_STAGE
+from comparisons.fba_mapping import avatar_bap_map, baps_to_motion, motion_to_baps
+from comparisons.model_coders import HybridCoder, gesture_coder, hybrid_coder, load_model_tables, posture_coder
+from comparisons.vector_quantization import TABLES_DIR, load_vq_tables, spatial_vq, temporal_vq
+from comparisons.waveform_coders import WAVEFORM_CODERS, DofCoder
+from media.errors import SigncastError
+from media.motion import Motion
+
+RANGES_PATH = TABLES_DIR / "lab_dof_ranges.npz"
+MAGIC = b"SCL1"
+NOT_SIGNING = {"root", "pelvis", "upperleg01", "upperleg02", "lowerleg01", "lowerleg02", "foot", "toe1-1"}
+HAND_BONES = ("finger", "metacarpal")
+ARM_BONES = ("clavicle", "shoulder01", "upperarm", "lowerarm", "wrist")
+WAVEFORM_NAMES = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavelet", "svq", "tvq")
+MODEL_NAMES = ("posture", "gesture", "hybrid")
+LAB_CODEC_NAMES = WAVEFORM_NAMES + MODEL_NAMES
+CODER_IDS = {name: i + 1 for i, name in enumerate(LAB_CODEC_NAMES)}
+
+
+@dataclass(frozen=True)
+class DofLayout:
+    """names (D,): BAP names; bap_ids (D,): 1-based BAP ids; groups: {group: DOF indices}."""
+    names: tuple[str, ...]
+    bap_ids: np.ndarray
+    groups: dict[str, np.ndarray]
+
+    @property
+    def n_dofs(self) -> int:
+        return len(self.names)
+
+
+def _group_of(bone: str) -> str:
+    base, _, side = bone.partition(".")
+    side = {"L": "left", "R": "right"}.get(side)
+    if side and base.startswith(HAND_BONES):
+        return f"{side}_hand"
+    if side and base.startswith(ARM_BONES):
+        return f"{side}_arm"
+    if side is None:
+        return "torso_head"
+    raise SigncastError(f"bone {bone} belongs to no signing group")
+
+
+@functools.lru_cache(maxsize=1)
+def dof_layout() -> DofLayout:
+    bap_map = avatar_bap_map()
+    names, ids, groups = [], [], {}
+    for bone in bap_map.bones:
+        if bone.bone.partition(".")[0] in NOT_SIGNING:
+            continue
+        group = _group_of(bone.bone)
+        for bap_id in bone.baps:
+            groups.setdefault(group, []).append(len(names))
+            names.append(bap_table.bap(bap_id).name)
+            ids.append(bap_id)
+    return DofLayout(tuple(names), np.array(ids), {g: np.array(v) for g, v in groups.items()})
+
+
+def motion_dofs(motion: Motion) -> np.ndarray:
+    """(T, D) radians: the signing DOFs of a Motion on the avatar."""
+    baps = motion_to_baps(motion)
+    return baps[:, dof_layout().bap_ids - 1].astype(np.float64) * bap_table.ROTATION_UNIT_RAD
+
+
+def dofs_motion(dofs: np.ndarray, fps: float) -> Motion:
+    """Motion of the avatar's mapped bones from (T, D) signing DOFs (every other BAP at 0)."""
+    layout = dof_layout()
+    values = np.zeros((len(dofs), bap_table.N_BAPS), dtype=np.int64)
+    values[:, layout.bap_ids - 1] = np.rint(np.asarray(dofs) / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
+    return baps_to_motion(values, fps)
+
+
+@functools.lru_cache(maxsize=1)
+def dof_ranges(path: Path = RANGES_PATH) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) (D,) radians of the layout, from the shipped table."""
+    try:
+        with np.load(path, allow_pickle=False) as table:
+            names, lower, upper = [str(n) for n in table["names"]], table["lower"], table["upper"]
+    except OSError:
+        raise SigncastError(f"DOF ranges missing ({path}): run tools/train_vq_codebooks.py") from None
+    if tuple(names) != dof_layout().names:
+        raise SigncastError("the shipped DOF ranges do not match the avatar's DOF layout: retrain the tables")
+    return lower.astype(np.float64), upper.astype(np.float64)
+
+
+@functools.lru_cache(maxsize=1)
+def _tables() -> tuple[dict, dict]:
+    return load_vq_tables(), load_model_tables()
+
+
+def make_coder(name: str, active: np.ndarray, stage: str | None = None) -> DofCoder:
+    """The coder `name` over the active DOFs (bool mask (D,)) of the layout."""
+    lower, upper = dof_ranges()
+    names = [n for n, a in zip(dof_layout().names, active) if a]
+    lower, upper = lower[active], upper[active]
+    if name in WAVEFORM_CODERS:
+        return WAVEFORM_CODERS[name](lower, upper, stage=stage)
+    vq, model = _tables()
+    builders = {
+        "svq": lambda: spatial_vq(lower, upper, names, vq, stage),
+        "tvq": lambda: temporal_vq(lower, upper, vq, stage),
+        "posture": lambda: posture_coder(lower, upper, names, model, stage),
+        "gesture": lambda: gesture_coder(lower, upper, names, model, stage),
+        "hybrid": lambda: hybrid_coder(lower, upper, names, model, stage),
+    }
+    if name not in builders:
+        raise SigncastError(f"unknown motion coder {name!r}; choose from {', '.join(LAB_CODEC_NAMES)}")
+    return builders[name]()
+
+
+class LabCodec:
+    """One seed-002 coder as a Motion codec: encode(motion, q) -> bytes, decode(bytes) -> Motion."""
+
+    def __init__(self, name: str, stage: str = DEFAULT_STAGE):
+        if name not in CODER_IDS:
+            raise SigncastError(f"unknown motion coder {name!r}; choose from {', '.join(LAB_CODEC_NAMES)}")
+        self.name = name
+        self.stage = stage
+        self.quality_measure = "vpsnr" if name in MODEL_NAMES else "psnr"
+
+    def settings(self) -> tuple:
+        return (HybridCoder.settings if self.name == "hybrid" else
+                make_coder(self.name, np.ones(dof_layout().n_dofs, bool)).settings)
+
+    def encode_dofs(self, dofs: np.ndarray, fps: float, q: int) -> tuple[bytes, np.ndarray]:
+        """(T, D) layout DOFs -> (bytes, the decoder's (T, D) reconstruction)."""
+        dofs = np.asarray(dofs, dtype=np.float64)
+        layout = dof_layout()
+        if dofs.ndim != 2 or dofs.shape[1] != layout.n_dofs:
+            raise SigncastError(f"{self.name}: DOFs must be (T, {layout.n_dofs}), got {dofs.shape}")
+        active = np.any(dofs != 0.0, axis=0)
+        if not active.any():
+            active[0] = True  # a clip of pure rest pose still needs one coded DOF to carry T and fps
+        inner, recon_active = make_coder(self.name, active, self.stage).encode(dofs[:, active], fps, q)
+        body = MAGIC + bytes([CODER_IDS[self.name]]) + np.packbits(active).tobytes() + inner
+        recon = np.zeros_like(dofs)
+        recon[:, active] = recon_active
+        return body + struct.pack("<I", zlib.crc32(body)), recon
+
+    def decode_dofs(self, data: bytes) -> tuple[np.ndarray, float]:
+        data = bytes(data)
+        layout = dof_layout()
+        mask_bytes = -(-layout.n_dofs // 8)
+        if len(data) < 5 + mask_bytes + 4 or data[:4] != MAGIC:
+            raise SigncastError(f"not a {self.name} motion stream (bad magic or truncated)")
+        body, (crc,) = data[:-4], struct.unpack("<I", data[-4:])
+        if zlib.crc32(body) != crc:
+            raise SigncastError(f"corrupt {self.name} motion stream: checksum mismatch")
+        if body[4] != CODER_IDS[self.name]:
+            raise SigncastError(f"{self.name} decoder got a stream of another coder (id {body[4]})")
+        active = np.unpackbits(np.frombuffer(body[5:5 + mask_bytes], np.uint8))[:layout.n_dofs].astype(bool)
+        if not active.any():
+            raise SigncastError(f"corrupt {self.name} motion stream: no active DOF")
+        recon_active, fps = make_coder(self.name, active, self.stage).decode_with_fps(body[5 + mask_bytes:])
+        recon = np.zeros((len(recon_active), layout.n_dofs))
+        recon[:, active] = recon_active
+        return recon, fps
+
+    def encode(self, motion: Motion, q: int) -> bytes:
+        return self.encode_dofs(motion_dofs(motion), motion.fps, q)[0]
+
+    def decode(self, data: bytes) -> Motion:
+        dofs, fps = self.decode_dofs(data)
+        return dofs_motion(dofs, fps)
+
+
+LAB_CODECS = {name: LabCodec(name) for name in LAB_CODEC_NAMES}
+
+
+EVALUATION_LANGUAGES = ("ase", "gsg", "tsm")  # charted; never used to train tables (tools/train_vq_codebooks.py)
+
+
+def alphabet_motion(language: str, fps: float = 25.0) -> Motion:
+    """The language's whole alphabet fingerspelled in lexicon order: the long test sequence."""
+    from media import lexicon
+    from media.fingerspelling import fingerspell
+    return fingerspell(language, "".join(lexicon.units(language)), fps)
+
+
+def training_languages() -> list[str]:
+    from media import lexicon
+    return [language for language in lexicon.languages() if language not in EVALUATION_LANGUAGES]

@@ -1,0 +1,162 @@
+"""Waveform coders of seed 002 ch. 7: exact decoders, rate/quality trends, clean failures."""
+import numpy as np
+import pytest
+
+from comparisons.coded_streams import (StreamReader, StreamWriter, from_magnitude_classes, magnitude_classes,
+                                       pack_bits, unpack_bits)
+from comparisons.waveform_coders import (WAVEFORM_CODERS, DeadReckoningCoder, UniformQuantizer, haar_forward,
+                                         haar_inverse)
+from media.errors import SigncastError
+
+FPS = 25.0
+
+
+def signing_like(n_frames: int = 150, seed: int = 0) -> np.ndarray:
+    """(T, 5) radians: smooth moves between held postures (as letters), a sinusoid, a still DOF."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n_frames) / FPS
+    holds = rng.uniform(-1.0, 1.0, size=(n_frames // 25 + 2, 3))
+    position = np.arange(n_frames) / 25.0
+    k = np.floor(position).astype(int)
+    f = position - k
+    smooth = f * f * (3 - 2 * f)
+    moves = holds[k] + (holds[k + 1] - holds[k]) * smooth[:, None]
+    wave = 0.6 * np.sin(2 * np.pi * 1.3 * t)
+    still = np.full(n_frames, 0.25)
+    return np.column_stack([moves, wave, still])
+
+
+LOWER, UPPER = np.full(5, -1.6), np.full(5, 1.6)
+
+
+def psnr(original, decoded):
+    spread = np.ptp(original, axis=0)
+    moving = spread > 1e-9
+    mse = np.mean((original - decoded) ** 2, axis=0)[moving]
+    return float(np.mean(10 * np.log10(spread[moving] ** 2 / np.maximum(mse, 1e-30))))
+
+
+@pytest.mark.parametrize("name", sorted(WAVEFORM_CODERS))
+def test_decoder_reproduces_encoder_reconstruction_exactly_and_quality_rises_with_q(name):
+    dofs = signing_like()
+    coder = WAVEFORM_CODERS[name](LOWER, UPPER)
+    results = []
+    for q in (0, len(coder.settings) - 1):
+        data, recon = coder.encode(dofs, FPS, q)
+        decoded, fps = coder.decode_with_fps(data)
+        assert fps == FPS
+        assert decoded.shape == dofs.shape
+        assert np.array_equal(decoded, recon)
+        results.append((len(data), psnr(dofs, recon)))
+    (bytes_low, psnr_low), (bytes_high, psnr_high) = results
+    assert bytes_high > bytes_low
+    assert psnr_high > psnr_low + 10.0
+    assert psnr_high > 35.0
+
+
+@pytest.mark.parametrize("name", sorted(WAVEFORM_CODERS))
+def test_corrupt_or_truncated_stream_raises_signcast_error(name):
+    coder = WAVEFORM_CODERS[name](LOWER, UPPER)
+    data, _ = coder.encode(signing_like(60), FPS, 1)
+    damaged = bytearray(data)
+    damaged[len(data) // 2] ^= 0x5A
+    for bad in (bytes(damaged), data[:-3], data[: len(data) // 2], b"", b"SCM1" + bytes(30)):
+        with pytest.raises(SigncastError):
+            coder.decode(bad)
+
+
+def test_stream_of_another_coder_is_rejected():
+    data, _ = WAVEFORM_CODERS["dpcm"](LOWER, UPPER).encode(signing_like(40), FPS, 1)
+    with pytest.raises(SigncastError, match="coder id"):
+        WAVEFORM_CODERS["adpcm"](LOWER, UPPER).decode(data)
+
+
+def test_bad_input_and_q_raise_signcast_error():
+    coder = WAVEFORM_CODERS["dct"](LOWER, UPPER)
+    dofs = signing_like(40)
+    with pytest.raises(SigncastError):
+        coder.encode(dofs[:, :3], FPS, 0)
+    broken = dofs.copy()
+    broken[3, 1] = np.nan
+    with pytest.raises(SigncastError):
+        coder.encode(broken, FPS, 0)
+    with pytest.raises(SigncastError):
+        coder.encode(dofs, FPS, 99)
+    with pytest.raises(SigncastError):
+        WAVEFORM_CODERS["quant"](UPPER, LOWER)
+
+
+def test_uniform_quantizer_error_is_within_half_a_step():
+    dofs = signing_like()
+    levels = 32
+    coder = UniformQuantizer(LOWER, UPPER)
+    _, recon = coder.encode(dofs, FPS, coder.settings.index(levels))
+    assert np.max(np.abs(recon - dofs)) <= (UPPER - LOWER)[0] / levels / 2 + 1e-12
+
+
+def test_dead_reckoning_error_never_exceeds_its_threshold():
+    dofs = signing_like()
+    coder = DeadReckoningCoder(LOWER, UPPER)
+    for q in (0, 3):
+        _, recon = coder.encode(dofs, FPS, q)
+        assert np.max(np.abs(recon - dofs)) <= np.radians(coder.settings[q]) + 1e-9
+
+
+def test_dpcm_with_eight_levels_matches_sixty_four_level_direct_quantization():
+    """Seed 002 §7.5: 8-level DPCM has about the error of 64-level direct quantisation, at a lower rate."""
+    dofs = signing_like(250)
+    dpcm = WAVEFORM_CODERS["dpcm"](LOWER, UPPER)
+    quant = WAVEFORM_CODERS["quant"](LOWER, UPPER)
+    dpcm_bytes, dpcm_recon = dpcm.encode(dofs, FPS, dpcm.settings.index(8))
+    quant_bytes, quant_recon = quant.encode(dofs, FPS, quant.settings.index(64))
+    assert psnr(dofs, dpcm_recon) > psnr(dofs, quant_recon) - 6.0
+    assert len(dpcm_bytes) < len(quant_bytes)
+
+
+@pytest.mark.parametrize("stage", ["arithmetic", "huffman", "fixed"])
+def test_every_entropy_stage_round_trips(stage):
+    dofs = signing_like(80)
+    coder = WAVEFORM_CODERS["dpcm"](LOWER, UPPER, stage=stage)
+    data, recon = coder.encode(dofs, FPS, 2)
+    assert np.array_equal(coder.decode(data), recon)
+
+
+def test_entropy_coding_shortens_the_fixed_length_code():
+    dofs = signing_like(200)
+    sizes = {stage: len(WAVEFORM_CODERS["dpcm"](LOWER, UPPER, stage=stage).encode(dofs, FPS, 3)[0])
+             for stage in ("fixed", "huffman", "arithmetic")}
+    assert sizes["arithmetic"] < sizes["fixed"]
+    assert sizes["huffman"] < sizes["fixed"]
+
+
+def test_bit_packing_and_magnitude_classes_round_trip():
+    rng = np.random.default_rng(3)
+    widths = rng.integers(0, 20, size=200)
+    values = rng.integers(0, 1 << 20, size=200) % np.left_shift(1, widths)
+    assert np.array_equal(unpack_bits(pack_bits(values, widths), widths), values)
+    signed = np.concatenate([[0, 1, -1, 2, -2, 1023, -1024], rng.integers(-10**9, 10**9, size=100)])
+    classes, mantissa, mantissa_widths = magnitude_classes(signed)
+    assert np.array_equal(classes, [int(abs(v)).bit_length() for v in signed])
+    assert np.array_equal(from_magnitude_classes(classes, mantissa), signed)
+
+
+def test_container_sections_read_back_in_order():
+    writer = StreamWriter(7, 3, 10, 2, 30.0)
+    writer.header(b"side info")
+    writer.symbols(np.array([0, 4, 4, 1]), 5)
+    writer.signed(np.array([-5, 0, 12]))
+    reader = StreamReader(writer.finish(), 7, "test")
+    assert (reader.info.q, reader.info.n_frames, reader.info.n_dofs, reader.info.fps) == (3, 10, 2, 30.0)
+    assert reader.header() == b"side info"
+    assert reader.symbols(5).tolist() == [0, 4, 4, 1]
+    assert reader.signed().tolist() == [-5, 0, 12]
+    reader.finish()
+
+
+def test_haar_transform_is_orthonormal_and_invertible():
+    rng = np.random.default_rng(1)
+    blocks = rng.standard_normal((3, 4, 16))
+    bands = haar_forward(blocks)
+    assert np.allclose(haar_inverse(bands), blocks)
+    energy = sum(np.sum(b ** 2) for b in bands)
+    assert np.isclose(energy, np.sum(blocks ** 2))
