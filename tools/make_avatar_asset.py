@@ -48,6 +48,32 @@ def part_of_bone(name: str) -> int:
     return PART_BODY
 
 
+def part_labels(vertices: np.ndarray, triangles: np.ndarray, triangle_shape: np.ndarray, dominant: np.ndarray,
+                order: list[str], heads: np.ndarray) -> np.ndarray:
+    """Part label of each triangle, cut like clothes: a neckline and two sleeve cuffs.
+
+    Bones pick the limb (a triangle belongs to the arm whose bones dominate its vertices); planes place the
+    border, so the skin/clothes edge is a clean line instead of the zigzag of the weight boundaries.
+    Neckline: a plane just below the neck joint, lower in front. Cuffs: planes across each forearm 1.5 cm
+    before the wrist joint.
+    """
+    centroid = vertices[triangles].mean(axis=1)
+    head = heads[order.index("neck01")]
+    neckline = head[1] - 0.004 - 0.25 * (centroid[:, 2] - head[2])
+    part = np.full(len(triangles), PART_BODY, dtype=np.uint8)
+    part[(centroid[:, 1] > neckline) & (np.abs(centroid[:, 0]) < 0.12)] = PART_HEAD
+    majority_bone = np.array([np.bincount(dominant[t]).argmax() for t in triangles])
+    for side, label in ((".L", PART_LEFT_HAND), (".R", PART_RIGHT_HAND)):
+        elbow, wrist = heads[order.index("lowerarm01" + side)], heads[order.index("wrist" + side)]
+        axis = (wrist - elbow) / np.linalg.norm(wrist - elbow)
+        on_forearm_or_hand = np.isin(majority_bone, [i for i, n in enumerate(order) if n.endswith(side) and
+                                                      n.startswith(("lowerarm", "wrist", "metacarpal", "finger"))])
+        past_cuff = (centroid - wrist) @ axis > -0.015
+        part[on_forearm_or_hand & past_cuff] = label
+    part[triangle_shape > 0] = PART_HEAD   # the eyes
+    return part
+
+
 def main(data_dir: str) -> None:
     data = Path(data_dir)
     all_vertices, faces_by_group = read_obj(data / "3dobjs" / "base.obj")
@@ -118,11 +144,7 @@ def main(data_dir: str) -> None:
         indptr[v + 1] = len(bones_flat)
 
     dominant = np.array([max(row, key=lambda bw: bw[1])[0] for row in rows])
-    vertex_part = np.array([part_of_bone(order[b]) for b in dominant], dtype=np.uint8)
-    tri_parts = vertex_part[triangles]
-    # A triangle takes the part of the majority of its vertices (ties: the first vertex's).
-    triangle_part = np.where(tri_parts[:, 1] == tri_parts[:, 2], tri_parts[:, 1], tri_parts[:, 0]).astype(np.uint8)
-    triangle_part[np.asarray(triangle_shape) > 0] = PART_HEAD   # eyes belong to the head
+    triangle_part = part_labels(vertices, triangles, np.asarray(triangle_shape), dominant, order, heads)
 
     out = Path(__file__).resolve().parents[1] / "media" / "assets" / "makehuman_base.npz"
     np.savez_compressed(
