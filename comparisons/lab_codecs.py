@@ -23,8 +23,10 @@ import numpy as np
 from comparisons import bap_table
 from comparisons.coded_streams import DEFAULT_STAGE
 from comparisons.fba_mapping import avatar_bap_map, baps_to_motion, motion_to_baps
-from comparisons.model_coders import HybridCoder, gesture_coder, hybrid_coder, load_model_tables, posture_coder
-from comparisons.vector_quantization import TABLES_DIR, load_vq_tables, spatial_vq, temporal_vq
+from comparisons.model_coders import (GestureCoder, HybridCoder, PostureCoder, gesture_coder, hybrid_coder,
+                                      load_model_tables, posture_coder)
+from comparisons.vector_quantization import (TABLES_DIR, SpatialVQ, TemporalVQ, load_vq_tables, spatial_vq,
+                                             temporal_vq)
 from comparisons.waveform_coders import WAVEFORM_CODERS, DofCoder
 from media.errors import SigncastError
 from media.motion import Motion
@@ -131,22 +133,49 @@ def make_coder(name: str, active: np.ndarray, stage: str | None = None) -> DofCo
     return builders[name]()
 
 
+DESCRIPTIONS = {
+    "quant": "direct uniform quantisation per DOF (levels)",
+    "nuquant": "mu-law companded quantisation per DOF (levels)",
+    "dpcm": "first-order DPCM, mu-law difference quantiser (levels)",
+    "adpcm": "adaptive predictive coding, order 2, Jayant-adapted quantiser (levels)",
+    "deadreck": "dead reckoning, constant-velocity extrapolation (threshold, degrees)",
+    "dct": "16-sample DCT blocks, Appendix III bit allocations",
+    "wavelet": "Haar wavelet of 16-sample blocks (step, rad)",
+    "svq": "spatial VQ per joint group (codebook size)",
+    "tvq": "temporal VQ of 6-sample blocks, closed loop (codebook size)",
+    "posture": "posture segmentation + posture table + Hermite interpolation (distance d, rad)",
+    "gesture": "gesture segmentation + gesture table, posture fallback (segmentation density)",
+    "hybrid": "gesture segmentation + 3 DCT coefficients per segment (bit allocation)",
+}
+
+
 class LabCodec:
-    """One seed-002 coder as a Motion codec: encode(motion, q) -> bytes, decode(bytes) -> Motion."""
+    """One seed-002 coder as a Motion codec for comparisons/param_codecs.py:
+    encode(motion, q) -> bytes, decode(bytes) -> Motion, with q = 1 .. len(settings()) the
+    operating point (1 = lowest rate), as the MPEG-4 codecs' Q is an integer knob."""
 
     def __init__(self, name: str, stage: str = DEFAULT_STAGE):
         if name not in CODER_IDS:
             raise SigncastError(f"unknown motion coder {name!r}; choose from {', '.join(LAB_CODEC_NAMES)}")
         self.name = name
         self.stage = stage
+        self.description = f"seed 002: {DESCRIPTIONS[name]}"
         self.quality_measure = "vpsnr" if name in MODEL_NAMES else "psnr"
 
     def settings(self) -> tuple:
-        return (HybridCoder.settings if self.name == "hybrid" else
-                make_coder(self.name, np.ones(dof_layout().n_dofs, bool)).settings)
+        """The coder's operating points, q = 1 .. len()."""
+        return {**WAVEFORM_CODERS, "svq": SpatialVQ, "tvq": TemporalVQ, "posture": PostureCoder,
+                "gesture": GestureCoder, "hybrid": HybridCoder}[self.name].settings
 
-    def encode_dofs(self, dofs: np.ndarray, fps: float, q: int) -> tuple[bytes, np.ndarray]:
-        """(T, D) layout DOFs -> (bytes, the decoder's (T, D) reconstruction)."""
+    def index_of(self, q: int) -> int:
+        settings = self.settings()
+        if not (isinstance(q, (int, np.integer)) and 1 <= q <= len(settings)):
+            raise SigncastError(f"{self.name}: q must be 1..{len(settings)} "
+                                f"({', '.join(f'{k + 1}={v}' for k, v in enumerate(settings))}), got {q!r}")
+        return int(q) - 1
+
+    def encode_dofs(self, dofs: np.ndarray, fps: float, index: int) -> tuple[bytes, np.ndarray]:
+        """(T, D) layout DOFs at operating point `index` (0-based) -> (bytes, the decoder's (T, D))."""
         dofs = np.asarray(dofs, dtype=np.float64)
         layout = dof_layout()
         if dofs.ndim != 2 or dofs.shape[1] != layout.n_dofs:
@@ -154,7 +183,7 @@ class LabCodec:
         active = np.any(dofs != 0.0, axis=0)
         if not active.any():
             active[0] = True  # a clip of pure rest pose still needs one coded DOF to carry T and fps
-        inner, recon_active = make_coder(self.name, active, self.stage).encode(dofs[:, active], fps, q)
+        inner, recon_active = make_coder(self.name, active, self.stage).encode(dofs[:, active], fps, index)
         body = MAGIC + bytes([CODER_IDS[self.name]]) + np.packbits(active).tobytes() + inner
         recon = np.zeros_like(dofs)
         recon[:, active] = recon_active
@@ -180,14 +209,16 @@ class LabCodec:
         return recon, fps
 
     def encode(self, motion: Motion, q: int) -> bytes:
-        return self.encode_dofs(motion_dofs(motion), motion.fps, q)[0]
+        return self.encode_dofs(motion_dofs(motion), motion.fps, self.index_of(q))[0]
 
     def decode(self, data: bytes) -> Motion:
         dofs, fps = self.decode_dofs(data)
         return dofs_motion(dofs, fps)
 
 
-LAB_CODECS = {name: LabCodec(name) for name in LAB_CODEC_NAMES}
+def lab_codecs() -> list[LabCodec]:
+    """The twelve coders, for registration in comparisons/param_codecs.py."""
+    return [LabCodec(name) for name in LAB_CODEC_NAMES]
 
 
 EVALUATION_LANGUAGES = ("ase", "gsg", "tsm")  # charted; never used to train tables (tools/train_vq_codebooks.py)

@@ -94,3 +94,10 @@ def codec_names() -> list[str]:
 
 for _codec in (FbaCodec("pred"), FbaCodec("dct"), BbaCodec("pred"), BbaCodec("dct"), BbaCodec("pred", keyframes=True)):
     register(_codec)
+
+# Seed-002 motion-coding laboratory (comparisons/lab_codecs.py): quant, nuquant, dpcm, adpcm, deadreck, dct,
+# wavelet, svq, tvq, posture, gesture, hybrid; their q is the operating point 1..n (1 = lowest rate).
+from comparisons.lab_codecs import lab_codecs as _lab_codecs  # noqa: E402
+
+for _codec in _lab_codecs():
+    register(_codec)

@@ -23,6 +23,7 @@ COMMAND_MODULES = [
     "pipeline.commands.video",
     "pipeline.commands.render",
     "pipeline.commands.params",
+    "pipeline.commands.lab",
 ]
 
 
