@@ -24,6 +24,7 @@ COMMAND_MODULES = [
     "pipeline.commands.render",
     "pipeline.commands.params",
     "pipeline.commands.lab",
+    "pipeline.commands.analyze",
 ]
 
 
