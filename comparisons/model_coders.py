@@ -6,9 +6,9 @@ They are scored with VPSNR (motion is re-synthesised, not waveform-matched).
 
 - posture (§8.2.1, §8.4.1, §8.4.3): a key frame each time the group's accumulated posture change
   s(n) = sum ||theta(m) - theta(m-1)|| (radians) crosses a multiple of d; each key posture is sent
-  as the index of the nearest entry of the group's posture table (greedy d-spaced postures of the
-  training split, joint angles: the seed found joint positions better, angles keep the decoder
-  free of forward kinematics); lags between keys are sent; the receiver Hermite-interpolates with
+  as the index of the nearest entry of the group's posture table (1024 LBG-clustered postures of the
+  training split, the clustering alternative the seed names to its greedy d-spacing; joint angles: the
+  seed found joint positions better, angles keep the decoder free of forward kinematics); lags between keys are sent; the receiver Hermite-interpolates with
   the slopes of eqs. 8-7/8-8 (zero slope at the first and last key). q picks d.
 - gesture (§8.2.2, §8.4.2, §8.4.4): boundaries at the group's speed minima below an adaptive
   threshold tau = beta * (moving average of the speed over nWin); segments longer than nMax are
@@ -193,7 +193,7 @@ class PostureCoder(_GroupCoder):
     """Posture-based coding: key postures by posture distance, posture-table indices, Hermite."""
 
     name, coder_id, unit = "posture", 10, "posture distance d (rad)"
-    settings = tuple(1.6 / k for k in (1, 2, 3, 4, 5, 6, 8))
+    settings = tuple(6.4 / k for k in (1, 2, 3, 4, 6, 8, 12, 16, 24, 32))  # seed: 80 / k, k = 1..8
 
     def _encode(self, writer, dofs, fps, distance):
         recon = np.empty_like(dofs)

@@ -4,7 +4,8 @@ Training split: every lexicon language except comparisons.lab_codecs.EVALUATION_
 charted ones), each fingerspelling its whole alphabet at 25 fps on the avatar. Writes
   comparisons/tables/lab_dof_ranges.npz  DOF quantiser ranges (training min/max widened by 25 %)
   comparisons/tables/vq_codebooks.npz    spatial VQ codebooks per group, temporal VQ codebooks (LBG)
-  comparisons/tables/model_tables.npz    posture tables (greedy d-spaced) and gesture tables per group
+  comparisons/tables/model_tables.npz    posture tables (LBG, 1024 postures: the clustering alternative of
+                                       seed 002 §8.4.1) and gesture tables (greedy D-spaced, eq. 8-11) per group
 (tables stored as float16: their resolution, ~0.002 rad, is far below the coders' errors)
 Run: python tools/train_vq_codebooks.py   (a few minutes on 2 cores; deterministic)
 """
@@ -20,7 +21,7 @@ from comparisons.model_coders import MODEL_TABLE_PATH, N_NORM, GestureCoder, _fr
 from comparisons.vector_quantization import (CODEBOOK_SIZES, VQ_TABLE_PATH, temporal_vectors, train_codebooks)
 
 FPS = 25.0
-MAX_POSTURES = 512
+MAX_POSTURES = 1024
 MAX_GESTURES = 256
 MIN_HALF_WIDTH = 0.1  # radians, for DOFs that never move in training
 
@@ -71,7 +72,7 @@ def main() -> int:
         data = frames[:, idx]
         for size, book in train_codebooks(data, CODEBOOK_SIZES).items():
             vq[f"svq_{group}_{size}"] = book.astype(np.float16)
-        postures, d = spaced_table(data, MAX_POSTURES, 0.1)
+        postures = train_codebooks(data, [MAX_POSTURES])[MAX_POSTURES]
         model[f"posture_{group}"] = postures.astype(np.float16)
         segments = []
         for sequence in sequences:
@@ -82,7 +83,7 @@ def main() -> int:
                 segments += [warp(x[a:b + 1], N_NORM) for a, b in zip(bounds[:-1], bounds[1:])]
         gestures, dg = spaced_table(np.array(segments), MAX_GESTURES, 0.1 * np.sqrt(N_NORM))
         model[f"gesture_{group}"] = gestures.astype(np.float16)
-        print(f"{group}: {len(idx)} DOFs, {len(postures)} postures (d = {d:.3f} rad), "
+        print(f"{group}: {len(idx)} DOFs, {len(postures)} postures, "
               f"{len(gestures)} gestures of {len(segments)} (D = {dg:.3f})", file=sys.stderr)
 
     vectors = np.concatenate([temporal_vectors(s[:, np.ptp(s, axis=0) > 1e-4]) for s in sequences])
