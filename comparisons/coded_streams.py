@@ -88,13 +88,22 @@ def _arithmetic_decode(data: bytes, count: int, alphabet: int) -> np.ndarray:
 
 
 def _huffman_encode(symbols: np.ndarray, alphabet: int) -> bytes:
-    """Static canonical Huffman: the code lengths of the used symbols, then the codes."""
+    """Static canonical Huffman: a flag bit, the code lengths of the used symbols, then the codes.
+    Flag 0 means fixed-length codes instead, used when the table would make the section longer
+    (so the Huffman stage never lengthens the code, seed 002 §7.4)."""
     from comparisons.bitstream import BitWriter
     from comparisons.entropy import CanonicalHuffman, huffman_code_lengths
     lengths = huffman_code_lengths(np.bincount(symbols, minlength=alphabet), max_length=24)
-    writer = BitWriter()
-    used = [s for s, n in enumerate(lengths) if n]
     index_bits = max(int(alphabet - 1).bit_length(), 1)
+    used = [s for s, n in enumerate(lengths) if n]
+    coded_bits = (index_bits + 1) + len(used) * (index_bits + 5) + int(np.sum(np.asarray(lengths)[symbols]))
+    writer = BitWriter()
+    if coded_bits >= _fixed_width(alphabet) * len(symbols):
+        writer.write(0, 1)
+        for symbol in symbols.tolist():
+            writer.write(symbol, _fixed_width(alphabet))
+        return writer.getvalue()
+    writer.write(1, 1)
     writer.write(len(used), index_bits + 1)
     for symbol in used:
         writer.write(symbol, index_bits)
@@ -109,15 +118,18 @@ def _huffman_decode(data: bytes, count: int, alphabet: int) -> np.ndarray:
     from comparisons.bitstream import BitReader
     from comparisons.entropy import CanonicalHuffman
     reader = BitReader(data)
-    index_bits = max(int(alphabet - 1).bit_length(), 1)
-    lengths = [0] * alphabet
-    for _ in range(reader.read(index_bits + 1)):
-        symbol = reader.read(index_bits)
-        if symbol >= alphabet:
-            raise SigncastError("corrupt Huffman section: symbol outside the alphabet")
-        lengths[symbol] = reader.read(5)
-    code = CanonicalHuffman(lengths)
-    symbols = [code.decode(reader) for _ in range(count)]
+    if reader.read(1) == 0:
+        symbols = [reader.read(_fixed_width(alphabet)) for _ in range(count)]
+    else:
+        index_bits = max(int(alphabet - 1).bit_length(), 1)
+        lengths = [0] * alphabet
+        for _ in range(reader.read(index_bits + 1)):
+            symbol = reader.read(index_bits)
+            if symbol >= alphabet:
+                raise SigncastError("corrupt Huffman section: symbol outside the alphabet")
+            lengths[symbol] = reader.read(5)
+        code = CanonicalHuffman(lengths)
+        symbols = [code.decode(reader) for _ in range(count)]
     if (reader.pos + 7) // 8 != len(data):
         raise SigncastError("corrupt Huffman section: data does not end where the symbols do")
     return np.asarray(symbols, dtype=np.int64)

@@ -160,3 +160,14 @@ def test_haar_transform_is_orthonormal_and_invertible():
     assert np.allclose(haar_inverse(bands), blocks)
     energy = sum(np.sum(b ** 2) for b in bands)
     assert np.isclose(energy, np.sum(blocks ** 2))
+
+
+def test_huffman_stage_never_lengthens_the_fixed_length_code():
+    """Seed 002 §7.4: on a few symbols the code table would cost more than it saves; the stage then
+    falls back to fixed-length codes (one flag bit)."""
+    from comparisons.coded_streams import entropy_stage
+    huffman, fixed = entropy_stage("huffman"), entropy_stage("fixed")
+    for symbols, alphabet in ((np.array([3, 900, 17]), 1024), (np.arange(64) % 7, 8), (np.zeros(500, int), 256)):
+        coded = huffman.encode(symbols, alphabet)
+        assert len(coded) <= len(fixed.encode(symbols, alphabet)) + 1
+        assert np.array_equal(huffman.decode(coded, len(symbols), alphabet), symbols)
