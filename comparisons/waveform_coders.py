@@ -13,8 +13,9 @@ Choices the seed leaves open (digest §7.4) and the values used here:
 - non-uniform quantiser: mu-law with mu = 16 (values, about the range centre) and mu = 32 (differences);
   N levels (a power of two) become N - 1 symmetric mid-tread levels so that a still DOF costs ~0 bits;
 - ADPCM: order 2, autocorrelation method on the last round(fps) decoded samples (Hamming window,
-  mean removed, 1e-3 white-noise correction), mu-law difference quantiser (as DPCM) whose scale adapts with Jayant multipliers
-  beta(k) = 0.9 + 1.6 (k/M)^4 within [limit/4, 2 limit];
+  mean removed, 1e-3 white-noise correction), used per DOF only while its recent error on decoded
+  samples (forgetting factor 0.8) is below that of the previous-value predictor, mu-law difference quantiser (as DPCM) whose scale adapts with Jayant multipliers
+  beta(k) = 0.9 + 1.6 (k/M)^4 within [limit/2, 2 limit];
 - dead reckoning: constant velocity, 7-sample least-squares slope (3 frames sender delay, compensated),
   value step E/2, velocity step E/8 per frame;
 - DCT: N = 16, orthonormal DCT-II, Appendix III bit allocations (non-adaptive, no edge smoothing),
@@ -268,8 +269,11 @@ class AdpcmCoder(DofCoder):
             symbols = np.empty((n_frames - 1, self.n_dofs), dtype=np.int64)
         grid = mu_expand(np.arange(-half, half + 1) / half, DpcmCoder.mu)  # (K,) in [-1, 1]
         scale = limits.copy()
-        scale_min, scale_max = limits / 4.0, limits * 2.0
+        scale_min, scale_max = limits / 2.0, limits * 2.0
         rows = np.arange(self.n_dofs)
+        error_order1 = np.zeros(self.n_dofs)  # forgetting sums of squared prediction errors on decoded values
+        error_order2 = np.zeros(self.n_dofs)
+        order2 = None
         for t in range(1, n_frames):
             if t < 3:
                 prediction = recon[t - 1]
@@ -284,13 +288,17 @@ class AdpcmCoder(DofCoder):
                 det = r0 * r0 - r1 * r1
                 a1 = r1 * (r0 - r2) / det
                 a2 = (r0 * r2 - r1 * r1) / det
-                prediction = mean + a1 * (recon[t - 1] - mean) + a2 * (recon[t - 2] - mean)
+                order2 = mean + a1 * (recon[t - 1] - mean) + a2 * (recon[t - 2] - mean)
+                prediction = np.where(error_order2 < error_order1, order2, recon[t - 1])
             offsets = scale[:, None] * grid[None, :]  # (D, K)
             if dofs is not None:
                 symbols[t - 1] = np.abs(offsets - (dofs[t] - prediction)[:, None]).argmin(axis=1)
             k = symbols[t - 1] - half
             recon[t] = np.clip(prediction + offsets[rows, symbols[t - 1]], self.lower, self.upper)
             scale = np.clip(scale * (0.9 + 1.6 * (k / half) ** 4), scale_min, scale_max)
+            if order2 is not None:
+                error_order1 = 0.8 * error_order1 + (recon[t] - recon[t - 1]) ** 2
+                error_order2 = 0.8 * error_order2 + (recon[t] - order2) ** 2
         return recon, symbols
 
     def _encode(self, writer, dofs, fps, levels):
