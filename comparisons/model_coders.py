@@ -307,7 +307,7 @@ class HybridCoder(_GroupCoder):
         basis = np.stack([np.ones(length)] + [np.cos(np.pi * k * (2 * n + 1) / (2 * length)) for k in (1, 2)])
         return basis.T @ coefficients
 
-    def _synthesise(self, group, bounds, index, quantisers):
+    def _synthesise(self, group, bounds, index, quantisers, n_blend):
         """Receiver: segments [a, b) (the last one includes the final frame) from quantised coefficients."""
         n_frames = bounds[-1] + 1
         ends = list(bounds[1:-1]) + [n_frames]
@@ -318,7 +318,7 @@ class HybridCoder(_GroupCoder):
                                      for k, (lo, width, levels) in enumerate(quantisers)])
             values = self._segment_values(coefficients, b - a)
             if previous is not None:
-                blend = min(self._n_blend, b - a)
+                blend = min(n_blend, b - a)
                 w = raised_cosine(blend + 2)[1:-1, None]
                 values[:blend] = w * previous + (1.0 - w) * values[:blend]
             out[a:b] = values
@@ -328,7 +328,7 @@ class HybridCoder(_GroupCoder):
     def _encode(self, writer, dofs, fps, bits):
         quantisers = self._quantisers(bits)
         n_min, n_max = (_frames(v, fps) for v in self.segmentation_at_30)
-        self._n_blend = _frames(self.blend_at_30, fps)
+        n_blend = _frames(self.blend_at_30, fps)
         recon = np.empty_like(dofs)
         for group in self.groups:
             x = dofs[:, group]
@@ -347,12 +347,12 @@ class HybridCoder(_GroupCoder):
             writer.signed(np.diff(index[0], axis=0, prepend=0))
             for k in (1, 2):
                 writer.symbols(index[k], quantisers[k][2])
-            recon[:, group] = self._synthesise(group, bounds, index, quantisers)
+            recon[:, group] = self._synthesise(group, bounds, index, quantisers, n_blend)
         return recon
 
     def _decode(self, reader, n_frames, fps, bits):
         quantisers = self._quantisers(bits)
-        self._n_blend = _frames(self.blend_at_30, fps)
+        n_blend = _frames(self.blend_at_30, fps)
         recon = np.empty((n_frames, self.n_dofs))
         for group in self.groups:
             bounds = self._read_keys(reader, n_frames)
@@ -362,7 +362,7 @@ class HybridCoder(_GroupCoder):
                 raise SigncastError("corrupt hybrid stream: segment mean out of range")
             for k in (1, 2):
                 index.append(reader.symbols(quantisers[k][2], n_segments * len(group)).reshape(n_segments, len(group)))
-            recon[:, group] = self._synthesise(group, bounds, index, quantisers)
+            recon[:, group] = self._synthesise(group, bounds, index, quantisers, n_blend)
         return recon
 
 

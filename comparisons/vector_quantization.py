@@ -17,8 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from comparisons.coded_streams import StreamReader, StreamWriter
-from comparisons.waveform_coders import DofCoder, _read_first_frame, _write_first_frame
+from comparisons.waveform_coders import DofCoder, read_first_frame, write_first_frame
 from media.errors import SigncastError
 
 TABLES_DIR = Path(__file__).resolve().parent / "tables"
@@ -181,13 +180,13 @@ class TemporalVQ(DofCoder):
         return recon[:n_frames], symbols
 
     def _encode(self, writer, dofs, fps, size):
-        first = _write_first_frame(writer, self, dofs[0])
+        first = write_first_frame(writer, self, dofs[0])
         recon, symbols = self._run(first, len(dofs), self.codebooks[size], dofs=dofs)
         writer.symbols(symbols, size)
         return recon
 
     def _decode(self, reader, n_frames, fps, size):
-        first = _read_first_frame(reader, self)
+        first = read_first_frame(reader, self)
         n_blocks = -(-(n_frames - 1) // TEMPORAL_DIMENSION)
         symbols = reader.symbols(size, n_blocks * self.n_dofs).reshape(n_blocks, self.n_dofs)
         return self._run(first, n_frames, self.codebooks[size], symbols=symbols)[0]

@@ -125,14 +125,14 @@ def mu_expand(c: np.ndarray, mu: float) -> np.ndarray:
     return np.sign(c) * np.expm1(np.abs(c) * np.log1p(mu)) / mu
 
 
-def _write_first_frame(writer: StreamWriter, coder: DofCoder, first: np.ndarray) -> np.ndarray:
+def write_first_frame(writer: StreamWriter, coder: DofCoder, first: np.ndarray) -> np.ndarray:
     levels = 1 << FIRST_FRAME_BITS
     index = uniform_index(first, coder.lower, coder.width, levels)
     writer.raw(index, np.full(len(index), FIRST_FRAME_BITS))
     return uniform_value(index, coder.lower, coder.width, levels)
 
 
-def _read_first_frame(reader: StreamReader, coder: DofCoder) -> np.ndarray:
+def read_first_frame(reader: StreamReader, coder: DofCoder) -> np.ndarray:
     levels = 1 << FIRST_FRAME_BITS
     index = reader.raw(np.full(coder.n_dofs, FIRST_FRAME_BITS))
     return uniform_value(index, coder.lower, coder.width, levels)
@@ -240,7 +240,7 @@ class DpcmCoder(DofCoder):
 
     def _encode(self, writer, dofs, fps, levels):
         half = (levels - 2) // 2
-        first = _write_first_frame(writer, self, dofs[0])
+        first = write_first_frame(writer, self, dofs[0])
         limits = _write_diff_limits(writer, dofs)
         recon, symbols = self._run(first, self._steps(levels, limits), len(dofs), half, dofs=dofs)
         writer.symbols(symbols, 2 * half + 1)
@@ -248,7 +248,7 @@ class DpcmCoder(DofCoder):
 
     def _decode(self, reader, n_frames, fps, levels):
         half = (levels - 2) // 2
-        first = _read_first_frame(reader, self)
+        first = read_first_frame(reader, self)
         limits = _read_diff_limits(reader, self.n_dofs)
         symbols = reader.symbols(2 * half + 1, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs)
         return self._run(first, self._steps(levels, limits), n_frames, half, symbols=symbols)[0]
@@ -303,7 +303,7 @@ class AdpcmCoder(DofCoder):
 
     def _encode(self, writer, dofs, fps, levels):
         half = (levels - 2) // 2
-        first = _write_first_frame(writer, self, dofs[0])
+        first = write_first_frame(writer, self, dofs[0])
         limits = _write_diff_limits(writer, dofs)
         recon, symbols = self._run(first, limits, len(dofs), fps, half, dofs=dofs)
         writer.symbols(symbols, 2 * half + 1)
@@ -311,7 +311,7 @@ class AdpcmCoder(DofCoder):
 
     def _decode(self, reader, n_frames, fps, levels):
         half = (levels - 2) // 2
-        first = _read_first_frame(reader, self)
+        first = read_first_frame(reader, self)
         limits = _read_diff_limits(reader, self.n_dofs)
         symbols = reader.symbols(2 * half + 1, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs)
         return self._run(first, limits, n_frames, fps, half, symbols=symbols)[0]
@@ -341,7 +341,7 @@ class DeadReckoningCoder(DofCoder):
         slopes = least_squares_slope(dofs)
         n_frames = len(dofs)
         recon = np.empty_like(dofs)
-        recon[0] = _write_first_frame(writer, self, dofs[0])
+        recon[0] = write_first_frame(writer, self, dofs[0])
         velocity = np.zeros(self.n_dofs)
         flags = np.zeros((n_frames - 1, self.n_dofs), dtype=np.int64)
         value_codes, velocity_codes = [], []
@@ -366,7 +366,7 @@ class DeadReckoningCoder(DofCoder):
         threshold = np.radians(threshold_deg)
         value_step, velocity_step = threshold / 2.0, threshold / 8.0
         recon = np.empty((n_frames, self.n_dofs))
-        recon[0] = _read_first_frame(reader, self)
+        recon[0] = read_first_frame(reader, self)
         flags = reader.symbols(2, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs).astype(bool)
         n_updates = int(flags.sum())
         value_codes = reader.signed(n_updates)
