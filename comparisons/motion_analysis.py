@@ -158,6 +158,17 @@ def write_analysis(out_dir: Path, prefix: str, analysis: MotionAnalysis) -> list
             writer.writerow([name] + [f"{v:.4f}" for v in row])
     paths.append(correlation_path)
 
+    histogram_path = out_dir / f"{prefix}_histograms.csv"
+    with histogram_path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["group", "quantity", "bin_low_deg", "bin_high_deg", "density_per_deg"])
+        for group in analysis.values:
+            for quantity, samples in (("value", analysis.values[group]), ("difference", analysis.differences[group])):
+                density, edges = np.histogram(np.degrees(samples), bins=60, density=True)
+                for low, high, value in zip(edges[:-1], edges[1:], density):
+                    writer.writerow([group, quantity, f"{low:.4g}", f"{high:.4g}", f"{value:.6g}"])
+    paths.append(histogram_path)
+
     groups = list(analysis.group_psd)
     figure, axes = plt.subplots(2, max(len(groups), 1), figsize=(3.6 * max(len(groups), 1), 6.2), squeeze=False)
     for k, group in enumerate(groups):

@@ -46,7 +46,7 @@ def test_write_analysis_writes_tables_and_plots(tmp_path):
                      {"right_hand": np.array([0, 1]), "torso_head": np.array([2])})
     paths = write_analysis(tmp_path, "test", result)
     names = {p.name for p in paths}
-    assert {"test_dofs.csv", "test_groups.csv", "test_finger_correlation.csv", "test_psd.png",
+    assert {"test_dofs.csv", "test_groups.csv", "test_finger_correlation.csv", "test_histograms.csv", "test_psd.png",
             "test_distributions.png", "test_finger_correlation.png"} <= names
     assert all(p.stat().st_size > 0 for p in paths)
 

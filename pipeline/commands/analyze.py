@@ -13,7 +13,7 @@ def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "analyze", help="statistics of the retargeted lexicon per DOF and joint group (seed 002 ch. 5)",
         description="Fingerspell each LANGUAGE's whole alphabet on the avatar and write, per language, "
-                    "DIR/<lang>_dofs.csv, <lang>_groups.csv, <lang>_finger_correlation.csv and PNG plots "
+                    "DIR/<lang>_dofs.csv, <lang>_groups.csv, <lang>_finger_correlation.csv, <lang>_histograms.csv and PNG plots "
                     "(value and frame-difference distributions, long-term PSD per group, finger correlation).")
     parser.add_argument("languages", nargs="+", help="sign language codes, e.g. ase")
     parser.add_argument("--fps", type=float, default=25.0, help="frame rate of the analysed motion (default 25)")
