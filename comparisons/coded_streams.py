@@ -31,6 +31,7 @@ from media.errors import SigncastError
 MAGIC = b"SCM1"
 _HEADER = struct.Struct("<4sBBBIHI")
 _MAX_MAGNITUDE_CLASS = 40
+MAX_FRAMES = 1 << 18  # 2.9 h at 25 fps: bounds what a (possibly crafted) header can make a decoder allocate
 
 
 # ---------------------------------------------------------------- entropy stages
@@ -255,7 +256,7 @@ class StreamWriter:
         self.stage = entropy_stage(stage or DEFAULT_STAGE)
         if not (0 <= q < 256):
             raise SigncastError(f"quality index {q} out of range 0..255")
-        if not (0 < n_frames < 2**32 and 0 < n_dofs < 2**16):
+        if not (0 < n_frames <= MAX_FRAMES and 0 < n_dofs < 2**16):
             raise SigncastError(f"cannot code {n_frames} frames x {n_dofs} DOFs")
         self.parts = [_HEADER.pack(MAGIC, coder_id, self.stage.stage_id, q, n_frames, n_dofs,
                                    int(round(fps * 1000)))]
@@ -303,6 +304,8 @@ class StreamReader:
         if cid != coder_id:
             raise SigncastError(f"{coder_name} decoder got a stream of coder id {cid}")
         self.stage = _stage_by_id(stage_id)
+        if not (0 < n_frames <= MAX_FRAMES and n_dofs > 0 and fps_milli > 0):
+            raise SigncastError(f"corrupt {coder_name} stream: impossible header ({n_frames} frames, {n_dofs} DOFs)")
         self.info = StreamInfo(cid, q, n_frames, n_dofs, fps_milli / 1000.0)
         self.body = body
         self.pos = _HEADER.size

@@ -171,3 +171,15 @@ def test_huffman_stage_never_lengthens_the_fixed_length_code():
         coded = huffman.encode(symbols, alphabet)
         assert len(coded) <= len(fixed.encode(symbols, alphabet)) + 1
         assert np.array_equal(huffman.decode(coded, len(symbols), alphabet), symbols)
+
+
+def test_crafted_header_with_an_impossible_frame_count_is_rejected_before_allocating():
+    import struct
+    import zlib
+    coder = WAVEFORM_CODERS["dpcm"](LOWER, UPPER)
+    data, _ = coder.encode(signing_like(30), FPS, 1)
+    body = bytearray(data[:-4])
+    body[7:11] = struct.pack("<I", 3_000_000_000)  # T field of the header
+    crafted = bytes(body) + struct.pack("<I", zlib.crc32(bytes(body)))
+    with pytest.raises(SigncastError, match="impossible header"):
+        coder.decode(crafted)
