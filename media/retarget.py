@@ -11,13 +11,24 @@
 - Fingers: every phalanx from the 21 hand landmarks, in its parent's posed frame: flexion towards
   the palm and (at the knuckles and the thumb's base) abduction, each clamped to joint limits;
   the sign of each phalanx's depth is the one that respects the limits best (fingers flex
-  towards the palm). Metacarpals stay at rest.
+  towards the palm). Phalanges are lifted with the lexicon signer's own lengths (measured over
+  all the language's clips: the avatar's proximal phalanges are a third shorter than a real
+  hand's). Metacarpals stay at rest.
+- Closed hands (A, S, E, M, N, T, ...): MediaPipe places a fist's knuckle landmarks too near the
+  wrist (the knuckles hide behind the curled fingers), which tilts the fitted palm and makes the
+  proximal phalanges look long and upright, so a fist came out as a half-curled open hand. The
+  palm triangle is therefore also fitted as if the knuckles had slid towards the wrist (moving
+  the knuckle landmarks back out), and priors choose per frame (Viterbi): fingers flex towards
+  the palm within limits, a curled finger flexes at its knuckle, the wrist does not strain,
+  knuckles are assumed misplaced only when that helps; a curled finger's hidden last joint
+  flexes at least 2/3 of its middle joint. `Retargeted.overridden` marks what priors set.
 - A hand the clip never shows (ASL has no left hand) keeps its arm and fingers at rest; points
   missing in some frames take the nearest frame that has them. No output is ever NaN.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import functools
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -53,22 +64,40 @@ THUMB_LIMITS = {
 }
 ELBOW_MAX_FLEXION = 150.0    # degrees
 PALM_LANDMARKS = (0, 5, 17)   # wrist, index knuckle, little-finger knuckle
+KNUCKLE_LANDMARKS = (5, 9, 13, 17)
 # Weights (per radian of frame-to-frame rotation) of the continuity term that keeps the discrete
 # depth choices (palm mirror, phalanx dz sign) from flickering; costs are radians of limit violation.
 PALM_STEP_WEIGHT = 30.0
 PHALANX_STEP_WEIGHT = 3.0
 MIN_HAND_SHARE = 0.25       # a hand seen in fewer frames is a spurious detection
+# Palm lengths (share of the avatar's) the knuckle triangle is also fitted with, the cost (per unit
+# of shortening) of assuming misplaced knuckles, and the cost per radian of a bent wrist.
+PALM_LENGTH_FACTORS = (1.0, 0.925, 0.85, 0.775, 0.7)
+SHORT_PALM_WEIGHT = 3.0
+WRIST_BEND_WEIGHT = 0.5
+WRIST_EASY_BEND = 45.0       # degrees; a wrist bent further strains: each radian beyond costs
+WRIST_STRAIN_WEIGHT = 4.0
+SIGNER_LENGTH_PERCENTILE = 75.0
+# A finger curled back into the hand (its tip nearer the wrist than its middle joint) flexes at the
+# knuckle too: a palm choice leaving such knuckles straighter than FIST_KNUCKLE_FLEXION degrees
+# costs FIST_WEIGHT per radian (averaged over the four fingers).
+FIST_KNUCKLE_FLEXION = 75.0
+FIST_WEIGHT = 4.0
+DIP_COUPLING = 2.0 / 3.0      # a curled finger's last joint flexes at least this share of its middle joint
 
 
 @dataclass
 class Retargeted:
     """motion: the avatar Motion at the clip's fps. followed: bone name -> (T, 3) world unit
     direction the bone was posed to follow (lifted keypoints); projected: bone name -> (T, 2)
-    the keypoints' own frontal-plane direction (not unit: metres); hands: sides retargeted."""
+    the keypoints' own frontal-plane direction (not unit: metres); hands: sides retargeted;
+    overridden: bone name -> (T,) bool, frames where a closed-hand prior, not the keypoints, set
+    the bone (knuckle landmarks moved out, a hidden fingertip's joint coupled to the middle one)."""
     motion: Motion
     followed: dict[str, np.ndarray]
     projected: dict[str, np.ndarray]
     hands: tuple[str, ...]
+    overridden: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def driven_bones(skeleton: Skeleton) -> tuple[str, ...]:
@@ -222,21 +251,31 @@ def _torso_rotations(pose: np.ndarray, pose_valid: np.ndarray) -> dict[str, np.n
 def _choose_phalanx(candidates: tuple[np.ndarray, np.ndarray], parent_world: np.ndarray, basis: np.ndarray,
                     limits: tuple[tuple[float, float], tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
     """Pick the depth sign and clamp: returns (local rotation (T, 4), posed world direction (T, 3),
-    limit violation (T,) radians of the chosen sign).
+    limit violation (T,) radians of the chosen sign, a hinge's sideways bend left out).
 
     candidates: two (T, 3) world directions; parent_world: (T, 4); basis: rows e1 (rest bone
     direction), e2 (towards the palm), e3 = e1 x e2, in the parent's rest frame.
     """
     (flex_lo, flex_hi), (abd_lo, abd_hi) = np.radians(limits)
     inverse = rotations.conjugate(parent_world)
-    costs, directions = [], []
+    costs, flexion_costs, directions = [], [], []
+    hinge = abd_lo == abd_hi
+    knuckle = tuple(map(tuple, limits)) == FINGER_LIMITS[1]
     for direction in candidates:
         local = rotations.rotate(inverse, direction) @ basis.T        # components along e1, e2, e3
         flexion = np.arctan2(local[:, 1], local[:, 0])
         abduction = np.arcsin(np.clip(local[:, 2], -1.0, 1.0))
-        violation = (np.maximum(flex_lo - flexion, 0) + np.maximum(flexion - flex_hi, 0)
-                     + np.maximum(abd_lo - abduction, 0) + np.maximum(abduction - abd_hi, 0))
-        costs.append(violation + 0.2 * np.abs(abduction) + 0.5 * np.maximum(-flexion, 0))
+        flexion_cost = (np.maximum(flex_lo - flexion, 0) + np.maximum(flexion - flex_hi, 0)
+                        + 0.5 * np.maximum(-flexion, 0))
+        abduction_cost = np.maximum(abd_lo - abduction, 0) + np.maximum(abduction - abd_hi, 0) + 0.2 * np.abs(abduction)
+        if knuckle:
+            # a knuckle flexed towards 90 deg points its phalanx along the palm's normal, where the
+            # sideways angle read from 2D keypoints is ill-conditioned (and the joint barely spreads)
+            abduction_cost = abduction_cost * np.cos(np.clip(flexion, 0.0, np.pi / 2))
+        costs.append(flexion_cost + abduction_cost)
+        # a hinge's sideways bend is mostly keypoint noise (converging fingers, misplaced
+        # knuckles): it helps choose this phalanx's depth sign but not the palm's mirror
+        flexion_costs.append(flexion_cost if hinge else flexion_cost + abduction_cost)
         flexion = np.clip(flexion, flex_lo, flex_hi)
         abduction = np.clip(abduction, abd_lo, abd_hi)
         directions.append((np.cos(abduction) * np.cos(flexion))[:, None] * basis[0]
@@ -249,7 +288,7 @@ def _choose_phalanx(candidates: tuple[np.ndarray, np.ndarray], parent_world: np.
     frames = np.arange(len(choice))
     local_dir = directions[frames, choice]
     local_q = rotations.between(np.broadcast_to(basis[0], local_dir.shape), local_dir)
-    return local_q, rotations.rotate(parent_world, local_dir), costs[frames, choice]
+    return local_q, rotations.rotate(parent_world, local_dir), np.stack(flexion_costs, axis=1)[frames, choice]
 
 
 def smooth_choice(unary: np.ndarray, pairwise: np.ndarray) -> np.ndarray:
@@ -273,6 +312,70 @@ def smooth_choice(unary: np.ndarray, pairwise: np.ndarray) -> np.ndarray:
     return choice
 
 
+def _palm_plane(template: np.ndarray, hand_points: np.ndarray) -> np.ndarray:
+    """Hand landmarks (T, 21, 2) pixels -> frontal plane, metres, at the scale (median over the
+    clip) at which the knuckle triangle matches the avatar's palm `template` (3, 3)."""
+    observed = lifting.to_plane(hand_points[:, list(PALM_LANDMARKS)], 1.0)
+    _, _, hand_scale = lifting.fit_triangle(observed, template)
+    return lifting.to_plane(hand_points, float(np.median(hand_scale)))
+
+
+def _phalanx_lengths(planes: list[np.ndarray], percentile: float) -> dict[str, float]:
+    """bone (no side) -> a percentile (metres) of its image length over frames of hands (T, 21, 2)."""
+    lengths = {}
+    for chain in FINGER_CHAINS.values():
+        for bone, head_lm, tail_lm in chain:
+            seen = np.concatenate([np.linalg.norm(p[:, tail_lm] - p[:, head_lm], axis=-1) for p in planes])
+            lengths[bone] = float(np.percentile(seen, percentile))
+    return lengths
+
+
+def signer_lengths(language: str, hand: str, skeleton: Skeleton) -> dict[str, float]:
+    """The lexicon signer's phalanx lengths (bone without side -> metres, palm scaled to the avatar's).
+
+    A letter such as A never shows its fingers straight, so its own keypoints cannot tell how long
+    they are; the signer's other letters can (the avatar's proximal phalanges are a third shorter
+    than a real hand's, which lifted a fist's foreshortened fingers too little out of the plane).
+    The SIGNER_LENGTH_PERCENTILE of each phalanx's image length over every frame of the language's
+    clips in which the hand is seen; cached per (language, hand).
+    """
+    template = _hand_template(skeleton, SIDES[hand])
+    return dict(_signer_lengths(language, hand, template.tobytes()))
+
+
+@functools.lru_cache(maxsize=64)
+def _signer_lengths(language: str, hand: str, template_bytes: bytes) -> tuple[tuple[str, float], ...]:
+    from media import lexicon
+
+    template = np.frombuffer(template_bytes, dtype=np.float64).reshape(3, 3)
+    planes = []
+    for entry in lexicon.entries(language):
+        clip = lexicon.read_clip(entry)
+        points, valid = _component(clip, HAND_COMPONENTS[hand])
+        seen = np.all(valid, axis=1)
+        if seen.mean() >= MIN_HAND_SHARE:
+            planes.append(_palm_plane(template, points[seen]))
+    if not planes:
+        return ()
+    return tuple(_phalanx_lengths(planes, SIGNER_LENGTH_PERCENTILE).items())
+
+
+def _curled_fingers(plane: np.ndarray) -> np.ndarray:
+    """(4, T) 1.0 where a finger (index .. little) is curled back into the hand: its tip's image
+    lies nearer the wrist than its middle joint's (PIP). plane: (T, 21, 2) hand landmarks."""
+    wrist = plane[:, :1]
+    tips = np.linalg.norm(plane[:, [8, 12, 16, 20]] - wrist, axis=-1)
+    middles = np.linalg.norm(plane[:, [6, 10, 14, 18]] - wrist, axis=-1)
+    return (tips < middles).T.astype(np.float64)
+
+
+def _shortened_palm(template: np.ndarray, forward: np.ndarray, factor: float) -> np.ndarray:
+    """The palm triangle (3, 3) with its knuckles moved towards the wrist (template[0]) along the
+    unit `forward` axis to `factor` of their distance; the width is kept."""
+    along = (template - template[0]) @ forward
+    return template - (1.0 - factor) * along[:, None] * forward
+
+
 def _hand_template(skeleton: Skeleton, side: str) -> np.ndarray:
     """(3, 3) rest positions of the wrist, index knuckle and little-finger knuckle."""
     return np.stack([_head(skeleton, f"wrist.{side}"), _head(skeleton, f"finger2-1.{side}"),
@@ -291,6 +394,7 @@ def retarget(clip: SignClip, skeleton: Skeleton | None = None) -> Retargeted:
     local[..., 0] = 1.0
     followed: dict[str, np.ndarray] = {}
     projected: dict[str, np.ndarray] = {}
+    overridden: dict[str, np.ndarray] = {}
 
     pose_all, pose_valid_all = _component(clip, POSE_COMPONENT)
     pose, pose_valid = pose_all[:, :len(POSE_POINTS)], pose_valid_all[:, :len(POSE_POINTS)]
@@ -316,14 +420,15 @@ def retarget(clip: SignClip, skeleton: Skeleton | None = None) -> Retargeted:
         frames = np.flatnonzero(seen)
         nearest = frames[np.abs(frames[None, :] - np.arange(n_frames)[:, None]).argmin(axis=1)]
         hand_points = hand_points[nearest]
+        lengths = signer_lengths(clip.entry.signed_language, hand, skeleton) if clip.entry is not None else None
         _retarget_arm_and_hand(skeleton, side, hand.upper(), pose, pose_valid, hand_points, body_scale,
-                               local, column, followed, projected, names)
+                               local, column, followed, projected, names, lengths, overridden)
     motion = Motion(clip.fps, names, rotations.canonical(rotations.normalize(local)), np.zeros((n_frames, 3)))
-    return Retargeted(motion, followed, projected, tuple(hands))
+    return Retargeted(motion, followed, projected, tuple(hands), overridden)
 
 
 def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_points, body_scale,
-                           local, column, followed, projected, names) -> None:
+                           local, column, followed, projected, names, lengths=None, overridden=None) -> None:
     n_frames = len(pose)
     point = {name: i for i, name in enumerate(POSE_POINTS)}
     shoulder_px = pose[:, point[f"{hand_prefix}_SHOULDER"]]
@@ -351,24 +456,49 @@ def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_p
     # --- palm rotation from the wrist / index knuckle / little knuckle triangle
     template = _hand_template(skeleton, side)
     observed = lifting.to_plane(hand_points[:, list(PALM_LANDMARKS)], 1.0)
-    rotation_a, rotation_b, hand_scale = lifting.fit_triangle(observed, template)
     hand_forward = _unit(_head(skeleton, f"finger3-1.{side}") - wrist_rest)
-    forward_a = rotation_a @ hand_forward
-    forward_b = rotation_b @ hand_forward
-    # The two depth mirrors of the palm are told apart by the fingers (they must flex towards
-    # the palm within their limits) and, more weakly, by the wrist (the hand continues the forearm).
+    _, _, hand_scale = lifting.fit_triangle(observed, template)
     plane = lifting.to_plane(hand_points, float(np.median(hand_scale)))
-    costs = []
-    for rotation, forward in ((rotation_a, forward_a), (rotation_b, forward_b)):
-        _, _, finger_cost = _finger_pose(skeleton, side, rotations.from_matrix(rotation), plane)
-        wrist_bend = np.arccos(np.clip(np.sum(forward * fore_dir, axis=-1), -1.0, 1.0))
-        costs.append(finger_cost + 0.5 * wrist_bend)
-    options = np.stack([rotation_a, rotation_b], axis=1)                 # (T, 2, 3, 3)
+    # The palm's tilt comes from how foreshortened the knuckle triangle is, but in a closed hand
+    # MediaPipe puts the knuckle landmarks nearer the wrist than they are (the knuckles hide behind
+    # the curled fingers), which both tilts the fitted palm and makes the proximal phalanges look
+    # long and upright. So the triangle is also fitted as if the knuckles had slid towards the
+    # wrist to a share `factor` of the palm's length; each such fit moves the four knuckle
+    # landmarks back out to where it puts them. Each fit has two depth mirrors. Priors choose:
+    # fingers flex towards the palm within their limits, the hand continues the forearm, and
+    # misplaced knuckles cost in proportion to how far they moved.
+    mcp_rest = np.stack([_head(skeleton, f"finger{f}-1.{side}") for f in range(2, 6)])
+    along = (mcp_rest - wrist_rest) @ hand_forward                     # (4,) metres along the palm
+    plane_scale = float(np.median(hand_scale))
+    closed = _curled_fingers(plane)
+    candidates, planes, costs = [], [], []
+    for factor in PALM_LENGTH_FACTORS:
+        fits = lifting.fit_triangle(observed, _shortened_palm(template, hand_forward, factor))
+        for rotation in fits[:2]:
+            forward = rotation @ hand_forward
+            moved = plane.copy()
+            # each knuckle slides back out along its own image ray from the wrist (the fingers' axes)
+            rays = _unit(plane[:, list(KNUCKLE_LANDMARKS)] - plane[:, :1])              # (T, 4, 2)
+            distance = (fits[2] / plane_scale * (1.0 - factor))[:, None] * along[None, :] \
+                * np.linalg.norm(forward[:, None, :2], axis=-1)                        # (T, 4) metres
+            moved[:, list(KNUCKLE_LANDMARKS)] += distance[..., None] * rays
+            finger_local, _, finger_cost, _ = _finger_pose(skeleton, side, rotations.from_matrix(rotation), moved, lengths)
+            knuckles = np.stack([rotations.to_axis_angle(finger_local[f"finger{f}-1.{side}"])[1] for f in range(2, 6)])
+            open_knuckles = np.mean(closed * np.maximum(np.radians(FIST_KNUCKLE_FLEXION) - knuckles, 0.0), axis=0)
+            wrist_bend = np.arccos(np.clip(np.sum(forward * fore_dir, axis=-1), -1.0, 1.0))
+            candidates.append(rotation)
+            planes.append(moved)
+            wrist_cost = WRIST_BEND_WEIGHT * wrist_bend + WRIST_STRAIN_WEIGHT * np.maximum(wrist_bend - np.radians(WRIST_EASY_BEND), 0.0)
+            costs.append(finger_cost + wrist_cost + SHORT_PALM_WEIGHT * (1.0 - factor)
+                         + FIST_WEIGHT * open_knuckles)
+    options = np.stack(candidates, axis=1)                               # (T, K, 3, 3)
     relative = np.einsum("tikl,tjkm->tijlm", options[:-1], options[1:])   # R_t,i^T R_t+1,j
     trace = np.einsum("tijkk->tij", relative)
     steps = np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0))           # rotation angle between frames
-    use_b = smooth_choice(np.stack(costs, axis=1), PALM_STEP_WEIGHT * steps) == 1
-    palm_rotation = np.where(use_b[:, None, None], rotation_b, rotation_a)
+    choice = smooth_choice(np.stack(costs, axis=1), PALM_STEP_WEIGHT * steps)
+    frames = np.arange(n_frames)
+    palm_rotation = options[frames, choice]
+    finger_plane = np.stack(planes, axis=1)[frames, choice]             # (T, 21, 2)
 
     # --- CCD IK of the arm from the posed shoulder girdle
     torso = Motion(25.0, names, local, np.zeros((n_frames, 3)))
@@ -390,7 +520,12 @@ def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_p
     # --- fingers, in the posed wrist frame actually reached
     arm_motion = Motion(25.0, names, local, np.zeros((n_frames, 3)))
     world = _world_quaternions(skeleton, arm_motion, f"wrist.{side}")
-    finger_local, finger_followed, _ = _finger_pose(skeleton, side, world, plane)
+    finger_local, finger_followed, _, coupled = _finger_pose(skeleton, side, world, finger_plane, lengths)
+    knuckles_moved = np.asarray(PALM_LENGTH_FACTORS)[choice // 2] < 1.0
+    if overridden is not None:
+        overridden.update(coupled)
+        for finger in ("index", "middle", "ring", "little"):
+            overridden[f"{FINGER_CHAINS[finger][0][0]}.{side}"] = knuckles_moved
     for name, q in finger_local.items():
         local[:, column[name]] = q
     followed.update(finger_followed)
@@ -399,17 +534,24 @@ def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_p
             projected[f"{bone}.{side}"] = plane[:, tail_lm] - plane[:, head_lm]
 
 
-def _finger_pose(skeleton: Skeleton, side: str, wrist_world: np.ndarray, plane: np.ndarray):
+def _finger_pose(skeleton: Skeleton, side: str, wrist_world: np.ndarray, plane: np.ndarray,
+                 signer_lengths: dict[str, float] | None = None):
     """Every phalanx of hand `side` under a posed wrist (world rotation (T, 4)).
 
-    plane: (T, 21, 2) hand landmarks in the frontal plane, metres. Returns (local rotations
-    {bone: (T, 4)}, followed directions {bone: (T, 3)}, cost (T,): the summed joint-limit
-    violation in radians, how badly this wrist rotation fits fingers that flex towards the palm).
+    plane: (T, 21, 2) hand landmarks in the frontal plane, metres; signer_lengths: bone -> the
+    signer's phalanx length (metres, same frame) to lift with (else the avatar's, or longer where
+    the clip shows the bone longer). Returns (local rotations {bone: (T, 4)}, followed directions
+    {bone: (T, 3)}, cost (T,): the summed joint-limit violation in radians, how badly this wrist
+    rotation fits fingers that flex towards the palm; coupled {bone: (T,) bool}: frames where a
+    curled finger's last joint was flexed further than its hidden tip's keypoint says).
     """
     local, followed = {}, {}
     cost = np.zeros(len(plane))
+    curled = _curled_fingers(plane)
+    coupled = {}
     for finger, chain_bones in FINGER_CHAINS.items():
         parent_world = wrist_world
+        previous_flexion = None
         limits_table = THUMB_LIMITS if finger == "thumb" else FINGER_LIMITS
         flexes_towards = _flexion_direction(skeleton, side, finger)
         for level, (bone, head_lm, tail_lm) in enumerate(chain_bones, start=1):
@@ -419,13 +561,34 @@ def _finger_pose(skeleton: Skeleton, side: str, wrist_world: np.ndarray, plane: 
             e2 = _unit(flexes_towards - np.dot(flexes_towards, e1) * e1)
             basis = np.stack([e1, e2, np.cross(e1, e2)])
             bone_2d = plane[:, tail_lm] - plane[:, head_lm]
-            candidates = lifting.lift_directions(bone_2d, lifting.true_lengths(bone_2d, np.linalg.norm(rest_vector)))
+            if signer_lengths and bone in signer_lengths:
+                length = signer_lengths[bone]
+            else:
+                length = lifting.true_lengths(bone_2d, float(np.linalg.norm(rest_vector)))
+            candidates = lifting.lift_directions(bone_2d, length)
             q_local, direction, violation = _choose_phalanx(candidates, parent_world, basis, limits_table[level])
+            flexion = _hinge_flexion(q_local, basis)
+            if level == 3 and finger != "thumb":
+                # a curled finger's tip is hidden behind it (MediaPipe guesses it): its last joint
+                # flexes at least DIP_COUPLING times the middle one, as tendons couple them
+                curled_here = curled[list(FINGER_CHAINS).index(finger) - 1] > 0
+                wanted = np.where(curled_here, np.maximum(flexion, DIP_COUPLING * previous_flexion), flexion)
+                coupled[name] = wanted > flexion + 1e-9
+                q_local = rotations.from_axis_angle(np.broadcast_to(basis[2], (len(wanted), 3)), wanted)
+                flexion = wanted
+            previous_flexion = flexion
             local[name] = q_local
             followed[name] = _pick_closest(candidates, direction)
             cost += violation
             parent_world = rotations.multiply(parent_world, q_local)
-    return local, followed, cost
+    return local, followed, cost, coupled
+
+
+def _hinge_flexion(q_local: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """(T,) flexion (radians) of a phalanx's local rotation (T, 4): the angle of its rest direction
+    basis[0] turned towards basis[1] (the palm)."""
+    turned = rotations.rotate(q_local, np.broadcast_to(basis[0], q_local.shape[:-1] + (3,)))
+    return np.arctan2(turned @ basis[1], turned @ basis[0])
 
 
 def _pick_closest(candidates: tuple[np.ndarray, np.ndarray], direction: np.ndarray) -> np.ndarray:
@@ -487,7 +650,8 @@ def direction_errors(retargeted: Retargeted, skeleton: Skeleton | None = None,
     Returns {"3d": {group: [angles]}, "2d": {group: [angles]}} with groups arm, thumb, fingers:
     "3d" against the lifted keypoint direction, "2d" in the image plane against the keypoints'
     own direction (only where the bone's image is at least `min_projected_share` of its length,
-    as a foreshortened bone's image direction is meaningless).
+    as a foreshortened bone's image direction is meaningless). Frames where a closed-hand prior
+    overrode a bone's keypoints (Retargeted.overridden; see overridden_share) are left out of both.
     """
     skeleton = skeleton or load_avatar().skeleton
     errors = {"3d": {group: [] for group in BONE_GROUPS}, "2d": {group: [] for group in BONE_GROUPS}}
@@ -498,16 +662,29 @@ def direction_errors(retargeted: Retargeted, skeleton: Skeleton | None = None,
             for bone in bones:
                 key = f"{bone}.{side}"
                 target = retargeted.followed[key]
+                kept = ~retargeted.overridden.get(key, np.zeros(len(target), dtype=bool))
                 cosine = np.clip(np.sum(posed[key] * target, axis=-1), -1.0, 1.0)
-                errors["3d"][group].extend(np.degrees(np.arccos(cosine)).tolist())
+                errors["3d"][group].extend(np.degrees(np.arccos(cosine[kept])).tolist())
                 image = retargeted.projected[key]
                 image_len = np.linalg.norm(image, axis=-1)
                 posed_2d = posed[key][:, :2]
                 posed_len = np.linalg.norm(posed_2d, axis=-1)
-                usable = (image_len >= min_projected_share * np.max(image_len)) & (posed_len > 1e-6)
+                usable = (image_len >= min_projected_share * np.max(image_len)) & (posed_len > 1e-6) & kept
                 cos_2d = np.sum(image * posed_2d, axis=-1) / np.maximum(image_len * posed_len, 1e-12)
                 errors["2d"][group].extend(np.degrees(np.arccos(np.clip(cos_2d[usable], -1, 1))).tolist())
     return errors
+
+
+def overridden_share(retargeted: Retargeted, group: str = "fingers") -> float:
+    """Share (0..1) of a bone group's frames whose direction a closed-hand prior set (left out of
+    direction_errors)."""
+    shares = []
+    for hand in retargeted.hands:
+        side = SIDES[hand]
+        for bone in BONE_GROUPS[group]:
+            mask = retargeted.overridden.get(f"{bone}.{side}")
+            shares.append(float(np.mean(mask)) if mask is not None else 0.0)
+    return float(np.mean(shares)) if shares else 0.0
 
 
 def lexicon_accuracy(language: str, units: list[str] | None = None) -> dict[str, dict[str, float]]:

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from media import ik, lexicon, lifting, retarget, rotations
+from media import fingerspelling, ik, lexicon, lifting, retarget, rotations
 from media.avatar import load_avatar
 from media.kinematics import joint_positions, world_rotations
 
@@ -173,3 +173,44 @@ def test_palm_does_not_flip_while_the_hand_holds_still(skeleton):
         still = np.linalg.norm(np.diff(keypoints, axis=0), axis=-1).max(axis=1) < 4.0   # pixels between frames
         steps = np.degrees(rotations.angle_between(world[1:], world[:-1]))
         assert still.sum() >= 8 and steps[still].max() < 15.0, letter
+
+
+def _held_handshape(skeleton, letter):
+    """(mean knuckle flexion of finger2..5-1 in degrees, mean fingertip-to-palm-centre distance in
+    metres) per frame of an ASL letter's held span (no rise, no drop), right hand."""
+    motion = fingerspelling.letter_motion("ase", letter, 25.0, keep_rise=False, keep_drop=False)
+    knuckles = np.mean([np.degrees(rotations.to_axis_angle(motion.rotations[:, motion.bone(f"finger{f}-1.R")])[1])
+                        for f in range(2, 6)], axis=0)
+    heads = joint_positions(skeleton, motion)
+    tails = joint_positions(skeleton, motion, tails=True)
+    tips = tails[:, [skeleton.index(f"finger{f}-3.R") for f in range(2, 6)]]
+    centre = heads[:, [skeleton.index(f"finger{f}-1.R") for f in range(2, 6)] + [skeleton.index("wrist.R")]].mean(axis=1)
+    return knuckles, np.linalg.norm(tips - centre[:, None], axis=-1).mean(axis=1)
+
+
+@pytest.mark.parametrize("letter", ["A", "S"])
+def test_closed_handshapes_are_fists_with_flexed_knuckles(skeleton, letter):
+    knuckles, tips = _held_handshape(skeleton, letter)
+    assert np.median(knuckles) > 50.0, letter                          # degrees, all four knuckles together
+    assert np.median(tips) < 0.04, letter                              # metres from the palm centre
+
+
+def test_flat_hand_b_keeps_its_knuckles_straight(skeleton):
+    knuckles, tips = _held_handshape(skeleton, "B")
+    assert np.median(knuckles) < 25.0
+    assert np.median(tips) > 0.07
+
+
+def test_fist_knuckle_landmarks_are_moved_out_only_for_closed_hands(asl):
+    closed = asl["A"].overridden["finger3-1.R"]
+    assert closed.mean() > 0.5                                         # the held fist
+    assert asl["B"].overridden["finger3-1.R"].mean() == 0.0            # an open hand keeps its landmarks
+    assert all(not mask.any() for bone, mask in asl["B"].overridden.items())
+
+
+def test_signer_lengths_come_from_the_whole_lexicon(skeleton):
+    lengths = retarget.signer_lengths("ase", "right", skeleton)
+    assert set(lengths) == {bone for chain in retarget.FINGER_CHAINS.values() for bone, _, _ in chain}
+    avatar = np.linalg.norm(retarget._bone_vector(skeleton, "finger3-1.R"))
+    assert 1.2 * avatar < lengths["finger3-1"] < 2.0 * avatar           # a real proximal phalanx is longer
+    assert all(0.005 < value < 0.08 for value in lengths.values())      # metres
