@@ -1,7 +1,8 @@
 """Waveform coders of DOF trajectories (seed 002 ch. 7): each DOF coded on its own, no model of the action.
 
 Every coder works on DOF trajectories `dofs` (T, D) float64 radians sampled at `fps` Hz, with per-DOF
-ranges `lower`, `upper` (D,) radians (the avatar's joint limits: known to both ends, never sent).
+ranges `lower`, `upper` (D,) radians (the quantiser limits, the role of seed 002's joint limits: known to
+both ends, never sent).
 `encode(dofs, fps, q) -> (bytes, reconstruction (T, D))`; `decode(bytes) -> (T, D)` returns exactly the
 encoder's reconstruction. `q` indexes the coder's `settings` (0 = coarsest, lowest rate).
 The container, entropy stage and corruption checks are comparisons/coded_streams.py.
@@ -14,8 +15,9 @@ Choices the seed leaves open (digest §7.4) and the values used here:
   N levels (a power of two) become N - 1 symmetric mid-tread levels so that a still DOF costs ~0 bits;
 - ADPCM: order 2, autocorrelation method on the last round(fps) decoded samples (Hamming window,
   mean removed, 1e-3 white-noise correction), used per DOF only while its recent error on decoded
-  samples (forgetting factor 0.8) is below that of the previous-value predictor, mu-law difference quantiser (as DPCM) whose scale adapts with Jayant multipliers
-  beta(k) = 0.9 + 1.6 (k/M)^4 within [limit/2, 2 limit];
+  samples (forgetting factor 0.8) is below that of the previous-value predictor; mu-law difference
+  quantiser (as DPCM) whose scale adapts with Jayant multipliers beta(k) = 0.9 + 1.6 (k/M)^4 within
+  [limit/2, 2 limit];
 - dead reckoning: constant velocity, 7-sample least-squares slope (3 frames sender delay, compensated),
   value step E/2, velocity step E/8 per frame;
 - DCT: N = 16, orthonormal DCT-II, Appendix III bit allocations (non-adaptive, no edge smoothing),
