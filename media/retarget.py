@@ -71,13 +71,14 @@ PALM_STEP_WEIGHT = 30.0
 PHALANX_STEP_WEIGHT = 3.0
 MIN_HAND_SHARE = 0.25       # a hand seen in fewer frames is a spurious detection
 # Palm lengths (share of the avatar's) the knuckle triangle is also fitted with, the cost (per unit
-# of shortening) of assuming misplaced knuckles, and the cost per radian of a bent wrist.
+# of shortening) of assuming misplaced knuckles, and the cost per radian of a bent wrist (any way).
 PALM_LENGTH_FACTORS = (1.0, 0.925, 0.85, 0.775, 0.7)
 SHORT_PALM_WEIGHT = 3.0
 WRIST_BEND_WEIGHT = 0.5
-WRIST_EASY_BEND = 45.0       # degrees; a wrist bent further strains: each radian beyond costs
+WRIST_EASY_BEND = 45.0       # degrees; a wrist bent further (any way), or flexed or extended
+WRIST_EASY_FLEXION = 35.0    # further than this, strains: each radian beyond either costs
 WRIST_STRAIN_WEIGHT = 4.0
-SIGNER_LENGTH_PERCENTILE = 75.0
+SIGNER_LENGTH_PERCENTILES = (75.0, 90.0, 90.0)   # proximal, middle, distal
 # A finger curled back into the hand (its tip nearer the wrist than its middle joint) flexes at the
 # knuckle too: a palm choice leaving such knuckles straighter than FIST_KNUCKLE_FLEXION degrees
 # costs FIST_WEIGHT per radian (averaged over the four fingers).
@@ -320,11 +321,12 @@ def _palm_plane(template: np.ndarray, hand_points: np.ndarray) -> np.ndarray:
     return lifting.to_plane(hand_points, float(np.median(hand_scale)))
 
 
-def _phalanx_lengths(planes: list[np.ndarray], percentile: float) -> dict[str, float]:
-    """bone (no side) -> a percentile (metres) of its image length over frames of hands (T, 21, 2)."""
+def _phalanx_lengths(planes: list[np.ndarray], percentiles: tuple[float, float, float]) -> dict[str, float]:
+    """bone (no side) -> a percentile (metres) of its image length over frames of hands (T, 21, 2);
+    percentiles: for the proximal, middle and distal phalanges."""
     lengths = {}
     for chain in FINGER_CHAINS.values():
-        for bone, head_lm, tail_lm in chain:
+        for (bone, head_lm, tail_lm), percentile in zip(chain, percentiles):
             seen = np.concatenate([np.linalg.norm(p[:, tail_lm] - p[:, head_lm], axis=-1) for p in planes])
             lengths[bone] = float(np.percentile(seen, percentile))
     return lengths
@@ -336,7 +338,7 @@ def signer_lengths(language: str, hand: str, skeleton: Skeleton) -> dict[str, fl
     A letter such as A never shows its fingers straight, so its own keypoints cannot tell how long
     they are; the signer's other letters can (the avatar's proximal phalanges are a third shorter
     than a real hand's, which lifted a fist's foreshortened fingers too little out of the plane).
-    The SIGNER_LENGTH_PERCENTILE of each phalanx's image length over every frame of the language's
+    The SIGNER_LENGTH_PERCENTILES of each phalanx's image length over every frame of the language's
     clips in which the hand is seen; cached per (language, hand).
     """
     template = _hand_template(skeleton, SIDES[hand])
@@ -357,7 +359,7 @@ def _signer_lengths(language: str, hand: str, template_bytes: bytes) -> tuple[tu
             planes.append(_palm_plane(template, points[seen]))
     if not planes:
         return ()
-    return tuple(_phalanx_lengths(planes, SIGNER_LENGTH_PERCENTILE).items())
+    return tuple(_phalanx_lengths(planes, SIGNER_LENGTH_PERCENTILES).items())
 
 
 def _curled_fingers(plane: np.ndarray) -> np.ndarray:
@@ -463,34 +465,41 @@ def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_p
     # MediaPipe puts the knuckle landmarks nearer the wrist than they are (the knuckles hide behind
     # the curled fingers), which both tilts the fitted palm and makes the proximal phalanges look
     # long and upright. So the triangle is also fitted as if the knuckles had slid towards the
-    # wrist to a share `factor` of the palm's length; each such fit moves the four knuckle
-    # landmarks back out to where it puts them. Each fit has two depth mirrors. Priors choose:
-    # fingers flex towards the palm within their limits, the hand continues the forearm, and
-    # misplaced knuckles cost in proportion to how far they moved.
+    # wrist to a share `factor` of the palm's length; each such fit moves the knuckle landmarks of
+    # the curled fingers back out to where it puts them. Each fit has two depth mirrors. Priors
+    # choose: fingers flex towards the palm within their limits, a curled finger flexes at its
+    # knuckle, the hand continues the forearm without straining the wrist, and misplaced knuckles
+    # cost in proportion to how far they moved.
+    palmar_rest = _palmar_normal(skeleton, side)
     mcp_rest = np.stack([_head(skeleton, f"finger{f}-1.{side}") for f in range(2, 6)])
     along = (mcp_rest - wrist_rest) @ hand_forward                     # (4,) metres along the palm
     plane_scale = float(np.median(hand_scale))
-    closed = _curled_fingers(plane)
+    closed = _curled_fingers(plane)                                      # (4, T)
+    # a curled finger's knuckle slides back out along its image ray from the wrist (an extended
+    # finger's knuckle is seen, its landmark stays)
+    rays = closed.T[..., None] * _unit(plane[:, list(KNUCKLE_LANDMARKS)] - plane[:, :1])   # (T, 4, 2)
     candidates, planes, costs = [], [], []
     for factor in PALM_LENGTH_FACTORS:
         fits = lifting.fit_triangle(observed, _shortened_palm(template, hand_forward, factor))
         for rotation in fits[:2]:
             forward = rotation @ hand_forward
+            slide = (fits[2] / plane_scale * (1.0 - factor))[:, None] * along[None, :] \
+                * np.linalg.norm(forward[:, None, :2], axis=-1)                # (T, 4) metres in the image
             moved = plane.copy()
-            # each knuckle slides back out along its own image ray from the wrist (the fingers' axes)
-            rays = _unit(plane[:, list(KNUCKLE_LANDMARKS)] - plane[:, :1])              # (T, 4, 2)
-            distance = (fits[2] / plane_scale * (1.0 - factor))[:, None] * along[None, :] \
-                * np.linalg.norm(forward[:, None, :2], axis=-1)                        # (T, 4) metres
-            moved[:, list(KNUCKLE_LANDMARKS)] += distance[..., None] * rays
-            finger_local, _, finger_cost, _ = _finger_pose(skeleton, side, rotations.from_matrix(rotation), moved, lengths)
+            moved[:, list(KNUCKLE_LANDMARKS)] += slide[..., None] * rays
+            finger_local, _, finger_cost, _ = _finger_pose(skeleton, side, rotations.from_matrix(rotation),
+                                                           moved, lengths)
             knuckles = np.stack([rotations.to_axis_angle(finger_local[f"finger{f}-1.{side}"])[1] for f in range(2, 6)])
             open_knuckles = np.mean(closed * np.maximum(np.radians(FIST_KNUCKLE_FLEXION) - knuckles, 0.0), axis=0)
             wrist_bend = np.arccos(np.clip(np.sum(forward * fore_dir, axis=-1), -1.0, 1.0))
+            # flexion/extension: how far the forearm leaves the palm's plane (deviation stays in it)
+            wrist_flexion = np.arcsin(np.clip(np.sum((rotation @ palmar_rest) * fore_dir, axis=-1), -1.0, 1.0))
+            wrist_cost = WRIST_BEND_WEIGHT * wrist_bend + WRIST_STRAIN_WEIGHT * (
+                np.maximum(wrist_bend - np.radians(WRIST_EASY_BEND), 0.0)
+                + np.maximum(np.abs(wrist_flexion) - np.radians(WRIST_EASY_FLEXION), 0.0))
             candidates.append(rotation)
             planes.append(moved)
-            wrist_cost = WRIST_BEND_WEIGHT * wrist_bend + WRIST_STRAIN_WEIGHT * np.maximum(wrist_bend - np.radians(WRIST_EASY_BEND), 0.0)
-            costs.append(finger_cost + wrist_cost + SHORT_PALM_WEIGHT * (1.0 - factor)
-                         + FIST_WEIGHT * open_knuckles)
+            costs.append(finger_cost + wrist_cost + SHORT_PALM_WEIGHT * (1.0 - factor) + FIST_WEIGHT * open_knuckles)
     options = np.stack(candidates, axis=1)                               # (T, K, 3, 3)
     relative = np.einsum("tikl,tjkm->tijlm", options[:-1], options[1:])   # R_t,i^T R_t+1,j
     trace = np.einsum("tijkk->tij", relative)
@@ -524,8 +533,8 @@ def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_p
     knuckles_moved = np.asarray(PALM_LENGTH_FACTORS)[choice // 2] < 1.0
     if overridden is not None:
         overridden.update(coupled)
-        for finger in ("index", "middle", "ring", "little"):
-            overridden[f"{FINGER_CHAINS[finger][0][0]}.{side}"] = knuckles_moved
+        for k, finger in enumerate(("index", "middle", "ring", "little")):
+            overridden[f"{FINGER_CHAINS[finger][0][0]}.{side}"] = knuckles_moved & (closed[k] > 0)
     for name, q in finger_local.items():
         local[:, column[name]] = q
     followed.update(finger_followed)
