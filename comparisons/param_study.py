@@ -29,6 +29,15 @@ from media.motion import Motion
 ROTATION_COLUMNS = np.array([b.id - 1 for b in bap_table.BAPS if not b.is_translation])
 
 
+def solution_of(codec_name: str) -> str:
+    """The solution a parameter codec belongs to: FBA, BBA, or a seed-002 motion coder."""
+    if codec_name.startswith("fba"):
+        return "FBA"
+    if codec_name.startswith("bba"):
+        return "BBA"
+    return "motion coder"
+
+
 def pose_file_kbps(language: str, unit: str) -> float:
     """Size of the lexicon clip's .pose file over the clip's duration, kbit/s."""
     entry = lexicon.lookup(language, unit)
@@ -75,7 +84,7 @@ def run_study(language: str, units: list[str], codecs: list[str], qs: list[int],
         (out_dir / "bap").mkdir(exist_ok=True)
         write_bap(out_dir / "bap" / f"{language}_{unit}.bap", motion_to_baps(motion), fps, f"{language}_{unit}")
         for name in codecs:
-            solution = "FBA" if name.startswith("fba") else "BBA"
+            solution = solution_of(name)
             for q in qs:
                 point = measure_point(motion, name, q)
                 records.append(make_record(solution, f"{language}:{unit}", name, q, fps, 0, 0, point.pop("bits"),

@@ -70,3 +70,18 @@ def test_every_codec_rejects_single_bit_errors(name):
         damaged[rng.integers(len(damaged))] ^= 1 << int(rng.integers(8))
         with pytest.raises(SigncastError):
             codec.decode(bytes(damaged))
+
+
+def test_params_alphabet_draws_the_seed_002_charts(tmp_path):
+    from pipeline.cli import main
+    assert main(["params", "ase", "--alphabet", "--codec", "dpcm,fba-pred", "--q", "8", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "lab_waveform_psnr.png").stat().st_size > 10_000
+    from comparisons.records import read_records
+    codecs = {r["codec"] for r in read_records(tmp_path / "records.jsonl") if r.get("kind", "point") == "point"}
+    assert codecs == {"dpcm", "fba-pred"}
+
+
+def test_params_without_letters_or_alphabet_is_a_clear_error(tmp_path, capsys):
+    from pipeline.cli import main
+    assert main(["params", "ase", "--out", str(tmp_path)]) == 2
+    assert "LETTERS" in capsys.readouterr().err

@@ -20,8 +20,12 @@ def add_parser(subparsers) -> None:
         description="For each letter of LETTERS (e.g. ABCDEFGHIJ) of sign language LANGUAGE, retarget the real "
                     "lexicon clip to the avatar, code it with each parameter codec at each Q, decode it, and "
                     "write DIR/records.jsonl, DIR/params_table.csv and DIR/params_rate.png.")
-    parser.add_argument("language", help="sign language code, e.g. ase")
-    parser.add_argument("letters", help="letters to code, each separately, e.g. ABCDEFGHIJ")
+    parser.add_argument("language", help="sign language code, e.g. ase (with --alphabet: comma-separated codes)")
+    parser.add_argument("letters", nargs="?", help="letters to code, each separately, e.g. ABCDEFGHIJ")
+    parser.add_argument("--alphabet", action="store_true",
+                        help="code each language's whole alphabet fingerspelled in order with every codec (seed-002 "
+                             "coders and FBA/BBA) and draw the charts of seed 002 ch. 9 (PSNR and VPSNR vs kbps); "
+                             "same as `signcast lab`")
     parser.add_argument("--codec", default=DEFAULT_CODECS, help=f"comma-separated codecs (default {DEFAULT_CODECS})")
     parser.add_argument("--q", default=DEFAULT_Q, help=f"comma-separated global quantisation values 1..31 (default {DEFAULT_Q})")
     parser.add_argument("--fps", type=float, default=10.0, help="coding frame rate (default 10, as seed 000 §2.4.2)")
@@ -40,6 +44,10 @@ def _q_values(text: str) -> list[int]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.alphabet:
+        return _run_alphabet(args)
+    if not args.letters:
+        raise SigncastError("give the LETTERS to code (e.g. ABCDEFGHIJ), or --alphabet for whole alphabets")
     from comparisons.param_codecs import codec_names, get_codec
     from comparisons.param_study import run_study
     from media import lexicon
@@ -65,3 +73,15 @@ def run(args: argparse.Namespace) -> int:
                   + "   (" + " ".join(f"{mine[q]['distortion']:.1e}" for q in qs) + ")")
     print(f"wrote {args.out / 'records.jsonl'}, {args.out / 'params_table.csv'}, {args.out / 'params_rate.png'}")
     return 0
+
+
+def _run_alphabet(args: argparse.Namespace) -> int:
+    """Whole alphabets: the seed-002 charts, through the lab command (its codecs and FBA/BBA Q defaults)."""
+    from comparisons.lab_charts import MPEG4_CODECS, MPEG4_Q
+    from comparisons.lab_codecs import LAB_CODEC_NAMES
+    from pipeline.commands import lab
+
+    codecs = args.codec if args.codec != DEFAULT_CODECS else ",".join(LAB_CODEC_NAMES + MPEG4_CODECS)
+    fba_q = args.q if args.q != DEFAULT_Q else ",".join(map(str, MPEG4_Q))
+    languages = [language.strip() for language in args.language.split(",") if language.strip()]
+    return lab.run(argparse.Namespace(languages=languages, codec=codecs, fba_q=fba_q, out=args.out))
