@@ -322,13 +322,17 @@ def _palm_plane(template: np.ndarray, hand_points: np.ndarray) -> np.ndarray:
 
 
 def _phalanx_lengths(planes: list[np.ndarray], percentiles: tuple[float, float, float]) -> dict[str, float]:
-    """bone (no side) -> a percentile (metres) of its image length over frames of hands (T, 21, 2);
-    percentiles: for the proximal, middle and distal phalanges."""
+    """bone (no side) -> a percentile (metres) of its image length over the frames of clips of
+    hands (each (T, 21, 2)), every clip weighing the same (a long clip with broken keypoints must
+    not dominate); percentiles: for the proximal, middle and distal phalanges."""
+    weights = np.concatenate([np.full(len(p), 1.0 / len(p)) for p in planes])
     lengths = {}
     for chain in FINGER_CHAINS.values():
         for (bone, head_lm, tail_lm), percentile in zip(chain, percentiles):
             seen = np.concatenate([np.linalg.norm(p[:, tail_lm] - p[:, head_lm], axis=-1) for p in planes])
-            lengths[bone] = float(np.percentile(seen, percentile))
+            order = np.argsort(seen)
+            cumulative = np.cumsum(weights[order]) / np.sum(weights)
+            lengths[bone] = float(seen[order][np.searchsorted(cumulative, percentile / 100.0)])
     return lengths
 
 
