@@ -342,8 +342,9 @@ def signer_lengths(language: str, hand: str, skeleton: Skeleton) -> dict[str, fl
     A letter such as A never shows its fingers straight, so its own keypoints cannot tell how long
     they are; the signer's other letters can (the avatar's proximal phalanges are a third shorter
     than a real hand's, which lifted a fist's foreshortened fingers too little out of the plane).
-    The SIGNER_LENGTH_PERCENTILES of each phalanx's image length over every frame of the language's
-    clips in which the hand is seen; cached per (language, hand).
+    The SIGNER_LENGTH_PERCENTILES (proximal, middle, distal) of each phalanx's image length over
+    the frames of the language's clips in which the hand is seen, each clip weighing the same;
+    cached per (language, hand).
     """
     template = _hand_template(skeleton, SIDES[hand])
     return dict(_signer_lengths(language, hand, template.tobytes()))
