@@ -60,6 +60,11 @@ def read_video(path: str | Path, max_frames: int | None = None) -> tuple[np.ndar
     return np.stack(frames), fps
 
 
+def crop_even(frames: np.ndarray) -> np.ndarray:
+    """Frames (T, H, W, ...) cropped to even height and width (what 4:2:0 video coding needs)."""
+    return frames[:, : frames.shape[1] & ~1, : frames.shape[2] & ~1]
+
+
 def write_video(path: str | Path, frames: np.ndarray, fps: float, *, codec: str = "ffv1",
                 pix_fmt: str | None = None, options: dict | None = None) -> int:
     """Encode frames (T, H, W, 3) uint8 RGB to a file; returns the file size in bytes.

@@ -18,14 +18,13 @@ from tqdm import tqdm
 from comparisons import image_quality, metrics, param_codecs, video_objects
 from comparisons.records import make_record, versions, write_records
 from comparisons.report import build_report, operating_points
-from media import segmentation
 from media.avatar import SKIN_PARTS, load_avatar
 from media.errors import SigncastError
 from media.fingerspelling import fingerspell
 from media.motion import Motion, resample
 from media.render import AvatarRenderer, RenderSettings
 from media.tiling import tile_videos
-from media.video_io import read_video, resolve_video, write_video
+from media.video_io import write_video
 from pipeline import video_study
 from pipeline.stages import StageClock
 
@@ -101,10 +100,7 @@ def run_compare(settings: CompareSettings, out_dir: str | Path, *, progress: boo
     received: list[Received] = []
 
     with clock.stage("natural video: read and segment"):
-        path = resolve_video(settings.clip)
-        clip_frames, native_fps = read_video(path, max_frames=settings.max_clip_frames)
-        clip_frames = clip_frames[:, : clip_frames.shape[1] & ~1, : clip_frames.shape[2] & ~1]
-        clip_labels = segmentation.segment_parts(clip_frames)
+        clip_frames, clip_labels, path, native_fps = video_study.load_natural_clip(settings.clip, settings.max_clip_frames)
     video_settings = video_study.VideoStudySettings(
         qs=settings.video_qs, operating_q=settings.operating_q, frame_rates=settings.frame_rates,
         source_fps=DISPLAY_FPS, other_codecs=settings.other_codecs, half_resolution=True)

@@ -90,6 +90,17 @@ def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, code
     return make_record(coded.solution, clip, codec, q, config.fps, width, height, coded.bits, duration_s, **fields)
 
 
+def load_natural_clip(name_or_path: str, max_frames: int | None = None):
+    """A natural signer clip and its colour segmentation: (frames (T, H, W, 3) uint8 cropped to even size,
+    labels (T, H, W) uint8 part labels, path, native fps)."""
+    from media.video_io import crop_even, read_video, resolve_video
+
+    path = resolve_video(name_or_path)
+    frames, native_fps = read_video(path, max_frames=max_frames)
+    frames = crop_even(frames)
+    return frames, segmentation.segment_parts(frames), path, native_fps
+
+
 def run_video_study(frames: np.ndarray, labels: np.ndarray, clip: str, settings: VideoStudySettings = VideoStudySettings(),
                     *, progress: bool = True) -> list[dict]:
     """Every measured point of the study as records. frames (T, H, W, 3) uint8 RGB at settings.source_fps;

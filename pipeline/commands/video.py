@@ -76,19 +76,11 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _even(frames):
-    height, width = frames.shape[1] & ~1, frames.shape[2] & ~1
-    return frames[:, :height, :width]
-
-
 def _natural(args: argparse.Namespace):
     from media import segmentation
-    from media.video_io import read_video, resolve_video
+    from pipeline.video_study import load_natural_clip
 
-    path = resolve_video(args.video)
-    frames, native_fps = read_video(path, max_frames=args.frames)
-    frames = _even(frames)
-    labels = segmentation.segment_parts(frames)
+    frames, labels, path, native_fps = load_natural_clip(args.video, args.frames)
     areas = segmentation.area_percent(labels)
     record = {"kind": "segmentation", "clip": path.stem, "method": "colour (GrabCut border model + clothes clusters)",
               "native_fps": native_fps, "coded_fps": args.fps, **{f"{k}_area_percent": v for k, v in areas.items()}}
