@@ -24,7 +24,8 @@ from media.fingerspelling import fingerspell
 from media.motion import Motion, resample
 from media.render import AvatarRenderer, RenderSettings
 from media.tiling import tile_videos
-from media.video_io import write_video
+from media import lexicon
+from media.video_io import resolve_video, write_video
 from pipeline import video_study
 from pipeline.stages import StageClock
 
@@ -88,6 +89,9 @@ def check_settings(settings: CompareSettings) -> None:
     width, height = settings.size
     if width < 32 or height < 32 or width % 2 or height % 2:
         raise SigncastError(f"bad size {width}x{height}: even numbers, at least 32")
+    # Fail before the long video stages: the word must be spellable and the clip must exist.
+    lexicon.split_word(lexicon.check_language(settings.language), settings.word)
+    resolve_video(settings.clip)
 
 
 def run_compare(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True) -> CompareResult:
