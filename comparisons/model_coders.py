@@ -33,7 +33,7 @@ from scipy.fft import dct
 from scipy.signal import savgol_filter
 
 from comparisons.coded_streams import StreamReader, StreamWriter
-from comparisons.vector_quantization import TABLES_DIR, group_layout, nearest
+from comparisons.vector_quantization import TABLES_DIR, group_layout, load_table_file, nearest
 from comparisons.waveform_coders import DofCoder, uniform_index, uniform_value
 from media.errors import SigncastError
 
@@ -159,11 +159,7 @@ def gesture_distance(warped: np.ndarray, table: np.ndarray, weights: np.ndarray)
 # ---------------------------------------------------------------- tables
 
 def load_model_tables(path: Path = MODEL_TABLE_PATH) -> dict[str, np.ndarray]:
-    try:
-        with np.load(path, allow_pickle=False) as tables:
-            return {key: tables[key] for key in tables.files}
-    except OSError:
-        raise SigncastError(f"posture/gesture tables missing ({path}): run tools/train_vq_codebooks.py") from None
+    return load_table_file(path, "posture/gesture tables")
 
 
 # ---------------------------------------------------------------- coders

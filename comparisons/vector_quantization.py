@@ -96,12 +96,17 @@ def temporal_vectors(dofs: np.ndarray, dimension: int = TEMPORAL_DIMENSION) -> n
 
 # ---------------------------------------------------------------- tables
 
-def load_vq_tables(path: Path = VQ_TABLE_PATH) -> dict[str, np.ndarray]:
+def load_table_file(path: Path, what: str) -> dict[str, np.ndarray]:
+    """Arrays of a shipped .npz table file; a missing or unreadable file names the script that makes it."""
     try:
         with np.load(path, allow_pickle=False) as tables:
             return {key: tables[key] for key in tables.files}
     except OSError:
-        raise SigncastError(f"VQ codebooks missing ({path}): run tools/train_vq_codebooks.py") from None
+        raise SigncastError(f"{what} missing ({path}): run tools/train_vq_codebooks.py") from None
+
+
+def load_vq_tables(path: Path = VQ_TABLE_PATH) -> dict[str, np.ndarray]:
+    return load_table_file(path, "VQ codebooks")
 
 
 def group_layout(tables: dict[str, np.ndarray], dof_names: list[str],
