@@ -55,6 +55,17 @@ def _groups(records: list[dict], key) -> dict:
     return dict(sorted(groups.items(), key=lambda kv: (_order(kv[1][0]["solution"]), kv[0])))
 
 
+def _finish_rate_axes(axes, xlabel: str, title: str) -> None:
+    """Log kbps axis, grid, and the legend outside on the right."""
+    axes.set_xlabel(xlabel)
+    axes.set_ylabel("kbps")
+    axes.set_yscale("log")
+    axes.set_title(title)
+    axes.grid(True, which="both", alpha=0.3)
+    if axes.lines:
+        axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
+
+
 def chart_kbps_vs_q(records: list[dict]):
     """kbps against Q at the operating frame rate, one line per solution and codec."""
     figure, axes = plt.subplots(figsize=(7.5, 4.5))
@@ -67,13 +78,7 @@ def chart_kbps_vs_q(records: list[dict]):
             continue
         q, kbps = zip(*series)
         axes.plot(q, kbps, "o-", label=f"{name} ({fps:g} fps)", color=COLOURS.get(group[0]["solution"]))
-    axes.set_xlabel("quantizer Q")
-    axes.set_ylabel("kbps")
-    axes.set_yscale("log")
-    axes.set_title("Bitrate against quantizer (source Figs. 4.10-4.15)")
-    axes.grid(True, which="both", alpha=0.3)
-    if axes.lines:
-        axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    _finish_rate_axes(axes, "quantizer Q", "Bitrate against quantizer (source Figs. 4.10-4.15)")
     return figure
 
 
@@ -111,13 +116,7 @@ def chart_kbps_vs_fps(records: list[dict]):
         axes.axhline(limit, color="grey", ls=":", lw=1)
         axes.text(axes.get_xlim()[0] if axes.lines else 10, limit, f" {label} {limit:g}", fontsize=7, va="bottom", color="grey")
     axes.axvline(MIN_COMFORT_FPS, color="grey", ls="--", lw=1)
-    axes.set_xlabel("frames per second")
-    axes.set_ylabel("kbps")
-    axes.set_yscale("log")
-    axes.set_title("Bitrate against frame rate, with linear fits")
-    axes.grid(True, which="both", alpha=0.3)
-    if axes.lines:
-        axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    _finish_rate_axes(axes, "frames per second", "Bitrate against frame rate, with linear fits")
     return figure
 
 

@@ -212,7 +212,28 @@ class CompandedQuantizer(DofCoder):
 
 # ---------------------------------------------------------------- predictive coders
 
-class DpcmCoder(DofCoder):
+class ResidualCoder(DofCoder):
+    """The stream both predictive coders share: first frame, per-DOF difference limits, then one quantised
+    residual symbol per DOF and frame (2 half + 1 symbols, half = (levels - 2) // 2). Subclasses give
+    `_predict(first, limits, levels, n_frames, fps, dofs=None, symbols=None) -> (reconstruction, symbols)`,
+    the closed loop both ends run (encoding when dofs are given, decoding from symbols)."""
+
+    def _encode(self, writer, dofs, fps, levels):
+        first = write_first_frame(writer, self, dofs[0])
+        limits = _write_diff_limits(writer, dofs)
+        recon, symbols = self._predict(first, limits, levels, len(dofs), fps, dofs=dofs)
+        writer.symbols(symbols, 2 * ((levels - 2) // 2) + 1)
+        return recon
+
+    def _decode(self, reader, n_frames, fps, levels):
+        first = read_first_frame(reader, self)
+        limits = _read_diff_limits(reader, self.n_dofs)
+        alphabet = 2 * ((levels - 2) // 2) + 1
+        symbols = reader.symbols(alphabet, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs)
+        return self._predict(first, limits, levels, n_frames, fps, symbols=symbols)[0]
+
+
+class DpcmCoder(ResidualCoder):
     """First-order DPCM from the decoded previous value, mu-law difference quantiser (§7.5)."""
 
     name, coder_id, unit = "dpcm", 3, "levels"
@@ -240,23 +261,11 @@ class DpcmCoder(DofCoder):
             recon[t] = np.clip(prediction + steps[rows, symbols[t - 1]], self.lower, self.upper)
         return recon, symbols
 
-    def _encode(self, writer, dofs, fps, levels):
-        half = (levels - 2) // 2
-        first = write_first_frame(writer, self, dofs[0])
-        limits = _write_diff_limits(writer, dofs)
-        recon, symbols = self._run(first, self._steps(levels, limits), len(dofs), half, dofs=dofs)
-        writer.symbols(symbols, 2 * half + 1)
-        return recon
-
-    def _decode(self, reader, n_frames, fps, levels):
-        half = (levels - 2) // 2
-        first = read_first_frame(reader, self)
-        limits = _read_diff_limits(reader, self.n_dofs)
-        symbols = reader.symbols(2 * half + 1, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs)
-        return self._run(first, self._steps(levels, limits), n_frames, half, symbols=symbols)[0]
+    def _predict(self, first, limits, levels, n_frames, fps, dofs=None, symbols=None):
+        return self._run(first, self._steps(levels, limits), n_frames, (levels - 2) // 2, dofs=dofs, symbols=symbols)
 
 
-class AdpcmCoder(DofCoder):
+class AdpcmCoder(ResidualCoder):
     """Adaptive predictive coding (§7.6): order-2 predictor adapted on decoded samples, Jayant-adapted quantiser."""
 
     name, coder_id, unit = "adpcm", 4, "levels"
@@ -303,20 +312,8 @@ class AdpcmCoder(DofCoder):
                 error_order2 = 0.8 * error_order2 + (recon[t] - order2) ** 2
         return recon, symbols
 
-    def _encode(self, writer, dofs, fps, levels):
-        half = (levels - 2) // 2
-        first = write_first_frame(writer, self, dofs[0])
-        limits = _write_diff_limits(writer, dofs)
-        recon, symbols = self._run(first, limits, len(dofs), fps, half, dofs=dofs)
-        writer.symbols(symbols, 2 * half + 1)
-        return recon
-
-    def _decode(self, reader, n_frames, fps, levels):
-        half = (levels - 2) // 2
-        first = read_first_frame(reader, self)
-        limits = _read_diff_limits(reader, self.n_dofs)
-        symbols = reader.symbols(2 * half + 1, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs)
-        return self._run(first, limits, n_frames, fps, half, symbols=symbols)[0]
+    def _predict(self, first, limits, levels, n_frames, fps, dofs=None, symbols=None):
+        return self._run(first, limits, n_frames, fps, (levels - 2) // 2, dofs=dofs, symbols=symbols)
 
 
 # ---------------------------------------------------------------- dead reckoning
