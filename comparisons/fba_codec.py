@@ -25,6 +25,18 @@ quantised value changes during the intra period, so unchanged groups cost 3 bits
 Chosen here (no source): intra period 32 frames (predictive) and 4 segments (DCT); the 7-bit
 range fields (param_coding); the encoder sends tight ranges for an intra period unless the default
 (+-31 fields) alphabets are estimated to cost less (log2 of the alphabet sizes per coded level).
+Nothing is clipped. A predictive period ends early where a residual is too large for the range
+fields (a step-64 angle crossing +-pi, a root jump over ~15 m): the next intra plane starts at that
+frame and sends absolute values, so the stream stays standard and every value decodes within half
+a step. No ASL letter crosses +-pi (their streams are byte-identical to before). Wrapping angle
+residuals modulo 2 pi would be cheaper only for motion that keeps crossing it (a root twist
+jittering about pi: 2.3x the bytes with intra escapes, ~1.03x with DCT), but 2 pi is not a whole
+number of 1e-5 rad units and a standard decoder does not wrap. A value whose intra level is too
+large (|root translation| > ~15 m) is refused with SigncastError.
+
+Streams hold at most MAX_FRAMES frames; the encoder refuses longer input and the decoder stops
+with SigncastError at frame MAX_FRAMES + 1 (a 15.6 kB DCT stream can hold 400,000 still
+frames, 0.95 GB once decoded).
 """
 from __future__ import annotations
 
@@ -44,6 +56,9 @@ PARAMSET_BAP = 2
 PREDICTIVE, DCT = 0, 1
 DEFAULT_INTRA_PERIOD = 32
 DEFAULT_INTRA_SEGMENTS = 4
+MAX_FRAMES = 216_000        # 1 h at 60 fps, 2 h at 30 fps; decoded (T, 296) int64 <= 511 MB
+DECODE_BLOCK = 1024         # the decoder stores frames in blocks of this many
+MAX_ABS_VALUE = 2 ** 31 - 1  # input guard, far beyond any BAP's range
 
 
 def coded_order(mask: np.ndarray) -> np.ndarray:
@@ -114,23 +129,35 @@ def _changed_mask(block: np.ndarray, held: np.ndarray, steps: np.ndarray) -> np.
     return np.any(pc.quantize(block - held, steps) != 0, axis=0)
 
 
-def _write_predictive_period(writer: BitWriter, block: np.ndarray, held: np.ndarray, q: int, fps: float,
-                             tight: bool) -> tuple[np.ndarray, bool]:
-    """Codes one intra period; returns the decoder's values after it and whether it fit."""
+def _predictive_period(block: np.ndarray, held: np.ndarray, q: int):
+    """The predictive coder's decisions for the longest prefix of `block` (T, 296) that one intra
+    period can carry: (frames, mask (296,) bool, coded order, intra levels (P,), P levels
+    (frames - 1, P), decoder values (frames, P)). SigncastError if an intra value cannot be sent."""
     steps_all = bap_table.steps() * q
     mask = _changed_mask(block, held, steps_all)
     order = coded_order(mask)
-    steps = steps_all[order]
-    intra, p_levels, recon = pc.predictive_levels(block[:, order], held[order], steps, q)
-    if tight:
-        fields = np.stack([*pc.range_fields(intra[None], q), *pc.range_fields(p_levels, q)])
-    else:
+    intra, p_levels, recon = pc.predictive_levels(block[:, order], held[order], steps_all[order], q)
+    too_large = np.flatnonzero(np.abs(intra) > pc.level_limit(q))
+    if len(too_large):
+        bap = bap_table.bap(int(order[too_large[0]]) + 1)
+        unit = "mm" if bap.is_translation else "x 1e-5 rad"
+        raise SigncastError(f"BAP {bap.id} ({bap.name}) value {int(block[0, bap.id - 1])} {unit} cannot be sent at "
+                            f"Q={q}: an FBA intra plane carries at most +-{pc.level_limit(q) * bap.step * q}")
+    frames = pc.fitting_frames(p_levels, q)
+    if frames < len(block):              # a residual too large for the range fields: new intra plane there
+        return _predictive_period(block[:frames], held, q)
+    return frames, mask, order, intra, p_levels, recon
+
+
+def _write_predictive_period(writer: BitWriter, period: tuple, held: np.ndarray, q: int, fps: float) -> np.ndarray:
+    """Codes one intra period (from _predictive_period); returns the decoder's values after it."""
+    _, mask, order, intra, p_levels, recon = period
+    fields = np.stack([*pc.range_fields(intra[None], q), *pc.range_fields(p_levels, q)])
+    tight = _prefer_tight_ranges(fields, len(p_levels), q)
+    if not tight:
         fields = np.full((4, len(order)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64)
     i_low, i_high = pc.alphabet(fields[0], fields[1], q)
     p_low, p_high = pc.alphabet(fields[2], fields[3], q)
-    fits = bool(np.all((intra >= i_low) & (intra <= i_high)) and np.all((p_levels >= p_low) & (p_levels <= p_high)))
-    if not fits:
-        return held, False
     writer.start_code(PLANE_START_CODE)
     write_plane_header(writer, True, fps)
     writer.write(q, 5)
@@ -148,7 +175,7 @@ def _write_predictive_period(writer: BitWriter, block: np.ndarray, held: np.ndar
         pc.write_levels(writer, levels, p_models, p_low)
     after = held.copy()
     after[order] = recon[-1]
-    return after, True
+    return after
 
 
 def dct_period(block: np.ndarray, held: np.ndarray, q: int):
@@ -180,21 +207,18 @@ def dct_training_symbols(values: np.ndarray, q: int, intra_segments: int = DEFAU
     return out
 
 
-def _prefer_tight_ranges(block: np.ndarray, held: np.ndarray, q: int) -> bool:
-    """Send per-BAP ranges when their 28 bits per masked BAP cost less than coding every level in
-    the default alphabets (estimated as log2 of the alphabet sizes), or when the defaults are too small."""
-    steps_all = bap_table.steps() * q
-    order = coded_order(_changed_mask(block, held, steps_all))
-    intra, p_levels, _ = pc.predictive_levels(block[:, order], held[order], steps_all[order], q)
-    fields = np.stack([*pc.range_fields(intra[None], q), *pc.range_fields(p_levels, q)])
+def _prefer_tight_ranges(fields: np.ndarray, n_p_frames: int, q: int) -> bool:
+    """Send the per-BAP ranges `fields` (4, P) when their 28 bits per masked BAP cost less than
+    coding every level in the default alphabets (estimated as log2 of the alphabet sizes), or when
+    the defaults are too small."""
     if np.any(fields > pc.DEFAULT_RANGE_FIELD):
         return True
     def bits(f: np.ndarray) -> float:
         i_low, i_high = pc.alphabet(f[0], f[1], q)
         p_low, p_high = pc.alphabet(f[2], f[3], q)
-        return float(np.log2(i_high - i_low + 1).sum() + len(p_levels) * np.log2(p_high - p_low + 1).sum())
+        return float(np.log2(i_high - i_low + 1).sum() + n_p_frames * np.log2(p_high - p_low + 1).sum())
     default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
-    return bits(fields) + 4 * pc.RANGE_BITS * len(order) < bits(default)
+    return bits(fields) + 4 * pc.RANGE_BITS * fields.shape[1] < bits(default)
 
 
 def _write_dct_period(writer: BitWriter, block: np.ndarray, held: np.ndarray, q: int, fps: float,
@@ -229,11 +253,16 @@ def encode_fba(values: np.ndarray, fps: float, q: int, coding: str = "pred", *,
                intra_period: int = DEFAULT_INTRA_PERIOD, intra_segments: int = DEFAULT_INTRA_SEGMENTS) -> bytes:
     """FBA stream of BAP values (T, 296) int64 at `fps`, global quantisation Q in 1..31.
 
-    coding: "pred" (frame-predictive + arithmetic coding) or "dct" (16-frame DCT + VLC)."""
+    coding: "pred" (frame-predictive + arithmetic coding) or "dct" (16-frame DCT + VLC).
+    SigncastError for more than MAX_FRAMES frames, or a value the stream cannot carry."""
     q = pc.check_q(q)
     values = np.asarray(values, dtype=np.int64)
     if values.ndim != 2 or values.shape[1] != bap_table.N_BAPS or len(values) == 0:
         raise SigncastError(f"BAP values must be (T >= 1, {bap_table.N_BAPS}), got {values.shape}")
+    if len(values) > MAX_FRAMES:
+        raise SigncastError(f"an FBA stream holds at most {MAX_FRAMES} frames, got {len(values)}: split the motion")
+    if values.min() < -MAX_ABS_VALUE or values.max() > MAX_ABS_VALUE:    # keeps the int64 level arithmetic exact
+        raise SigncastError(f"BAP values beyond +-{MAX_ABS_VALUE} cannot be coded (rotations are within +-314159)")
     if coding not in ("pred", "dct"):
         raise SigncastError(f"unknown FBA coding {coding!r}: choose 'pred' or 'dct'")
     period = intra_period if coding == "pred" else intra_segments * pc.SEGMENT
@@ -242,22 +271,53 @@ def encode_fba(values: np.ndarray, fps: float, q: int, coding: str = "pred", *,
     writer = BitWriter()
     writer.start_code(OBJECT_START_CODE)
     held = np.zeros(bap_table.N_BAPS, dtype=np.int64)
-    for start in range(0, len(values), period):
+    start = 0
+    while start < len(values):
         block = values[start:start + period]
         if coding == "dct":
             held = _write_dct_period(writer, block, held, q, fps, start + period >= len(values))
-            continue
-        tight = _prefer_tight_ranges(block, held, q)
-        held, fits = _write_predictive_period(writer, block, held, q, fps, tight)
-        if not fits:
-            raise SigncastError("internal error: an intra period did not fit its ranges")
+        else:
+            decisions = _predictive_period(block, held, q)
+            block = block[:decisions[0]]
+            held = _write_predictive_period(writer, decisions, held, q, fps)
+        start += len(block)
     writer.start_code(END_CODE)
     data = writer.getvalue()
     return data + zlib.crc32(data).to_bytes(4, "big")
 
 
-def decode_fba(data: bytes) -> tuple[np.ndarray, float]:
-    """(values (T, 296) int64, fps) of an FBA stream; SigncastError if it is corrupt or truncated."""
+class _DecodedFrames:
+    """Decoded BAP frames, stored in blocks of DECODE_BLOCK frames so that memory grows with the
+    frames decoded; refuses frame max_frames + 1 before storing it."""
+
+    def __init__(self, max_frames: int) -> None:
+        self.max_frames = max_frames
+        self.blocks: list[np.ndarray | None] = []
+        self.count = 0
+
+    def append(self, values: np.ndarray) -> None:
+        """values: (296,) int64, one frame."""
+        if self.count >= self.max_frames:
+            raise SigncastError(f"FBA stream holds more than {self.max_frames} frames, the decoder's limit")
+        row = self.count % DECODE_BLOCK
+        if row == 0:
+            self.blocks.append(np.empty((DECODE_BLOCK, bap_table.N_BAPS), dtype=np.int64))
+        self.blocks[-1][row] = values
+        self.count += 1
+
+    def array(self) -> np.ndarray:
+        """(count, 296) int64; releases each block once copied, so the peak is the output plus one block."""
+        out = np.empty((self.count, bap_table.N_BAPS), dtype=np.int64)
+        for k in range(len(self.blocks)):
+            rows = out[k * DECODE_BLOCK:(k + 1) * DECODE_BLOCK]
+            rows[:] = self.blocks[k][:len(rows)]
+            self.blocks[k] = None
+        return out
+
+
+def decode_fba(data: bytes, *, max_frames: int = MAX_FRAMES) -> tuple[np.ndarray, float]:
+    """(values (T, 296) int64, fps) of an FBA stream; SigncastError if it is corrupt or truncated,
+    or holds more than `max_frames` frames (checked while decoding: memory stays within the limit)."""
     data = bytes(data)
     if len(data) < 12 or zlib.crc32(data[:-4]).to_bytes(4, "big") != data[-4:]:
         raise SigncastError("corrupt or truncated FBA stream: checksum mismatch")
@@ -266,7 +326,7 @@ def decode_fba(data: bytes) -> tuple[np.ndarray, float]:
     if reader.read_start_code() != OBJECT_START_CODE:
         raise SigncastError("not an FBA stream: it does not start with fba_object_start_code")
     held = np.zeros(bap_table.N_BAPS, dtype=np.int64)
-    frames: list[np.ndarray] = []
+    frames = _DecodedFrames(max_frames)
     fps = None
     state = None
     while True:
@@ -300,7 +360,7 @@ def decode_fba(data: bytes) -> tuple[np.ndarray, float]:
                 levels = pc.read_levels(reader, pc.make_models(i_low, i_high), i_low)
                 held[order] = levels * steps
                 state = ("pred", order, steps, pc.make_models(p_low, p_high), p_low)
-                frames.append(held.copy())
+                frames.append(held)
             else:
                 dc_step, ac_step = pc.dct_steps(bap_table.steps()[order], q)
                 state = ["dct", order, dc_step, ac_step, None]
@@ -311,17 +371,17 @@ def decode_fba(data: bytes) -> tuple[np.ndarray, float]:
             if state[0] == "pred":
                 _, order, steps, p_models, p_low = state
                 held[order] += pc.read_levels(reader, p_models, p_low) * steps
-                frames.append(held.copy())
+                frames.append(held)
             else:
                 _read_dct_segment(reader, state, False, held, frames)
     if reader.pos != 8 * len(data):
         raise SigncastError("corrupt FBA stream: data after the end code")
-    if not frames or fps is None:
+    if not frames.count or fps is None:
         raise SigncastError("corrupt FBA stream: no frames")
-    return np.stack(frames), fps
+    return frames.array(), fps
 
 
-def _read_dct_segment(reader: BitReader, state: list, intra: bool, held: np.ndarray, frames: list) -> None:
+def _read_dct_segment(reader: BitReader, state: list, intra: bool, held: np.ndarray, frames: _DecodedFrames) -> None:
     _, order, dc_step, ac_step, previous_dc = state
     tables = pc.vlc_tables()
     n = pc.SEGMENT
@@ -337,4 +397,4 @@ def _read_dct_segment(reader: BitReader, state: list, intra: bool, held: np.ndar
     segment = pc.dct_reconstruct(dc, ac, dc_step, ac_step)
     for t in range(n):
         held[order] = segment[t]
-        frames.append(held.copy())
+        frames.append(held)

@@ -11,7 +11,10 @@ quant(v - previous decoded value, step) with its P model. Levels are arithmetic-
 symbol = level - range_min over the alphabet [range_min, range_max], which an intra frame sends
 as `ceil(|bound| / 60)` fields in base-step units (RANGE_DELTA 60, visage FBAEncoder.cpp).
 Chosen here: 7-bit range fields instead of the standard's 5 bits, so every angle in (-pi, pi]
-fits at every Q (5 bits cap |level x Q| at 1860 base steps: +-68 degrees for step 64).
+fits at every Q (5 bits cap |level x Q| at 1860 base steps: +-68 degrees for step 64). Levels are
+never clipped: a P residual beyond `level_limit` (an angle crossing +-pi is a 2 pi jump, more than
+a step-64 BAP's 7620 levels at Q = 1) ends the intra period there, and the coder starts a new
+intra plane at that frame (`fitting_frames`); an intra level beyond it cannot be sent at all.
 
 DCT (seed 000 §2.1 Fig. 2.9, §2.4.2): per parameter, segments of 16 frames, orthonormal DCT-II;
 DC step = base step x Q, AC step = base step x Q / 3; the DC level of an inter segment is
@@ -65,21 +68,28 @@ def level_limit(q: int) -> int:
 
 
 def predictive_levels(values: np.ndarray, held: np.ndarray, steps: np.ndarray, q: int):
-    """Levels of one intra period of masked parameters.
+    """Levels of one intra period of masked parameters, closed loop, unclipped.
 
     values: (T, P) int64; held: (P,) decoder values before the period (unused here: intra levels
     are absolute); steps: (P,) effective steps. Returns intra (P,), p_levels (T-1, P) and the
-    decoder's reconstruction (T, P)."""
-    limit = level_limit(q)
-    intra = np.clip(quantize(values[0], steps), -limit, limit)
+    decoder's reconstruction (T, P). Levels may exceed level_limit(q): callers send only the
+    first `fitting_frames` frames in this period."""
+    intra = quantize(values[0], steps)
     recon = np.empty_like(values)
     recon[0] = intra * steps
     p_levels = np.empty((len(values) - 1, values.shape[1]), dtype=np.int64)
     for t in range(1, len(values)):
-        level = np.clip(quantize(values[t] - recon[t - 1], steps), -limit, limit)
+        level = quantize(values[t] - recon[t - 1], steps)
         p_levels[t - 1] = level
         recon[t] = recon[t - 1] + level * steps
     return intra, p_levels, recon
+
+
+def fitting_frames(p_levels: np.ndarray, q: int) -> int:
+    """Frames of an intra period the range fields can carry: the intra frame and the P frames
+    before the first one with a residual level beyond level_limit(q). p_levels: (T-1, P)."""
+    too_large = np.flatnonzero(np.any(np.abs(p_levels) > level_limit(q), axis=1))
+    return 1 + (int(too_large[0]) if len(too_large) else len(p_levels))
 
 
 def range_fields(levels: np.ndarray, q: int) -> tuple[np.ndarray, np.ndarray]:

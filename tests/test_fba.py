@@ -1,11 +1,16 @@
 """MPEG-4 FBA: the BAP table, the avatar's BAP mapping, the predictive and DCT coders, .bap files."""
+import inspect
+import tracemalloc
+import zlib
+
 import numpy as np
 import pytest
 
-from comparisons import bap_table
+from comparisons import bap_table, fba_codec
 from comparisons import param_coding as pc
 from comparisons.bap_file import format_bap, parse_bap
-from comparisons.fba_codec import decode_fba, encode_fba
+from comparisons.bitstream import BitWriter
+from comparisons.fba_codec import decode_fba, encode_fba, write_group_masks, write_plane_header
 from comparisons.fba_mapping import avatar_bap_map, baps_to_motion, motion_to_baps
 from media import rotations
 from media.avatar import load_avatar
@@ -151,3 +156,71 @@ def test_real_fingerspelling_maps_to_baps_and_back_within_one_millimetre():
     error_mm = 1000 * np.abs(joint_positions(skeleton, motion) - joint_positions(skeleton, back)).max()
     assert error_mm < 1.0
     assert np.any(values[:, 32] != 0) or np.any(values[:, 33] != 0)     # a shoulder flexes
+
+
+@pytest.mark.parametrize("q", [1, 31])
+def test_predictive_fba_codes_angles_crossing_pi_and_large_translation_jumps_within_half_a_step(q):
+    values = np.zeros((8, 296), np.int64)
+    values[:, 186 - 1] = [314000, 314100, -314100, -314000, -313000, 313000, 314159, -314159]   # root tilt, step 64
+    values[:, 32 - 1] = [0, 300000, -300000, 0, 0, 0, 0, 0]                                    # shoulder, step 64
+    values[:, 181 - 1] = [0, 15000, -15000, 0, 0, 0, 0, 0]                                     # root, mm, step 2
+    decoded, _ = decode_fba(encode_fba(values, 10, q, "pred"))
+    assert np.all(np.abs(decoded - values) <= bap_table.steps() * q // 2)
+
+
+@pytest.mark.parametrize("coding", ["pred", "dct"])
+def test_fba_encoder_rejects_a_value_its_stream_cannot_carry(coding):
+    values = np.zeros((3, 296), np.int64)
+    values[1, 181 - 1] = 16000 if coding == "pred" else 10 ** 7     # pred: 16 m > an intra plane's 15.24 m at Q=1;
+                                                                     # dct: 10 km, beyond the largest VLC category
+    with pytest.raises(SigncastError, match="BAP 181" if coding == "pred" else "DCT level"):
+        encode_fba(values, 10, 1, coding)
+    values[1, 181 - 1] = np.iinfo(np.int64).min                       # would overflow the level arithmetic
+    with pytest.raises(SigncastError, match="beyond"):
+        encode_fba(values, 10, 1, coding)
+
+
+def test_fba_decoder_refuses_a_stream_longer_than_its_frame_limit_before_allocating_the_frames():
+    # a valid DCT stream of 400,000 still frames (25,000 empty 16-frame segments, ~15.6 kB)
+    writer = BitWriter()
+    writer.start_code(fba_codec.OBJECT_START_CODE)
+    writer.start_code(fba_codec.PLANE_START_CODE)
+    write_plane_header(writer, True, 25)
+    writer.write(1, 5)
+    write_group_masks(writer, np.zeros(296, bool))
+    writer.write_bit(0)
+    writer.write_bit(fba_codec.DCT)
+    writer.write_bit(0)
+    for k in range(1, 25_000):
+        write_plane_header(writer, False, 25)
+        writer.write_bit(int(k == 24_999))
+        if k == 24_999:
+            writer.write(15, 4)
+    writer.start_code(fba_codec.END_CODE)
+    data = writer.getvalue()
+    data += zlib.crc32(data).to_bytes(4, "big")
+    assert 15_000 < len(data) < 16_000
+    tracemalloc.start()
+    try:
+        with pytest.raises(SigncastError, match="more than 2000 frames"):
+            decode_fba(data, max_frames=2000)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 4 * 2000 * 296 * 8                     # memory follows the limit, not the 400,000 frames
+    assert inspect.signature(decode_fba).parameters["max_frames"].default == fba_codec.MAX_FRAMES < 400_000
+
+
+def test_fba_frame_limit_allows_hours_of_signing_in_under_a_gigabyte_and_the_encoder_keeps_to_it():
+    assert fba_codec.MAX_FRAMES >= 3600 * 60                         # an hour at 60 fps, two at 30
+    assert fba_codec.MAX_FRAMES * 296 * 8 < 2 ** 29                  # decoded int64 values < 512 MiB
+    limit = 50
+    values = motion_to_baps(smooth_motion(n_frames=limit))
+    decoded, _ = decode_fba(encode_fba(values, 10, 4, "dct"), max_frames=limit)
+    assert decoded.shape == (limit, 296)
+    with pytest.raises(SigncastError, match=f"more than {limit - 1} frames"):
+        decode_fba(encode_fba(values, 10, 4, "pred"), max_frames=limit - 1)
+    too_long = np.zeros((fba_codec.MAX_FRAMES + 1, 296), np.int64)   # calloc'd pages, never touched
+    for coding in ("pred", "dct"):
+        with pytest.raises(SigncastError, match=f"at most {fba_codec.MAX_FRAMES} frames"):
+            encode_fba(too_long, 25, 4, coding)
