@@ -1,10 +1,16 @@
 """The comparison report: one self-contained HTML page (plots embedded as PNG) made from records only.
 
 Records are dicts as written to records.jsonl. Measured points carry at least solution, codec, q, fps,
-kbps and, where measured, psnr / ssim (whole frame) and psnr_skin / ssim_skin (skin region) against
-the common reference frames. A record with kind == "stage" carries a stage's wall time (stage, wall_s);
-one with kind == "run" carries the software versions and the backend. Points flagged
-operating_point == True are the solutions' operating points (video Q = 12 at 25 fps, parameters at 25 fps).
+kbps, width and height. Points with a picture (width and height > 0: `signcast compare`, `demo`, `video`)
+carry image quality where measured: psnr / ssim (whole frame), psnr_skin / ssim_skin (face and hands)
+and psnr_object (inside the sent objects), each against that point's reference frames (see `reference`).
+Points without a picture (width = height = 0: `signcast params`, `lab`) measure the animation parameters
+themselves: their psnr is parameter-domain (seed 000 eq. 2.6), with vpsnr and joint errors in mm, against
+the motion before coding; the report never puts the two kinds of PSNR in one column or chart.
+A record with kind == "stage" carries a stage's wall time (stage, wall_s); one with kind == "run" carries
+the software versions and the backend. Points flagged operating_point == True are the solutions'
+operating points (video Q = 12 at 25 fps, parameters at 25 fps). The page shows only the sections the
+records have data for.
 """
 from __future__ import annotations
 
@@ -20,16 +26,55 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from comparisons.criteria import SOLUTIONS, criteria_table  # noqa: E402
+from comparisons.video_codecs import CODECS as VIDEO_CODECS  # noqa: E402
+from media.errors import SigncastError  # noqa: E402
 
 REQUIREMENTS = (("broadcast", 100.0), ("webcast", 56.0), ("phone line", 64.0))
 MIN_COMFORT_FPS = 15.0
 SOLUTION_ORDER = ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "FBA", "BBA")
-COLOURS = {"NSV": "#1f77b4", "NSV2O": "#ff7f0e", "NSV3O": "#2ca02c", "NSV3O+C": "#98df8a", "SSV": "#d62728",
-           "FBA": "#9467bd", "BBA": "#8c564b"}
+RENDERED_SOLUTIONS = ("SSV", "FBA", "BBA")   # pictures of the avatar: measured against its lossless render
+# Today's video codecs, coded at matched quality; their quantiser is on their own scale, not MPEG-4's Q 1-31.
+OTHER_VIDEO_CODECS = {"libx264": "H.264", "libsvtav1": "AV1"}
+# One colour per series: ten distinct colours, then their light shades (drawn with another marker).
+PALETTE = (*plt.get_cmap("tab10").colors, *plt.get_cmap("tab20").colors[1::2])
+MARKERS = ("o", "^", "v", "<", ">")
 
 
 def points(records: list[dict]) -> list[dict]:
     return [r for r in records if r.get("kind", "point") == "point" and r.get("kbps") is not None]
+
+
+def has_picture(record: dict) -> bool:
+    """True for a point measured on decoded pictures (width and height > 0), False for parameters only."""
+    return (record.get("width") or 0) > 0 and (record.get("height") or 0) > 0
+
+
+def reference(record: dict) -> str:
+    """What a point's quality is measured against, in words (a record's own "reference" field wins)."""
+    if record.get("reference"):
+        return str(record["reference"])
+    clip = record.get("clip") or "the clip"
+    if not has_picture(record):
+        return f"{clip}: motion before coding (full-precision BAPs)"
+    size = f"{record['width']}×{record['height']}"
+    if record["solution"] in RENDERED_SOLUTIONS:
+        return f"lossless render of {clip}, {size}"
+    return f"source frames of {clip}, {size}"
+
+
+def quantiser(record: dict) -> str:
+    """The quantiser in words, with its scale: MPEG-4 Q (1-31), H.264 / AV1 QP on their own ranges, or a
+    seed-002 coder's setting number (`signcast lab`)."""
+    q, codec = record.get("q"), record.get("codec", "")
+    if q is None:
+        return "–"
+    if record.get("setting") is not None:
+        return f"setting {q} ({record['setting']})"
+    if codec in OTHER_VIDEO_CODECS:
+        low, high = VIDEO_CODECS[codec][1]
+        return f"{OTHER_VIDEO_CODECS[codec]} QP {q} ({low}-{high})"
+    clothes = [o["q"] for o in record.get("objects") or [] if isinstance(o, dict) and o.get("name") == "clothes"]
+    return f"Q {q}" + (f" (+{clothes[0]} clothes)" if clothes else "")
 
 
 def _series_key(record: dict) -> str:
@@ -39,6 +84,17 @@ def _series_key(record: dict) -> str:
 
 def _order(solution: str) -> int:
     return SOLUTION_ORDER.index(solution) if solution in SOLUTION_ORDER else len(SOLUTION_ORDER)
+
+
+def series_styles(records: list[dict]) -> dict[str, dict]:
+    """A colour and marker for every solution · codec series in the records, so that no two codecs share one.
+
+    MPEG-4 video and the parameter codecs come first (ten distinct colours), H.264 and AV1 after them, so a
+    chart of the MPEG-4 series alone colours them as the page's other charts do.
+    """
+    names = sorted({(r.get("codec") in OTHER_VIDEO_CODECS, _order(r["solution"]), _series_key(r)) for r in points(records)})
+    return {name: {"color": PALETTE[i % len(PALETTE)], "marker": MARKERS[(i // 10) % len(MARKERS)]}
+            for i, (_, _, name) in enumerate(names)}
 
 
 def _png(figure) -> str:
@@ -55,6 +111,28 @@ def _groups(records: list[dict], key) -> dict:
     return dict(sorted(groups.items(), key=lambda kv: (_order(kv[1][0]["solution"]), kv[0])))
 
 
+def _mean(values) -> float | None:
+    present = [float(v) for v in values if isinstance(v, (int, float)) and np.isfinite(v)]
+    return float(np.mean(present)) if present else None
+
+
+def _by_quantiser(group: list[dict], fields: tuple[str, ...]) -> list[dict]:
+    """One series' points at one frame rate, averaged over clips per quantiser, sorted by q:
+    [{"q", "clips": [clip names], "record": first record, field: mean or None, ...}]."""
+    rows = []
+    for q, same_q in sorted(_groups(group, lambda r: r["q"]).items(), key=lambda kv: kv[0]):
+        row = {"q": q, "clips": sorted({str(r.get("clip", "")) for r in same_q}), "record": same_q[0]}
+        row.update({name: _mean(r.get(name) for r in same_q) for name in fields})
+        rows.append(row)
+    return rows
+
+
+def _top_rate(group: list[dict]) -> tuple[float, list[dict]]:
+    """The highest frame rate of a series and its points."""
+    fps = max(g["fps"] for g in group)
+    return fps, [g for g in group if g["fps"] == fps]
+
+
 def _finish_rate_axes(axes, xlabel: str, title: str) -> None:
     """Log kbps axis, grid, and the legend outside on the right."""
     axes.set_xlabel(xlabel)
@@ -66,19 +144,36 @@ def _finish_rate_axes(axes, xlabel: str, title: str) -> None:
         axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
 
 
-def chart_kbps_vs_q(records: list[dict]):
-    """kbps against Q at the operating frame rate, one line per solution and codec."""
+def quantiser_sweeps(records: list[dict]) -> dict[str, tuple[float, list[dict]]]:
+    """Per series with at least two quantisers: (top frame rate, kbps per Q averaged over clips).
+
+    Only quantisers on a Q scale: MPEG-4 video at full resolution and the FBA/BBA codecs; H.264/AV1 (their own
+    QP scale, coded at matched quality) and seed-002 coders (setting numbers) are left out.
+    """
+    swept = [r for r in points(records) if r.get("sweep") in ("q", None) and r.get("q") is not None
+             and r.get("full_resolution", True) and r.get("setting") is None and r.get("codec") not in OTHER_VIDEO_CODECS]
+    sweeps = {}
+    for name, group in _groups(swept, _series_key).items():
+        fps, top = _top_rate(group)
+        rows = _by_quantiser(top, ("kbps",))
+        if len(rows) >= 2:
+            sweeps[name] = (fps, rows)
+    return sweeps
+
+
+def _clips_note(clips: list[str]) -> str:
+    return f", mean of {len(clips)} clips" if len(clips) > 1 else ""
+
+
+def chart_kbps_vs_q(records: list[dict], styles: dict | None = None):
+    """kbps against Q at each series' top frame rate (averaged over clips), one line per solution and codec."""
+    styles = styles or series_styles(records)
     figure, axes = plt.subplots(figsize=(7.5, 4.5))
-    for name, group in _groups([r for r in points(records) if r.get("sweep") in ("q", None) and r.get("q") is not None
-                                and r.get("full_resolution", True)], _series_key).items():
-        fps_values = sorted({g["fps"] for g in group})
-        fps = max(fps_values)
-        series = sorted((g["q"], g["kbps"]) for g in group if g["fps"] == fps)
-        if len(series) < 2:
-            continue
-        q, kbps = zip(*series)
-        axes.plot(q, kbps, "o-", label=f"{name} ({fps:g} fps)", color=COLOURS.get(group[0]["solution"]))
-    _finish_rate_axes(axes, "quantizer Q", "Bitrate against quantizer (source Figs. 4.10-4.15)")
+    for name, (fps, rows) in quantiser_sweeps(records).items():
+        axes.plot([r["q"] for r in rows], [r["kbps"] for r in rows], "-", ms=5,
+                  label=f"{name} ({fps:g} fps{_clips_note(rows[0]['clips'])})", **styles[name])
+    _finish_rate_axes(axes, "quantizer Q (MPEG-4 Part 2 for video; each FBA/BBA codec's own Q)",
+                      "Bitrate against quantizer (source Figs. 4.10-4.15)")
     return figure
 
 
@@ -104,13 +199,14 @@ def linear_fits(records: list[dict]) -> list[dict]:
     return fits
 
 
-def chart_kbps_vs_fps(records: list[dict]):
+def chart_kbps_vs_fps(records: list[dict], styles: dict | None = None):
+    styles = styles or series_styles(records)
     figure, axes = plt.subplots(figsize=(7.5, 4.5))
     for fit in linear_fits(records):
-        colour = COLOURS.get(fit["solution"])
-        axes.plot(fit["fps"], fit["kbps"], "o", color=colour)
+        style = styles[fit["series"]]
+        axes.plot(fit["fps"], fit["kbps"], ls="none", **style)
         span = np.array([min(fit["fps"]), max(fit["fps"])])
-        axes.plot(span, fit["slope_kbps_per_fps"] * span + fit["intercept_kbps"], "-", color=colour,
+        axes.plot(span, fit["slope_kbps_per_fps"] * span + fit["intercept_kbps"], "-", color=style["color"],
                   label=f"{fit['series']}: {fit['slope_kbps_per_fps']:.2f}·fps + {fit['intercept_kbps']:.1f} (R²={fit['r2']:.3f})")
     for label, limit in REQUIREMENTS:
         axes.axhline(limit, color="grey", ls=":", lw=1)
@@ -120,31 +216,83 @@ def chart_kbps_vs_fps(records: list[dict]):
     return figure
 
 
-def chart_rate_quality(records: list[dict], metric: str):
-    """quality (metric, whole frame and skin region) against kbps: each solution's quantizer sweep at its top
-    frame rate as a line, today's codecs at matched quality as single markers."""
+def _picture_points(records: list[dict], metric: str) -> list[dict]:
+    return [r for r in points(records) if has_picture(r) and r.get(metric) is not None and r.get("full_resolution", True)]
+
+
+def measured_against(records: list[dict]) -> str:
+    """Which solutions' image quality is measured against which reference frames, in one line of text."""
+    groups = _groups([r for r in points(records) if has_picture(r) and r.get("full_resolution", True)], reference)
+    return "; ".join(f"{', '.join(dict.fromkeys(r['solution'] for r in group))} against the {name}"
+                     for name, group in groups.items())
+
+
+def chart_rate_quality(records: list[dict], metric: str, styles: dict | None = None):
+    """Image quality (metric: "psnr" or "ssim"; whole frame and face-and-hands region) against kbps, each against
+    the point's reference frames: each series' quantizer sweep at its top frame rate as a line, today's codecs at
+    matched quality as single open markers. Points without a picture are left out."""
+    styles = styles or series_styles(records)
     figure, panels = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
-    measured = [r for r in points(records) if r.get(metric) is not None and r.get("full_resolution", True)]
-    for panel, suffix, title in ((panels[0], "", "whole frame"), (panels[1], "_skin", "skin region (face and hands)")):
+    measured = _picture_points(records, metric)
+    for panel, suffix, title in ((panels[0], "", "whole frame (unsent pixels count as error)"),
+                                 (panels[1], "_skin", "face and hands")):
         swept = [r for r in measured if r.get("sweep") in ("q", None) and r.get(metric + suffix) is not None]
         for name, group in _groups(swept, _series_key).items():
-            top_fps = max(g["fps"] for g in group)
-            series = sorted((g["kbps"], g[metric + suffix]) for g in group if g["fps"] == top_fps)
-            kbps, quality = zip(*series)
-            panel.plot(kbps, quality, "o-", ms=4, label=name, color=COLOURS.get(group[0]["solution"]))
+            rows = [r for r in _by_quantiser(_top_rate(group)[1], ("kbps", metric + suffix)) if r[metric + suffix] is not None]
+            rows.sort(key=lambda r: r["kbps"])
+            panel.plot([r["kbps"] for r in rows], [r[metric + suffix] for r in rows], "-", ms=4, label=name, **styles[name])
         for r in (r for r in measured if r.get("sweep") == "codec" and r.get(metric + suffix) is not None):
+            name = _series_key(r)
             panel.plot([r["kbps"]], [r[metric + suffix]], "D" if "264" in r["codec"] else "s", mfc="none", ms=7,
-                       color=COLOURS.get(r["solution"]), label=_series_key(r))
+                       color=styles[name]["color"], label=f"{name} (matched quality)")
         for label, limit in REQUIREMENTS:
             panel.axvline(limit, color="grey", ls=":", lw=1)
         panel.set_xscale("log")
         panel.set_xlabel("kbps")
         panel.set_title(f"{metric.upper()}, {title}")
         panel.grid(True, which="both", alpha=0.3)
-    panels[0].set_ylabel(metric.upper() + (" (dB)" if metric == "psnr" else ""))
-    handles, labels = panels[1].get_legend_handles_labels()
-    if handles:
-        figure.legend(handles, labels, fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    panels[0].set_ylabel(metric.upper() + (" (dB)" if metric == "psnr" else "")
+                         + " against the reference frames")
+    figure.suptitle(measured_against(records), fontsize=9)
+    _figure_legend(figure, panels)
+    return figure
+
+
+def _figure_legend(figure, panels) -> None:
+    """One legend on the right for the series of every panel (a series may have points in one panel only)."""
+    entries = {}
+    for panel in panels:
+        for handle, label in zip(*panel.get_legend_handles_labels()):
+            entries.setdefault(label, handle)
+    if entries:
+        figure.legend(list(entries.values()), list(entries), fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
+
+
+def _parameter_points(records: list[dict]) -> list[dict]:
+    return [r for r in points(records) if not has_picture(r)]
+
+
+def chart_parameter_quality(records: list[dict], styles: dict | None = None):
+    """Parameter-domain PSNR (seed 000 eq. 2.6) and VPSNR against kbps, against the motion before coding, for
+    points without a picture; each series at its top frame rate, averaged over clips per quantiser."""
+    styles = styles or series_styles(records)
+    figure, panels = plt.subplots(1, 2, figsize=(12, 4.8))
+    measured = _parameter_points(records)
+    for panel, metric, title in ((panels[0], "psnr", "parameter PSNR (seed 000 eq. 2.6)"),
+                                 (panels[1], "vpsnr", "VPSNR (velocity)")):
+        for name, group in _groups([r for r in measured if r.get(metric) is not None], _series_key).items():
+            fps, top = _top_rate(group)
+            rows = sorted((r for r in _by_quantiser(top, ("kbps", metric)) if r[metric] is not None), key=lambda r: r["kbps"])
+            panel.plot([r["kbps"] for r in rows], [r[metric] for r in rows], "-", ms=4,
+                       label=f"{name} ({fps:g} fps{_clips_note(rows[0]['clips'])})", **styles[name])
+        panel.set_xscale("log")
+        panel.set_xlabel("kbps")
+        panel.set_ylabel(f"{metric.upper()} dB")
+        panel.set_title(title)
+        panel.grid(True, which="both", alpha=0.3)
+    figure.suptitle("Against the motion before coding (full-precision BAPs, rotation BAPs that move); "
+                    "not comparable with image PSNR", fontsize=9)
+    _figure_legend(figure, panels)
     return figure
 
 
@@ -176,6 +324,10 @@ def _fmt(value, digits=1) -> str:
     return html.escape(str(value))
 
 
+def _meets(kbps: float) -> str:
+    return " ".join(("✔" if kbps < limit else "✘") + f" {label} &lt; {limit:g}" for label, limit in REQUIREMENTS)
+
+
 def _table(name: str, header: list[str], rows: list[list]) -> str:
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in row) + "</tr>" for row in rows)
@@ -186,78 +338,212 @@ def _image(name: str, b64: str, alt: str) -> str:
     return f'<img class="chart" data-chart="{name}" alt="{html.escape(alt)}" src="data:image/png;base64,{b64}">'
 
 
-def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes | None = None,
-                 title: str = "signcast: cost and quality of transmitting sign language") -> Path:
-    """Write the HTML report to out_path and return it."""
-    out_path = Path(out_path)
-    measured = points(records)
-    run = next((r for r in records if r.get("kind") == "run"), {})
-    stages = [r for r in records if r.get("kind") == "stage"]
-    sections = []
+def _list(names) -> str:
+    return ", ".join(html.escape(str(n)) for n in dict.fromkeys(names))
 
-    ops = operating_points(records)
-    summary_rows = [[_fmt(r["solution"]), _fmt(r.get("codec")), _fmt(r.get("q"), 0), _fmt(float(r["fps"]), 0),
-                     _fmt(float(r["kbps"]), 2), _fmt(r.get("psnr"), 2), _fmt(r.get("psnr_skin"), 2),
-                     _fmt(r.get("ssim"), 3), _fmt(r.get("ssim_skin"), 3),
-                     " ".join(("✔" if r["kbps"] < limit else "✘") + " " + label for label, limit in REQUIREMENTS)]
-                    for r in ops]
-    sections.append("<h2>Summary at the operating points</h2><p>Video at Q = 12 and 25 fps (the source's working point); "
-                    "parameters at 25 fps, each codec at the cheapest Q whose re-rendered skin quality reaches SSV's "
-                    "(matched quality). Quality is measured against the same reference frames for every solution; "
-                    "FBA/BBA are decoded and re-rendered by the terminal with the same kernels.</p>"
-                    + _table("summary", ["solution", "codec", "Q", "fps", "kbps", "PSNR dB", "PSNR skin dB", "SSIM",
-                                         "SSIM skin", "requirements"], summary_rows))
-    if poster_png:
-        sections.append("<h2>Side by side</h2><p><code>side_by_side.mp4</code> shows every solution's decoded output at its "
-                        "operating point; this is one frame of it.</p>"
-                        + _image("poster", base64.b64encode(poster_png).decode("ascii"), "poster frame of side_by_side.mp4"))
-    sections.append("<h2>Bitrate against quantizer</h2>" + _image("kbps_vs_q", _png(chart_kbps_vs_q(records)), "kbps vs Q"))
-    fits = linear_fits(records)
-    sections.append("<h2>Bitrate against frame rate</h2>" + _image("kbps_vs_fps", _png(chart_kbps_vs_fps(records)), "kbps vs fps")
-                    + _table("linear_fits", ["series", "Q", "slope kbps/fps", "intercept kbps", "R²"],
-                             [[_fmt(f["series"]), _fmt(f["q"], 0), _fmt(f["slope_kbps_per_fps"], 2), _fmt(f["intercept_kbps"], 1),
-                               _fmt(f["r2"], 3)] for f in fits]))
-    sections.append("<h2>Rate and quality on the common axis</h2><p>SSV, FBA and BBA are measured against the same "
-                    "reference frames (the avatar rendered from the original motion); the natural-video solutions "
-                    "against their source clip. Object solutions send no background, so their whole-frame figures count "
-                    "the dropped pixels; the skin region (face and hands) carries the message.</p>"
-                    + _image("psnr_vs_kbps", _png(chart_rate_quality(records, "psnr")), "PSNR vs kbps")
-                    + _image("ssim_vs_kbps", _png(chart_rate_quality(records, "ssim")), "SSIM vs kbps"))
-    requirement_table = []
-    for row in requirement_rows(records):
+
+def _clips(clips: list[str]) -> str:
+    return _list(clips) if len(clips) <= 4 else f"{html.escape(clips[0])} … {html.escape(clips[-1])} ({len(clips)})"
+
+
+def _picture_summary(records: list[dict]) -> str:
+    """The operating points with pictures: face-and-hands quality first, the reference of every row, whole-frame
+    figures marked where the background was not sent."""
+    pictures = [r for r in points(records) if has_picture(r)]
+    rows = [r for r in operating_points(records) if has_picture(r)]
+    heading = "Summary at the operating points" if rows else "Summary: the quantizer sweep"
+    if rows:
+        video = [r for r in rows if r["solution"] not in ("FBA", "BBA")]
+        params = [r for r in rows if r["solution"] in ("FBA", "BBA")]
+        parts = []
+        if video:
+            parts.append(f"video solutions at MPEG-4 Q = {_list(r['q'] for r in video)} and "
+                         f"{_list(format(r['fps'], 'g') for r in video)} fps (the source's working point)")
+        if params:
+            rules = _list(r.get("operating_rule") or "operating point" for r in params)
+            parts.append(f"FBA/BBA at {_list(format(r['fps'], 'g') for r in params)} fps, decoded and re-rendered by the "
+                         f"terminal with the same kernels, each codec at its cheapest Q by the rule: {rules}")
+        intro = "Operating points: " + "; ".join(parts) + "."
+    else:
+        rows = sorted((r for r in pictures if r.get("sweep") in ("q", None) and r.get("full_resolution", True)),
+                      key=lambda r: (_order(r["solution"]), r.get("codec", ""), r.get("q") or 0))
+        intro = "No point is flagged as an operating point: every quantizer of the sweep is listed."
+    joint = any(r.get("joint_error_mm_mean") is not None for r in rows)
+    dropped = [r["solution"] for r in rows if r.get("psnr_object") is not None]
+    table_rows = []
+    for r in rows:
+        mark = " *" if r.get("psnr_object") is not None else ""
+        cells = [_fmt(r["solution"]), _fmt(r.get("codec")), _fmt(quantiser(r)), _fmt(float(r["fps"]), 0),
+                 _fmt(float(r["kbps"]), 2), _fmt(reference(r)), _fmt(r.get("psnr_skin"), 2), _fmt(r.get("ssim_skin"), 3),
+                 _fmt(r.get("psnr"), 2) + mark, _fmt(r.get("ssim"), 3) + mark]
+        if joint:
+            cells.append(_fmt(r.get("joint_error_mm_mean"), 2))
+        table_rows.append(cells + [_meets(r["kbps"])])
+    header = ["solution", "codec", "quantiser", "fps", "kbps", "measured against", "PSNR face+hands dB", "SSIM face+hands",
+              "PSNR whole frame dB", "SSIM whole frame", *(["joint error mm"] if joint else []), "requirements"]
+    note = ""
+    if dropped:
+        note = (f"<p><small>* {_list(dropped)} send no background: the viewer's frame is empty there, so the whole-frame "
+                "figures count every unsent pixel as error and read far lower. Read the face-and-hands columns for these "
+                "rows; the PSNR inside the sent objects is under “Every measured point”.</small></p>")
+    scales = ""
+    if any(r.get("codec") in OTHER_VIDEO_CODECS for r in pictures):
+        scales = (" MPEG-4's Q runs 1-31; H.264 and AV1 are coded at matched quality and their QP, on their own "
+                  "scales, is not comparable with it.")
+    return (f"<h2>{heading}</h2><p>" + intro + " Each row's quality is measured against the frames named in "
+            "“measured against”; face and hands carry the message, so their figures come first." + scales + "</p>"
+            + _table("summary", header, table_rows) + note)
+
+
+def _parameter_summary(records: list[dict]) -> str:
+    """Points without a picture, per series and quantiser, averaged over clips."""
+    fields = ("kbps", "psnr", "vpsnr", "joint_error_mm_mean")
+    rows = []
+    for name, group in _groups(_parameter_points(records), _series_key).items():
+        for fps, same_fps in sorted(_groups(group, lambda r: r["fps"]).items(), key=lambda kv: -kv[0]):
+            for row in _by_quantiser(same_fps, fields):
+                first = row["record"]
+                rows.append([_fmt(first["solution"]), _fmt(first.get("codec")), _fmt(quantiser(first)), _fmt(float(fps), 0),
+                             _clips(row["clips"]), "motion before coding (full-precision BAPs)", _fmt(row["kbps"], 2),
+                             _fmt(row["psnr"], 2), _fmt(row["vpsnr"], 2), _fmt(row["joint_error_mm_mean"], 2)])
+    return ("<h2>Summary: parameter coding</h2><p>These points have no pictures: they measure the animation parameters "
+            "themselves, each clip's coded and decoded motion against the same motion before coding. Their PSNR is "
+            "parameter-domain (seed 000 eq. 2.6, over the rotation BAPs that move), not image PSNR: do not compare it "
+            "with a video solution's. Values are means over the clips listed.</p>"
+            + _table("parameter_summary", ["solution", "codec", "quantiser", "fps", "clips", "measured against", "kbps",
+                                           "parameter PSNR dB", "VPSNR dB", "joint error mm"], rows))
+
+
+def _requirements(records: list[dict]) -> str:
+    head = ("<h2>Against the source's requirement lines</h2><p>Broadcast &lt; 100 kbps, webcast &lt; 56 kbps, "
+            "phone line &lt; 64 kbps, and at least 15 frames/s for signing comfort.")
+    rows = requirement_rows(records)
+    if not any(len(row) > 1 for row in rows):
+        rates = _list(format(fps, "g") for fps in sorted({r["fps"] for r in points(records)}))
+        return head + f" No point here is an operating point or reaches 15 frames/s (measured at {rates} fps).</p>"
+    table = []
+    for row in rows:
         cells = [_fmt(row["series"])]
         for label in ("operating point", "cheapest at ≥ 15 fps"):
             best = row.get(label)
             if best is None:
                 cells += ["–", "–"]
                 continue
-            cells.append(f"{best['kbps']:.1f} kbps (Q {_fmt(best.get('q'), 0)}, {best['fps']:g} fps)")
-            cells.append(" ".join(("✔" if best["kbps"] < limit else "✘") + f" {label_} &lt; {limit:g}"
-                                  for label_, limit in REQUIREMENTS))
-        requirement_table.append(cells)
-    sections.append("<h2>Against the source's requirement lines</h2><p>Broadcast &lt; 100 kbps, webcast &lt; 56 kbps, "
-                    "phone line &lt; 64 kbps, and at least 15 frames/s for signing comfort.</p>"
-                    + _table("requirements", ["series", "operating point", "meets", "cheapest at ≥ 15 fps", "meets"],
-                             requirement_table))
-    kbps_by_solution = {}
-    for solution in SOLUTIONS:
-        rates = [r["kbps"] for r in ops if r["solution"] == solution]
-        kbps_by_solution[solution] = min(rates) if rates else None
-    criteria = criteria_table(kbps_by_solution)
-    sections.append("<h2>Six criteria (source Tables 4.1-4.5 and 4.17)</h2><p>Scores 1-6, 6 = best. The bandwidth row is "
-                    "recomputed from this run; the other rows are carried over from the source with its reason.</p>"
-                    + _table("criteria", ["criterion", *SOLUTIONS, "reason"],
-                             [[_fmt(r["criterion"]), *[_fmt(r[s]) for s in SOLUTIONS], _fmt(r["reason"])] for r in criteria]))
-    all_rows = [[_fmt(r["solution"]), _fmt(r.get("codec")), _fmt(r.get("q"), 0), _fmt(float(r["fps"]), 0),
-                 f"{_fmt(r.get('width'))}×{_fmt(r.get('height'))}" if r.get("width") else "–",
-                 _fmt(float(r["kbps"]), 2), _fmt(r.get("psnr"), 2), _fmt(r.get("psnr_skin"), 2), _fmt(r.get("ssim"), 3)]
-                for r in sorted(measured, key=lambda r: (_order(r["solution"]), r.get("codec", ""), -(r["fps"]), r.get("q") or 0))]
-    sections.append("<h2>Every measured point</h2>" + _table("points", ["solution", "codec", "Q", "fps", "size", "kbps", "PSNR",
-                                                                          "PSNR skin", "SSIM"], all_rows))
-    environment_rows = [[_fmt(k), _fmt(v)] for k, v in sorted((run.get("versions") or {}).items())]
-    environment_rows.insert(0, ["backend", _fmt(run.get("backend"))])
-    sections.append("<h2>Run</h2>" + _table("versions", ["software", "version"], environment_rows)
-                    + _table("stages", ["stage", "wall time s"], [[_fmt(s["stage"]), _fmt(float(s["wall_s"]), 2)] for s in stages]))
+            where = "" if has_picture(best) else f", {best.get('clip')}"
+            cells.append(_fmt(f"{best['kbps']:.1f} kbps ({quantiser(best)}, {best['fps']:g} fps{where})"))
+            cells.append(_meets(best["kbps"]))
+        table.append(cells)
+    header = ["series", "operating point", "meets", "cheapest at ≥ 15 fps", "meets"]
+    return head + "</p>" + _table("requirements", header, table)
+
+
+def _criteria(records: list[dict]) -> str:
+    ops = operating_points(records)
+    kbps_by_solution = {s: min((r["kbps"] for r in ops if r["solution"] == s), default=None) for s in SOLUTIONS}
+    missing = [s for s, kbps in kbps_by_solution.items() if kbps is None]
+    head = "<h2>Six criteria (source Tables 4.1-4.5 and 4.17)</h2>"
+    if missing:
+        # A bandwidth rank over some of the solutions would read as a rank over all six.
+        return head + (f"<p>The bandwidth row ranks all six solutions at their operating points; these records have no "
+                       f"operating point of {_list(missing)}, so the table is left out (run <code>signcast compare</code>).</p>")
+    rows = criteria_table(kbps_by_solution)
+    return head + ("<p>Scores 1-6, 6 = best. The bandwidth row is recomputed from this run; the other rows are carried "
+                   "over from the source with its reason.</p>"
+                   + _table("criteria", ["criterion", *SOLUTIONS, "reason"],
+                            [[_fmt(r["criterion"]), *[_fmt(r[s]) for s in SOLUTIONS], _fmt(r["reason"])] for r in rows]))
+
+
+def _every_point(records: list[dict]) -> str:
+    def order(r):
+        return (_order(r["solution"]), r.get("codec", ""), str(r.get("clip", "")), -r["fps"], r.get("q") or 0)
+    html_parts = ["<h2>Every measured point</h2>"]
+    pictures = sorted((r for r in points(records) if has_picture(r)), key=order)
+    if pictures:
+        html_parts.append(_table("points", ["solution", "codec", "clip", "quantiser", "fps", "size", "kbps",
+                                            "PSNR face+hands dB", "PSNR sent objects dB", "PSNR whole frame dB",
+                                            "SSIM whole frame"],
+                                 [[_fmt(r["solution"]), _fmt(r.get("codec")), _fmt(r.get("clip")), _fmt(quantiser(r)),
+                                   _fmt(float(r["fps"]), 0), f"{r['width']}×{r['height']}", _fmt(float(r["kbps"]), 2),
+                                   _fmt(r.get("psnr_skin"), 2), _fmt(r.get("psnr_object"), 2), _fmt(r.get("psnr"), 2),
+                                   _fmt(r.get("ssim"), 3)] for r in pictures]))
+    parameters = sorted(_parameter_points(records), key=order)
+    # Without clips to average over, the parameter summary already lists every point.
+    if len({(_series_key(r), r["fps"], r["q"]) for r in parameters}) < len(parameters):
+        html_parts.append(_table("parameter_points", ["solution", "codec", "clip", "quantiser", "fps", "kbps",
+                                                      "parameter PSNR dB", "VPSNR dB", "joint error mm mean", "max"],
+                                 [[_fmt(r["solution"]), _fmt(r.get("codec")), _fmt(r.get("clip")), _fmt(quantiser(r)),
+                                   _fmt(float(r["fps"]), 0), _fmt(float(r["kbps"]), 2), _fmt(r.get("psnr"), 2),
+                                   _fmt(r.get("vpsnr"), 2), _fmt(r.get("joint_error_mm_mean"), 2),
+                                   _fmt(r.get("joint_error_mm_max"), 2)] for r in parameters]))
+    return "".join(html_parts) if len(html_parts) > 1 else ""
+
+
+def _run(records: list[dict]) -> str:
+    run = next((r for r in records if r.get("kind") == "run"), None)
+    stages = [r for r in records if r.get("kind") == "stage"]
+    parts = []
+    if run is not None:
+        versions = sorted((run.get("versions") or {}).items())
+        parts.append(_table("versions", ["software", "version"],
+                            [["backend", _fmt(run.get("backend"))]] + [[_fmt(k), _fmt(v)] for k, v in versions]))
+    if stages:
+        parts.append(_table("stages", ["stage", "wall time s"],
+                            [[_fmt(s["stage"]), _fmt(float(s["wall_s"]), 2)] for s in stages]))
+    return "<h2>Run</h2>" + "".join(parts) if parts else ""
+
+
+def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes | None = None,
+                 title: str = "signcast: cost and quality of transmitting sign language") -> Path:
+    """Write the HTML report to out_path and return it: the sections the records have data for.
+
+    Raises SigncastError when the records hold no measured point.
+    """
+    out_path = Path(out_path)
+    measured = points(records)
+    if not measured:
+        kinds = _list(sorted({str(r.get("kind", "point")) for r in records})) or "none"
+        raise SigncastError(f"no measured points in the records (record kinds: {kinds}); nothing to report")
+    styles = series_styles(records)
+    pictures = [r for r in measured if has_picture(r)]
+    parameters = _parameter_points(records)
+    sections = []
+    if pictures:
+        sections.append(_picture_summary(records))
+    if parameters:
+        sections.append(_parameter_summary(records))
+    if poster_png:
+        sections.append("<h2>Side by side</h2><p><code>side_by_side.mp4</code> shows every solution's decoded output at its "
+                        "operating point; this is one frame of it.</p>"
+                        + _image("poster", base64.b64encode(poster_png).decode("ascii"), "poster frame of side_by_side.mp4"))
+    if quantiser_sweeps(records):
+        sections.append("<h2>Bitrate against quantizer</h2>"
+                        + _image("kbps_vs_q", _png(chart_kbps_vs_q(records, styles)), "kbps vs Q"))
+    fits = linear_fits(records)
+    if fits:
+        sections.append("<h2>Bitrate against frame rate</h2>"
+                        + _image("kbps_vs_fps", _png(chart_kbps_vs_fps(records, styles)), "kbps vs fps")
+                        + _table("linear_fits", ["series", "quantiser", "slope kbps/fps", "intercept kbps", "R²"],
+                                 [[_fmt(f["series"]), _fmt(f"Q {f['q']}" if f["q"] is not None else None),
+                                   _fmt(f["slope_kbps_per_fps"], 2), _fmt(f["intercept_kbps"], 1), _fmt(f["r2"], 3)]
+                                  for f in fits]))
+    charts = [(metric, "PSNR vs kbps" if metric == "psnr" else "SSIM vs kbps") for metric in ("psnr", "ssim")
+              if _picture_points(records, metric)]
+    if charts:
+        sections.append("<h2>Rate and image quality</h2><p>" + html.escape(measured_against(records))
+                        + ". Object solutions send no background, so their whole-frame figures count the dropped pixels as "
+                        "error; the face-and-hands region carries the message.</p>"
+                        + "".join(_image(f"{metric}_vs_kbps", _png(chart_rate_quality(records, metric, styles)), alt)
+                                  for metric, alt in charts))
+    if any(r.get("psnr") is not None or r.get("vpsnr") is not None for r in parameters):
+        sections.append("<h2>Rate and parameter quality</h2><p>Each clip's decoded parameters against the same motion before "
+                        "coding (full-precision BAPs); parameter PSNR and VPSNR are not image figures.</p>"
+                        + _image("parameter_quality", _png(chart_parameter_quality(records, styles)),
+                                 "parameter PSNR and VPSNR vs kbps"))
+    sections.append(_requirements(records))
+    if operating_points(records):
+        sections.append(_criteria(records))
+    sections.append(_every_point(records))
+    sections.append(_run(records))
 
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>

@@ -7,8 +7,10 @@ from pathlib import Path
 
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser("report", help="re-make the HTML report from a records.jsonl",
-                                   description="Re-make the comparison report from records only, without recomputing.")
-    parser.add_argument("records", type=Path, help="records.jsonl written by signcast compare/demo/video/params")
+                                   description="Re-make the comparison report from records only, without recomputing. The page "
+                                               "shows what the records measured: image quality of decoded pictures "
+                                               "(compare, demo, video) or parameter quality (params, lab).")
+    parser.add_argument("records", type=Path, help="records.jsonl written by signcast compare/demo/video/params/lab")
     parser.add_argument("-o", "--output", type=Path, default=None, help="report file (default: report.html beside the records)")
     parser.set_defaults(func=run)
 
@@ -16,9 +18,11 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from comparisons.records import read_records
     from comparisons.report import build_report
+    from pipeline.outputs import output_files
     records = read_records(args.records)
     output = args.output or args.records.with_name("report.html")
     poster = args.records.with_name("side_by_side_poster.png")
-    path = build_report(records, output, poster_png=poster.read_bytes() if poster.is_file() else None)
+    with output_files((output, "report")):
+        path = build_report(records, output, poster_png=poster.read_bytes() if poster.is_file() else None)
     print(f"report: {path}")
     return 0
