@@ -159,7 +159,8 @@ def split_word(language: str, word: str) -> list[str]:
     """
     table = {normalize_unit(entry.unit): entry.unit for entry in entries(language)}
     longest = max(len(key) for key in table)
-    text = normalize_unit(word.strip())
+    written = unicodedata.normalize("NFC", word.strip())
+    text = normalize_unit(written)
     if not text:
         raise SigncastError("nothing to fingerspell: the word is empty")
     result: list[str] = []
@@ -183,47 +184,27 @@ def split_word(language: str, word: str) -> list[str]:
                 result.append(table[base])
                 position += 1
                 continue
+            # quote the letter as the user wrote it (Greek capitals too), unless lower-casing changed the length
+            letter = written[position] if len(written) == len(text) else text[position]
             raise SigncastError(f"cannot fingerspell {word!r} in {check_language(language)}: no letter "
-                                f"{text[position]!r}; the lexicon has: {' '.join(units(language))}")
+                                f"{letter!r}; the lexicon has: {' '.join(units(language))}")
     return result
 
 
 def read_clip(entry: LexiconEntry) -> SignClip:
     """Keypoints of one lexicon entry, cut to [start_ms, end_ms) where that is inside the clip."""
-    from pose_format import Pose  # heavy import, only when a clip is read
+    from media.pose_file import read_pose  # imports pose-format, heavy: only when a clip is read
 
-    try:
-        data = entry.path.read_bytes()
-    except OSError as error:
-        raise SigncastError(f"cannot read lexicon clip {entry.path}: {error.strerror}") from None
-    try:
-        pose = Pose.read(data)
-    except Exception as error:  # pose-format raises assorted errors on damaged files
-        raise SigncastError(f"damaged pose file {entry.path}: {error}") from None
-    fps = float(pose.body.fps)
-    values = np.ma.getdata(pose.body.data)[:, 0].astype(np.float64)
-    mask = np.ma.getmaskarray(pose.body.data)[:, 0].any(axis=-1)
-    confidence = np.asarray(pose.body.confidence)[:, 0].astype(np.float64)
-    confidence = np.where(mask | ~np.isfinite(confidence), 0.0, np.clip(confidence, 0.0, 1.0))
-    values = np.where(np.isfinite(values) & (confidence[..., None] > 0), values, 0.0)
-    if not (np.isfinite(fps) and fps > 0) or len(values) == 0:
-        raise SigncastError(f"pose file {entry.path} has no frames or a bad frame rate ({fps})")
-
-    times_ms = np.arange(len(values)) * 1000.0 / fps
+    clip = read_pose(entry.path)
+    fps = clip.fps
+    times_ms = np.arange(clip.n_frames) * 1000.0 / fps
     keep = times_ms >= entry.start_ms
     if entry.end_ms > entry.start_ms:
         keep &= times_ms < entry.end_ms
     if not keep.any():
         keep[:] = True
-
-    points, confidences = {}, {}
-    start = 0
-    for component in pose.header.components:
-        stop = start + len(component.points)
-        points[component.name] = values[keep, start:stop]
-        confidences[component.name] = confidence[keep, start:stop]
-        start = stop
-    return SignClip(fps, points, confidences, entry)
+    return SignClip(fps, {name: points[keep] for name, points in clip.points.items()},
+                    {name: confidence[keep] for name, confidence in clip.confidence.items()}, entry)
 
 
 def signing_hands(language: str, threshold: float = 0.3) -> list[str]:

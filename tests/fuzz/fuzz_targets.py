@@ -1,0 +1,358 @@
+"""Fuzz targets: one function per decoder or reader of signcast, `target(data: bytes) -> None`.
+
+A target decodes `data` with the real decoder. Two outcomes pass: SigncastError (a clean rejection;
+the target lets it propagate and `run` turns it into "rejected"), or a decode that passes the
+target's oracle ("decoded"). Anything else propagates: another exception type from the decoder, or
+DecodeMismatch from the oracle, is a finding. Hangs (> 1 s) and memory (> 1 GB) are watched by the
+fuzzer (benchmarks/fuzz.py), not here.
+
+Oracles, where a decode succeeds: the result has the announced shape and finite values, decoding
+is deterministic (the same bytes decode to the same values twice), and, where the format has an
+encoder, the decoded values survive the encoder: lossless formats (shape, .bap, BBA-XML, records,
+BVH) give them back exactly (BVH to 1e-6), and quantising coders (FBA, BBA predictive) give them
+back once they lie on the encoder's grid. A binary BBA stream must also be a valid BBA-XML stream.
+
+Checksums are repaired before decoding (FBA, shape, motion coders: CRC-32 in a fixed place), so
+mutations reach the parser behind them instead of stopping at the checksum test; a corpus file,
+already valid, is unchanged by the repair. BBA's CRC-8 per unit is left as is (the fuzzer's
+comparison tracing learns one byte). Readers that take a path get the bytes through a temporary file.
+"""
+from __future__ import annotations
+
+import atexit
+import functools
+import shutil
+import struct
+import tempfile
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from media.errors import SigncastError
+
+ROUND_TRIP_LIMIT = 64            # frames (or 64 k shape pixels): larger decodes skip the encoder oracle,
+SHAPE_ROUND_TRIP_PIXELS = 1 << 16  # so that the oracle alone never approaches the 1 s budget per input
+# The encoders of FBA, BBA, shape and BVH cost 5-10 decodes: the fuzzer (benchmarks/fuzz.py) runs their
+# oracle on one input in ENCODER_ORACLE_EVERY, chosen by the input's CRC so that a finding reproduces.
+ENCODER_ORACLE_EVERY = 1
+
+
+class DecodeMismatch(AssertionError):
+    """A decode that succeeded but is not correct: a finding, like an unexpected exception."""
+
+
+def _unchanged(data: bytes) -> bytes:
+    return data
+
+
+@dataclass(frozen=True)
+class Target:
+    """name: the corpus folder under tests/fuzz/corpus/; decode: the target; what: the decoder, in words;
+    seal: repairs the input's checksums before decode (identity where none is repaired)."""
+    name: str
+    decode: Callable[[bytes], None]
+    what: str
+    seal: Callable[[bytes], bytes] = _unchanged
+
+
+def _expect(condition: bool, message: str) -> None:
+    if not condition:
+        raise DecodeMismatch(message)
+
+
+def _check_fps(fps: float) -> None:
+    _expect(isinstance(fps, float) and np.isfinite(fps) and fps > 0,
+            f"decoded frame rate {fps!r} is not a positive number")
+
+
+def _check_array(values: np.ndarray, shape: tuple, dtype=None) -> None:
+    """shape: expected sizes, None where any size >= 1 goes."""
+    _expect(isinstance(values, np.ndarray) and values.ndim == len(shape)
+            and all(s is None and n >= 1 or n == s for n, s in zip(values.shape, shape)),
+            f"decoded array of shape {getattr(values, 'shape', None)}, expected {shape}")
+    if dtype is not None:
+        _expect(values.dtype == dtype, f"decoded array of dtype {values.dtype}, expected {dtype}")
+    _expect(values.dtype == bool or bool(np.all(np.isfinite(values))), "decoded array holds NaN or infinite values")
+
+
+def _same(first, second, what: str) -> None:
+    if isinstance(first, np.ndarray):
+        _expect(isinstance(second, np.ndarray) and first.shape == second.shape and np.array_equal(first, second),
+                f"{what} differ")
+    else:
+        _expect(first == second, f"{what} differ")
+
+
+@functools.lru_cache(maxsize=1)
+def _scratch() -> Path:
+    folder = Path(tempfile.mkdtemp(prefix="signcast-fuzz-"))
+    atexit.register(shutil.rmtree, folder, True)
+    return folder
+
+
+def _as_file(data: bytes, suffix: str) -> Path:
+    path = _scratch() / f"input{suffix}"
+    path.write_bytes(data)
+    return path
+
+
+def _scratch_path(suffix: str) -> Path:
+    return _scratch() / f"oracle{suffix}"
+
+
+def _encoder_oracle_due(data: bytes) -> bool:
+    return zlib.crc32(data) % ENCODER_ORACLE_EVERY == 0
+
+
+# ------------------------------------------------------------------------------------------ FBA
+
+def seal_fba(data: bytes) -> bytes:
+    """The stream with its trailing CRC-32 (big-endian, over all bytes before it) recomputed."""
+    if len(data) < 4:
+        return data
+    return data[:-4] + zlib.crc32(data[:-4]).to_bytes(4, "big")
+
+
+def fba(data: bytes) -> None:
+    from comparisons import bap_table
+    from comparisons.fba_codec import decode_fba, encode_fba
+
+    values, fps = decode_fba(data)
+    _check_array(values, (None, bap_table.N_BAPS), np.int64)
+    _check_fps(fps)
+    again, fps_again = decode_fba(data)
+    _same(values, again, "two decodes of the same FBA stream")
+    _expect(fps_again == fps, "two decodes of the same FBA stream differ in frame rate")
+    # Values on the Q = 1 grid (every predictive stream's are) come back exactly from the predictive coder.
+    if len(values) <= ROUND_TRIP_LIMIT and np.all(values % bap_table.steps() == 0) and _encoder_oracle_due(data):
+        try:
+            stream = encode_fba(values, fps, 1, "pred")
+        except SigncastError:
+            return  # values the encoder cannot represent: not the decoder's business
+        _same(decode_fba(stream)[0], values, "FBA values re-encoded at Q=1 and decoded again")
+
+
+# ------------------------------------------------------------------------------------------ BBA
+
+def _bba_values(stream) -> list:
+    return [(f.kfi, f.bones, f.values) for f in stream.frames]
+
+
+def _check_bba(stream) -> None:
+    """A decoded BBA stream must also be a valid BBA-XML stream (its schema bounds values and IDs)."""
+    from comparisons.bba_xml import from_xml, to_xml
+
+    _check_fps(float(stream.header.fps))
+    _expect(len(stream.frames) >= 1, "decoded BBA stream without frames")
+    try:
+        back = from_xml(to_xml(stream))
+    except SigncastError as error:
+        raise DecodeMismatch(f"decoded BBA stream is not a valid BBA stream: {error}") from None
+    _same(_bba_values(back), _bba_values(stream), "BBA frames and their XML form")
+
+
+def bba(data: bytes) -> None:
+    from comparisons.bba_codec import read_stream, write_stream
+
+    stream, lost = read_stream(data)
+    _expect(lost == [], f"strict BBA decode reports lost units {lost}")
+    _check_bba(stream)
+    _same(_bba_values(read_stream(data)[0]), _bba_values(stream), "two decodes of the same BBA stream")
+    if stream.header.coding == "pred" and len(stream.frames) <= ROUND_TRIP_LIMIT and _encoder_oracle_due(data):
+        # once re-encoded, values lie on the encoder's grid: a second round trip must not move them
+        try:
+            once = read_stream(write_stream(stream))[0]
+            twice = read_stream(write_stream(once))[0]
+        except SigncastError:
+            return
+        _same(_bba_values(twice), _bba_values(once), "BBA frames re-encoded a second time")
+
+
+def bba_resilient(data: bytes) -> None:
+    from comparisons.bba_codec import read_stream
+
+    stream, lost = read_stream(data, resilient=True)
+    _check_bba(stream)
+    _expect(lost == sorted(set(lost)) and all(i >= 0 for i in lost), f"lost units {lost} are not increasing indices")
+    again, lost_again = read_stream(data, resilient=True)
+    _same((_bba_values(again), lost_again), (_bba_values(stream), lost), "two resilient decodes of the same BBA stream")
+
+
+def bba_xml(data: bytes) -> None:
+    from comparisons.bba_xml import from_xml, to_xml
+
+    stream = from_xml(data.decode("utf-8", errors="replace"))
+    _check_fps(float(stream.header.fps))
+    back = from_xml(to_xml(stream))
+    _same(back, stream, "BBA-XML stream written and read again")
+
+
+# ---------------------------------------------------------------------------------------- .bap
+
+def bap(data: bytes) -> None:
+    from comparisons import bap_table
+    from comparisons.bap_file import format_bap, parse_bap, read_bap
+
+    values, fps, name = read_bap(_as_file(data, ".bap"))
+    _check_array(values, (len(values), bap_table.N_BAPS), np.int64)  # a .bap may hold 0 frames
+    _check_fps(fps)
+    back, fps_back, name_back = parse_bap(format_bap(values, fps, name))
+    _same(back, values, ".bap values written and read again")
+    _same(name_back, name, ".bap names written and read again")
+    _expect(abs(fps_back - fps) <= 1e-5 * fps, f".bap frame rate {fps} comes back as {fps_back}")
+
+
+# --------------------------------------------------------------------------------------- shape
+
+def seal_shape(data: bytes) -> bytes:
+    """The stream with the header's payload length set to the payload's, and its CRC-32 (the header's
+    last field, over the header before it and the payload) recomputed."""
+    from comparisons.shape_coding import _HEADER
+
+    if len(data) < _HEADER.size:
+        return data
+    fields = list(_HEADER.unpack_from(data))
+    payload = data[_HEADER.size:]
+    fields[-2] = len(payload)
+    head = _HEADER.pack(*fields)[:-4]
+    return head + zlib.crc32(payload, zlib.crc32(head)).to_bytes(4, "big") + payload
+
+
+def shape(data: bytes) -> None:
+    from comparisons.shape_coding import _HEADER, decode_shape, encode_shape
+
+    masks = decode_shape(data)
+    _, _, width, height, frames, gop = _HEADER.unpack_from(data)[:6]
+    _check_array(masks, (frames, height, width), bool)
+    _same(decode_shape(data), masks, "two decodes of the same shape stream")
+    # lossless: the masks re-encoded decode to themselves
+    if masks.size <= SHAPE_ROUND_TRIP_PIXELS and _encoder_oracle_due(data):
+        _same(decode_shape(encode_shape(masks, gop)[0]), masks, "shape masks re-encoded and decoded again")
+
+
+# ------------------------------------------------------------------------------- motion coders
+
+def seal_motion(data: bytes) -> bytes:
+    """A motion-coder clip with both CRC-32s repaired: the inner stream's and the clip's (lab_codecs layout)."""
+    from comparisons.lab_codecs import dof_layout
+
+    head = 5 + -(-dof_layout().n_dofs // 8)       # magic, coder id, active-DOF mask
+    if len(data) < head + 8:
+        return data
+    inner = data[head:-4]
+    inner = inner[:-4] + struct.pack("<I", zlib.crc32(inner[:-4]))
+    body = data[:head] + inner
+    return body + struct.pack("<I", zlib.crc32(body))
+
+
+def _motion_target(name: str) -> Callable[[bytes], None]:
+    def decode(data: bytes) -> None:
+        from comparisons.lab_codecs import LabCodec, dof_layout
+
+        codec = LabCodec(name)
+        dofs, fps = codec.decode_dofs(data)
+        _check_array(dofs, (None, dof_layout().n_dofs), np.float64)
+        _check_fps(float(fps))
+        again, _ = codec.decode_dofs(data)
+        _same(again, dofs, f"two decodes of the same {name} stream")
+    decode.__name__ = f"motion_{name}"
+    return decode
+
+
+# ----------------------------------------------------------------------------------------- BVH
+
+def bvh(data: bytes) -> None:
+    from media import rotations
+    from media.bvh import read_bvh, write_bvh
+
+    motion, hierarchy = read_bvh(_as_file(data, ".bvh"))
+    bones = len(hierarchy.names)
+    _check_array(motion.rotations, (None, bones, 4), np.float64)
+    _check_array(hierarchy.offsets, (bones, 3), np.float64)
+    _check_fps(float(motion.fps))
+    if motion.n_frames * bones > ROUND_TRIP_LIMIT * 32 or not _encoder_oracle_due(data):
+        return
+    try:
+        copy = _scratch_path(".bvh")
+        write_bvh(copy, motion, hierarchy.to_skeleton())
+    except SigncastError:
+        return  # a hierarchy the writer cannot express (e.g. two roots): not the reader's business
+    back, _ = read_bvh(copy)
+    _same(back.bone_names, motion.bone_names, "BVH bones written and read again")
+    dots = np.abs(np.sum(rotations.canonical(back.rotations) * rotations.canonical(motion.rotations), axis=-1))
+    _expect(bool(np.all(dots > 1 - 1e-9)), "BVH rotations written and read again differ")
+    _expect(np.allclose(back.root_translation, motion.root_translation, atol=1e-8, rtol=1e-9),
+            "BVH root translations written and read again differ")
+
+
+# --------------------------------------------------------------------------------------- .pose
+
+def pose(data: bytes) -> None:
+    from media.pose_file import HOLISTIC_LAYOUT, read_pose
+
+    clip = read_pose(data)
+    _check_fps(float(clip.fps))
+    _expect(tuple(clip.points) == tuple(name for name, _ in HOLISTIC_LAYOUT),
+            "decoded components differ from the layout")
+    for name, points in HOLISTIC_LAYOUT:
+        _check_array(clip.points[name], (clip.n_frames, len(points), 3), np.float64)
+        _check_array(clip.confidence[name], (clip.n_frames, len(points)), np.float64)
+        _expect(bool(np.all((clip.confidence[name] >= 0) & (clip.confidence[name] <= 1))), "confidence outside [0, 1]")
+    again = read_pose(data)
+    for name, _ in HOLISTIC_LAYOUT:
+        _same(again.points[name], clip.points[name], "two decodes of the same .pose")
+
+
+# ------------------------------------------------------------------------------------- records
+
+def records(data: bytes) -> None:
+    from comparisons.records import read_records, write_records
+
+    found = read_records(_as_file(data, ".jsonl"))
+    _expect(isinstance(found, list) and all(isinstance(r, dict) for r in found), "records are not a list of objects")
+    # write_records turns NaN into null, so compare from the first rewrite on
+    once = read_records(write_records(_scratch_path(".jsonl"), found))
+    twice = read_records(write_records(_scratch_path(".jsonl"), once))
+    _same(twice, once, "records written and read again")
+
+
+# ------------------------------------------------------------------------------------ registry
+
+MOTION_CODERS = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavelet", "svq", "tvq",
+                 "posture", "gesture", "hybrid")   # = lab_codecs.LAB_CODEC_NAMES (tested), without importing it
+
+TARGETS: dict[str, Target] = {t.name: t for t in [
+    Target("fba", fba, "comparisons.fba_codec.decode_fba (CRC-32 repaired)", seal_fba),
+    Target("bba", bba, "comparisons.bba_codec.read_stream"),
+    Target("bba-resilient", bba_resilient, "comparisons.bba_codec.read_stream(resilient=True)"),
+    Target("bba-xml", bba_xml, "comparisons.bba_xml.from_xml"),
+    Target("bap", bap, "comparisons.bap_file.read_bap"),
+    Target("shape", shape, "comparisons.shape_coding.decode_shape (length and CRC-32 repaired)", seal_shape),
+    *[Target(f"motion-{name}", _motion_target(name), f"comparisons.lab_codecs.LabCodec({name!r}).decode_dofs "
+             "(CRC-32s repaired)", seal_motion) for name in MOTION_CODERS],
+    Target("bvh", bvh, "media.bvh.read_bvh"),
+    Target("pose", pose, "media.pose_file.read_pose"),
+    Target("records", records, "comparisons.records.read_records"),
+]}
+
+CORPUS_DIR = Path(__file__).resolve().parent / "corpus"
+
+
+def run(name: str, data: bytes) -> str:
+    """'decoded' or 'rejected' (SigncastError) for the input with its checksums repaired; any other
+    exception, or DecodeMismatch, propagates."""
+    target = TARGETS[name]
+    try:
+        target.decode(target.seal(data))
+    except SigncastError:
+        return "rejected"
+    return "decoded"
+
+
+def corpus_files(name: str) -> list[Path]:
+    """The seed files of a target, sorted."""
+    folder = CORPUS_DIR / name
+    return sorted(p for p in folder.iterdir() if p.is_file()) if folder.is_dir() else []

@@ -1,0 +1,216 @@
+"""Regenerate the fuzzers' seed corpora, tests/fuzz/corpus/<target>/, from real bundled data.
+
+Every seed is a small valid input written by signcast's own encoders (so it must decode cleanly;
+tests/test_fuzz_short.py checks that): the ASL letter "A" (and "AB") fingerspelled by the avatar
+through the FBA, BBA (binary and XML), .bap and the twelve seed-002 motion coders; the carphone
+clip's signer masks (first frames, subsampled) through the shape coder; an arm chain of the avatar's
+skeleton as BVH; lexicon clips trimmed to a frame or two as .pose; records of a real FBA measurement.
+Re-run it whenever a stream format changes; it replaces each target's folder.
+
+    python tools/make_fuzz_corpus.py [--targets fba,bba,...]
+"""
+from __future__ import annotations
+
+import argparse
+import io
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests" / "fuzz"))
+
+from comparisons import bap_table  # noqa: E402
+
+import fuzz_targets  # noqa: E402
+
+ARM_CHAIN_END = "finger2-3.R"   # the BVH seed's skeleton: root down to the tip of the right index finger
+
+
+def _letter(word: str = "A", fps: float = 10.0):
+    from media.fingerspelling import fingerspell
+    return fingerspell("ase", word, fps)
+
+
+def _baps(motion) -> np.ndarray:
+    from comparisons.fba_mapping import motion_to_baps
+    return motion_to_baps(motion)
+
+
+def fba_seeds() -> dict[str, bytes]:
+    from comparisons.fba_codec import encode_fba
+    a, ab = _letter("A"), _letter("AB")
+    return {"A-pred-q1.fba": encode_fba(_baps(a), a.fps, 1, "pred"),
+            "A-pred-q8.fba": encode_fba(_baps(a), a.fps, 8, "pred"),
+            "A-dct-q8.fba": encode_fba(_baps(a), a.fps, 8, "dct"),
+            "AB-pred-q4-intra4.fba": encode_fba(_baps(ab), ab.fps, 4, "pred", intra_period=4),
+            "AB-dct-q4-intra1.fba": encode_fba(_baps(ab), ab.fps, 4, "dct", intra_segments=1)}
+
+
+def _right_index_motion(frames: int = 4):
+    """The letter A on the bones of the right index finger only (small BBA streams)."""
+    from media.motion import Motion
+    motion = _letter("A")
+    keep = [k for k, name in enumerate(motion.bone_names) if name.startswith("finger2-") and name.endswith(".R")]
+    return Motion(motion.fps, tuple(motion.bone_names[k] for k in keep), motion.rotations[:frames, keep],
+                  motion.root_translation[:frames])
+
+
+def _muscle_update():
+    """An update of the avatar's first muscle: its profiled control points at full bulge, mm."""
+    from comparisons.bba_codec import MuscleUpdate
+    from media.avatar import load_avatar
+    muscle = load_avatar().muscles[0]
+    n_points, n_knots = len(muscle.control_points), len(muscle.knots)
+    profile = muscle.bulge_profile if muscle.bulge_profile is not None else np.ones(n_points)
+    direction = muscle.bulge_direction if muscle.bulge_direction is not None else np.array([0.0, 0.0, 1.0])
+    mask, values = [], []
+    for share in profile:
+        moved = share > 0
+        mask += [int(moved)] * 3 + [0]                   # x, y, z moved; the NURBS weight kept
+        if moved:
+            values += [int(round(v)) for v in direction * muscle.max_bulge * share * 1000.0]
+    return MuscleUpdate(0, n_points, n_knots, mask + [0] * n_knots, values)
+
+
+def _bba_streams() -> dict[str, object]:
+    from comparisons.bba_codec import motion_to_stream
+    a, small = _letter("A"), _right_index_motion()
+    with_muscle = motion_to_stream(small, 4, "pred")
+    with_muscle.frames[1].muscles = [_muscle_update()]
+    return {"A-pred-q8": motion_to_stream(a, 8, "pred"),
+            "A-dct-q8": motion_to_stream(a, 8, "dct"),
+            "A-keyframes-q8": motion_to_stream(a, 8, "pred", keyframes=True),
+            "index-pred-q4-muscle": with_muscle,
+            "index-dct-q2": motion_to_stream(small, 2, "dct"),
+            "index-pred-q4-intra2-headers": motion_to_stream(small, 4, "pred", intra_period=2, header_period=1)}
+
+
+def bba_seeds() -> dict[str, bytes]:
+    from comparisons.bba_codec import write_stream
+    return {f"{name}.bba": write_stream(stream) for name, stream in _bba_streams().items()}
+
+
+def bba_xml_seeds() -> dict[str, bytes]:
+    from comparisons.bba_xml import to_xml
+    return {f"{name}.xml": to_xml(stream).encode() for name, stream in _bba_streams().items()
+            if name.startswith("index-")}
+
+
+def bap_seeds() -> dict[str, bytes]:
+    from comparisons.bap_file import format_bap
+    a = _letter("A")
+    values = _baps(a)
+    # version 3.1 carries the 186 standard BAPs only: the same frames, cut to them
+    standard = format_bap(values[:3], a.fps, "letter-A").splitlines()
+    v31 = ["3.1 letter-A 10 3"]
+    for mask_line, value_line in zip(standard[2::2], standard[3::2]):
+        flags = mask_line.split()
+        kept = sum(f == "1" for f in flags[:bap_table.N_STANDARD_BAPS])
+        v31 += [" ".join(flags[:bap_table.N_STANDARD_BAPS]), " ".join(value_line.split()[:1 + kept])]
+    return {"A.bap": format_bap(values, a.fps, "letter-A").encode(), "A-v3.1.bap": ("\n".join(v31) + "\n").encode()}
+
+
+def shape_seeds() -> dict[str, bytes]:
+    from comparisons.shape_coding import encode_shape
+    from media.segmentation import segment_signer
+    from media.video_io import bundled_clip_path, read_video
+    frames, _ = read_video(bundled_clip_path("carphone"), max_frames=3)
+    masks = segment_signer(frames)
+    # small frames keep a seed's decode far under the fuzzer's 1 s limit, even instrumented
+    return {"carphone-3-half-gop2.shape": encode_shape(masks[:, ::2, ::2], gop=2)[0],
+            "carphone-1-quarter.shape": encode_shape(masks[:1, ::4, ::4], gop=1)[0]}
+
+
+def motion_seeds(name: str) -> dict[str, bytes]:
+    from comparisons.lab_codecs import LabCodec
+    codec, motion = LabCodec(name), _letter("A")
+    top = len(codec.settings())
+    return {f"A-q1.{name}": codec.encode(motion, 1), f"A-q{top}.{name}": codec.encode(motion, top)}
+
+
+def bvh_seeds() -> dict[str, bytes]:
+    from media.avatar import Skeleton, load_avatar
+    from media.bvh import write_bvh
+    from media.motion import Motion
+    skeleton = load_avatar().skeleton
+    chain = [skeleton.index(ARM_CHAIN_END)]
+    while skeleton.parents[chain[-1]] >= 0:
+        chain.append(int(skeleton.parents[chain[-1]]))
+    chain.reverse()                                  # root first: parents before children
+    arm = Skeleton(tuple(skeleton.names[b] for b in chain), np.arange(-1, len(chain) - 1, dtype=np.int32),
+                   skeleton.heads[chain], skeleton.tails[chain])
+    motion = _letter("A")
+    keep = [motion.bone_names.index(n) for n in arm.names if n in motion.bone_names]
+    arm_motion = Motion(motion.fps, tuple(motion.bone_names[k] for k in keep), motion.rotations[:3, keep],
+                        motion.root_translation[:3])
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "arm.bvh"
+        write_bvh(path, arm_motion, arm)
+        return {"A-right-arm.bvh": path.read_bytes()}
+
+
+def pose_seeds() -> dict[str, bytes]:
+    from pose_format import Pose
+    from media import lexicon
+    seeds = {}
+    for language, letter, frames in (("ase", "A", 1), ("ise", "A", 2)):
+        pose = Pose.read(lexicon.lookup(language, letter).path.read_bytes())
+        pose.body = pose.body[:frames]
+        buffer = io.BytesIO()
+        pose.write(buffer)
+        seeds[f"{language}-{letter}-{frames}frames.pose"] = buffer.getvalue()
+    return seeds
+
+
+def records_seeds() -> dict[str, bytes]:
+    from comparisons.fba_codec import encode_fba
+    from comparisons.records import make_record, versions, write_records
+    a = _letter("A")
+    records = [{"kind": "run", "backend": "numpy", "versions": versions()}]
+    for q in (1, 8, 31):
+        data = encode_fba(_baps(a), a.fps, q, "pred")
+        records.append(make_record("FBA", "ase-A", "fba-pred", q, a.fps, 0, 0, 8 * len(data), a.n_frames / a.fps,
+                                   param_psnr=None, letters=["A"]))
+    with tempfile.TemporaryDirectory() as folder:
+        return {"fba-A.jsonl": write_records(Path(folder) / "records.jsonl", records).read_bytes()}
+
+
+def seeds(target: str) -> dict[str, bytes]:
+    """File name -> bytes of the target's seeds."""
+    if target.startswith("motion-"):
+        return motion_seeds(target.removeprefix("motion-"))
+    makers = {"fba": fba_seeds, "bba": bba_seeds, "bba-resilient": bba_seeds, "bba-xml": bba_xml_seeds,
+              "bap": bap_seeds, "shape": shape_seeds, "bvh": bvh_seeds, "pose": pose_seeds, "records": records_seeds}
+    return makers[target]()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--targets", default="all", help="comma-separated target names, or all")
+    args = parser.parse_args(argv)
+    names = list(fuzz_targets.TARGETS) if args.targets == "all" else args.targets.split(",")
+    unknown = sorted(set(names) - set(fuzz_targets.TARGETS))
+    if unknown:
+        parser.error(f"unknown targets {', '.join(unknown)}; choose from {', '.join(fuzz_targets.TARGETS)}")
+    for name in names:
+        folder = fuzz_targets.CORPUS_DIR / name
+        made = seeds(name)
+        shutil.rmtree(folder, ignore_errors=True)
+        folder.mkdir(parents=True)
+        for file_name, data in made.items():
+            (folder / file_name).write_bytes(data)
+            try:
+                outcome = fuzz_targets.run(name, data)
+            except Exception as error:  # a seed that does not decode is reported, and kept for inspection
+                outcome = f"FAILS: {type(error).__name__}: {error}"
+            print(f"{name:18s} {file_name:32s} {len(data):7d} B  {outcome}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
