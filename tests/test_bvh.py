@@ -62,3 +62,52 @@ def test_bvh_rejects_truncated_file(tmp_path, skeleton, random_motion):
         read_bvh(path)
     with pytest.raises(SigncastError, match="not found"):
         read_bvh(tmp_path / "missing.bvh")
+
+
+_TWO_JOINTS = """HIERARCHY
+ROOT hips
+{{
+  OFFSET 0 90 0
+  CHANNELS {root_channels}
+  JOINT spine
+  {{
+    OFFSET 0 10 0
+    CHANNELS {spine_channels}
+    End Site
+    {{
+      OFFSET 0 20 0
+    }}
+  }}
+}}
+MOTION
+Frames: 1
+Frame Time: 0.04
+{values}
+"""
+
+
+def test_bvh_reader_rejects_position_channels_on_a_non_root_joint(tmp_path):
+    path = tmp_path / "m.bvh"
+    path.write_text(_TWO_JOINTS.format(root_channels="3 Zrotation Xrotation Yrotation",
+                                       spine_channels="6 Xposition Yposition Zposition Zrotation Xrotation Yrotation",
+                                       values="0 0 0 30 40 50 0 0 0"))
+    with pytest.raises(SigncastError, match="spine.*non-root translations are not supported"):
+        read_bvh(path)
+
+
+def test_bvh_root_without_position_channels_stays_at_its_offset(tmp_path):
+    path = tmp_path / "m.bvh"
+    path.write_text(_TWO_JOINTS.format(root_channels="3 Zrotation Xrotation Yrotation",
+                                       spine_channels="3 Zrotation Xrotation Yrotation", values="0 0 0 0 0 90"))
+    motion, hierarchy = read_bvh(path)
+    assert np.allclose(motion.root_translation, 0.0)
+    assert np.allclose(hierarchy.offsets[0], [0.0, 0.9, 0.0])
+    assert rotations.angle_between(motion.rotations[0, 1], rotations.from_axis_angle([0, 1, 0], np.pi / 2)) < 1e-9
+
+
+def test_bvh_root_position_channels_give_the_translation_from_the_offset(tmp_path):
+    path = tmp_path / "m.bvh"
+    path.write_text(_TWO_JOINTS.format(root_channels="4 Yposition Zrotation Xrotation Yrotation",
+                                       spine_channels="3 Zrotation Xrotation Yrotation", values="100 0 0 0 0 0 0"))
+    motion, _ = read_bvh(path)
+    assert np.allclose(motion.root_translation, [[0.0, 0.1, 0.0]])    # Y 100 cm against the 90 cm offset
