@@ -12,10 +12,15 @@ Each section is one of
 
 Writer and reader are used in the same order by a coder's encoder and decoder. The reader checks
 every length and the CRC, so corrupt or truncated input raises SigncastError instead of decoding
-to wrong motion. The entropy stage is a parameter (`EntropyStage`): `arithmetic` (default: the adaptive
-multi-symbol arithmetic coder of comparisons/entropy.py, one adaptive model per section), `huffman`
-(static canonical Huffman of comparisons/entropy.py, code lengths sent in the section) or `fixed`
-(ceil(log2(alphabet)) bits per symbol, i.e. no entropy coding).
+to wrong motion. Both ends bound the header before anything is allocated: T <= MAX_FRAMES,
+T x D <= MAX_VALUES, 0.001 <= fps <= MAX_FPS. Every count the decoder reads is bounded by the header:
+a section's count must equal, or for variable-length sections not exceed, what the coder's layout
+derives from it.
+
+The entropy stage is a parameter (`EntropyStage`): `arithmetic` (default: the adaptive multi-symbol
+arithmetic coder of comparisons/entropy.py, one adaptive model per section), `huffman` (static canonical
+Huffman of comparisons/entropy.py, code lengths sent in the section) or `fixed` (ceil(log2(alphabet))
+bits per symbol, i.e. no entropy coding).
 """
 from __future__ import annotations
 
@@ -32,6 +37,10 @@ MAGIC = b"SCM1"
 _HEADER = struct.Struct("<4sBBBIHI")
 _MAX_MAGNITUDE_CLASS = 40
 MAX_FRAMES = 1 << 18  # 2.9 h at 25 fps: bounds what a (possibly crafted) header can make a decoder allocate
+# frames x channels of one coded motion: 15 min of the 183-DOF signing layout at 25 fps; a decoded (T, D)
+# float64 array then takes at most 32 MiB, and a decoder at most a few such arrays
+MAX_VALUES = 1 << 22
+MAX_FPS = 1000.0  # frames per second: above any motion capture of signing; decoders size windows by fps
 
 
 # ---------------------------------------------------------------- entropy stages
@@ -77,11 +86,17 @@ def _arithmetic_encode(symbols: np.ndarray, alphabet: int) -> bytes:
 
 def _arithmetic_decode(data: bytes, count: int, alphabet: int) -> np.ndarray:
     from comparisons.bitstream import BitReader
-    from comparisons.entropy import ArithmeticDecoder, FrequencyModel
+    from comparisons.entropy import PRECISION, ArithmeticDecoder, FrequencyModel
     reader = BitReader(data)
     model = FrequencyModel(alphabet, ARITHMETIC_INCREMENT)
     decoder = ArithmeticDecoder(reader)
-    symbols = [decoder.decode(model) for _ in range(count)]
+    symbols = []
+    for _ in range(count):
+        symbols.append(decoder.decode(model))
+        # the decoder reads its register ahead by at most PRECISION bits; reading further past the end
+        # means the symbols claimed are not in the data (finish() would fail): stop now, not after `count`
+        if reader.overrun > PRECISION:
+            raise SigncastError("corrupt arithmetic-coded section: the data ends before its symbols do")
     decoder.finish()
     if (reader.pos + 7) // 8 != len(data):
         raise SigncastError("corrupt arithmetic-coded section: data does not end where the symbols do")
@@ -151,6 +166,13 @@ def entropy_stage(name: str) -> EntropyStage:
     return _STAGES[name]
 
 
+def check_size(n_frames: int, n_channels: int, what: str) -> None:
+    """SigncastError unless 0 < n_frames <= MAX_FRAMES, n_channels > 0 and n_frames x n_channels <= MAX_VALUES."""
+    if not (0 < n_frames <= MAX_FRAMES and 0 < n_channels and n_frames * n_channels <= MAX_VALUES):
+        raise SigncastError(f"{what}: {n_frames} frames x {n_channels} channels is outside the coded-motion "
+                            f"limits ({MAX_FRAMES} frames, {MAX_VALUES} frames x channels)")
+
+
 def _stage_by_id(stage_id: int) -> EntropyStage:
     for stage in _STAGES.values():
         if stage.stage_id == stage_id:
@@ -161,13 +183,13 @@ def _stage_by_id(stage_id: int) -> EntropyStage:
 # ---------------------------------------------------------------- bit packing
 
 def pack_bits(values: np.ndarray, widths: np.ndarray) -> bytes:
-    """Non-negative integers `values` (n,) written MSB first in `widths` (n,) bits each (<= 62)."""
+    """Non-negative integers `values` (n,) written MSB first in `widths` (n,) bits each (<= 57)."""
     values = np.asarray(values, dtype=np.int64)
     widths = np.asarray(widths, dtype=np.int64)
     if len(values) == 0 or widths.sum() == 0:
         return b""
-    if np.any(values < 0) or np.any(values >> widths != 0):
-        raise ValueError("value does not fit its bit width")
+    if np.any(values < 0) or np.any(widths > 57) or np.any(values >> widths != 0):
+        raise ValueError("value does not fit its bit width (at most 57)")
     max_width = int(widths.max())
     shifts = np.arange(max_width - 1, -1, -1)
     bits = (values[:, None] >> shifts[None, :]) & 1
@@ -176,20 +198,23 @@ def pack_bits(values: np.ndarray, widths: np.ndarray) -> bytes:
 
 
 def unpack_bits(data: bytes, widths: np.ndarray) -> np.ndarray:
-    """Inverse of pack_bits: integers (n,) int64 of the given widths."""
+    """Inverse of pack_bits for widths <= 57: integers (n,) int64. Memory is a few int64 per value,
+    whatever the widths (no (n, max width) bit grid: one wide value among millions must not cost GBs)."""
     widths = np.asarray(widths, dtype=np.int64)
     total = int(widths.sum())
     if (total + 7) // 8 != len(data):
         raise SigncastError("corrupt motion stream: raw bit section has the wrong length")
-    if total == 0:
-        return np.zeros(len(widths), dtype=np.int64)
-    bits = np.unpackbits(np.frombuffer(data, dtype=np.uint8))[:total].astype(np.int64)
-    max_width = int(widths.max())
-    shifts = np.arange(max_width - 1, -1, -1)
-    keep = shifts[None, :] < widths[:, None]
-    grid = np.zeros((len(widths), max_width), dtype=np.int64)
-    grid[keep] = bits
-    return (grid << shifts[None, :]).sum(axis=1)
+    if np.any(widths > 57):
+        raise ValueError("unpack_bits reads at most 57 bits per value")
+    starts = np.cumsum(widths) - widths
+    padded = np.frombuffer(bytes(data) + bytes(8), dtype=np.uint8)
+    first = starts >> 3
+    window = np.zeros(len(widths), dtype=np.uint64)  # the 8 bytes holding each value, big-endian
+    for k in range(8):
+        window = (window << np.uint64(8)) | padded[first + k]
+    aligned = window << (starts & 7).astype(np.uint64)
+    values = aligned >> np.maximum(64 - widths, 0).astype(np.uint64)
+    return np.where(widths > 0, values, 0).astype(np.int64)
 
 
 def magnitude_classes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -256,8 +281,11 @@ class StreamWriter:
         self.stage = entropy_stage(stage or DEFAULT_STAGE)
         if not (0 <= q < 256):
             raise SigncastError(f"quality index {q} out of range 0..255")
-        if not (0 < n_frames <= MAX_FRAMES and 0 < n_dofs < 2**16):
-            raise SigncastError(f"cannot code {n_frames} frames x {n_dofs} DOFs")
+        if n_dofs >= 2**16:
+            raise SigncastError(f"cannot code {n_dofs} DOFs (at most {2**16 - 1})")
+        check_size(n_frames, n_dofs, "cannot code")
+        if not 0.001 <= fps <= MAX_FPS:
+            raise SigncastError(f"cannot code motion at {fps} fps (0.001 to {MAX_FPS:g})")
         self.parts = [_HEADER.pack(MAGIC, coder_id, self.stage.stage_id, q, n_frames, n_dofs,
                                    int(round(fps * 1000)))]
 
@@ -304,8 +332,9 @@ class StreamReader:
         if cid != coder_id:
             raise SigncastError(f"{coder_name} decoder got a stream of coder id {cid}")
         self.stage = _stage_by_id(stage_id)
-        if not (0 < n_frames <= MAX_FRAMES and n_dofs > 0 and fps_milli > 0):
-            raise SigncastError(f"corrupt {coder_name} stream: impossible header ({n_frames} frames, {n_dofs} DOFs)")
+        if not 1 <= fps_milli <= 1000 * MAX_FPS:
+            raise SigncastError(f"corrupt {coder_name} stream: impossible header (frame rate {fps_milli / 1000} fps)")
+        check_size(n_frames, n_dofs, f"corrupt {coder_name} stream: impossible header")
         self.info = StreamInfo(cid, q, n_frames, n_dofs, fps_milli / 1000.0)
         self.body = body
         self.pos = _HEADER.size
@@ -341,11 +370,14 @@ class StreamReader:
         self._tag(b"H")
         return self._take(self._varint())
 
-    def symbols(self, alphabet: int, count: int | None = None) -> np.ndarray:
+    def symbols(self, alphabet: int, count: int, *, at_most: bool = False) -> np.ndarray:
+        """The next symbol section: (count,) int64 in [0, alphabet); with `at_most`, any length up to `count`
+        (the caller's bound from the header). A count field outside that is rejected before decoding."""
         self._tag(b"S")
         got_alphabet, got_count = self._varint(), self._varint()
-        if got_alphabet != alphabet or (count is not None and got_count != count):
-            raise self._fail("symbol section does not match the coder's layout")
+        if got_alphabet != alphabet or got_count > count or (got_count != count and not at_most):
+            raise self._fail(f"symbol section does not match the coder's layout (alphabet {got_alphabet}, "
+                             f"{got_count} symbols where {'at most ' if at_most else ''}{count} fit)")
         data = self._take(self._varint())
         if got_count == 0:
             return np.zeros(0, dtype=np.int64)
@@ -367,8 +399,9 @@ class StreamReader:
             raise self._fail("raw section does not match the coder's layout")
         return unpack_bits(self._take(self._varint()), widths)
 
-    def signed(self, count: int | None = None) -> np.ndarray:
-        classes = self.symbols(_MAX_MAGNITUDE_CLASS + 1, count)
+    def signed(self, count: int, *, at_most: bool = False) -> np.ndarray:
+        """Signed integers written by StreamWriter.signed: (count,) int64, or up to `count` with `at_most`."""
+        classes = self.symbols(_MAX_MAGNITUDE_CLASS + 1, count, at_most=at_most)
         mantissa = self.raw(classes)
         return from_magnitude_classes(classes, mantissa)
 

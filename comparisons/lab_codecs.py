@@ -9,6 +9,8 @@ comparisons/tables/lab_dof_ranges.npz with the codebooks.
 
 A coded clip is b"SCL1" | coder id (u8) | active-DOF mask (ceil(D/8) bytes) | inner stream | CRC-32:
 DOFs that stay exactly 0 (the rest pose) in the clip are not coded, the others go to the coder.
+Both ends bound the clip to T x D <= coded_streams.MAX_VALUES with D the whole layout (the decoder's
+output size), before coding or allocating anything.
 """
 from __future__ import annotations
 
@@ -21,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from comparisons import bap_table
-from comparisons.coded_streams import DEFAULT_STAGE
+from comparisons.coded_streams import DEFAULT_STAGE, StreamReader, check_size
 from comparisons.fba_mapping import avatar_bap_map, baps_to_motion, motion_to_baps
 from comparisons.model_coders import (GestureCoder, HybridCoder, PostureCoder, gesture_coder, hybrid_coder,
                                       load_model_tables, posture_coder)
@@ -180,6 +182,7 @@ class LabCodec:
         layout = dof_layout()
         if dofs.ndim != 2 or dofs.shape[1] != layout.n_dofs:
             raise SigncastError(f"{self.name}: DOFs must be (T, {layout.n_dofs}), got {dofs.shape}")
+        check_size(len(dofs), layout.n_dofs, f"{self.name}: cannot code")
         active = np.any(dofs != 0.0, axis=0)
         if not active.any():
             active[0] = True  # a clip of pure rest pose still needs one coded DOF to carry T and fps
@@ -203,7 +206,10 @@ class LabCodec:
         active = np.unpackbits(np.frombuffer(body[5:5 + mask_bytes], np.uint8))[:layout.n_dofs].astype(bool)
         if not active.any():
             raise SigncastError(f"corrupt {self.name} motion stream: no active DOF")
-        recon_active, fps = make_coder(self.name, active, self.stage).decode_with_fps(body[5 + mask_bytes:])
+        inner = body[5 + mask_bytes:]
+        frames = StreamReader(inner, CODER_IDS[self.name], self.name).info.n_frames
+        check_size(frames, layout.n_dofs, f"corrupt {self.name} motion stream")
+        recon_active, fps = make_coder(self.name, active, self.stage).decode_with_fps(inner)
         recon = np.zeros((len(recon_active), layout.n_dofs))
         recon[:, active] = recon_active
         return recon, fps

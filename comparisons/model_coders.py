@@ -179,7 +179,8 @@ class _GroupCoder(DofCoder):
         writer.signed(np.diff(keys) - 1)
 
     def _read_keys(self, reader: StreamReader, n_frames: int) -> np.ndarray:
-        keys = np.concatenate([[0], np.cumsum(reader.signed() + 1)]).astype(np.int64)
+        """Key frames (K,) int64 from 0 to n_frames - 1: at most n_frames - 1 lags follow the first."""
+        keys = np.concatenate([[0], np.cumsum(reader.signed(n_frames - 1, at_most=True) + 1)]).astype(np.int64)
         if np.any(np.diff(keys) < 1) or keys[-1] != n_frames - 1:
             raise SigncastError(f"corrupt {self.name} stream: key frames do not span the clip")
         return keys

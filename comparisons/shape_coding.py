@@ -16,15 +16,19 @@ motion-compensated pixel", instead of the standard's fixed tables, which are not
 VLCs; (3) one arithmetic codeword covers the whole sequence; (4) no size conversion and no transposed
 scan (both lossy or optional tools); (5) every predicted frame refers to the previous frame in display order.
 
-Stream layout: a 22-byte header (magic, version, width, height, frames, gop, payload length, CRC-32 of the
-payload) and the arithmetic-coded payload. The decoder rejects bad magic, truncation and corruption
-(length / CRC / impossible values) with SigncastError.
+Stream layout (version 2): a 22-byte header (magic, version, width, height, frames, gop, payload length, then a
+CRC-32 of the 18 header bytes before it and of the payload) and the arithmetic-coded payload. Version 1
+streams (CRC of the payload alone) are rejected. Masks are at most MAX_SIDE pixels wide and high and
+frames x height x width <= MAX_PIXELS (decoded masks <= 256 MiB); both ends check this before coding or
+allocating. The decoder rejects bad magic, truncation and corruption (length / CRC / impossible values,
+a payload that ends before the last frame) with SigncastError.
 """
 from __future__ import annotations
 
 import struct
 import zlib
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -32,8 +36,11 @@ from media.errors import SigncastError
 
 BAB = 16
 MAGIC = b"SCSH"
-VERSION = 1
+VERSION = 2                            # 2: the CRC covers the header too
 _HEADER = struct.Struct(">4sBHHIBII")
+_CRC_OFFSET = _HEADER.size - 4         # the CRC is the header's last field
+MAX_SIDE = 4096                        # pixels, width and height
+MAX_PIXELS = 1 << 28                   # frames x height x width: decoded (T, H, W) bool masks take <= 256 MiB
 SEARCH_RANGE = 8                       # shape motion vectors lie in [-8, 8] pixels per component
 COUNT_LIMIT = 1024                     # adaptive counts are halved past this total
 PRIOR_WEIGHT = 8                       # initial count of the likely symbol in a pixel context
@@ -62,44 +69,49 @@ _HALF = 1 << 31
 _QUARTER = 1 << 30
 
 
+@lru_cache(maxsize=4)
+def _prior_counts(n_contexts: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """Initial (zeros, ones) counts per context (cached: an intra frame resets the model to them).
+
+    A prior for the pixel contexts, skewed like the standard's fixed tables: a pixel tends to repeat its
+    causal neighbours (intra) or its motion-compensated co-located pixel (inter), the more strongly the
+    more of the template agrees; every other context starts at 1:1."""
+    counts = ([1] * n_contexts, [1] * n_contexts)  # zeros, ones
+
+    def prior(ctx: int, likely: int, weight: int) -> None:
+        if ctx < n_contexts:
+            counts[likely][ctx] = weight
+
+    for ctx in range(1024):
+        bits = [(ctx >> k) & 1 for k in range(10)]
+        near = bits[0] + bits[3] + bits[4] + bits[5]          # left, up-right, up, up-left
+        likely = 1 if near > 2 or (near == 2 and bits[0]) else 0
+        if sum(bits) in (0, 10):
+            weight = PRIOR_WEIGHT * 8
+        elif near in (0, 4):
+            weight = PRIOR_WEIGHT * 2
+        else:
+            weight = 2
+        prior(_CTX_INTRA + ctx, likely, weight)
+    for ctx in range(512):
+        bits = [(ctx >> k) & 1 for k in range(9)]
+        likely = bits[6]
+        if sum(bits) in (0, 9):
+            weight = PRIOR_WEIGHT * 8
+        elif sum(bits[4:]) in (0, 5):
+            weight = PRIOR_WEIGHT * 2
+        else:
+            weight = 2
+        prior(_CTX_INTER + ctx, likely, weight)
+    return tuple(counts[0]), tuple(counts[1])
+
+
 class _AdaptiveModel:
     """Counts of zeros and ones per context; P(0) in 1/65536 units."""
 
     def __init__(self, n_contexts: int):
-        self.zeros = [1] * n_contexts
-        self.ones = [1] * n_contexts
-        # a prior for the pixel contexts, skewed like the standard's fixed tables: a pixel tends to repeat
-        # its causal neighbours (intra) or its motion-compensated co-located pixel (inter), the more
-        # strongly the more of the template agrees
-        for ctx in range(1024):
-            bits = [(ctx >> k) & 1 for k in range(10)]
-            near = bits[0] + bits[3] + bits[4] + bits[5]          # left, up-right, up, up-left
-            likely = 1 if near > 2 or (near == 2 and bits[0]) else 0
-            if sum(bits) in (0, 10):
-                weight = PRIOR_WEIGHT * 8
-            elif near in (0, 4):
-                weight = PRIOR_WEIGHT * 2
-            else:
-                weight = 2
-            self._prior(_CTX_INTRA + ctx, likely, weight)
-        for ctx in range(512):
-            bits = [(ctx >> k) & 1 for k in range(9)]
-            likely = bits[6]
-            if sum(bits) in (0, 9):
-                weight = PRIOR_WEIGHT * 8
-            elif sum(bits[4:]) in (0, 5):
-                weight = PRIOR_WEIGHT * 2
-            else:
-                weight = 2
-            self._prior(_CTX_INTER + ctx, likely, weight)
-
-    def _prior(self, ctx: int, likely: int, weight: int) -> None:
-        if ctx >= len(self.zeros):
-            return
-        if likely:
-            self.ones[ctx] = weight
-        else:
-            self.zeros[ctx] = weight
+        zeros, ones = _prior_counts(n_contexts)
+        self.zeros, self.ones = list(zeros), list(ones)
 
     def p0(self, ctx: int) -> int:
         zeros = self.zeros[ctx]
@@ -129,7 +141,7 @@ class BinaryArithmeticEncoder:
     def __init__(self, n_contexts: int = N_CONTEXTS):
         self.model = _AdaptiveModel(n_contexts)
         self.low, self.high, self.pending = 0, _TOP, 0
-        self.bits: list[int] = []
+        self.bits = bytearray()  # one 0/1 byte per coded bit
 
     def reset_model(self) -> None:
         self.model = _AdaptiveModel(len(self.model.zeros))
@@ -185,18 +197,19 @@ class BinaryArithmeticEncoder:
             self.bits.append(1)
             self.bits.extend([0] * self.pending)
         self.pending = 0
-        return np.packbits(np.array(self.bits, np.uint8)).tobytes()
+        return np.packbits(np.frombuffer(self.bits, np.uint8)).tobytes()
 
 
 class BinaryArithmeticDecoder:
-    """Mirror of BinaryArithmeticEncoder; `code(ctx, _)` returns the decoded bit."""
+    """Mirror of BinaryArithmeticEncoder; `code(ctx, _)` returns the decoded bit. SigncastError when it needs
+    more bits than the payload and the register's 32-bit read-ahead hold."""
 
     def __init__(self, payload: bytes, n_contexts: int = N_CONTEXTS):
         self.model = _AdaptiveModel(n_contexts)
-        self.bits = np.unpackbits(np.frombuffer(payload, np.uint8)).tolist()
+        self.bits = np.unpackbits(np.frombuffer(payload, np.uint8)).tobytes()  # one 0/1 byte per bit
         self.position = 32
         value = 0
-        for bit in self.bits[:32] + [0] * max(0, 32 - len(self.bits)):
+        for bit in self.bits[:32].ljust(32, b"\0"):
             value = (value << 1) | bit
         self.value, self.low, self.high = value, 0, _TOP
 
@@ -226,7 +239,12 @@ class BinaryArithmeticDecoder:
                 break
             low <<= 1
             high = (high << 1) | 1
-            value = (value << 1) | (bits[position] if position < n else 0)
+            if position < n:
+                value = (value << 1) | bits[position]
+            elif position < n + 32:  # the 32-bit register may read ahead past the payload, no further
+                value <<= 1
+            else:
+                raise SigncastError("corrupt shape stream: the payload ends before the last frame")
             position += 1
         self.low, self.high, self.value, self.position = low, high, value, position
         return bit
@@ -260,15 +278,16 @@ class ShapeStats:
 
 
 class _Canvas:
-    """The current and previous decoded frames as flat lists with a border, plus the BAB mode grids."""
+    """The current and previous decoded frames as flat bytearrays (one 0/1 byte per pixel, with a border),
+    plus the BAB mode grids. Bytes, not lists: 1 byte a pixel instead of 8, and a zero-copy array view."""
 
     def __init__(self, blocks_y: int, blocks_x: int):
         self.blocks_y, self.blocks_x = blocks_y, blocks_x
         self.border = SEARCH_RANGE + 2
         self.stride = blocks_x * BAB + 2 * self.border
         self.rows = blocks_y * BAB + 2 * self.border
-        self.current = [0] * (self.stride * self.rows)
-        self.previous = [0] * (self.stride * self.rows)
+        self.current = bytearray(self.stride * self.rows)
+        self.previous = bytearray(self.stride * self.rows)
         self.modes = [[TRANSPARENT] * blocks_x for _ in range(blocks_y)]
         self.previous_modes = [[TRANSPARENT] * blocks_x for _ in range(blocks_y)]
         self.mvs: dict[tuple[int, int], tuple[int, int]] = {}
@@ -277,15 +296,18 @@ class _Canvas:
         return (y + self.border) * self.stride + x + self.border
 
     def next_frame(self) -> None:
-        self.previous, self.current = self.current, [0] * len(self.current)
+        self.previous, self.current = self.current, bytearray(len(self.current))
         self.previous_modes = self.modes
         self.modes = [[TRANSPARENT] * self.blocks_x for _ in range(self.blocks_y)]
         self.mvs = {}
 
+    def grid(self, flat: bytearray) -> np.ndarray:
+        """(rows, stride) uint8 view of `current` or `previous`, border included."""
+        return np.frombuffer(flat, np.uint8).reshape(self.rows, self.stride)
+
     def to_array(self, height: int, width: int) -> np.ndarray:
-        grid = np.array(self.current, np.uint8).reshape(self.rows, self.stride)
         b = self.border
-        return grid[b:b + height, b:b + width].astype(bool)
+        return self.grid(self.current)[b:b + height, b:b + width].astype(bool)
 
 
 def _bits_for(count: int) -> int:
@@ -363,6 +385,9 @@ def _code_cae_block(coder, canvas: _Canvas, y0: int, x0: int, block, mv: tuple[i
         cur[row + BAB] = cur[row + BAB + 1] = 0
 
 
+_OPAQUE_ROW, _TRANSPARENT_ROW = b"\x01" * BAB, bytes(BAB)
+
+
 def _fill_block(canvas: _Canvas, y0: int, x0: int, mode: int, mv: tuple[int, int]) -> None:
     cur, prev, stride = canvas.current, canvas.previous, canvas.stride
     shift = mv[1] * stride + mv[0]
@@ -371,7 +396,7 @@ def _fill_block(canvas: _Canvas, y0: int, x0: int, mode: int, mv: tuple[int, int
         if mode == COPY:
             cur[start:start + BAB] = prev[start + shift:start + shift + BAB]
         else:
-            cur[start:start + BAB] = [1 if mode == OPAQUE else 0] * BAB
+            cur[start:start + BAB] = _OPAQUE_ROW if mode == OPAQUE else _TRANSPARENT_ROW
 
 
 def _code_frame(coder, canvas: _Canvas, inter: bool, frame: np.ndarray | None, counts: dict[int, int]) -> None:
@@ -430,8 +455,7 @@ class _MotionSearch:
 
     def __init__(self, canvas: _Canvas, frame: np.ndarray):
         b = canvas.border
-        grid = np.array(canvas.previous, np.uint8).reshape(canvas.rows, canvas.stride)
-        self.previous = grid  # previous frame with a border of `b` zero pixels
+        self.previous = canvas.grid(canvas.previous)  # previous frame with a border of `b` zero pixels
         self.border = b
         offsets = np.arange(-SEARCH_RANGE, SEARCH_RANGE + 1)
         self.offsets = [(dx, dy) for dy in offsets for dx in offsets]
@@ -447,10 +471,10 @@ class _MotionSearch:
         return (int(dx) - r, int(dy) - r), int(errors[dy, dx])
 
 
-def _window(flat: list[int], canvas: _Canvas, y: int, x: int, height: int, width: int) -> np.ndarray:
-    """A (height, width) int32 piece of a flat canvas whose top-left pixel is (y, x) in frame coordinates."""
-    rows = [flat[canvas.index(y + r, x):canvas.index(y + r, x) + width] for r in range(height)]
-    return np.array(rows, np.int32)
+def _window(flat: bytearray, canvas: _Canvas, y: int, x: int, height: int, width: int) -> np.ndarray:
+    """A (height, width) int32 copy of a piece of a flat canvas whose top-left pixel is (y, x) in frame coordinates."""
+    b = canvas.border
+    return canvas.grid(flat)[y + b:y + b + height, x + b:x + b + width].astype(np.int32)
 
 
 def _estimate_cae_bits(coder, canvas: _Canvas, y0: int, x0: int, block: np.ndarray, mv) -> float:
@@ -499,13 +523,21 @@ def _choose_mode(coder, canvas: _Canvas, searcher, by: int, bx: int, block: np.n
 # ----------------------------------------------------------------------------------------------------
 # public API
 
+def _check_size(frames: int, height: int, width: int, what: str) -> None:
+    """SigncastError unless 1 <= height, width <= MAX_SIDE and frames x height x width <= MAX_PIXELS."""
+    if not (1 <= width <= MAX_SIDE and 1 <= height <= MAX_SIDE):
+        raise SigncastError(f"{what}: {width}x{height} masks are outside 1..{MAX_SIDE} pixels a side")
+    if not 1 <= frames * height * width <= MAX_PIXELS:
+        raise SigncastError(f"{what}: {frames} frames of {width}x{height} exceed the limit of {MAX_PIXELS} "
+                            "mask pixels per stream (split the sequence)")
+
+
 def _check_masks(masks: np.ndarray) -> np.ndarray:
     masks = np.asarray(masks)
-    if masks.ndim != 3 or masks.shape[0] < 1 or masks.shape[1] < 1 or masks.shape[2] < 1:
+    if masks.ndim != 3 or masks.shape[0] < 1:
         raise SigncastError(f"shape masks must be (T, H, W) with T >= 1, got {masks.shape}")
-    if masks.shape[1] > 65535 or masks.shape[2] > 65535:
-        raise SigncastError(f"shape masks of {masks.shape[2]}x{masks.shape[1]} are too large")
-    return masks.astype(bool)
+    _check_size(*masks.shape, "cannot code shape masks")
+    return np.asarray(masks, dtype=bool)  # no copy of boolean masks
 
 
 def encode_shape(masks: np.ndarray, gop: int = 12) -> tuple[bytes, ShapeStats]:
@@ -531,8 +563,8 @@ def encode_shape(masks: np.ndarray, gop: int = 12) -> tuple[bytes, ShapeStats]:
             coder.reset_model()
         _code_frame(coder, canvas, inter, padded[t], counts)
     payload = coder.finish()
-    header = _HEADER.pack(MAGIC, VERSION, width, height, frames, gop, len(payload), zlib.crc32(payload))
-    stream = header + payload
+    fields = _HEADER.pack(MAGIC, VERSION, width, height, frames, gop, len(payload), 0)[:_CRC_OFFSET]
+    stream = fields + struct.pack(">I", zlib.crc32(payload, zlib.crc32(fields))) + payload
     return stream, ShapeStats(len(stream), frames, {MODE_NAMES[m]: n for m, n in counts.items()})
 
 
@@ -545,14 +577,16 @@ def decode_shape(stream: bytes) -> np.ndarray:
     if magic != MAGIC:
         raise SigncastError("not a signcast shape stream (bad magic)")
     if version != VERSION:
-        raise SigncastError(f"unsupported shape stream version {version}")
+        raise SigncastError(f"unsupported shape stream version {version} (this signcast reads version {VERSION}; "
+                            "version 1 streams, whose header is outside the CRC, must be coded again)")
     payload = stream[_HEADER.size:]
     if len(payload) != length:
         raise SigncastError(f"shape stream truncated or padded: payload {len(payload)} bytes, header says {length}")
-    if zlib.crc32(payload) != crc:
-        raise SigncastError("corrupt shape stream: CRC mismatch")
-    if width == 0 or height == 0 or gop == 0 or frames == 0:
-        raise SigncastError("corrupt shape stream: empty dimensions")
+    if zlib.crc32(payload, zlib.crc32(stream[:_CRC_OFFSET])) != crc:
+        raise SigncastError("corrupt shape stream: CRC mismatch (header or payload damaged)")
+    if gop == 0 or frames == 0:
+        raise SigncastError("corrupt shape stream: no frames or a GOP of 0")
+    _check_size(frames, height, width, "corrupt shape stream")
     blocks_y, blocks_x = -(-height // BAB), -(-width // BAB)
     coder = BinaryArithmeticDecoder(payload)
     canvas = _Canvas(blocks_y, blocks_x)
@@ -566,6 +600,4 @@ def decode_shape(stream: bytes) -> np.ndarray:
             coder.reset_model()
         _code_frame(coder, canvas, inter, None, counts)
         masks[t] = canvas.to_array(height, width)
-    if coder.position > len(coder.bits) + 32:
-        raise SigncastError("corrupt shape stream: the payload ended before the last frame")
     return masks

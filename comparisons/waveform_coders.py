@@ -461,7 +461,8 @@ class DctCoder(DofCoder):
         payload = reader.header()
         if len(payload) != 4 * BLOCK:
             raise SigncastError("corrupt dct stream: coefficient-range header has the wrong size")
-        ranges = np.frombuffer(payload, dtype=np.float32).astype(np.float64)
+        with np.errstate(invalid="ignore"):  # a damaged range may be a signalling NaN: rejected just below
+            ranges = np.frombuffer(payload, dtype=np.float32).astype(np.float64)
         if not np.all(np.isfinite(ranges)) or np.any(ranges <= 0):
             raise SigncastError("corrupt dct stream: bad coefficient ranges")
         n_blocks = -(-n_frames // BLOCK)

@@ -110,6 +110,72 @@ def test_hybrid_error_falls_with_finer_bit_allocation():
     assert psnr(dofs, fine) > psnr(dofs, coarse)
 
 
+def _varint(value: int) -> bytes:
+    out = bytearray()
+    while value >= 0x80:
+        out.append(value & 0x7F | 0x80)
+        value >>= 7
+    return bytes(out + bytes([value]))
+
+
+def _with_key_count(data: bytes, count: int) -> tuple[bytes, int]:
+    """The stream with the count field of its first section (the key-frame lags) replaced, CRC recomputed;
+    and the count it held."""
+    import struct
+    import zlib
+    body = data[:-4]
+    header_size = 17  # "SCM1" coder stage q T(u32) D(u16) fps(u32)
+    assert body[header_size:header_size + 2] == b"S" + _varint(41)  # magnitude classes of the lags
+    start = header_size + 2
+    end, original = start, 0
+    while True:
+        original |= (body[end] & 0x7F) << 7 * (end - start)
+        end += 1
+        if not body[end - 1] & 0x80:
+            break
+    body = body[:start] + _varint(count) + body[end:]
+    return body + struct.pack("<I", zlib.crc32(body)), original
+
+
+@pytest.mark.parametrize("cls", [PostureCoder, GestureCoder, HybridCoder])
+def test_model_decoders_reject_a_key_count_beyond_the_clip_before_decoding_it(cls):
+    """A crafted stream (valid CRC) whose key-lag section claims 2**56 symbols: the decoder used to trust the
+    count and decode symbols out of no data for ever, its memory growing; the count is now bounded by the
+    header's frame count."""
+    postures, gestures = tables()
+    coder = cls(LOWER, UPPER, GROUPS, postures, gestures)
+    data, _ = coder.encode(signing_like(40), FPS, 0)
+    crafted, original = _with_key_count(data, 2 ** 56)
+    assert _with_key_count(data, original)[0] == data and len(crafted) == len(data) + 8
+    with pytest.raises(SigncastError, match="at most 39 fit"):
+        coder.decode(crafted)
+    with pytest.raises(SigncastError, match="at most 39 fit"):
+        coder.decode(_with_key_count(data, 40)[0])  # one lag more than 40 frames have
+
+
+def test_lab_codec_bounds_frames_times_the_whole_dof_layout_at_both_ends():
+    """The decoder returns (T, 183) layout DOFs even when one DOF is coded: T x 183 is bounded, checked
+    from the inner header before decoding."""
+    import struct
+    import zlib
+    from comparisons.coded_streams import MAX_VALUES
+    from comparisons.lab_codecs import LabCodec, dof_layout
+    codec, n_dofs = LabCodec("quant"), dof_layout().n_dofs
+    too_long = MAX_VALUES // n_dofs + 1
+    with pytest.raises(SigncastError, match="frames x channels"):
+        codec.encode_dofs(np.zeros((too_long, n_dofs)), FPS, 0)  # calloc'd pages, never touched
+    dofs = np.zeros((20, n_dofs))
+    dofs[:, 0] = np.linspace(-0.1, 0.1, 20)
+    data, recon = codec.encode_dofs(dofs, FPS, 0)
+    assert np.array_equal(codec.decode_dofs(data)[0], recon)
+    inner_start = 5 + -(-n_dofs // 8)
+    inner = bytearray(data[inner_start:-4])
+    inner[7:11] = struct.pack("<I", too_long)  # T field of the inner header, inner CRC recomputed
+    body = data[:inner_start] + bytes(inner[:-4]) + struct.pack("<I", zlib.crc32(bytes(inner[:-4])))
+    with pytest.raises(SigncastError, match="frames x channels"):
+        codec.decode_dofs(body + struct.pack("<I", zlib.crc32(body)))
+
+
 def test_model_coders_need_two_frames():
     postures, gestures = tables()
     with pytest.raises(SigncastError):

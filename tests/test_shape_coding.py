@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from comparisons.shape_coding import (BinaryArithmeticDecoder, BinaryArithmeticEncoder, decode_shape,
-                                      encode_shape)
+from comparisons.shape_coding import (MAX_PIXELS, MAX_SIDE, BinaryArithmeticDecoder, BinaryArithmeticEncoder,
+                                      decode_shape, encode_shape)
 from media.errors import SigncastError
 
 
@@ -84,3 +84,70 @@ def test_shape_encoder_rejects_bad_input():
         encode_shape(np.zeros((4, 4), bool))
     with pytest.raises(SigncastError):
         encode_shape(np.zeros((2, 8, 8), bool), gop=0)
+
+
+def with_header_bytes(stream: bytes, changes: dict[int, int]) -> bytes:
+    damaged = bytearray(stream)
+    for position, value in changes.items():
+        damaged[position] = value
+    return bytes(damaged)
+
+
+def recrc(stream: bytes) -> bytes:
+    """A crafted stream: the header CRC (bytes 18..21) recomputed over header fields and payload."""
+    import struct
+    import zlib
+    return stream[:18] + struct.pack(">I", zlib.crc32(stream[22:], zlib.crc32(stream[:18]))) + stream[22:]
+
+
+def test_damaged_frame_count_is_caught_by_the_header_crc():
+    """Byte 12 is the low byte of the frame count: set to 1, a 10-frame stream used to decode as 1 frame."""
+    stream, _ = encode_shape(moving_ellipses(frames=10))
+    with pytest.raises(SigncastError, match="CRC mismatch"):
+        decode_shape(with_header_bytes(stream, {12: 1}))
+
+
+def test_huge_frame_count_is_caught_before_allocating():
+    """Byte 10 = 179 announces 11.7 million frames: an 83.9 GiB allocation (MemoryError) before the fix."""
+    stream, _ = encode_shape(moving_ellipses(frames=10))
+    damaged = with_header_bytes(stream, {10: 179})
+    with pytest.raises(SigncastError, match="CRC mismatch"):
+        decode_shape(damaged)
+    with pytest.raises(SigncastError, match=f"exceed the limit of {MAX_PIXELS} mask pixels"):
+        decode_shape(recrc(damaged))
+
+
+def test_huge_frame_size_is_caught_before_allocating():
+    """Width 65535 x height 4096 in the header used to allocate 4.2 GB for 10 s before the payload failed."""
+    stream, _ = encode_shape(moving_ellipses(frames=10))
+    damaged = with_header_bytes(stream, {5: 0xFF, 6: 0xFF, 7: 0x10, 8: 0x00})
+    with pytest.raises(SigncastError, match="CRC mismatch"):
+        decode_shape(damaged)
+    with pytest.raises(SigncastError, match=f"outside 1..{MAX_SIDE} pixels a side"):
+        decode_shape(recrc(damaged))
+
+
+def test_shape_size_limits_hold_at_both_ends_and_keep_decoded_masks_small():
+    assert MAX_PIXELS <= 2 ** 28  # decoded (T, H, W) bool masks: at most 256 MiB
+    masks = moving_ellipses(frames=2)
+    assert np.array_equal(decode_shape(recrc(encode_shape(masks)[0])), masks)  # recrc reproduces the CRC
+    with pytest.raises(SigncastError, match="pixels a side"):
+        encode_shape(np.zeros((1, 8, MAX_SIDE + 1), bool))
+    with pytest.raises(SigncastError, match="mask pixels"):
+        encode_shape(np.broadcast_to(np.zeros((1, 16, 16), bool), (MAX_PIXELS // 256 + 1, 16, 16)))
+
+
+def test_version_1_stream_is_rejected_with_a_clear_message():
+    stream, _ = encode_shape(moving_ellipses(frames=2))
+    with pytest.raises(SigncastError, match="version 1 streams, whose header is outside the CRC"):
+        decode_shape(with_header_bytes(stream, {4: 1}))
+
+
+def test_payload_that_ends_early_is_rejected_while_decoding():
+    """A valid header announcing more frames than the payload holds: the decoder stops where the payload
+    (and its 32-bit read-ahead) ends, not after decoding all announced frames from zeros."""
+    import struct
+    stream, _ = encode_shape(np.ones((3, 64, 64), bool), gop=255)
+    crafted = recrc(stream[:9] + struct.pack(">I", MAX_PIXELS // (64 * 64)) + stream[13:])
+    with pytest.raises(SigncastError, match="payload ends before the last frame"):
+        decode_shape(crafted)

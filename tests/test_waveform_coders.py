@@ -134,6 +134,9 @@ def test_bit_packing_and_magnitude_classes_round_trip():
     widths = rng.integers(0, 20, size=200)
     values = rng.integers(0, 1 << 20, size=200) % np.left_shift(1, widths)
     assert np.array_equal(unpack_bits(pack_bits(values, widths), widths), values)
+    widths = np.array([57, 0, 3, 40, 1, 57, 7])  # the widest values, unaligned
+    values = np.array([(1 << 57) - 1, 0, 5, (1 << 40) - 2, 1, 1 << 56, 0x55])
+    assert np.array_equal(unpack_bits(pack_bits(values, widths), widths), values)
     signed = np.concatenate([[0, 1, -1, 2, -2, 1023, -1024], rng.integers(-10**9, 10**9, size=100)])
     classes, mantissa, mantissa_widths = magnitude_classes(signed)
     assert np.array_equal(classes, [int(abs(v)).bit_length() for v in signed])
@@ -148,9 +151,30 @@ def test_container_sections_read_back_in_order():
     reader = StreamReader(writer.finish(), 7, "test")
     assert (reader.info.q, reader.info.n_frames, reader.info.n_dofs, reader.info.fps) == (3, 10, 2, 30.0)
     assert reader.header() == b"side info"
-    assert reader.symbols(5).tolist() == [0, 4, 4, 1]
-    assert reader.signed().tolist() == [-5, 0, 12]
+    assert reader.symbols(5, 4).tolist() == [0, 4, 4, 1]
+    assert reader.signed(20, at_most=True).tolist() == [-5, 0, 12]
     reader.finish()
+
+
+def test_section_with_more_symbols_than_the_reader_allows_is_rejected():
+    writer = StreamWriter(7, 3, 10, 2, 30.0)
+    writer.signed(np.array([-5, 0, 12]))
+    data = writer.finish()
+    for count, at_most in ((2, True), (2, False), (4, False)):
+        with pytest.raises(SigncastError, match="does not match the coder's layout"):
+            StreamReader(data, 7, "test").signed(count, at_most=at_most)
+
+
+def test_arithmetic_stage_stops_where_its_data_ends_whatever_count_is_claimed():
+    """An adaptive arithmetic decoder can turn no data into symbols for ever; it stops once it has read
+    further past the end than its register's read-ahead (it used to decode all MAX_VALUES symbols first)."""
+    from comparisons.coded_streams import MAX_VALUES, entropy_stage
+    arithmetic = entropy_stage("arithmetic")
+    coded = arithmetic.encode(np.arange(100) % 41, 41)
+    assert np.array_equal(arithmetic.decode(coded, 100, 41), np.arange(100) % 41)
+    for data in (b"", coded):
+        with pytest.raises(SigncastError, match="ends before its symbols do"):
+            arithmetic.decode(data, MAX_VALUES, 41)
 
 
 def test_haar_transform_is_orthonormal_and_invertible():
@@ -183,3 +207,38 @@ def test_crafted_header_with_an_impossible_frame_count_is_rejected_before_alloca
     crafted = bytes(body) + struct.pack("<I", zlib.crc32(bytes(body)))
     with pytest.raises(SigncastError, match="impossible header"):
         coder.decode(crafted)
+
+
+def test_streams_are_bounded_in_frames_times_dofs_at_both_ends():
+    """T <= MAX_FRAMES alone let a header announce 2**18 frames x 65535 DOFs; T x D is now bounded too."""
+    import struct
+    import zlib
+    from comparisons.coded_streams import MAX_FRAMES, MAX_VALUES
+    wide = 32  # MAX_FRAMES x 32 DOFs > MAX_VALUES
+    assert MAX_FRAMES * wide > MAX_VALUES and MAX_VALUES * 8 <= 32 * 2 ** 20  # (T, D) float64 <= 32 MiB
+    coder = UniformQuantizer(np.full(wide, -1.0), np.full(wide, 1.0))
+    data, recon = coder.encode(np.zeros((10, wide)), FPS, 0)
+    assert np.array_equal(coder.decode(data), recon)
+    body = bytearray(data[:-4])
+    body[7:11] = struct.pack("<I", MAX_FRAMES)  # T field: allowed alone, too many values with 32 DOFs
+    crafted = bytes(body) + struct.pack("<I", zlib.crc32(bytes(body)))
+    with pytest.raises(SigncastError, match="frames x channels"):
+        coder.decode(crafted)
+    with pytest.raises(SigncastError, match="frames x channels"):
+        StreamWriter(1, 0, MAX_VALUES // wide + 1, wide, FPS)
+
+
+def test_frame_rate_beyond_the_limit_is_rejected_at_both_ends():
+    """The header's fps (u32, milli-Hz) reached 4.3 MHz; ADPCM sizes its predictor window by it."""
+    import struct
+    import zlib
+    from comparisons.coded_streams import MAX_FPS
+    coder = WAVEFORM_CODERS["adpcm"](LOWER, UPPER)
+    data, _ = coder.encode(signing_like(30), MAX_FPS, 1)
+    assert coder.decode_with_fps(data)[1] == MAX_FPS
+    body = bytearray(data[:-4])
+    body[13:17] = struct.pack("<I", int(1000 * MAX_FPS) + 1)  # fps field of the header
+    with pytest.raises(SigncastError, match="frame rate"):
+        coder.decode(bytes(body) + struct.pack("<I", zlib.crc32(bytes(body))))
+    with pytest.raises(SigncastError, match="fps"):
+        coder.encode(signing_like(30), MAX_FPS * 2, 1)
