@@ -3,13 +3,15 @@
 Each sub-command lives in its own module under `pipeline/commands/` exposing
 `add_parser(subparsers)` (which registers the parser and sets `func`) and the
 function it calls. Expected failures (SigncastError, KernelError) print one
-line on stderr and exit with code 2; bugs keep their traceback.
+line on stderr and exit with code 2; bugs keep their traceback. Argument errors
+(argparse) print the sub-command's own usage and exit with code 2.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
 import sys
+from importlib import metadata
 
 from kernels.errors import KernelError
 from media.errors import SigncastError
@@ -33,15 +35,27 @@ def build_parser() -> argparse.ArgumentParser:
         prog="signcast",
         description="Measure what it costs to transmit sign language as video, a synthetic signer, or animation parameters.",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_parser(subparsers)
+    for command_parser in subparsers.choices.values():
+        command_parser.set_defaults(command_parser=command_parser)
     return parser
+
+
+def _version() -> str:
+    try:
+        return metadata.version("signcast")
+    except metadata.PackageNotFoundError:
+        return "(not installed)"
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # reported by the sub-command's parser, with its usage, not the top level's
+        getattr(args, "command_parser", parser).error(f"unrecognized arguments: {' '.join(unknown)}")
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

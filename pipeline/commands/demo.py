@@ -17,7 +17,8 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pipeline.checks import parse_size
     from pipeline.compare import CompareSettings
     settings = replace(CompareSettings.demo(), language=args.language, word=args.word, clip=args.video,
-                       size=args.size, backend=args.backend)
+                       size=parse_size(args.size), backend=args.backend)
     return execute(settings, args)

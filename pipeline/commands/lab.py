@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from media.errors import SigncastError
+from pipeline.outputs import add_force_argument, output_folder
 
 
 def add_parser(subparsers) -> None:
@@ -24,6 +25,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--codec", default=",".join(LAB_CODEC_NAMES + MPEG4_CODECS), help="comma-separated codecs")
     parser.add_argument("--fba-q", default=",".join(map(str, MPEG4_Q)), help="Q values for the FBA/BBA codecs")
     parser.add_argument("--out", required=True, type=Path, help="output folder")
+    add_force_argument(parser)
     parser.set_defaults(func=run)
 
 
@@ -47,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
         raise SigncastError(f"bad --fba-q {args.fba_q!r}: every Q must lie in 1..31")
     languages = [lexicon.check_language(language) for language in args.languages]
     total = len(languages) * count_points(codecs, fba_q)
-    with tqdm(total=total, desc="lab", unit="point", file=sys.stderr) as bar:
+    with output_folder(args.out, force=args.force), tqdm(total=total, desc="lab", unit="point", file=sys.stderr) as bar:
         records = run_lab(args.out, languages, codecs, fba_q, progress=bar.update)
     print(f"{'codec':>9} {'clip':>14} {'kbps':>16} {'PSNR dB':>14} {'VPSNR dB':>14}")
     for row in operating_ranges(records):

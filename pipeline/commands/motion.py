@@ -25,18 +25,17 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.fps) and 0 < args.fps <= 240):
         raise SigncastError(f"bad --fps {args.fps}: choose a frame rate in (0, 240], e.g. 10, 15, 20 or 25")
-    folder = args.output.resolve().parent
-    if not folder.is_dir():
-        raise SigncastError(f"cannot write {args.output}: folder {folder} does not exist")
     from media.avatar import load_avatar
     from media.bvh import write_bvh
     from media.fingerspelling import fingerspell
+    from pipeline.outputs import output_files
 
-    motion = fingerspell(args.language, args.word, fps=args.fps)
-    try:
-        write_bvh(args.output, motion, load_avatar().skeleton)
-    except OSError as error:
-        raise SigncastError(f"cannot write {args.output}: {error.strerror or error}") from None
+    with output_files((args.output, "BVH")):
+        motion = fingerspell(args.language, args.word, fps=args.fps)
+        try:
+            write_bvh(args.output, motion, load_avatar().skeleton)
+        except OSError as error:
+            raise SigncastError(f"cannot write {args.output}: {error.strerror or error}") from None
     print(f"{args.output}: {args.language} {args.word!r}, {motion.n_frames} frames at {motion.fps:g} fps "
           f"({motion.duration_s:.2f} s), {len(motion.bone_names)} bones", file=sys.stdout)
     return 0

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from media.errors import SigncastError
+from pipeline.outputs import add_force_argument, output_folder
 
 DEFAULT_CODECS = "fba-pred,fba-dct,bba-pred,bba-dct,bba-key"
 DEFAULT_Q = "1,2,4,8,16,31"
@@ -30,6 +31,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--q", default=DEFAULT_Q, help=f"comma-separated global quantisation values 1..31 (default {DEFAULT_Q})")
     parser.add_argument("--fps", type=float, default=10.0, help="coding frame rate (default 10, as seed 000 §2.4.2)")
     parser.add_argument("--out", required=True, type=Path, help="output folder")
+    add_force_argument(parser)
     parser.set_defaults(func=run)
 
 
@@ -63,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
     units = [u for u in lexicon.split_word(args.language, args.letters) if u != " "]
     from tqdm import tqdm
 
-    with tqdm(total=len(units) * len(codecs) * len(qs), desc="params", unit="point", file=sys.stderr) as bar:
+    with output_folder(args.out, force=args.force), \
+            tqdm(total=len(units) * len(codecs) * len(qs), desc="params", unit="point", file=sys.stderr) as bar:
         records = run_study(args.language, units, codecs, qs, args.fps, args.out, progress=bar.update)
     print(f"{'sign':>5} {'codec':>9} " + " ".join(f"{'Q=' + str(q):>8}" for q in qs) + "   kbps (distortion rad^2)")
     for unit in units:
@@ -84,4 +87,5 @@ def _run_alphabet(args: argparse.Namespace) -> int:
     codecs = args.codec if args.codec != DEFAULT_CODECS else ",".join(LAB_CODEC_NAMES + MPEG4_CODECS)
     fba_q = args.q if args.q != DEFAULT_Q else ",".join(map(str, MPEG4_Q))
     languages = [language.strip() for language in args.language.split(",") if language.strip()]
-    return lab.run(argparse.Namespace(languages=languages, codec=codecs, fba_q=fba_q, out=args.out))
+    return lab.run(argparse.Namespace(languages=languages, codec=codecs, fba_q=fba_q, out=args.out,
+                                      force=args.force))

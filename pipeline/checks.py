@@ -1,0 +1,82 @@
+"""Checks the commands run on their arguments before the work: frame size bounds, a memory estimate, codec names.
+
+The one place that holds the limits: every command that takes a frame size (`render`, `video --ssv`, `compare`,
+`demo`) parses it with parse_size / check_size and, once it knows the frame count, calls check_memory with the
+bytes per pixel it will hold.
+"""
+from __future__ import annotations
+
+import os
+
+from media.errors import SigncastError
+
+MIN_SIDE, MAX_SIDE = 32, 1920         # pixels; even sizes only (4:2:0 video and the half-resolution sweep)
+MEMORY_LIMIT_VARIABLE = "SIGNCAST_MEMORY_LIMIT_MB"
+NO_CODECS = ("none", "")
+
+
+def check_size(width: int, height: int, option: str = "--size") -> tuple[int, int]:
+    """(width, height) in pixels if both are even and within MIN_SIDE..MAX_SIDE, else SigncastError."""
+    if not (MIN_SIDE <= width <= MAX_SIDE and MIN_SIDE <= height <= MAX_SIDE) or width % 2 or height % 2:
+        raise SigncastError(f"bad size {width}x{height} for {option}: width and height must be even numbers in "
+                            f"{MIN_SIDE}..{MAX_SIDE} pixels, e.g. 352x288, 400x340 or 176x144")
+    return width, height
+
+
+def parse_size(text: str, option: str = "--size") -> tuple[int, int]:
+    """'352x288' (or a name: cif, qcif, ssv) -> (width, height) in pixels, checked by check_size."""
+    from media.render import SIZES
+
+    key = str(text).strip().lower()
+    if key in SIZES:
+        return check_size(*SIZES[key], option)
+    try:
+        width, height = (int(part) for part in key.split("x"))
+    except ValueError:
+        raise SigncastError(f"bad size {text!r} for {option}: write WIDTHxHEIGHT, e.g. 352x288, 400x340 or "
+                            f"176x144") from None
+    return check_size(width, height, option)
+
+
+def memory_limit_bytes() -> int:
+    """The memory a command may plan to hold, bytes: $SIGNCAST_MEMORY_LIMIT_MB if set, else the memory the
+    system has available now (MemAvailable on Linux, free physical pages elsewhere)."""
+    configured = os.environ.get(MEMORY_LIMIT_VARIABLE)
+    if configured:
+        try:
+            return int(float(configured) * 2**20)
+        except ValueError:
+            raise SigncastError(f"bad {MEMORY_LIMIT_VARIABLE}={configured!r}: give a number of MiB") from None
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+
+
+def check_memory(n_frames: int, width: int, height: int, bytes_per_pixel: float, what: str) -> int:
+    """Refuse work that would hold n_frames x width x height x bytes_per_pixel bytes of frames (and labels)
+    beyond memory_limit_bytes(). Returns the estimate in bytes."""
+    estimate = int(n_frames * width * height * bytes_per_pixel)
+    limit = memory_limit_bytes()
+    if estimate > limit:
+        raise SigncastError(f"{what} would hold about {estimate / 2**30:.2f} GiB ({n_frames} frames of "
+                            f"{width}x{height} at {bytes_per_pixel:g} bytes per pixel), more than the limit of "
+                            f"{limit / 2**30:.2f} GiB (available memory, or ${MEMORY_LIMIT_VARIABLE}): choose a "
+                            f"smaller --size or a shorter word")
+    return estimate
+
+
+def video_codecs(names, option: str) -> tuple[str, ...]:
+    """Today's codecs coded at matched quality ('none' or '' for none), checked against comparisons.video_codecs."""
+    from comparisons.video_codecs import CODECS
+
+    chosen = tuple(name for name in names if name.strip().lower() not in NO_CODECS)
+    known = [name for name in CODECS if name != "mpeg4"]
+    for name in chosen:
+        if name not in known:
+            raise SigncastError(f"bad {option} {name!r}: choose from {', '.join(known)}, or none")
+    return chosen

@@ -1,0 +1,212 @@
+"""Where the commands write: output folders and files, checked before the work and cleaned up after a failure.
+
+An output folder (`--out DIR`):
+- must be a folder, or not exist yet beneath a folder; it is created, and a probe file is written in it and
+  removed, so a read-only or otherwise unwritable place is refused before any work (also when running as root);
+- must be empty or hold only what an earlier signcast run wrote there (the files listed in the folder's manifest,
+  MANIFEST): those are removed first and the run replaces them. A folder holding anything else is refused unless
+  `--force`, which likewise removes only the listed files and touches nothing else;
+- after a successful run, MANIFEST lists every file the run wrote (paths relative to the folder);
+- a run that fails (an error, a bug or Ctrl-C) removes every file and folder it created, except a non-empty
+  records.jsonl: studies append each record once it is measured, so what stays is only completed records (listed
+  in MANIFEST, so that --force clears them); a file the run overwrote (only possible with --force) stays as the
+  run left it.
+
+An output file (`-o FILE`, `--labels FILE`, ...) may replace an existing file. Its folder must exist; the file is
+created (or opened for appending, which changes nothing) before the work, and a failed run removes the files it
+created.
+
+Every refusal is a SigncastError: one line on stderr and exit code 2.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterable, Iterator
+
+from media.errors import SigncastError
+
+MANIFEST = ".signcast-files"
+KEPT_ON_FAILURE = ("records.jsonl",)
+
+
+def _reason(error: OSError) -> str:
+    return error.strerror or str(error)
+
+
+def _files(folder: Path) -> dict[Path, tuple[int, int]]:
+    """Every file below folder (recursively) -> (mtime_ns, size)."""
+    found = {}
+    for root, _, names in os.walk(folder):
+        for name in names:
+            path = Path(root) / name
+            try:
+                status = path.stat()
+            except OSError:
+                continue
+            found[path] = (status.st_mtime_ns, status.st_size)
+    return found
+
+
+def _probe(folder: Path, shown: Path) -> None:
+    """Create and remove a file in folder: the one check of writability that holds for root and read-only mounts."""
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".signcast-probe-"):
+            pass
+    except OSError as error:
+        raise SigncastError(f"cannot write to {shown}: {_reason(error)}") from None
+
+
+def _make_folder(folder: Path, shown: Path) -> list[Path]:
+    """Create folder and its missing parents; returns the folders created, outermost first."""
+    missing = []
+    for candidate in (folder, *folder.parents):
+        if candidate.is_dir():
+            break
+        if candidate.exists() or candidate.is_symlink():
+            raise SigncastError(f"cannot create folder {shown}: {candidate} is a file, not a folder")
+        missing.append(candidate)
+    made = []
+    try:
+        for path in reversed(missing):
+            path.mkdir()
+            made.append(path)
+    except OSError as error:
+        _remove_folders(made)
+        raise SigncastError(f"cannot create folder {shown}: {_reason(error)}") from None
+    return made
+
+
+def _remove_folders(folders: Iterable[Path]) -> None:
+    """Remove folders, innermost first, if they are empty."""
+    for folder in sorted(folders, key=lambda p: len(p.parts), reverse=True):
+        try:
+            folder.rmdir()
+        except OSError:
+            pass
+
+
+def _remove_owned(folder: Path) -> None:
+    """Remove the files an earlier run listed in folder's manifest, and the folders that leaves empty."""
+    manifest = folder / MANIFEST
+    if not manifest.is_file():
+        return
+    root = folder.resolve()
+    emptied = set()
+    for line in manifest.read_text(encoding="utf-8").splitlines():
+        path = (folder / line).resolve()
+        if not line.strip() or root not in path.parents or not path.is_file():   # never leave the folder
+            continue
+        path.unlink(missing_ok=True)
+        emptied.update(p for p in path.parents if root in p.parents)
+    manifest.unlink()
+    _remove_folders(emptied)
+
+
+def _owned(folder: Path) -> set[Path]:
+    """The files an earlier run listed in folder's MANIFEST (the manifest included); empty without one."""
+    manifest = folder / MANIFEST
+    if not manifest.is_file():
+        return set()
+    try:
+        lines = manifest.read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return set()
+    return {(folder / line).resolve() for line in lines if line.strip()} | {manifest.resolve()}
+
+
+def check_folder(folder: Path, *, force: bool = False) -> None:
+    """Refuse, before anything is created, an --out that is a file, or a folder holding files that no earlier
+    signcast run wrote there, without --force."""
+    if folder.exists() and not folder.is_dir():
+        raise SigncastError(f"--out {folder} is a file, not a folder: choose a folder")
+    if folder.is_dir() and not force:
+        owned = _owned(folder)
+        if any(path.resolve() not in owned for path in _files(folder)):
+            raise SigncastError(f"--out {folder} is not empty and holds files signcast did not write: choose a new "
+                                f"or empty folder, or pass --force to replace what an earlier signcast run wrote "
+                                f"there")
+
+
+@contextmanager
+def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Path]:
+    """The checked, created and writable --out folder for the duration of one run (see the module's policy)."""
+    folder = Path(folder)
+    check_folder(folder, force=force)
+    created = _make_folder(folder, folder)
+    try:
+        _probe(folder, folder)
+    except SigncastError:
+        _remove_folders(created)
+        raise
+    _remove_owned(folder)
+    before = _files(folder)
+    folders_before = {Path(root) for root, _, _ in os.walk(folder)}
+    try:
+        yield folder
+    except BaseException:
+        new = _files(folder)
+        kept = {path for path in new.keys() - before.keys()
+                if path.relative_to(folder).as_posix() in KEPT_ON_FAILURE and new[path][1] > 0}
+        for path in new.keys() - before.keys() - kept:
+            path.unlink(missing_ok=True)
+        _remove_folders({Path(root) for root, _, _ in os.walk(folder)} - folders_before)
+        _remove_folders(created)
+        if kept:
+            _write_manifest(folder, before)
+        raise
+    _write_manifest(folder, before)
+
+
+def _write_manifest(folder: Path, before: dict[Path, tuple[int, int]]) -> None:
+    """List in MANIFEST the files below folder that are new or changed since `before` (a _files snapshot)."""
+    written = sorted(path.relative_to(folder).as_posix() for path, stamp in _files(folder).items()
+                     if before.get(path) != stamp and path.name != MANIFEST)
+    (folder / MANIFEST).write_text("".join(f"{name}\n" for name in written), encoding="utf-8")
+
+
+def check_file(path: Path, what: str, suffixes: tuple[str, ...] = ()) -> None:
+    """Refuse, before the work, an output file that cannot be written: a folder, a wrong suffix, a missing or
+    unwritable folder. Creates nothing: a probe file made to check is removed again."""
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise SigncastError(f"cannot write {what} {path}: the name must end in {' or '.join(suffixes)}")
+    if path.is_dir():
+        raise SigncastError(f"cannot write {what} {path}: it is a folder")
+    folder = path.parent
+    if not folder.is_dir():
+        raise SigncastError(f"cannot write {what} {path}: folder {folder} does not exist")
+    try:
+        if path.exists():
+            with path.open("ab"):
+                pass
+        else:
+            with path.open("xb"):
+                pass
+            path.unlink()
+    except OSError as error:
+        raise SigncastError(f"cannot write {what} {path}: {_reason(error)}") from None
+
+
+@contextmanager
+def output_files(*files: tuple[Path | None, str] | tuple[Path | None, str, tuple[str, ...]]) -> Iterator[None]:
+    """Check each (path, what[, suffixes]) with check_file (None: not asked for); if the run fails, remove the
+    files it created."""
+    wanted = [(Path(spec[0]), *spec[1:]) for spec in files if spec[0] is not None]
+    for spec in wanted:
+        check_file(*spec)
+    new = [spec[0] for spec in wanted if not spec[0].exists()]
+    try:
+        yield
+    except BaseException:
+        for path in new:
+            path.unlink(missing_ok=True)
+        raise
+
+
+def add_force_argument(parser) -> None:
+    """The `--force` option of every command that writes an --out folder."""
+    parser.add_argument("--force", action="store_true",
+                        help=f"write into a non-empty --out folder, first removing the files an earlier signcast run "
+                             f"wrote there (listed in {MANIFEST}); other files are kept")

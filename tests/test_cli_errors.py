@@ -1,0 +1,231 @@
+"""Every CLI error is one line on stderr and exit code 2, found before the work, with nothing left behind:
+bad frame sizes, too much memory, unwritable output, an existing file as --out, a non-empty --out, unknown
+codecs; and the smaller conventions (--version, --force, --no-progress, a sub-command's own usage)."""
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from comparisons.records import make_record, read_records, write_records
+from media.errors import SigncastError
+from pipeline.cli import main
+from pipeline.outputs import MANIFEST, output_folder
+
+ROOT = Path(__file__).resolve().parents[1]
+READ_ONLY = Path("/sys")          # sysfs: creating a file or folder there fails, even for root
+
+# every command that writes an --out folder, with arguments that keep its work small
+FOLDER_COMMANDS = {
+    "params": ["params", "ase", "AB", "--codec", "fba-pred", "--q", "31"],
+    "lab": ["lab", "ase", "--codec", "dct", "--fba-q", "31"],
+    "analyze": ["analyze", "ase"],
+    "video": ["video", "--video", "carphone", "--frames", "4", "--q", "12", "--codecs", "none", "--no-progress"],
+    "video --ssv": ["video", "--ssv", "ase", "A", "--size", "64", "64", "--frames", "4", "--q", "12", "--codecs",
+                    "none", "--no-progress"],
+    "compare": ["compare", "ase", "A", "--video-q", "12", "--fps", "25", "--param-q", "31", "--codecs", "fba-pred",
+                "--video-codecs", "none", "--size", "64x64", "--no-progress"],
+    "demo": ["demo", "ase", "A", "--size", "64x64", "--no-progress"],
+}
+
+
+def _records_file(folder: Path) -> Path:
+    return write_records(folder / "in.jsonl", [make_record("NSV", "clip", "mpeg4", 12, 25.0, 176, 144, 80_000, 2.0)])
+
+
+# every output file a command writes: (arguments with {path}, suffix the file needs)
+FILE_COMMANDS = {
+    "render -o": (["render", "ase", "A", "--size", "32x32", "-o", "{path}"], ".mkv"),
+    "render --labels": (["render", "ase", "A", "--size", "32x32", "-o", "{tmp}/a.mkv", "--labels", "{path}"], ".npz"),
+    "render --preview": (["render", "ase", "A", "--size", "32x32", "-o", "{tmp}/a.mkv", "--preview", "{path}"], ".png"),
+    "motion -o": (["motion", "ase", "A", "-o", "{path}"], ".bvh"),
+    "report -o": (["report", "{records}", "-o", "{path}"], ".html"),
+}
+
+
+def _tree(folder: Path) -> set[str]:
+    return {str(p.relative_to(folder)) for p in folder.rglob("*")}
+
+
+def _fails_with_one_line(capsys, argv, *fragments) -> str:
+    code = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    error = captured.err.strip()
+    assert code == 2, captured
+    assert len(error.splitlines()) == 1 and "Traceback" not in error
+    assert error.startswith(f"signcast {argv[0]}: error: ")
+    for fragment in fragments:
+        assert fragment in error
+    return error
+
+
+def _file_argv(name: str, tmp_path: Path, path: Path) -> list[str]:
+    arguments, _ = FILE_COMMANDS[name]
+    records = _records_file(tmp_path) if name == "report -o" else ""
+    return [a.format(path=path, tmp=tmp_path, records=records) for a in arguments]
+
+
+@pytest.mark.parametrize("command", ["render", "video --ssv", "compare", "demo"])
+@pytest.mark.parametrize("size", ["0x0", "7x7", "5000x5000", "353x288"])
+def test_bad_frame_size_is_one_line_before_any_output(tmp_path, capsys, command, size):
+    argv = {"render": ["render", "ase", "A", "-o", tmp_path / "a.mkv", "--size", size],
+            "video --ssv": ["video", "--ssv", "ase", "A", "--size", *size.split("x"), "--out", tmp_path / "out"],
+            "compare": ["compare", "ase", "A", "--size", size, "--out", tmp_path / "out"],
+            "demo": ["demo", "ase", "A", "--size", size, "--out", tmp_path / "out"]}[command]
+    _fails_with_one_line(capsys, argv, "bad size", "even numbers in 32..1920")
+    assert _tree(tmp_path) == set()
+
+
+@pytest.mark.parametrize("command", ["render", "video --ssv", "compare", "demo"])
+def test_work_beyond_the_memory_limit_is_refused_with_the_estimate(tmp_path, capsys, monkeypatch, command):
+    monkeypatch.setenv("SIGNCAST_MEMORY_LIMIT_MB", "1")
+    argv = {"render": ["render", "ase", "AB", "-o", tmp_path / "a.mkv", "--size", "352x288", "--no-progress"],
+            "video --ssv": ["video", "--ssv", "ase", "AB", "--size", "352", "288", "--q", "12", "--codecs", "none",
+                            "--no-progress", "--out", tmp_path / "out"],
+            "compare": [*FOLDER_COMMANDS["compare"], "--out", tmp_path / "out"],
+            "demo": [*FOLDER_COMMANDS["demo"], "--out", tmp_path / "out"]}[command]
+    error = _fails_with_one_line(capsys, argv, "GiB", "limit of 0.00 GiB", "SIGNCAST_MEMORY_LIMIT_MB")
+    assert "frames of" in error
+    assert _tree(tmp_path) == set()
+
+
+@pytest.mark.parametrize("place", ["beneath a file", "read-only"])
+@pytest.mark.parametrize("command", list(FOLDER_COMMANDS))
+def test_unwritable_out_folder_is_one_line_before_the_work(tmp_path, capsys, command, place):
+    (tmp_path / "a-file").write_text("not a folder")
+    out = tmp_path / "a-file" / "out" if place == "beneath a file" else READ_ONLY / "signcast-out"
+    _fails_with_one_line(capsys, [*FOLDER_COMMANDS[command], "--out", out], f"cannot create folder {out}")
+    assert _tree(tmp_path) == {"a-file"} and not out.exists()
+
+
+@pytest.mark.parametrize("command", list(FOLDER_COMMANDS))
+def test_existing_folder_that_cannot_take_files_is_refused(tmp_path, capsys, command):
+    out = READ_ONLY / "kernel"           # an existing, non-empty folder nobody may write in
+    _fails_with_one_line(capsys, [*FOLDER_COMMANDS[command], "--out", out, "--force"], f"cannot write to {out}")
+
+
+@pytest.mark.parametrize("place", ["beneath a file", "read-only"])
+@pytest.mark.parametrize("name", list(FILE_COMMANDS))
+def test_unwritable_output_file_is_one_line_before_the_work(tmp_path, capsys, name, place):
+    suffix = FILE_COMMANDS[name][1]
+    (tmp_path / "a-file").write_text("not a folder")
+    path = (tmp_path / "a-file" if place == "beneath a file" else READ_ONLY) / f"signcast{suffix}"
+    before = _tree(tmp_path) | ({"in.jsonl"} if name == "report -o" else set())
+    _fails_with_one_line(capsys, _file_argv(name, tmp_path, path), f"cannot write", str(path))
+    assert _tree(tmp_path) == before and not path.exists()
+
+
+@pytest.mark.parametrize("command", list(FOLDER_COMMANDS))
+def test_an_existing_file_as_out_is_refused(tmp_path, capsys, command):
+    taken = tmp_path / "taken"
+    taken.write_text("mine")
+    _fails_with_one_line(capsys, [*FOLDER_COMMANDS[command], "--out", taken], "is a file, not a folder")
+    assert taken.read_text() == "mine" and _tree(tmp_path) == {"taken"}
+
+
+@pytest.mark.parametrize("command", list(FOLDER_COMMANDS))
+def test_a_non_empty_out_folder_is_refused_without_force(tmp_path, capsys, command):
+    (tmp_path / "notes.txt").write_text("mine")
+    _fails_with_one_line(capsys, [*FOLDER_COMMANDS[command], "--out", tmp_path], "is not empty", "--force")
+    assert _tree(tmp_path) == {"notes.txt"}
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["compare", "ase", "A", "--video-codecs", "bogus"], "bad --video-codecs 'bogus'"),
+    (["compare", "ase", "A", "--codecs", "fba-zip"], "unknown parameter codec 'fba-zip'"),
+    (["video", "--video", "carphone", "--codecs", "h263"], "bad --codecs 'h263'"),
+    (["video", "--video", "carphone", "--codecs", "mpeg4"], "bad --codecs 'mpeg4'"),
+    (["params", "ase", "AB", "--codec", "zip"], "unknown parameter codec 'zip'"),
+    (["lab", "ase", "--codec", "zip"], "zip"),
+])
+def test_unknown_codec_is_one_line_before_the_work(tmp_path, capsys, argv, fragment):
+    out = tmp_path / "out"
+    _fails_with_one_line(capsys, [*argv, "--out", out], fragment)
+    assert not out.exists()
+
+
+def test_codecs_none_is_accepted_and_codes_no_other_codec(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main([str(a) for a in [*FOLDER_COMMANDS["video --ssv"], "--out", out]]) == 0
+    points = [r for r in read_records(out / "records.jsonl") if r.get("kind") == "point"]
+    assert points and {r["codec"] for r in points} == {"mpeg4"}
+
+
+def test_a_rerun_replaces_what_an_earlier_run_wrote_and_force_keeps_other_files(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["params", "ase", "ABC", "--codec", "fba-pred", "--q", "31", "--out", str(out)]) == 0
+    assert sorted(p.name for p in (out / "bap").iterdir()) == ["ase_A.bap", "ase_B.bap", "ase_C.bap"]
+    assert "bap/ase_A.bap" in (out / MANIFEST).read_text().splitlines()
+    assert main(["params", "ase", "D", "--codec", "fba-pred", "--q", "31", "--out", str(out)]) == 0
+    assert sorted(p.name for p in (out / "bap").iterdir()) == ["ase_D.bap"]     # an earlier run's files: replaced
+    (out / "notes.txt").write_text("mine")
+    capsys.readouterr()
+    _fails_with_one_line(capsys, ["params", "ase", "D", "--out", out], "is not empty")
+    assert main(["params", "ase", "D", "--codec", "fba-pred", "--q", "31", "--out", str(out), "--force"]) == 0
+    assert sorted(p.name for p in (out / "bap").iterdir()) == ["ase_D.bap"]
+    assert {r["clip"] for r in read_records(out / "records.jsonl") if r.get("kind") == "point"} == {"ase:D"}
+    assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_a_run_failing_midway_removes_what_it_created_but_completed_records(tmp_path):
+    out = tmp_path / "out"
+    with pytest.raises(SigncastError):
+        with output_folder(out):
+            (out / "plots").mkdir()
+            (out / "plots" / "half.png").write_bytes(b"\x89PNG")
+            (out / "table.csv").write_text("a,b\n")
+            raise SigncastError("damaged stream")
+    assert not out.exists()
+    with pytest.raises(KeyboardInterrupt):
+        with output_folder(out):
+            write_records(out / "records.jsonl", [make_record("NSV", "clip", "mpeg4", 12, 25.0, 176, 144, 8000, 1.0)])
+            (out / "table.csv").write_text("a,b\n")
+            raise KeyboardInterrupt
+    assert _tree(out) == {"records.jsonl", MANIFEST}
+    assert (out / MANIFEST).read_text() == "records.jsonl\n"
+
+
+def test_analyze_checks_every_language_before_writing_anything(tmp_path, capsys):
+    out = tmp_path / "out"
+    _fails_with_one_line(capsys, ["analyze", "ase", "xxx", "--out", out], "unknown sign language 'xxx'")
+    assert not out.exists()
+
+
+def test_version_prints_the_installed_version(capsys):
+    from importlib.metadata import version
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0 and capsys.readouterr().out.strip() == f"signcast {version('signcast')}"
+
+
+def test_unknown_option_prints_the_sub_commands_usage(tmp_path, capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["render", "ase", "A", "-o", str(tmp_path / "a.mkv"), "--bogus"])
+    error = capsys.readouterr().err
+    assert stop.value.code == 2 and error.startswith("usage: signcast render ")
+    assert error.strip().splitlines()[-1] == "signcast render: error: unrecognized arguments: --bogus"
+
+
+def test_render_without_progress_writes_nothing_to_stderr(tmp_path, capsys):
+    video = tmp_path / "a.mkv"
+    assert main(["render", "ase", "A", "-o", str(video), "--size", "32x32", "--backend", "numpy", "--no-progress"]) == 0
+    assert capsys.readouterr().err == "" and video.stat().st_size > 0
+
+
+def test_out_of_range_q_names_the_range_not_the_operating_point(tmp_path, capsys):
+    _fails_with_one_line(capsys, ["video", "--video", "carphone", "--q", "0", "--out", tmp_path / "out"],
+                         "bad --q 0: MPEG-4 quantisers are 1..31")
+
+
+def test_a_missing_greek_capital_is_quoted_as_written(tmp_path, capsys):
+    _fails_with_one_line(capsys, ["motion", "ase", "ΑΒ", "-o", tmp_path / "a.bvh"], "no letter 'Α'")
+
+
+def test_unwritable_output_exits_2_without_a_traceback_from_the_shell(tmp_path):
+    """The real process: exit status and stderr as a user sees them."""
+    path = READ_ONLY / "a.mkv"
+    result = subprocess.run([sys.executable, "-m", "pipeline.cli", "render", "ase", "A", "-o", str(path)],
+                            cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 2 and result.stdout == ""
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"signcast render: error: cannot write video {path}: ")
