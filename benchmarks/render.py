@@ -71,9 +71,9 @@ def frames_per_second(step, frames: int, repeats: int, warmup: int = 5) -> float
 def measure_backend(backend: str, avatar, camera, matrices, positions, width, height, frames) -> dict:
     """One round of frames/s for skinning, rasterization, and both, on one backend."""
     from kernels.raster import rasterize
-    from kernels.skinning import SparseWeights, skin
+    from kernels.skinning import skin
     from media.render import triangle_colours
-    weights = SparseWeights(avatar.weights.indptr, avatar.weights.bones, avatar.weights.values)
+    weights = avatar.weights
     colours = triangle_colours(avatar)
     n = len(matrices)
 
@@ -208,12 +208,7 @@ def main() -> None:
     labels, samples, skipped = {}, {}, {}
     for backend in arguments.backends.split(","):
         try:
-            if backend == "warp":
-                labels[backend] = f"warp ({backends.warp_device()})"
-            elif backend == "opencl":
-                labels[backend] = f"opencl ({backends.opencl_queue()[0].devices[0].name.strip()})"
-            else:
-                labels[backend] = backend
+            labels[backend] = backends.describe(backend)
         except Exception as error:  # report and go on with the other backends
             print(f"{backend}: skipped ({error})", flush=True)
     for threads in (1, 2):

@@ -1,9 +1,12 @@
 """Compute kernels (deform, rasterize) with Warp, OpenCL and NumPy-reference backends.
 
 Entry points (explicit arrays, `backend="warp" | "opencl" | "numpy" | "auto"`):
-  kernels.skinning.skin, kernels.skinning.skin_rigid   linear blend skinning, rigid segments
+  kernels.skinning.skin, kernels.skinning.skin_rigid   linear blend skinning (SkinWeights), rigid segments
   kernels.muscles.displace (with bind, combine)          NURBS muscle tubes (seed 000 eq. 3.6)
   kernels.raster.rasterize                               z-buffer, labels, triangle ids, two looks
   kernels.camera.view_projection                         the camera matrix rasterize takes
-"auto" is Warp on CUDA when a GPU exists, else Warp on the CPU. Kernels import nothing of media or pipeline.
+"auto" is Warp on CUDA when a GPU exists, else Warp on the CPU; kernels.backends.describe says where a
+choice runs. Each entry point's module holds the NumPy oracle, the OpenCL source (its constants come
+as generated #defines) and the host code; the Warp kernels live in kernels/*_warp.py, imported on
+first use. Errors are KernelError, a SigncastError. Kernels import nothing of media or pipeline.
 """

@@ -4,6 +4,9 @@ The device is chosen once per process: `warp_device()` and `opencl_queue()` are 
 imported lazily and kept quiet (no banner on stdout). For OpenCL, a GPU is preferred; otherwise the
 first CPU device whose compiler actually builds a program is used (the PoCL bundled in the pyopencl
 wheel uses LLVM 14, which cannot target some newer CPUs; Debian's pocl-opencl-icd can).
+
+`describe(backend)` says where a backend choice runs (and fails in one line if it cannot), so that
+a command can tell the user what "auto" chose; library code itself never prints.
 """
 from __future__ import annotations
 
@@ -11,6 +14,9 @@ import contextlib
 import functools
 import os
 import sys
+import types
+
+import numpy as np
 
 from kernels.errors import KernelError
 
@@ -25,6 +31,21 @@ def resolve(backend: str) -> str:
     if backend not in BACKENDS:
         raise KernelError(f"unknown backend {backend!r}: choose one of {', '.join(CHOICES)}")
     return backend
+
+
+def describe(backend: str) -> str:
+    """Where `backend` runs here: 'warp (cpu)', 'warp (cuda:0)', 'opencl (DEVICE NAME)' or 'numpy'.
+
+    Starts the backend (once per process), so a backend that cannot run here raises its one-line
+    KernelError now rather than at the first kernel call.
+    """
+    chosen = resolve(backend)
+    if chosen == "warp":
+        return f"warp ({warp_device()})"
+    if chosen == "opencl":
+        context, _ = opencl_queue()
+        return f"opencl ({context.devices[0].name.strip()})"
+    return chosen
 
 
 @contextlib.contextmanager
@@ -91,12 +112,20 @@ def opencl_queue():
         try:
             cl.Program(context, _PROBE_SOURCE).build()
         except cl.Error as error:
-            failures.append(f"{device.name}: {str(error).strip().splitlines()[-1][:80]}")
+            failures.append(f"{device.name}: {_build_failure(str(error))}")
             continue
         return context, cl.CommandQueue(context)
     detail = "; ".join(failures) or "no devices"
-    raise KernelError(f"backend 'opencl': no OpenCL device can build kernels ({detail}); "
+    raise KernelError(f"backend 'opencl': no OpenCL device can build kernels ({detail}); the PoCL of the "
+                      "pocl-binary-distribution wheel rejects some newer CPUs ('unknown target CPU'): "
                       "on Debian/Ubuntu install pocl-opencl-icd") from None
+
+
+def _build_failure(message: str) -> str:
+    """The telling line of an OpenCL build error (the compiler's complaint, not pyopencl's framing), shortened."""
+    lines = [line.strip() for line in message.splitlines() if line.strip()]
+    telling = [line for line in lines if not line.startswith(("clBuildProgram failed", "Build on", "(options"))]
+    return (telling or lines or ["build failed"])[0][:100]
 
 
 def opencl_available() -> bool:
@@ -108,8 +137,24 @@ def opencl_available() -> bool:
 
 
 @functools.cache
-def opencl_program(source: str):
-    """Build (once) an OpenCL program for the chosen device."""
+def opencl_kernels(source: str) -> types.SimpleNamespace:
+    """Build (once) an OpenCL program for the chosen device; its kernels by name (`kernels.raster`)."""
     import pyopencl as cl
     context, _ = opencl_queue()
-    return cl.Program(context, source).build(options=["-cl-std=CL1.2"])
+    program = cl.Program(context, source).build(options=["-cl-std=CL1.2"])
+    return types.SimpleNamespace(**{kernel.function_name: kernel for kernel in program.all_kernels()})
+
+
+def opencl_defines(constants: dict) -> str:
+    """`#define NAME value` lines that hand Python constants to an OpenCL program, so each is written once.
+
+    Integers become 64-bit literals (`256L`), floating-point values float literals that round to the
+    same float32 (`32768.0f`).
+    """
+    lines = []
+    for name, value in constants.items():
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise KernelError(f"OpenCL constant {name}: expected a number, got {value!r}")
+        literal = f"{int(value)}L" if isinstance(value, (int, np.integer)) else f"{float(np.float32(value))!r}f"
+        lines.append(f"#define {name} {literal}")
+    return "\n".join(lines) + "\n"

@@ -1,5 +1,14 @@
-"""Errors raised by the kernels for bad arguments (kernels import nothing of signcast's)."""
+"""The one error type for expected failures, and the kernels' narrower kind of it.
+
+SigncastError lives here, in the bottom layer, so that the kernels (which import nothing of
+signcast's outside kernels/) and everything above them raise the same type; media.errors
+re-exports it and the command line catches it alone.
+"""
 
 
-class KernelError(ValueError):
+class SigncastError(Exception):
+    """An expected failure the user can fix: unknown sign, missing file, corrupt stream, bad parameter."""
+
+
+class KernelError(SigncastError, ValueError):
     """Bad kernel input: wrong shape or dtype, unknown backend, backend unavailable."""

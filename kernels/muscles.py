@@ -10,7 +10,6 @@ The B-spline basis values N_i(u_v) depend only on the knots and u_v, so `bind` s
 p+1 non-zero values and the first control point index); `displace` then needs only the rest and
 current control points with their weights. Changing the knots means binding again.
 """
-import functools
 from typing import NamedTuple
 
 import numpy as np
@@ -20,6 +19,7 @@ from kernels._arrays import UploadCache, as_array
 from kernels.errors import KernelError
 
 MAX_DEGREE = 3
+BASIS_SIZE = MAX_DEGREE + 1            # basis values stored per bound vertex (zero-padded past degree + 1)
 FALLOFF_CODES = (-1, 0, 1, 2, 3, 4)
 
 
@@ -144,7 +144,7 @@ class MuscleInfluence(NamedTuple):
     """All muscles' bindings as CSR rows per skin vertex (the kernels' input).
 
     indptr: (V+1,) int32; first_control: (nnz,) int32 index into the stacked control points of all
-    muscles; basis: (nnz, 4) float32 (zero-padded past degree+1); weight: (nnz,) float32 mu(v).
+    muscles; basis: (nnz, BASIS_SIZE) float32 (zero-padded past degree+1); weight: (nnz,) float32 mu(v).
     """
     indptr: np.ndarray
     first_control: np.ndarray
@@ -159,8 +159,8 @@ def combine(bindings: list[MuscleBinding], control_counts: list[int], n_vertices
     offsets = np.concatenate([[0], np.cumsum(control_counts)[:-1]]).astype(np.int32)
     vertices = np.concatenate([b.vertices for b in bindings] or [np.zeros(0, np.int32)])
     first = np.concatenate([b.first_control + o for b, o in zip(bindings, offsets)] or [np.zeros(0, np.int32)])
-    padded = [np.pad(b.basis, ((0, 0), (0, MAX_DEGREE + 1 - b.basis.shape[1]))) for b in bindings]
-    values = np.concatenate(padded or [np.zeros((0, MAX_DEGREE + 1))])
+    padded = [np.pad(b.basis, ((0, 0), (0, BASIS_SIZE - b.basis.shape[1]))) for b in bindings]
+    values = np.concatenate(padded or [np.zeros((0, BASIS_SIZE))])
     weight = np.concatenate([b.weight for b in bindings] or [np.zeros(0)])
     if len(vertices) and (vertices.min() < 0 or vertices.max() >= n_vertices):
         raise KernelError("binding vertices outside the mesh")
@@ -183,14 +183,14 @@ def displace(positions, influence: MuscleInfluence, control_rest, control_posed,
     indptr = as_array("influence.indptr", influence.indptr, np.int32, (len(positions) + 1,))
     nnz = int(indptr[-1])
     first = as_array("influence.first_control", influence.first_control, np.int32, (nnz,))
-    values = as_array("influence.basis", influence.basis, np.float32, (nnz, MAX_DEGREE + 1))
+    values = as_array("influence.basis", influence.basis, np.float32, (nnz, BASIS_SIZE))
     weight = as_array("influence.weight", influence.weight, np.float32, (nnz,))
     if nnz and (first.min() < 0 or first.max() >= len(control_rest)):
         raise KernelError("influence.first_control outside the control points")
     if np.any(control_posed[:, 3] <= 0) or np.any(control_rest[:, 3] <= 0):
         raise KernelError("NURBS weights must be positive")
-    # padding so that first + 3 stays inside for every degree (padded basis values are zero)
-    pad = np.tile(np.array([[0, 0, 0, 1]], np.float32), (MAX_DEGREE, 1))
+    # padding so that first + BASIS_SIZE - 1 stays inside for every degree (padded basis values are zero)
+    pad = np.tile(np.array([[0, 0, 0, 1]], np.float32), (BASIS_SIZE - 1, 1))
     rest_padded = np.concatenate([control_rest, pad])
     posed_padded = np.concatenate([control_posed, pad])
     influence = MuscleInfluence(indptr, first, values, weight)
@@ -203,7 +203,7 @@ class _NumpyMuscles:
     @staticmethod
     def displace(positions, influence, control_rest, control_posed):
         rows = np.repeat(np.arange(len(positions)), np.diff(influence.indptr))
-        indices = influence.first_control[:, None] + np.arange(MAX_DEGREE + 1)
+        indices = influence.first_control[:, None] + np.arange(BASIS_SIZE)
         values = influence.basis.astype(np.float64)
 
         def curve_points(control):
@@ -217,52 +217,24 @@ class _NumpyMuscles:
         return displaced.astype(np.float32)
 
 
-# --- Warp -----------------------------------------------------------------------------------------
-
-@functools.cache
-def _warp_kernel():
-    wp = backends.warp()
-
-    @wp.func
-    def curve_point(control: wp.array(dtype=wp.vec4), first: wp.int32, b: wp.vec4):
-        numerator = wp.vec3(0.0, 0.0, 0.0)
-        denominator = float(0.0)
-        for i in range(4):
-            c = control[first + i]
-            nw = b[i] * c[3]
-            numerator += nw * wp.vec3(c[0], c[1], c[2])
-            denominator += nw
-        return numerator / denominator
-
-    @wp.kernel
-    def displace(positions: wp.array(dtype=wp.vec3), indptr: wp.array(dtype=wp.int32),
-                 first_control: wp.array(dtype=wp.int32), basis: wp.array(dtype=wp.vec4),
-                 weight: wp.array(dtype=wp.float32), control_rest: wp.array(dtype=wp.vec4),
-                 control_posed: wp.array(dtype=wp.vec4), displaced: wp.array(dtype=wp.vec3)):
-        v = wp.tid()
-        total = wp.vec3(0.0, 0.0, 0.0)
-        for k in range(indptr[v], indptr[v + 1]):
-            b = basis[k]
-            total += weight[k] * (curve_point(control_posed, first_control[k], b)
-                                  - curve_point(control_rest, first_control[k], b))
-        displaced[v] = positions[v] + total
-
-    return displace
-
+# --- Warp (bodies in kernels/muscles_warp.py, imported on first use) -----------------------------
 
 class _WarpMuscles:
+    """The influence rows upload once; positions and control points upload per call."""
+
     def __init__(self):
         self._uploads = None
 
     def displace(self, positions, influence, control_rest, control_posed):
+        from kernels import muscles_warp
         wp, device = backends.warp(), backends.warp_device()
         if self._uploads is None:
             self._uploads = UploadCache(lambda a: wp.array(a, device=device))
-            self._vec4 = UploadCache(lambda a: wp.array(a, dtype=wp.vec4, device=device))
+            self._basis = UploadCache(lambda a: wp.array(a, dtype=muscles_warp.basis_values, device=device))
         displaced = wp.empty(len(positions), dtype=wp.vec3, device=device)
-        wp.launch(_warp_kernel(), dim=len(positions), device=device,
+        wp.launch(muscles_warp.displace, dim=len(positions), device=device,
                   inputs=[wp.array(positions, dtype=wp.vec3, device=device), self._uploads.get("indptr", influence.indptr),
-                          self._uploads.get("first", influence.first_control), self._vec4.get("basis", influence.basis),
+                          self._uploads.get("first", influence.first_control), self._basis.get("basis", influence.basis),
                           self._uploads.get("weight", influence.weight), wp.array(control_rest, dtype=wp.vec4, device=device),
                           wp.array(control_posed, dtype=wp.vec4, device=device), displaced])
         return displaced.numpy().copy()
@@ -270,48 +242,55 @@ class _WarpMuscles:
 
 # --- OpenCL ---------------------------------------------------------------------------------------
 
-_OPENCL_SOURCE = r"""
+_OPENCL_SOURCE = backends.opencl_defines({"BASIS_SIZE": BASIS_SIZE}) + r"""
 #pragma OPENCL FP_CONTRACT OFF
-float3 curve_point(__global const float4 *control, int first, float4 b) {
-    float4 c0 = control[first], c1 = control[first + 1], c2 = control[first + 2], c3 = control[first + 3];
-    float n0 = b.x * c0.w, n1 = b.y * c1.w, n2 = b.z * c2.w, n3 = b.w * c3.w;
-    float3 numerator = n0 * c0.xyz + n1 * c1.xyz + n2 * c2.xyz + n3 * c3.xyz;
-    return numerator / (n0 + n1 + n2 + n3);
+float3 curve_point(__global const float4 *control, int first, __global const float *b) {
+    float3 numerator = (float3)(0.0f);
+    float denominator = 0.0f;
+    for (int i = 0; i < BASIS_SIZE; ++i) {
+        float4 c = control[first + i];
+        float nw = b[i] * c.w;
+        numerator += nw * c.xyz;
+        denominator += nw;
+    }
+    return numerator / denominator;
 }
 
 __kernel void displace(__global const float *positions, __global const int *indptr,
-                       __global const int *first_control, __global const float4 *basis,
+                       __global const int *first_control, __global const float *basis,
                        __global const float *weight, __global const float4 *control_rest,
                        __global const float4 *control_posed, __global float *displaced) {
     int v = get_global_id(0);
     float3 total = (float3)(0.0f);
-    for (int k = indptr[v]; k < indptr[v + 1]; ++k)
-        total += weight[k] * (curve_point(control_posed, first_control[k], basis[k])
-                              - curve_point(control_rest, first_control[k], basis[k]));
+    for (int k = indptr[v]; k < indptr[v + 1]; ++k) {
+        __global const float *b = basis + BASIS_SIZE * k;
+        total += weight[k] * (curve_point(control_posed, first_control[k], b)
+                              - curve_point(control_rest, first_control[k], b));
+    }
     vstore3(vload3(v, positions) + total, v, displaced);
 }
 """
 
 
 class _OpenCLMuscles:
+    """The influence rows upload once; positions and control points upload per call."""
+
     def __init__(self):
         self._uploads = None
 
     def displace(self, positions, influence, control_rest, control_posed):
         import pyopencl as cl
         context, queue = backends.opencl_queue()
-        if self._uploads is None:
-            self._uploads = UploadCache(lambda a: cl.Buffer(context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a))
-            self._kernel = backends.opencl_program(_OPENCL_SOURCE).displace
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
-        positions_d = cl.Buffer(context, flags, hostbuf=positions)
-        posed_d = cl.Buffer(context, flags, hostbuf=control_posed)
+        if self._uploads is None:
+            self._uploads = UploadCache(lambda a: cl.Buffer(context, flags, hostbuf=a))
         displaced = np.empty_like(positions)
         displaced_d = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, displaced.nbytes)
-        self._kernel(queue, (len(positions),), None, positions_d, self._uploads.get("indptr", influence.indptr),
-                     self._uploads.get("first", influence.first_control), self._uploads.get("basis", influence.basis),
-                     self._uploads.get("weight", influence.weight), cl.Buffer(context, flags, hostbuf=control_rest),
-                     posed_d, displaced_d)
+        backends.opencl_kernels(_OPENCL_SOURCE).displace(
+            queue, (len(positions),), None, cl.Buffer(context, flags, hostbuf=positions),
+            self._uploads.get("indptr", influence.indptr), self._uploads.get("first", influence.first_control),
+            self._uploads.get("basis", influence.basis), self._uploads.get("weight", influence.weight),
+            cl.Buffer(context, flags, hostbuf=control_rest), cl.Buffer(context, flags, hostbuf=control_posed), displaced_d)
         cl.enqueue_copy(queue, displaced, displaced_d, is_blocking=True)
         return displaced
 

@@ -5,8 +5,7 @@ Entry points `skin` and `skin_rigid` take explicit arrays and a backend ("warp",
 no inverse bind matrix is involved: v' = sum_b w_b M_b v.
 """
 
-import functools
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -15,11 +14,45 @@ from kernels._arrays import UploadCache, as_array, check_indices
 from kernels.errors import KernelError
 
 
-class SparseWeights(NamedTuple):
-    """Per-vertex bone weights in CSR form: indptr (V+1,) int32, bones (nnz,) int32, values (nnz,) float32."""
+@dataclass(frozen=True)
+class SkinWeights:
+    """Per-vertex bone weights in CSR form (SMS skinCoordIndex / skinCoordWeight).
+
+    indptr: (V+1,) int32 row starts; bones: (nnz,) int32 bone indices; values: (nnz,) float32
+    weights, each row summing to 1.
+    """
     indptr: np.ndarray
     bones: np.ndarray
     values: np.ndarray
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.indptr) - 1
+
+    def dense(self, n_bones: int) -> np.ndarray:
+        """(V, n_bones) float32 weight matrix."""
+        matrix = np.zeros((self.n_vertices, n_bones), dtype=np.float32)
+        rows = np.repeat(np.arange(self.n_vertices), np.diff(self.indptr))
+        np.add.at(matrix, (rows, self.bones), self.values)
+        return matrix
+
+    def dominant_bone(self) -> np.ndarray:
+        """(V,) int32: the bone with the largest weight on each vertex."""
+        rows = np.repeat(np.arange(self.n_vertices), np.diff(self.indptr))
+        order = np.lexsort((-self.values, rows))
+        return self.bones[order[self.indptr[:-1]]].astype(np.int32)
+
+    @classmethod
+    def from_dense(cls, matrix: np.ndarray, threshold: float = 1e-6) -> "SkinWeights":
+        """From a (V, B) matrix; entries <= threshold are dropped and rows renormalised."""
+        matrix = np.where(matrix > threshold, matrix, 0.0)
+        sums = matrix.sum(axis=1, keepdims=True)
+        if np.any(sums <= 0):
+            raise KernelError(f"{int(np.sum(sums <= 0))} vertices have no bone weight")
+        matrix = matrix / sums
+        rows, bones = np.nonzero(matrix)
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=len(matrix)))]).astype(np.int32)
+        return cls(indptr, bones.astype(np.int32), matrix[rows, bones].astype(np.float32))
 
 
 def _checked(rest, bone_matrices) -> tuple[np.ndarray, np.ndarray]:
@@ -28,7 +61,7 @@ def _checked(rest, bone_matrices) -> tuple[np.ndarray, np.ndarray]:
     return rest, bone_matrices
 
 
-def _checked_weights(weights, n_vertices: int, n_bones: int) -> SparseWeights:
+def _checked_weights(weights, n_vertices: int, n_bones: int) -> SkinWeights:
     try:
         indptr, bones, values = weights.indptr, weights.bones, weights.values
     except AttributeError:
@@ -39,14 +72,14 @@ def _checked_weights(weights, n_vertices: int, n_bones: int) -> SparseWeights:
     if indptr[0] != 0 or indptr[-1] != len(bones) or np.any(np.diff(indptr) < 0):
         raise KernelError("weights.indptr: must rise from 0 to the number of entries")
     check_indices("weights.bones", bones, n_bones)
-    return SparseWeights(indptr, bones, values)
+    return SkinWeights(indptr, bones, values)
 
 
 def skin(rest, weights, bone_matrices, *, backend: str = "auto") -> np.ndarray:
     """Linear blend skinning.
 
     rest: (V, 3) float32 rest-pose positions, metres.
-    weights: CSR rows per vertex (anything with indptr, bones, values; see SparseWeights); rows sum to 1.
+    weights: SkinWeights (or anything with indptr, bones, values): CSR rows per vertex, each summing to 1.
     bone_matrices: (B, 4, 4) float32, rest-to-posed world transform of each bone.
     Returns (V, 3) float32 posed positions, metres.
     """
@@ -88,31 +121,7 @@ class _NumpySkinning:
         return posed.astype(np.float32)
 
 
-# --- Warp -----------------------------------------------------------------------------------------
-
-@functools.cache
-def _warp_kernels():
-    wp = backends.warp()
-
-    @wp.kernel
-    def linear_blend(rest: wp.array(dtype=wp.vec3), indptr: wp.array(dtype=wp.int32),
-                     bones: wp.array(dtype=wp.int32), values: wp.array(dtype=wp.float32),
-                     matrices: wp.array(dtype=wp.mat44), posed: wp.array(dtype=wp.vec3)):
-        v = wp.tid()
-        p = rest[v]
-        total = wp.vec3(0.0, 0.0, 0.0)
-        for k in range(indptr[v], indptr[v + 1]):
-            total += values[k] * wp.transform_point(matrices[bones[k]], p)
-        posed[v] = total
-
-    @wp.kernel
-    def rigid(rest: wp.array(dtype=wp.vec3), dominant_bone: wp.array(dtype=wp.int32),
-              matrices: wp.array(dtype=wp.mat44), posed: wp.array(dtype=wp.vec3)):
-        v = wp.tid()
-        posed[v] = wp.transform_point(matrices[dominant_bone[v]], rest[v])
-
-    return linear_blend, rigid
-
+# --- Warp (bodies in kernels/skinning_warp.py, imported on first use) ----------------------------
 
 class _WarpSkinning:
     """Device buffers live as long as the process; the rest mesh and weights upload once."""
@@ -121,34 +130,28 @@ class _WarpSkinning:
         self._uploads = None
         self._outputs = {}
 
-    def _setup(self):
+    def _launch(self, kernel, rest, arguments, bone_matrices):
         wp, device = backends.warp(), backends.warp_device()
         if self._uploads is None:
             self._uploads = UploadCache(lambda a: wp.array(a, device=device))
             self._points = UploadCache(lambda a: wp.array(a, dtype=wp.vec3, device=device))
-        return wp, device
-
-    def _launch(self, kernel, rest, arguments, bone_matrices):
-        wp, device = self._setup()
         n = len(rest)
         if n not in self._outputs:
             self._outputs[n] = wp.empty(n, dtype=wp.vec3, device=device)
         posed = self._outputs[n]
         matrices = wp.array(bone_matrices, dtype=wp.mat44, device=device)
-        wp.launch(kernel, dim=n, device=device, inputs=[self._points.get("rest", rest), *arguments, matrices, posed])
+        inputs = [self._points.get("rest", rest), *(self._uploads.get(name, a) for name, a in arguments), matrices, posed]
+        wp.launch(kernel, dim=n, device=device, inputs=inputs)
         return posed.numpy().copy()
 
     def skin(self, rest, weights, bone_matrices):
-        self._setup()
-        linear_blend, _ = _warp_kernels()
-        arguments = [self._uploads.get("indptr", weights.indptr), self._uploads.get("bones", weights.bones),
-                     self._uploads.get("values", weights.values)]
-        return self._launch(linear_blend, rest, arguments, bone_matrices)
+        from kernels import skinning_warp
+        arguments = [("indptr", weights.indptr), ("bones", weights.bones), ("values", weights.values)]
+        return self._launch(skinning_warp.linear_blend, rest, arguments, bone_matrices)
 
     def skin_rigid(self, rest, dominant_bone, bone_matrices):
-        self._setup()
-        _, rigid = _warp_kernels()
-        return self._launch(rigid, rest, [self._uploads.get("dominant", dominant_bone)], bone_matrices)
+        from kernels import skinning_warp
+        return self._launch(skinning_warp.rigid, rest, [("dominant", dominant_bone)], bone_matrices)
 
 
 # --- OpenCL ---------------------------------------------------------------------------------------
@@ -181,19 +184,11 @@ __kernel void rigid(__global const float *rest, __global const int *dominant_bon
 
 
 class _OpenCLSkinning:
-    def __init__(self):
-        self._cache = None
-        self._buffers = {}
+    """Read-only inputs upload once; the bone matrices and the output reuse one buffer each."""
 
-    def _setup(self):
-        import pyopencl as cl
-        context, queue = backends.opencl_queue()
-        if self._cache is None:
-            self._cache = UploadCache(lambda a: cl.Buffer(context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a))
-        if not hasattr(self, "_kernels"):
-            program = backends.opencl_program(_OPENCL_SOURCE)
-            self._kernels = {"linear_blend": program.linear_blend, "rigid": program.rigid}
-        return cl, context, queue, self._kernels
+    def __init__(self):
+        self._uploads = None
+        self._buffers = {}
 
     def _buffer(self, name, nbytes):
         import pyopencl as cl
@@ -202,26 +197,28 @@ class _OpenCLSkinning:
             self._buffers[name] = (cl.Buffer(context, cl.mem_flags.READ_WRITE, nbytes), nbytes)
         return self._buffers[name][0]
 
-    def _run(self, kernel, n, arguments, bone_matrices):
-        cl, context, queue, _ = self._setup()
+    def _run(self, kernel, rest, arguments, bone_matrices):
+        import pyopencl as cl
+        context, queue = backends.opencl_queue()
+        if self._uploads is None:
+            flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
+            self._uploads = UploadCache(lambda a: cl.Buffer(context, flags, hostbuf=a))
         matrices = self._buffer("matrices", bone_matrices.nbytes)
         cl.enqueue_copy(queue, matrices, bone_matrices, is_blocking=False)
-        posed = np.empty((n, 3), dtype=np.float32)
+        posed = np.empty((len(rest), 3), dtype=np.float32)
         posed_d = self._buffer("posed", posed.nbytes)
-        kernel(queue, (n,), None, *arguments, matrices, posed_d)
+        inputs = [self._uploads.get("rest", rest), *(self._uploads.get(name, a) for name, a in arguments)]
+        kernel(queue, (len(rest),), None, *inputs, matrices, posed_d)
         cl.enqueue_copy(queue, posed, posed_d, is_blocking=True)
         return posed
 
     def skin(self, rest, weights, bone_matrices):
-        _, _, _, kernels = self._setup()
-        arguments = [self._cache.get("rest", rest), self._cache.get("indptr", weights.indptr),
-                     self._cache.get("bones", weights.bones), self._cache.get("values", weights.values)]
-        return self._run(kernels["linear_blend"], len(rest), arguments, bone_matrices)
+        arguments = [("indptr", weights.indptr), ("bones", weights.bones), ("values", weights.values)]
+        return self._run(backends.opencl_kernels(_OPENCL_SOURCE).linear_blend, rest, arguments, bone_matrices)
 
     def skin_rigid(self, rest, dominant_bone, bone_matrices):
-        _, _, _, kernels = self._setup()
-        arguments = [self._cache.get("rest", rest), self._cache.get("dominant", dominant_bone)]
-        return self._run(kernels["rigid"], len(rest), arguments, bone_matrices)
+        return self._run(backends.opencl_kernels(_OPENCL_SOURCE).rigid, rest, [("dominant", dominant_bone)],
+                         bone_matrices)
 
 
 _IMPLEMENTATIONS = {"numpy": _NumpySkinning(), "warp": _WarpSkinning(), "opencl": _OpenCLSkinning()}

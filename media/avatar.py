@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from kernels.skinning import SkinWeights
 from media import rotations
 from media.errors import SigncastError
 
@@ -78,46 +79,6 @@ class Skeleton:
             if self.parents[b] >= 0 and inside[self.parents[b]]:
                 inside[b] = True
         return inside
-
-
-@dataclass(frozen=True)
-class SkinWeights:
-    """Per-vertex bone weights in CSR form (SMS skinCoordIndex / skinCoordWeight).
-
-    indptr: (V+1,) int32; bones: (nnz,) int32 bone indices; values: (nnz,) float32, each row sums to 1.
-    """
-    indptr: np.ndarray
-    bones: np.ndarray
-    values: np.ndarray
-
-    @property
-    def n_vertices(self) -> int:
-        return len(self.indptr) - 1
-
-    def dense(self, n_bones: int) -> np.ndarray:
-        """(V, n_bones) float32 weight matrix."""
-        matrix = np.zeros((self.n_vertices, n_bones), dtype=np.float32)
-        rows = np.repeat(np.arange(self.n_vertices), np.diff(self.indptr))
-        np.add.at(matrix, (rows, self.bones), self.values)
-        return matrix
-
-    def dominant_bone(self) -> np.ndarray:
-        """(V,) int32: the bone with the largest weight on each vertex."""
-        rows = np.repeat(np.arange(self.n_vertices), np.diff(self.indptr))
-        order = np.lexsort((-self.values, rows))
-        return self.bones[order[self.indptr[:-1]]].astype(np.int32)
-
-    @classmethod
-    def from_dense(cls, matrix: np.ndarray, threshold: float = 1e-6) -> "SkinWeights":
-        """From a (V, B) matrix; entries <= threshold are dropped and rows renormalised."""
-        matrix = np.where(matrix > threshold, matrix, 0.0)
-        sums = matrix.sum(axis=1, keepdims=True)
-        if np.any(sums <= 0):
-            raise SigncastError(f"{int(np.sum(sums <= 0))} vertices have no bone weight")
-        matrix = matrix / sums
-        rows, bones = np.nonzero(matrix)
-        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=len(matrix)))]).astype(np.int32)
-        return cls(indptr, bones.astype(np.int32), matrix[rows, bones].astype(np.float32))
 
 
 @dataclass(frozen=True)
@@ -183,7 +144,7 @@ class Avatar:
 
     vertices: (V, 3) float32 rest positions, metres; triangles: (F, 3) int32;
     triangle_part: (F,) uint8 part label; triangle_shape: (F,) uint8 index into shape_names;
-    skeleton; weights (given by the asset); muscles.
+    skeleton; weights: kernels.skinning.SkinWeights (given by the asset); muscles.
     """
     name: str
     vertices: np.ndarray

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from media.avatar import Skeleton, SkinWeights
+from kernels.skinning import SkinWeights
+from media.avatar import Skeleton
 from media.errors import SigncastError
 
 FALLOFFS = {

@@ -125,7 +125,6 @@ class AvatarRenderer:
         self.camera = signing_space_camera(avatar, settings.width, settings.height)
         self.colours = triangle_colours(avatar)
         self.dominant_bone = avatar.weights.dominant_bone()
-        self.weights = skinning.SparseWeights(avatar.weights.indptr, avatar.weights.bones, avatar.weights.values)
         self.use_muscles = settings.muscles and bool(avatar.muscles)
         if self.use_muscles:
             self.influence = muscle_influence(avatar)
@@ -141,7 +140,7 @@ class AvatarRenderer:
         matrices = np.asarray(matrices, dtype=np.float32)
         if self.settings.segmented:
             return skinning.skin_rigid(rest, self.dominant_bone, matrices, backend=backend)
-        return skinning.skin(rest, self.weights, matrices, backend=backend)
+        return skinning.skin(rest, self.avatar.weights, matrices, backend=backend)
 
     def draw(self, vertices: np.ndarray):
         """rgb (H, W, 3) uint8, labels (H, W) uint8, triangle_id (H, W) int32, depth (H, W) float32."""

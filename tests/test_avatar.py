@@ -3,14 +3,10 @@ import numpy as np
 import pytest
 
 from media import rotations
+from kernels.skinning import SkinWeights
 from media.avatar import PART_BODY, PART_HEAD, PART_LEFT_HAND, PART_RIGHT_HAND, BoneTransform, load_avatar
 from media.errors import SigncastError
 from media.influence import InfluenceVolume, affectedness, dominant_agreement, falloff, fit_volumes, influence_weights
-
-
-@pytest.fixture(scope="module")
-def avatar():
-    return load_avatar()
 
 
 def test_avatar_keeps_body_skin_and_eyes_in_metres(avatar):
@@ -41,12 +37,14 @@ def test_skeleton_is_ordered_parents_first_with_joints_on_the_mesh(avatar):
     wrist = skeleton.heads[skeleton.index("wrist.L")]
     elbow = skeleton.heads[skeleton.index("lowerarm01.L")]
     assert 0.2 < np.linalg.norm(wrist - elbow) < 0.32                      # a forearm
-    with pytest.raises(SigncastError, match="unknown bone"):
+    with pytest.raises(SigncastError, match=r"^unknown bone 'tail'$"):
         skeleton.index("tail")
 
 
 def test_skin_weights_are_normalised_rows(avatar):
     weights = avatar.weights
+    assert isinstance(weights, SkinWeights)                                 # the type the kernels take
+    assert (weights.indptr.dtype, weights.bones.dtype, weights.values.dtype) == (np.int32, np.int32, np.float32)
     sums = np.add.reduceat(weights.values, weights.indptr[:-1])
     assert np.allclose(sums, 1.0, atol=1e-5)
     assert weights.n_vertices == len(avatar.vertices)
@@ -97,3 +95,12 @@ def test_influence_volume_weights_agree_with_makehuman(avatar):
     print(f"dominant bone agreement with MakeHuman weights: {overall:.1%} overall, {hands:.1%} on the hands")
     assert overall > 0.5 and hands > 0.75
     assert np.allclose(np.add.reduceat(computed.values, computed.indptr[:-1]), 1.0, atol=1e-5)
+
+
+def test_missing_or_foreign_avatar_file_is_a_signcast_error(tmp_path):
+    with pytest.raises(SigncastError, match=r"^avatar file not found: .*nowhere\.npz$"):
+        load_avatar(tmp_path / "nowhere.npz")
+    foreign = tmp_path / "foreign.npz"
+    np.savez(foreign, vertices=np.zeros((3, 3)))
+    with pytest.raises(SigncastError, match=r"^not a signcast avatar file: .*foreign\.npz \(.*bone_names.*\)$"):
+        load_avatar(foreign)
