@@ -2,7 +2,7 @@
 
 Each sub-command lives in its own module under `pipeline/commands/` exposing
 `add_parser(subparsers)` (which registers the parser and sets `func`) and the
-function it calls. Expected failures (SigncastError, KernelError) print one
+function it calls. Expected failures (SigncastError, which KernelError derives from) print one
 line on stderr and exit with code 2; bugs keep their traceback. Argument errors
 (argparse) print the sub-command's own usage and exit with code 2.
 """
@@ -13,7 +13,6 @@ import importlib
 import sys
 from importlib import metadata
 
-from kernels.errors import KernelError
 from media.errors import SigncastError
 
 COMMAND_MODULES = [
@@ -61,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         result = args.func(args)
-    except (SigncastError, KernelError) as error:
+    except SigncastError as error:
         print(f"signcast {args.command}: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

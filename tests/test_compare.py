@@ -70,7 +70,7 @@ def test_report_command_rejects_missing_and_corrupt_records(tmp_path, capsys):
     assert main(["report", str(tmp_path / "none.jsonl")]) == 2
     assert "not found" in capsys.readouterr().err
     bad = tmp_path / "bad.jsonl"
-    bad.write_text(json.dumps({"solution": "NSV"}) + "\n{broken\n")
+    bad.write_text(json.dumps({"solution": "NSV", "fps": 25.0}) + "\n{broken\n")
     assert main(["report", str(bad)]) == 2
     assert "bad.jsonl:2:" in capsys.readouterr().err
 
