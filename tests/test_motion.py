@@ -87,4 +87,4 @@ def test_euler_orders_round_trip():
         if order[0] == order[2]:
             angles[:, 1] = np.abs(angles[:, 1]) + 0.05
         back = rotations.to_euler(rotations.from_euler(angles, order), order)
-        assert np.allclose(back, angles, atol=1e-9)
+        assert np.allclose(back, angles, atol=1e-12)

@@ -1,0 +1,151 @@
+"""media.rotations: signcast's conventions (scalar-first quaternions, Shoemake Euler orders, w >= 0)
+on top of scipy.spatial.transform, checked against definitions written out here."""
+import itertools
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation, Slerp
+
+from comparisons.bba_codec import ORDER_NAMES
+from media import rotations
+
+AXES = {"X": np.array([1.0, 0, 0]), "Y": np.array([0, 1.0, 0]), "Z": np.array([0, 0, 1.0])}
+ALL_ORDERS = tuple(a + b + c + frame for a, b, c in itertools.product("XYZ", repeat=3) if a != b and b != c
+                   for frame in "sr")
+
+
+def random_quaternions(rng, n):
+    return rotations.canonical(rotations.from_axis_angle(rng.normal(size=(n, 3)), rng.uniform(0, np.pi, n)))
+
+
+def same_rotation(a, b):
+    """Largest |1 - |<a, b>||: 0 when a = +-b, unit quaternions (..., 4)."""
+    return float(np.max(np.abs(1.0 - np.abs(np.sum(a * b, axis=-1)))))
+
+
+def test_quaternions_are_scalar_first_and_rotate_column_vectors():
+    q = rotations.from_axis_angle([0, 0, 1], np.pi / 2)
+    np.testing.assert_allclose(q, [np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)], atol=1e-15)
+    np.testing.assert_allclose(rotations.to_matrix(q) @ [1.0, 0, 0], [0, 1.0, 0], atol=1e-15)
+    np.testing.assert_allclose(rotations.rotate(q, [1.0, 0, 0]), [0, 1.0, 0], atol=1e-15)
+    np.testing.assert_allclose(rotations.as_rotation(q).as_quat(), [[0, 0, np.sin(np.pi / 4), np.cos(np.pi / 4)]])
+
+
+def test_from_axis_angle_keeps_the_sign_of_the_half_angle():
+    angle = np.array([-4.0, -1.0, 0.0, 1.0, 4.0])                  # beyond pi: w = cos(angle / 2) < 0
+    q = rotations.from_axis_angle(np.tile([0.0, 2.0, 0.0], (5, 1)), angle)
+    np.testing.assert_allclose(q, np.stack([np.cos(angle / 2), 0 * angle, np.sin(angle / 2), 0 * angle], axis=1),
+                               atol=1e-15)
+
+
+def test_bba_rotation_orders_are_the_24_shoemake_orders():
+    assert len(ORDER_NAMES) == 24 and set(ORDER_NAMES) == set(ALL_ORDERS)
+
+
+@pytest.mark.parametrize("order", ALL_ORDERS)
+def test_from_euler_applies_the_first_angle_first(order):
+    """Static: R(a3) R(a2) R(a1) about the parent's axes; rotating: R(a1) R(a2) R(a3) about the bone's."""
+    angles = np.random.default_rng(1).uniform(-3, 3, (20, 3))
+    q1, q2, q3 = (rotations.from_axis_angle(np.tile(AXES[order[k]], (20, 1)), angles[:, k]) for k in range(3))
+    expected = rotations.multiply(rotations.multiply(q1, q2), q3) if order[3] == "r" \
+        else rotations.multiply(rotations.multiply(q3, q2), q1)
+    q = rotations.from_euler(angles, order)
+    assert np.all(q[:, 0] >= 0)
+    np.testing.assert_allclose(q, rotations.canonical(expected), atol=1e-14)
+
+
+@pytest.mark.parametrize("order", ALL_ORDERS)
+def test_euler_round_trip_is_exact_in_every_order(order):
+    rng = np.random.default_rng(2)
+    angles = rng.uniform(-1, 1, (200, 3)) * [3.1, 1.5, 3.1]
+    if order[0] == order[2]:
+        angles[:, 1] = np.abs(angles[:, 1]) + 0.01
+    np.testing.assert_allclose(rotations.to_euler(rotations.from_euler(angles, order), order), angles, atol=1e-12)
+    q = random_quaternions(rng, 200)
+    angles = rotations.to_euler(q, order)
+    middle = (0.0, np.pi) if order[0] == order[2] else (-np.pi / 2, np.pi / 2)
+    assert np.all(np.abs(angles[:, [0, 2]]) <= np.pi) and np.all((angles[:, 1] >= middle[0]) & (angles[:, 1] <= middle[1]))
+    np.testing.assert_allclose(rotations.from_euler(angles, order), q, atol=1e-14)
+
+
+@pytest.mark.parametrize("order", ALL_ORDERS)
+def test_euler_angles_in_gimbal_lock_still_give_the_same_rotation(order):
+    limits = (0.0, np.pi) if order[0] == order[2] else (-np.pi / 2, np.pi / 2)
+    rng = np.random.default_rng(4)
+    angles = rng.uniform(-3, 3, (2, 20, 3))
+    for k, limit in enumerate(limits):
+        angles[k, :, 1] = limit
+    angles[:, 0] = 0.0                                               # the rest pose included
+    q = rotations.from_euler(angles, order)
+    back = rotations.to_euler(q, order)
+    assert same_rotation(rotations.from_euler(back, order), q) < 1e-14
+    np.testing.assert_allclose(back[..., 1], angles[..., 1], atol=1e-7)
+
+
+def test_unknown_euler_orders_are_rejected():
+    for order in ("XXYs", "XYZ", "XYZq", "xyzs", "XYYr"):
+        with pytest.raises(ValueError, match="Euler order"):
+            rotations.from_euler(np.zeros(3), order)
+
+
+def test_matrix_round_trip_in_every_branch_with_w_non_negative():
+    rng = np.random.default_rng(5)
+    q = random_quaternions(rng, 100)
+    turns = np.stack([rotations.from_axis_angle(AXES[a], 3.0) for a in "XYZ"])   # trace < 0, each diagonal largest
+    q = np.concatenate([q, turns, -turns, [rotations.IDENTITY]])
+    m = rotations.to_matrix(q)
+    np.testing.assert_allclose(np.einsum("nij,nkj->nik", m, m), np.broadcast_to(np.eye(3), m.shape), atol=1e-14)
+    back = rotations.from_matrix(m)
+    assert np.all(back[:, 0] >= 0)
+    np.testing.assert_allclose(back, rotations.canonical(q), atol=1e-14)
+    assert rotations.from_matrix(m[:104].reshape(13, 8, 3, 3)).shape == (13, 8, 4)
+
+
+def test_rotate_broadcasts_one_rotation_over_many_vectors():
+    rng = np.random.default_rng(6)
+    q = random_quaternions(rng, 1)[0]
+    v = rng.normal(size=(7, 5, 3))
+    np.testing.assert_allclose(rotations.rotate(q, v), v @ rotations.to_matrix(q).T, atol=1e-14)
+    q_many = random_quaternions(rng, 7)[:, None]
+    np.testing.assert_allclose(rotations.rotate(q_many, v), np.einsum("tij,tbj->tbi", rotations.to_matrix(q_many[:, 0]), v),
+                               atol=1e-14)
+
+
+def test_axis_angle_round_trip_with_angles_in_zero_to_pi():
+    rng = np.random.default_rng(7)
+    axis = rng.normal(size=(50, 3))
+    angle = rng.uniform(-np.pi, np.pi, 50)
+    back_axis, back_angle = rotations.to_axis_angle(rotations.from_axis_angle(axis, angle))
+    unit = axis / np.linalg.norm(axis, axis=1, keepdims=True)
+    np.testing.assert_allclose(back_angle, np.abs(angle), atol=1e-14)
+    np.testing.assert_allclose(back_axis, np.sign(angle)[:, None] * unit, atol=1e-13)
+    identity_axis, identity_angle = rotations.to_axis_angle(rotations.IDENTITY)
+    assert identity_angle == 0.0 and np.array_equal(identity_axis, [1.0, 0, 0])
+
+
+def test_multiply_and_angle_between_agree_with_scipy():
+    rng = np.random.default_rng(8)
+    a, b = random_quaternions(rng, 40), random_quaternions(rng, 40)
+    composed = rotations.as_rotation(a) * rotations.as_rotation(b)
+    np.testing.assert_allclose(rotations.multiply(a, b), rotations.as_quaternion(composed, (40,)), atol=1e-15)
+    expected = (rotations.as_rotation(a).inv() * rotations.as_rotation(b)).magnitude()
+    np.testing.assert_allclose(rotations.angle_between(a, b), expected, atol=1e-7)   # arccos near 1: ~1e-8
+
+
+def test_slerp_agrees_with_scipy_slerp_and_takes_the_shortest_arc():
+    rng = np.random.default_rng(9)
+    q0, q1 = random_quaternions(rng, 2)
+    t = np.linspace(0, 1, 11)
+    expected = rotations.as_quaternion(Slerp([0.0, 1.0], rotations.as_rotation(np.stack([q0, q1])))(t), (11,))
+    for end in (q1, -q1):                                            # -q1 is the same rotation
+        q = rotations.slerp(np.broadcast_to(q0, (11, 4)), np.broadcast_to(end, (11, 4)), t)
+        assert same_rotation(q, expected) < 1e-14
+        np.testing.assert_allclose(q[0], q0, atol=1e-15)
+    near = rotations.slerp(q0, rotations.normalize(q0 + 1e-12), 0.5)  # sin(alpha) ~ 0: normalised lerp
+    np.testing.assert_allclose(near, q0, atol=1e-12)
+
+
+def test_scipy_sequence_names():
+    assert rotations.scipy_sequence("XYZs") == "xyz" and rotations.scipy_sequence("ZYXr") == "ZYX"
+    assert Rotation.from_euler("xyz", [0.1, 0.2, 0.3]).approx_equal(
+        Rotation.from_euler("z", 0.3) * Rotation.from_euler("y", 0.2) * Rotation.from_euler("x", 0.1))
