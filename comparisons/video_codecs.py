@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from media.errors import SigncastError
+from media.video_io import frame_indices_at_rate
 
 CODECS = {
     # name: (elementary stream format, quantiser range)
@@ -137,9 +138,7 @@ def kept_frame_indices(n_frames: int, source_fps: float, target_fps: float) -> n
     """Indices of the frames kept when a clip at source_fps is sent at target_fps with the same duration."""
     if not 0 < target_fps <= source_fps:
         raise SigncastError(f"target frame rate must be in (0, {source_fps:g}], got {target_fps:g}")
-    duration = n_frames / source_fps
-    count = max(1, int(round(duration * target_fps)))
-    return np.minimum(np.floor(np.arange(count) * source_fps / target_fps + 1e-9).astype(int), n_frames - 1)
+    return frame_indices_at_rate(np.arange(n_frames) / source_fps, n_frames / source_fps, target_fps)
 
 
 def half_resolution(frames: np.ndarray, labels: np.ndarray | None = None):

@@ -11,8 +11,10 @@ rounded mean of both borders; rows with no opaque pixel then take the nearest pa
 and in predicted frames the pixels outside the shape in this and the previous frame repeat the previous padded
 frame, so that the encoder finds nothing to code there (MPEG-4 sends nothing for a transparent macroblock).
 
-Solutions (seed 000, §4.2.1-4.2.2): NSV the whole frame; NSV2O the signer (labels > 0); NSV3O and SSV the
-skin objects head, left hand, right hand; NSV3O+C adds the clothes object at Q = 31.
+Solutions (seed 000, §4.2.1-4.2.2): NSV the whole frame; NSV2O the signer (labels > 0) — the segmentation
+makes two objects, signer and background, but only the signer's texture and shape are coded, "ignoring the
+rest of the image" (§4.2.1), so the background is not sent; NSV3O and SSV the skin objects head, left hand,
+right hand; NSV3O+C adds the clothes object at Q = 31.
 """
 from __future__ import annotations
 

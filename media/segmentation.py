@@ -18,16 +18,13 @@ Labels, one byte per pixel: 0 background, 1 body/clothes, 2 head, 3 left hand, 4
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import cv2
 import numpy as np
 
+from media.domain import BACKGROUND, BODY, HEAD, LEFT_HAND, OVERLAY_COLOURS, RIGHT_HAND, SKIN_PARTS
 from media.errors import SigncastError
-
-BACKGROUND, BODY, HEAD, LEFT_HAND, RIGHT_HAND = 0, 1, 2, 3, 4
-LABEL_NAMES = {BACKGROUND: "background", BODY: "body", HEAD: "head", LEFT_HAND: "left_hand", RIGHT_HAND: "right_hand"}
-SKIN_LABELS = (HEAD, LEFT_HAND, RIGHT_HAND)
-OVERLAY_COLOURS = {BODY: (40, 90, 255), HEAD: (255, 200, 0), LEFT_HAND: (0, 220, 80), RIGHT_HAND: (255, 40, 200)}
 
 
 @dataclass(frozen=True)
@@ -76,8 +73,11 @@ def _large_components(mask: np.ndarray, min_area: int) -> np.ndarray:
     return np.isin(labels, keep)
 
 
-def segment_signer(frames: np.ndarray, settings: SegmentationSettings = SegmentationSettings()) -> np.ndarray:
-    """NSV2O signer mask by colour: frames (T, H, W, 3) uint8 RGB -> (T, H, W) bool, True on the signer."""
+def segment_signer(frames: np.ndarray, settings: SegmentationSettings = SegmentationSettings(),
+                   progress: Callable[[int], object] | None = None) -> np.ndarray:
+    """NSV2O signer mask by colour: frames (T, H, W, 3) uint8 RGB -> (T, H, W) bool, True on the signer.
+
+    progress: called with 1 after each frame."""
     frames = _check_frames(frames)
     _, height, width, _ = frames.shape
     b = settings.border_px
@@ -109,6 +109,8 @@ def segment_signer(frames: np.ndarray, settings: SegmentationSettings = Segmenta
         signer = _large_components(_open_close(signer, settings.kernel_px), min_area)
         masks[index] = signer
         previous = signer if signer.any() else None
+        if progress:
+            progress(1)
     return masks
 
 
@@ -171,10 +173,12 @@ def label_skin_components(skin: np.ndarray, min_area: int, min_hand_to_head: flo
 
 
 def segment_parts(frames: np.ndarray, signer: np.ndarray | None = None,
-                  settings: SegmentationSettings = SegmentationSettings()) -> np.ndarray:
+                  settings: SegmentationSettings = SegmentationSettings(),
+                  progress: Callable[[int], object] | None = None) -> np.ndarray:
     """NSV3O labels by colour: frames (T, H, W, 3) uint8 RGB -> (T, H, W) uint8 DESIGN.md labels.
 
     signer: the NSV2O mask (T, H, W) bool, computed when not given. Skin = signer minus clothes.
+    progress: called with 1 after each frame of the labelling pass (not of segment_signer's).
     """
     frames = _check_frames(frames)
     if signer is None:
@@ -191,6 +195,8 @@ def segment_parts(frames: np.ndarray, signer: np.ndarray | None = None,
         skin = _open_close(skin, settings.kernel_px).astype(bool) & signer[t]
         parts = label_skin_components(skin, min_area, settings.min_hand_to_head)
         labels[t] = np.where(parts > 0, parts, np.where(signer[t], BODY, BACKGROUND))
+        if progress:
+            progress(1)
     return labels
 
 
@@ -220,7 +226,7 @@ def object_masks(labels: np.ndarray) -> dict[str, np.ndarray]:
     labels = np.asarray(labels)
     return {
         "signer": labels > BACKGROUND,
-        "skin": np.isin(labels, SKIN_LABELS),
+        "skin": np.isin(labels, SKIN_PARTS),
         "head": labels == HEAD,
         "left_hand": labels == LEFT_HAND,
         "right_hand": labels == RIGHT_HAND,

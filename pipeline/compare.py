@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Callable
 
 import cv2
 import numpy as np
@@ -18,14 +19,15 @@ from tqdm import tqdm
 from comparisons import image_quality, metrics, param_codecs, video_objects
 from comparisons.records import make_record, versions, write_records
 from comparisons.report import build_report, operating_points
-from media.avatar import SKIN_PARTS, load_avatar
+from media.avatar import load_avatar
+from media.domain import SKIN_PARTS, check_q, check_size, solution_of
 from media.errors import SigncastError
 from media.fingerspelling import fingerspell
 from media.motion import Motion, resample
 from media.render import AvatarRenderer, RenderSettings
 from media.tiling import tile_videos
 from media import lexicon
-from media.video_io import resolve_video, write_video
+from media.video_io import frame_indices_at_rate, resolve_video, write_video
 from pipeline import video_study
 from pipeline.stages import StageClock
 
@@ -35,7 +37,9 @@ JOINT_TOLERANCE_MM = 5.0   # fallback operating point of a parameter codec when 
 
 @dataclass(frozen=True)
 class CompareSettings:
-    """One scenario and its sweeps. size: (width, height) of the rendered signer, pixels."""
+    """One scenario and its sweeps. size: (width, height) of the rendered signer, pixels. The natural clip is
+    coded at its own frame rate (frame_rates below it are swept by dropping frames) and scaled down to fit
+    max_clip_size (width, height; None keeps its size); the avatar is rendered at DISPLAY_FPS."""
     language: str = "ase"
     word: str = "HELLO"
     clip: str = "carphone"
@@ -48,6 +52,7 @@ class CompareSettings:
     size: tuple[int, int] = (352, 288)
     backend: str = "auto"
     max_clip_frames: int | None = None
+    max_clip_size: tuple[int, int] | None = video_study.DEFAULT_MAX_SIZE
 
     @classmethod
     def demo(cls) -> "CompareSettings":
@@ -79,38 +84,50 @@ def check_settings(settings: CompareSettings) -> None:
     if DISPLAY_FPS not in settings.frame_rates:
         raise SigncastError(f"the frame rates {settings.frame_rates} must include {DISPLAY_FPS:g}")
     for q in settings.video_qs:
-        if not 1 <= q <= 31:
-            raise SigncastError(f"bad video Q {q}: MPEG-4 quantizers are 1..31")
+        check_q(q, "video Q")
     for fps in settings.frame_rates:
         if not 0 < fps <= DISPLAY_FPS:
             raise SigncastError(f"bad frame rate {fps:g}: choose rates in (0, {DISPLAY_FPS:g}]")
     for name in settings.param_codecs:
         param_codecs.get_codec(name)
-    width, height = settings.size
-    if width < 32 or height < 32 or width % 2 or height % 2:
-        raise SigncastError(f"bad size {width}x{height}: even numbers, at least 32")
+    check_size(*settings.size, "the rendered signer")
     # Fail before the long video stages: the word must be spellable and the clip must exist.
     lexicon.split_word(lexicon.check_language(settings.language), settings.word)
     resolve_video(settings.clip)
 
 
-def run_compare(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True) -> CompareResult:
-    """Run the whole comparison; write records.jsonl, report.html, side_by_side.mp4 and CSV tables to out_dir."""
+def run_compare(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True,
+                notify: Callable[[str], object] | None = None) -> CompareResult:
+    """Run the whole comparison; write records.jsonl, report.html, side_by_side.mp4 and CSV tables to out_dir.
+
+    records.jsonl grows as points are measured (an interrupted run keeps them) and is rewritten, complete, at
+    the end. notify: called with each one-line note on the natural clip (frames read, downscaling, warnings)."""
     check_settings(settings)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    records_path = write_records(out_dir / "records.jsonl", [])
     clock = StageClock()
     records: list[dict] = []
     received: list[Received] = []
 
     with clock.stage("natural video: read and segment"):
-        clip_frames, clip_labels, path, native_fps = video_study.load_natural_clip(settings.clip, settings.max_clip_frames)
+        clip, notes = video_study.read_natural_clip(settings.clip, settings.max_clip_frames, settings.max_clip_size,
+                                                    progress=progress)
+        for line in notes:
+            if notify:
+                notify(line)
+        clip_labels = video_study.segment_clip(clip.frames, progress=progress)
     video_settings = video_study.VideoStudySettings(
         qs=settings.video_qs, operating_q=settings.operating_q, frame_rates=settings.frame_rates,
-        source_fps=DISPLAY_FPS, other_codecs=settings.other_codecs, half_resolution=True)
+        source_fps=clip.fps, other_codecs=settings.other_codecs, half_resolution=True)
     with clock.stage("natural video: NSV, NSV2O, NSV3O, NSV3O+C"):
-        records += _points(video_study.run_video_study(clip_frames, clip_labels, path.stem, video_settings, progress=progress))
-        received += _operating_pictures(clip_frames, clip_labels, video_settings.solutions, settings.operating_q, records)
+        records += _points(video_study.run_video_study(clip.frames, clip_labels, clip.path.stem, video_settings,
+                                                       timing=video_study.Timing.of_clip(clip),
+                                                       records_path=records_path, progress=progress))
+        # the side-by-side plays at DISPLAY_FPS: the frames on screen at its ticks
+        shown = frame_indices_at_rate(clip.times_s, clip.duration_s, DISPLAY_FPS)
+        received += [replace(r, frames=r.frames[shown]) for r in _operating_pictures(
+            clip.frames, clip_labels, video_settings.solutions, settings.operating_q, clip.fps, records)]
 
     avatar = load_avatar()
     render_settings = RenderSettings(width=settings.size[0], height=settings.size[1], look="shaded", backend=settings.backend)
@@ -121,10 +138,12 @@ def run_compare(settings: CompareSettings, out_dir: str | Path, *, progress: boo
         received.insert(0, Received(reference, f"reference: avatar, {settings.language} {settings.word} (lossless)"))
     scenario = f"{settings.language}-{settings.word}"
     with clock.stage("synthetic signer: SSV"):
-        ssv_settings = replace(video_settings, solutions=("SSV",), half_resolution=False)
-        ssv_records = _points(video_study.run_video_study(reference, reference_labels, scenario, ssv_settings, progress=progress))
+        ssv_settings = replace(video_settings, solutions=("SSV",), half_resolution=False, source_fps=DISPLAY_FPS)
+        ssv_records = _points(video_study.run_video_study(reference, reference_labels, scenario, ssv_settings,
+                                                          records_path=records_path, progress=progress))
         records += ssv_records
-        received += _operating_pictures(reference, reference_labels, ("SSV",), settings.operating_q, ssv_records)
+        received += _operating_pictures(reference, reference_labels, ("SSV",), settings.operating_q, DISPLAY_FPS,
+                                        ssv_records)
 
     skin = np.isin(reference_labels, SKIN_PARTS)
     with clock.stage("parameters: FBA and BBA, coded, decoded and re-rendered"):
@@ -132,11 +151,14 @@ def run_compare(settings: CompareSettings, out_dir: str | Path, *, progress: boo
         target_skin_psnr = ssv_operating["psnr_skin"] if ssv_operating else None
         param_records, param_frames = _parameter_points(settings, motion, renderer, reference, skin, scenario,
                                                         target_skin_psnr, progress)
+        write_records(records_path, param_records, append=True)
         records += param_records
         received += _best_parameter_tiles(param_records, param_frames)
 
     run_record = {"kind": "run", "backend": _backend_name(settings.backend), "versions": versions(),
-                  "scenario": scenario, "clip": path.stem, "clip_native_fps": native_fps, "display_fps": DISPLAY_FPS,
+                  "scenario": scenario, "clip": clip.path.stem, "clip_native_fps": clip.native_fps,
+                  "clip_fps": clip.fps, "clip_duration_s": clip.duration_s, "clip_frames": len(clip.frames),
+                  "clip_source_size": list(clip.source_size), "clip_size": list(clip.size), "display_fps": DISPLAY_FPS,
                   "signer_size": list(settings.size), "joint_tolerance_mm": JOINT_TOLERANCE_MM}
     side_by_side = out_dir / "side_by_side.mp4"
     with clock.stage("side-by-side video"):
@@ -165,14 +187,16 @@ def _render(renderer: AvatarRenderer, motion: Motion, label: str, progress: bool
     return frames, labels
 
 
-def _operating_pictures(frames: np.ndarray, labels: np.ndarray, solutions, q: int, records: list[dict]) -> list[Received]:
-    """Decoded pictures of each solution at its operating point (Q, 25 fps), captioned with the measured kbps."""
+def _operating_pictures(frames: np.ndarray, labels: np.ndarray, solutions, q: int, fps: float,
+                        records: list[dict]) -> list[Received]:
+    """Decoded pictures of each solution at its operating point (Q, the frames' own rate fps), captioned with the
+    measured kbps."""
     shown = []
     for solution in solutions:
         point = next((r for r in records if r["solution"] == solution and r.get("operating_point")), None)
         if point is None:
             continue
-        coded = video_objects.code_solution(solution, frames, labels, DISPLAY_FPS, "mpeg4", q)
+        coded = video_objects.code_solution(solution, frames, labels, fps, "mpeg4", q)
         shown.append(Received(coded.picture, f"{solution} Q{q} {point['kbps']:.0f} kbps", solution))
     return shown
 
@@ -203,8 +227,7 @@ def _parameter_points(settings: CompareSettings, motion: Motion, renderer: Avata
         frames, _ = _render(renderer, shown, f"terminal {codec_name} Q{q}", False)
         quality = image_quality.quality_fields(reference, frames, skin)
         joint_mm = metrics.joint_position_error_mm(skeleton, motion, shown)
-        solution = "FBA" if codec_name.startswith("fba") else "BBA"
-        record = make_record(solution, scenario, codec_name, q, fps, width, height, 8 * len(data), duration_s,
+        record = make_record(solution_of(codec_name), scenario, codec_name, q, fps, width, height, 8 * len(data), duration_s,
                              sweep=sweep, full_resolution=True, frames=sent.n_frames,
                              joint_error_mm_mean=float(joint_mm.mean()), joint_error_mm_max=float(joint_mm.max()),
                              **quality)

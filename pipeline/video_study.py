@@ -1,20 +1,25 @@
 """The video study (seed 000 §4.2.4.6, Tables 4.6-4.16): code a clip as NSV, NSV2O, NSV3O, NSV3O+C (natural
 video) or NSV and SSV (rendered signer) and measure rate and quality.
 
-Sweeps, all with MPEG-4 Part 2 at fixed Q (I B B P B B P B B P B B):
-- "q": Q in {2, 6, 12, 24, 31} at 25 fps, full resolution (Tables 4.6, 4.9, 4.12, 4.16);
-- "fps": 20, 15, 10 fps at Q = 12 by dropping frames at constant duration (Tables 4.7, 4.10, 4.13), with the
-  25 fps point of the "q" sweep, and a linear fit;
-- "resolution": half width and height at Q = 12, 25 fps (Tables 4.8, 4.11, 4.14);
+A clip is coded at its own timing: its own frame rate (or a lower one the user asks for), and every rate is
+measured over the clip's real duration. Sweeps, all with MPEG-4 Part 2 at fixed Q (I B B P B B P B B P B B):
+- "q": Q in {2, 6, 12, 24, 31} at the clip's rate, full resolution (Tables 4.6, 4.9, 4.12, 4.16);
+- "fps": the rates of 25, 20, 15, 10 fps below the clip's own, at Q = 12, by keeping at each tick the frame on
+  screen then (same duration) (Tables 4.7, 4.10, 4.13), with the clip-rate point of the "q" sweep, and a
+  linear fit;
+- "resolution": half width and height at Q = 12, the clip's rate (Tables 4.8, 4.11, 4.14);
 - "codec": H.264 (libx264) and AV1 (SVT-AV1) at matched quality (each object's PSNR inside its shape at least
   that of MPEG-4 at Q = 12).
-NSV3O+C's clothes are coded at Q = 31 (Table 4.15). Outputs go to the study's folder: records.jsonl, CSV
-tables, PNG plots and mask overlays.
+NSV3O+C's clothes are coded at Q = 31 (Table 4.15). Outputs go to the study's folder: records.jsonl (each
+record appended as it is measured), CSV tables, PNG plots and mask overlays.
+
+A user's clip is read with a progress bar, scaled down to fit DEFAULT_MAX_SIZE unless asked otherwise, and
+refused before the long work when it holds fewer than 2 frames or no face (`media.faces`).
 """
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -23,12 +28,18 @@ from tqdm import tqdm
 
 from comparisons import image_quality, report, video_codecs, video_objects
 from comparisons.records import make_record, versions, write_records
-from media import segmentation
+from media import faces, segmentation
 from media.errors import SigncastError
+from media.video_io import Clip, crop_even, frame_indices_at_rate, read_clip, resolve_video, video_info
+
+DEFAULT_MAX_SIZE = (352, 288)   # (width, height), CIF: larger clips are scaled down to fit unless asked otherwise
 
 
 @dataclass(frozen=True)
 class VideoStudySettings:
+    """qs: MPEG-4 quantisers; frame_rates: the rates swept (those below source_fps are used); source_fps: the
+    rate of the frames given to the study, frames per second."""
+
     qs: tuple[int, ...] = (2, 6, 12, 24, 31)
     operating_q: int = 12
     frame_rates: tuple[float, ...] = (25.0, 20.0, 15.0, 10.0)
@@ -36,6 +47,24 @@ class VideoStudySettings:
     solutions: tuple[str, ...] = ("NSV", "NSV2O", "NSV3O", "NSV3O+C")
     other_codecs: tuple[str, ...] = ("libx264", "libsvtav1")
     half_resolution: bool = True
+
+
+@dataclass(frozen=True)
+class Timing:
+    """When the frames given to the study are shown."""
+
+    times_s: np.ndarray      # (T,) presentation time of each frame from the first one, seconds
+    duration_s: float        # the clip's real duration for these frames, seconds
+    native_fps: float        # the clip's own frame rate, frames per second
+
+    @classmethod
+    def regular(cls, n_frames: int, fps: float) -> "Timing":
+        """n_frames shown every 1/fps seconds."""
+        return cls(np.arange(n_frames) / fps, n_frames / fps, fps)
+
+    @classmethod
+    def of_clip(cls, clip: Clip) -> "Timing":
+        return cls(clip.times_s, clip.duration_s, clip.native_fps)
 
 
 @dataclass
@@ -50,21 +79,24 @@ class _Config:
     full_resolution: bool
 
 
-def _configs(frames: np.ndarray, labels: np.ndarray, settings: VideoStudySettings) -> list[_Config]:
-    configs = [_Config("full@25", "q", frames, labels, settings.source_fps, True)]
+def _configs(frames: np.ndarray, labels: np.ndarray, settings: VideoStudySettings, timing: Timing) -> list[_Config]:
+    """The "q" sweep's frame set first, then those of the frame-rate and resolution sweeps."""
+    source = settings.source_fps
+    configs = [_Config(f"full@{source:g}", "q", frames, labels, source, True)]
     for fps in settings.frame_rates:
-        if abs(fps - settings.source_fps) < 1e-9:
+        if fps > source * (1 - 1e-3):      # only rates below the frames' own: frames can be dropped, not made
             continue
-        kept = video_codecs.kept_frame_indices(len(frames), settings.source_fps, fps)
+        kept = frame_indices_at_rate(timing.times_s, timing.duration_s, fps)
         configs.append(_Config(f"full@{fps:g}", "fps", frames[kept], labels[kept], fps, True))
     if settings.half_resolution:
         small, small_labels = video_codecs.half_resolution(frames, labels)
-        configs.append(_Config("half@25", "resolution", small, small_labels, settings.source_fps, False))
+        configs.append(_Config(f"half@{source:g}", "resolution", small, small_labels, source, False))
     return configs
 
 
-def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, codec: str, q: int, duration_s: float,
+def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, codec: str, q: int, timing: Timing,
             settings: VideoStudySettings, software: dict, sweep: str, clothes_bits: int | None = None) -> dict:
+    duration_s = timing.duration_s
     masks = segmentation.object_masks(config.labels)
     quality = image_quality.quality_fields(config.frames, coded.picture, masks["skin"],
                                            None if coded.solution == "NSV" else coded.region)
@@ -79,7 +111,8 @@ def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, code
                 "shape_bytes": o.shape_bytes, "area_percent": o.area_percent} for o in coded.objects]
     fields = dict(
         sweep=sweep, full_resolution=config.full_resolution,
-        operating_point=bool(q == settings.operating_q and config.key == "full@25"),
+        operating_point=bool(q == settings.operating_q and sweep == "q"),
+        native_fps=timing.native_fps,
         texture_bits=coded.bits - coded.shape_bits, shape_bits=coded.shape_bits,
         shape_kbps=coded.shape_bits / duration_s / 1000.0,
         signer_area_percent=areas["signer"], skin_area_percent=areas["skin"], clothes_area_percent=areas["clothes"],
@@ -90,30 +123,72 @@ def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, code
     return make_record(coded.solution, clip, codec, q, config.fps, width, height, coded.bits, duration_s, **fields)
 
 
-def load_natural_clip(name_or_path: str, max_frames: int | None = None):
-    """A natural signer clip and its colour segmentation: (frames (T, H, W, 3) uint8 cropped to even size,
-    labels (T, H, W) uint8 part labels, path, native fps)."""
-    from media.video_io import crop_even, read_video, resolve_video
+def read_natural_clip(name_or_path: str, max_frames: int | None = None,
+                      max_size: tuple[int, int] | None = DEFAULT_MAX_SIZE, fps: float | None = None,
+                      *, progress: bool = True) -> tuple[Clip, list[str]]:
+    """A natural signer clip, and one-line notes on what was read (for the user).
 
+    The frames keep the clip's own timing, or are taken at the lower rate fps (frames per second) by keeping
+    the frame on screen at each tick; they are scaled down to fit max_size (width, height) when larger (None:
+    keep the size) and cropped to even sides. Refused (SigncastError) before the long work: fewer than 2
+    decodable frames, or no face in a sample of frames.
+    """
     path = resolve_video(name_or_path)
-    frames, native_fps = read_video(path, max_frames=max_frames)
-    frames = crop_even(frames)
-    return frames, segmentation.segment_parts(frames), path, native_fps
+    info = video_info(path)
+    expected = min(filter(None, (info.announced_frames, max_frames)), default=None)
+    with tqdm(total=expected, desc=f"read {path.name}", unit="frame", disable=not progress) as bar:
+        clip = read_clip(path, max_frames, max_size, progress=bar.update)
+    read = len(clip.frames)
+    notes = [f"read {read} frames of {path.name}: {clip.source_size[0]}x{clip.source_size[1]} at "
+             f"{clip.native_fps:.4g} fps, {clip.duration_s:.2f} s"]
+    if clip.announced_frames > read and not (max_frames and read >= max_frames):
+        stopped = f" (decoding stopped: {clip.decode_error})" if clip.decode_error else ""
+        notes.append(f"warning: read {read} of {clip.announced_frames} frames announced by the container{stopped}")
+    if read < 2:
+        raise SigncastError(f"video {path} holds {read} decodable frame"
+                            f"{f' of {clip.announced_frames} announced' if clip.announced_frames > read else ''}: "
+                            f"at least 2 are needed")
+    clip = replace(clip, frames=crop_even(clip.frames))
+    if clip.size != clip.source_size and max_size is not None:
+        notes.append(f"downscaled {path.name} from {clip.source_size[0]}x{clip.source_size[1]} to "
+                     f"{clip.size[0]}x{clip.size[1]} to fit --max-size {max_size[0]}x{max_size[1]} "
+                     f"(--max-size none keeps the size)")
+    with tqdm(total=min(faces.SAMPLED_FRAMES, read), desc="look for a face", unit="frame", disable=not progress) as bar:
+        faces.check_person(clip.frames, path.name, progress=bar.update)
+    if fps is not None and abs(fps - clip.fps) > 1e-3 * clip.fps:     # 29.97 asks for 30000/1001's own rate
+        clip = clip.at_rate(fps)
+        notes.append(f"coding at {fps:g} fps: {len(clip.frames)} of {read} frames, kept by presentation time")
+    return clip, notes
+
+
+def segment_clip(frames: np.ndarray, *, progress: bool = True) -> np.ndarray:
+    """Colour segmentation of frames (T, H, W, 3) uint8 RGB into part labels (T, H, W) uint8, with progress bars."""
+    with tqdm(total=len(frames), desc="segment signer", unit="frame", disable=not progress) as bar:
+        signer = segmentation.segment_signer(frames, progress=bar.update)
+    with tqdm(total=len(frames), desc="segment parts", unit="frame", disable=not progress) as bar:
+        return segmentation.segment_parts(frames, signer, progress=bar.update)
 
 
 def run_video_study(frames: np.ndarray, labels: np.ndarray, clip: str, settings: VideoStudySettings = VideoStudySettings(),
-                    *, progress: bool = True) -> list[dict]:
+                    *, timing: Timing | None = None, records_path: str | Path | None = None,
+                    progress: bool = True) -> list[dict]:
     """Every measured point of the study as records. frames (T, H, W, 3) uint8 RGB at settings.source_fps;
-    labels (T, H, W) uint8 part labels (0 background, 1 body/clothes, 2 head, 3 left hand, 4 right hand)."""
+    labels (T, H, W) uint8 part labels (0 background, 1 body/clothes, 2 head, 3 left hand, 4 right hand).
+
+    timing: when the frames are shown (default: every 1/source_fps s); kbps are bits over its duration_s.
+    records_path: a records.jsonl that each record is appended to as soon as it is measured.
+    """
     frames, labels = np.asarray(frames), np.asarray(labels)
     if labels.shape != frames.shape[:3]:
         raise SigncastError(f"labels {labels.shape} do not match frames {frames.shape[:3]}")
     if settings.operating_q not in settings.qs:
         raise SigncastError(f"the operating Q {settings.operating_q} must be among the swept Q {settings.qs}")
-    duration_s = len(frames) / settings.source_fps
+    timing = timing or Timing.regular(len(frames), settings.source_fps)
+    if len(timing.times_s) != len(frames):
+        raise SigncastError(f"{len(timing.times_s)} presentation times for {len(frames)} frames")
     software = versions()
     shapes = video_objects.ShapeCache()
-    configs = _configs(frames, labels, settings)
+    configs = _configs(frames, labels, settings, timing)
     jobs = [(c, s, q) for c in configs for s in settings.solutions
             for q in (settings.qs if c.sweep == "q" else (settings.operating_q,))]
     jobs += [(configs[0], s, codec) for s in settings.solutions for codec in settings.other_codecs]
@@ -129,15 +204,21 @@ def run_video_study(frames: np.ndarray, labels: np.ndarray, clip: str, settings:
             codec, q, sweep = "mpeg4", q_or_codec, config.sweep
             coded = video_objects.code_solution(solution, config.frames, config.labels, config.fps, codec, q, shapes,
                                                 config.key)
-            if config.key == "full@25" and q == settings.operating_q:
+            if config.sweep == "q" and q == settings.operating_q:
                 operating[solution] = coded
         clothes = sum(o.bits for o in coded.objects if o.name == "clothes") if solution == "NSV3O+C" else None
-        record = _record(coded, config, clip, codec, q, duration_s, settings, software, sweep, clothes)
+        record = _record(coded, config, clip, codec, q, timing, settings, software, sweep, clothes)
         if sweep == "codec":
             record["object_q"] = {o.name: o.q for o in coded.objects}
         records.append(record)
-    records.append({"kind": "run", "clip": clip, "frames": len(frames), "source_fps": settings.source_fps,
-                    "backend": "cpu", "versions": software, "shape_streams": _shape_summary(shapes, duration_s)})
+        if records_path is not None:
+            write_records(records_path, [record], append=True)
+    run = {"kind": "run", "clip": clip, "frames": len(frames), "source_fps": settings.source_fps,
+           "native_fps": timing.native_fps, "duration_s": timing.duration_s, "backend": "cpu", "versions": software,
+           "shape_streams": _shape_summary(shapes, timing.duration_s)}
+    records.append(run)
+    if records_path is not None:
+        write_records(records_path, [run], append=True)
     return records
 
 
@@ -251,7 +332,8 @@ def main_table(records: list[dict]) -> str:
     q_sweep = [r for r in points if r["sweep"] == "q"]
     qs = sorted({r["q"] for r in q_sweep})
     solutions = sorted({r["solution"] for r in q_sweep}, key=report._order)
-    lines = ["kbps at 25 fps, full resolution, MPEG-4 Part 2 (skin PSNR dB at Q=12 in brackets)",
+    rate = f"{q_sweep[0]['fps']:.4g} fps" if q_sweep else "the clip's rate"
+    lines = [f"kbps at {rate}, full resolution, MPEG-4 Part 2 (skin PSNR dB at Q=12 in brackets)",
              f"{'solution':<10}" + "".join(f"{'Q=' + str(q):>9}" for q in qs) + f"{'area':>8}"]
     for solution in solutions:
         row = {r["q"]: r for r in q_sweep if r["solution"] == solution}

@@ -16,18 +16,19 @@ def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_
     assert code == 0
     records = read_records(out / "records.jsonl")
     points = [r for r in records if r.get("kind") == "point"]
-    # 4 solutions x (2 Q + 3 frame rates + half resolution + x264)
-    assert len(points) == 4 * 7
-    by_key = {(r["solution"], r["codec"], r["q"], r["fps"], r["width"]): r for r in points}
-    nsv = by_key[("NSV", "mpeg4", 12, 25.0, 176)]
-    nsv3o = by_key[("NSV3O", "mpeg4", 12, 25.0, 176)]
+    # 4 solutions x (2 Q at carphone's own 29.97 fps + 4 lower frame rates + half resolution + x264)
+    assert len(points) == 4 * 8
+    native = 29.97
+    by_key = {(r["solution"], r["codec"], r["q"], round(r["fps"], 2), r["width"]): r for r in points}
+    nsv = by_key[("NSV", "mpeg4", 12, native, 176)]
+    nsv3o = by_key[("NSV3O", "mpeg4", 12, native, 176)]
     assert nsv["kbps"] == pytest.approx(nsv["bits"] / nsv["duration_s"] / 1000)
     assert nsv3o["kbps"] < nsv["kbps"] and nsv3o["shape_bits"] > 0
-    assert by_key[("NSV", "mpeg4", 31, 25.0, 176)]["kbps"] < nsv["kbps"]
+    assert by_key[("NSV", "mpeg4", 31, native, 176)]["kbps"] < nsv["kbps"]
     assert by_key[("NSV", "mpeg4", 12, 10.0, 176)]["kbps"] < nsv["kbps"]
-    assert by_key[("NSV", "mpeg4", 12, 25.0, 88)]["kbps"] < nsv["kbps"]
+    assert by_key[("NSV", "mpeg4", 12, native, 88)]["kbps"] < nsv["kbps"]
     assert 25 < nsv["psnr_skin"] < 40 and 0.5 < nsv3o["ssim_skin"] <= 1
-    plus = by_key[("NSV3O+C", "mpeg4", 12, 25.0, 176)]
+    plus = by_key[("NSV3O+C", "mpeg4", 12, native, 176)]
     assert plus["kbps"] == pytest.approx(nsv3o["kbps"] + plus["clothes_overload_kbps"])
     assert all(r["versions"]["av"] for r in points)
     for name in ("table_rate_vs_q.csv", "table_rate_vs_fps.csv", "table_rate_vs_resolution.csv", "table_codecs.csv",
