@@ -12,15 +12,20 @@ Binary layout (field widths and start-code values are signcast's; the thesis giv
 
     BBA start code 0x000001D0
     header: version u8 (30 = 3.0), frame_rate u8, seconds u4, frequency_offset u1, coding u2
-            (0 predictive, 1 DCT), keyframes u1, Q u5, intra period u6, rotationOrder u5,
-            tight_ranges u1, number of bones u10, per bone: boneID u10, animatable mask
-            (5 level-1 bits + level-2 bits of the set types), step exponent u4 (step = 2^e units),
-            [tight ranges: per animatable value I max, I min, P max, P min, 7 bits each], CRC-8
-    per frame (segment): frame start code 0x000001D1, is_intra u1, KeyFrameIndex u5,
-            [DCT: frames - 1 u4], [P: same_mask u1], [NSBB u10, per bone boneID u10 +
-            hierarchical mask], values (arithmetic-coded levels, or DCT blocks), NSBM u10, CRC-8;
-            if NSBM > 0: muscle start code 0x000001D2, per muscle: muscleID u10, NCP u6, NK u6,
-            MM bits (4 per control point, 1 per knot), values s20; CRC-8
+            (0 predictive, 1 DCT), keyframes u1, Q u5, intra period u6, header period u6,
+            frames u24 (display frames of the stream), rotationOrder u5, tight_ranges u1,
+            number of bones u10, per bone: boneID u10, animatable mask (5 level-1 bits + level-2
+            bits of the set types), step exponent u4 (step = 2^e units), [tight ranges: per
+            animatable value I max, I min, P max, P min, 7 bits each], CRC-8
+    per unit (a frame; for the DCT coder a segment of up to 16 frames): frame start code
+            0x000001D1, is_intra u1, frame number (intra: u24, predicted: u8 = the number modulo
+            256), KeyFrameIndex u5, [DCT: frames - 1 u4], [P: same_mask u1], [NSBB u10, per
+            bone boneID u10 + hierarchical mask], values (arithmetic-coded levels, or DCT
+            blocks), NSBM u10, CRC-8; if NSBM > 0: muscle start code 0x000001D2, per muscle:
+            muscleID u10, NCP u6, NK u6, MM bits (4 per control point, 1 per knot), values s20;
+            CRC-8
+    header copy: before every header-period-th intra unit (0: never) the BBA start code and
+            the header again, bit for bit
     end code 0x000001D3
 
 Hierarchical bone mask: a bone's header announces which of the 16 elementary motions it may
@@ -32,6 +37,23 @@ Units: angles 1e-5 rad (the BBA schema bound +-314159 = pi), translations mm. ro
 SBBone field, not stream data; signcast sends one order for all bones in the header (Shoemake
 packing, see ORDER_NAMES). The CRC-8 fields (polynomial 0x07 over the raw bits since the start
 code) are signcast's: they let a decoder tell a damaged frame from a good one before resynchronising.
+
+Frame numbers count display frames, the frames of the decoded Motion (key frames expanded): a
+unit's number is the display frame of its first frame, and the first frame has KeyFrameIndex 0.
+The resilient decoder places every good unit at its number, holds the last good frame over the
+frames it did not get, and reports those frames; the header's frame count fixes the length,
+and a predicted unit is used only when its number follows its reference's. A damaged header
+loses the stream unless a header copy is intact: the decoder then decodes every unit, also
+those before the copy, with it (a whole-stream decoder; a live one resumes at the copy).
+
+Predictive values: an intra level is the absolute value; a P level is the change from the
+decoder's previous value, for angles folded into (-pi, pi] (ANGLE_PERIOD), and the decoder folds
+its angle sums the same way, so an angle crossing +-pi costs a small level. Where a P level
+does not fit the range fields' alphabet the unit is sent intra; where an intra level does not
+fit, the encoder raises SigncastError (nothing is clipped).
+
+A decoder holds at most MAX_DECODED_VALUES frames x values per frame; larger streams are refused
+before their frames are decoded.
 """
 from __future__ import annotations
 
@@ -63,6 +85,13 @@ TRANSLATION_BITS = (0, 1, 2)
 MUSCLE_VALUE_BITS = 20
 DEFAULT_INTRA_PERIOD = 32
 DEFAULT_INTRA_SEGMENTS = 4
+FRAME_NUMBER_BITS = 24                 # intra units' frame number and the header's frame count
+P_FRAME_NUMBER_BITS = 8                # predicted units: the frame number modulo 256
+ANGLE_PERIOD = 628318                  # 2 pi in 1e-5 rad, rounded: angles are values modulo this
+# Most frames x values per frame a decoder holds. Decoded, a value costs about 100 bytes (Python
+# ints in per-bone lists, measured), so 2^22 keeps a decoded stream near 0.4 GB: 61 680 frames of
+# the avatar's 68 fingerspelling values, 41 min at 25 fps or 17 min at 60 fps.
+MAX_DECODED_VALUES = 1 << 22
 
 
 def _order_names() -> tuple[str, ...]:
@@ -112,6 +141,7 @@ class BBAHeader:
     intra_period: int = DEFAULT_INTRA_PERIOD   # frames (pred) or segments (dct)
     keyframes: bool = False
     rotation_order: int = 0
+    header_period: int = 0           # a header copy before every n-th intra unit (0: never)
 
 
 @dataclass
@@ -130,6 +160,28 @@ def _keys(frame: BBAFrame) -> list[tuple[int, int]]:
 
 def _flat_values(frame: BBAFrame) -> list[int]:
     return [v for bone in sorted(frame.bones) for v in frame.values[bone]]
+
+
+def fold_angles(values: np.ndarray) -> np.ndarray:
+    """Integer angles (1e-5 rad, any shape) folded into (-pi, pi], i.e. -314158..314159."""
+    half = ANGLE_PERIOD // 2
+    return half - (half - np.asarray(values, dtype=np.int64)) % ANGLE_PERIOD
+
+
+def _fold(values: np.ndarray, is_angle: np.ndarray) -> np.ndarray:
+    """values (P,) int64 with the angles among them (is_angle, (P,) bool) folded."""
+    return np.where(is_angle, fold_angles(values), values)
+
+
+def _is_angle(keys: list[tuple[int, int]]) -> np.ndarray:
+    return np.array([bit in ROTATION_BITS for _, bit in keys], dtype=bool)
+
+
+def display_numbers(frames: list[BBAFrame]) -> np.ndarray:
+    """(F,) int64 display frame of each stream frame (key frames expanded): the first frame is
+    frame 0 and each later one comes KeyFrameIndex + 1 frames after its predecessor."""
+    gaps = np.array([0] + [f.kfi + 1 for f in frames[1:]], dtype=np.int64)
+    return np.cumsum(gaps)
 
 
 _EXPONENTS: dict[int, tuple[Skeleton, dict[int, int]]] = {}
@@ -230,10 +282,14 @@ def _check_stream(stream: BBAStream) -> None:
         raise SigncastError(f"unknown BBA coding {h.coding!r}: choose 'pred' or 'dct'")
     if not 1 <= h.intra_period <= 63:
         raise SigncastError(f"BBA intra period {h.intra_period} outside 1..63")
+    if not 0 <= h.header_period <= 63:
+        raise SigncastError(f"BBA header period {h.header_period} outside 0..63")
     if not 0 <= h.rotation_order < 24:
         raise SigncastError(f"rotationOrder {h.rotation_order} outside 0..23")
     if not stream.frames:
         raise SigncastError("a BBA stream needs at least one frame")
+    if stream.frames[0].kfi:
+        raise SigncastError("the first BBA frame has KeyFrameIndex 0: there is no frame before it to interpolate from")
     for frame in stream.frames:
         if not 0 <= frame.kfi <= kf.MAX_KFI:
             raise SigncastError(f"KeyFrameIndex {frame.kfi} outside 0..31")
@@ -245,23 +301,75 @@ def _check_stream(stream: BBAStream) -> None:
             if len(frame.values.get(bone, ())) != bin(mask).count("1"):
                 raise SigncastError(f"bone {bone}: {bin(mask).count('1')} mask bits but "
                                     f"{len(frame.values.get(bone, ()))} values")
+    _check_size(*_size(stream.frames))
+
+
+def _size(frames: list[BBAFrame]) -> tuple[int, int]:
+    """(display frames, distinct values per frame) of a stream's frames."""
+    if not frames:
+        return 0, 0
+    animatable: dict[int, int] = {}
+    for frame in frames:
+        for bone, mask in frame.bones.items():
+            animatable[bone] = animatable.get(bone, 0) | mask
+    return int(display_numbers(frames)[-1]) + 1, sum(bin(mask).count("1") for mask in animatable.values())
+
+
+def _check_size(n_frames: int, n_values: int) -> None:
+    """SigncastError when n_frames display frames of n_values values each exceed the decoder's cap."""
+    if n_frames * max(n_values, 1) > MAX_DECODED_VALUES or n_frames >> FRAME_NUMBER_BITS:
+        raise SigncastError(f"BBA stream of {n_frames} frames x {n_values} values is above the decoder's "
+                            f"limit of {MAX_DECODED_VALUES} values: cut it into shorter streams")
+
+
+def _intra_levels(values: np.ndarray, keys: list[tuple[int, int]], steps: np.ndarray, q: int) -> np.ndarray:
+    """Levels of absolute values (P,) (angles folded into (-pi, pi] where they would not fit).
+    SigncastError when a value does not fit the alphabets at this Q."""
+    limit = pc.level_limit(q)
+    level = pc.quantize(values, steps * q)
+    level = np.where((np.abs(level) > limit) & _is_angle(keys), pc.quantize(fold_angles(values), steps * q), level)
+    over = np.flatnonzero(np.abs(level) > limit)
+    if len(over):
+        bone, bit = keys[over[0]]
+        raise SigncastError(f"BBA bone {bone} {MASK_FIELDS[bit]} = {int(values[over[0]])} cannot be sent at Q={q}: "
+                            f"its level exceeds the range fields' limit of {limit}")
+    return level
+
+
+def _p_levels(change: np.ndarray, is_angle: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Levels of P residuals (P,): an angle's change is folded into (-pi, pi]; near +-pi the
+    other side's equivalent (a full turn away) is taken where it quantises with less error, so a
+    decoded stream re-encodes to the same levels (its changes are exact multiples of the step)."""
+    folded = _fold(change, is_angle)
+    level = pc.quantize(folded, step)
+    other = folded - np.sign(folded) * ANGLE_PERIOD
+    other_level = pc.quantize(other, step)
+    closer = np.abs(other_level * step - other) < np.abs(level * step - folded)
+    return np.where(is_angle & (np.abs(folded) > ANGLE_PERIOD // 2 - step) & closer, other_level, level)
 
 
 def _levels(stream: BBAStream, units, intra_flags, skeleton):
-    """First pass: quantised levels of every unit (what the decoder will rebuild)."""
+    """First pass: quantised levels of every unit (what the decoder will rebuild). A predicted
+    unit whose levels do not fit the alphabets is sent intra instead (intra_flags is updated)."""
     q = stream.header.q
     held: dict[tuple[int, int], int] = {}
     per_unit = []
-    for unit, intra in zip(units, intra_flags):
+    for k, unit in enumerate(units):
         frame = stream.frames[unit[0]]
         keys = _keys(frame)
-        steps = np.array([step_of(b, k, skeleton) for b, k in keys], dtype=np.int64)
+        steps = np.array([step_of(b, bit, skeleton) for b, bit in keys], dtype=np.int64)
         values = np.array([_flat_values(stream.frames[t]) for t in unit], dtype=np.int64).reshape(len(unit), len(keys))
         if stream.header.coding == "pred":
+            is_angle = _is_angle(keys)
             previous = np.array([held.get(key, 0) for key in keys], dtype=np.int64)
-            target = values[0] if intra else values[0] - previous
-            level = np.clip(pc.quantize(target, steps * q), -pc.level_limit(q), pc.level_limit(q))
-            recon = level * steps * q + (0 if intra else previous)
+            if not intra_flags[k]:
+                level = _p_levels(values[0] - previous, is_angle, steps * q)
+                intra_flags[k] = bool(np.any(np.abs(level) > pc.level_limit(q)))
+            if intra_flags[k]:
+                level = _intra_levels(values[0], keys, steps, q)
+                recon = level * steps * q
+            else:
+                recon = _fold(previous + level * steps * q, is_angle)
             per_unit.append((keys, steps, level))
             held.update(zip(keys, recon.tolist()))
         else:
@@ -315,27 +423,36 @@ def write_stream(stream: BBAStream, skeleton: Skeleton | None = None) -> bytes:
     return _write(stream, units, intra_flags, levels, bones, animatable, keys, None, False, skeleton)
 
 
-def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, tight, skeleton) -> bytes:
-    h = stream.header
-    writer = BitWriter()
+def _write_header(writer: BitWriter, header: BBAHeader, n_frames: int, bones, animatable, fields, tight,
+                  skeleton) -> None:
+    """The BBA start code and the header (the same bits for the first header and its copies)."""
     writer.start_code(BBA_START_CODE)
+    header_start = writer.n_bits - 8               # the CRC covers the start code's last byte
     writer.write(VERSION, 8)
-    _write_fps(writer, h.fps)
-    writer.write(0 if h.coding == "pred" else 1, 2)
-    writer.write_bit(int(h.keyframes))
-    writer.write(h.q, 5)
-    writer.write(h.intra_period, 6)
-    writer.write(h.rotation_order, 5)
+    _write_fps(writer, header.fps)
+    writer.write(0 if header.coding == "pred" else 1, 2)
+    writer.write_bit(int(header.keyframes))
+    writer.write(header.q, 5)
+    writer.write(header.intra_period, 6)
+    writer.write(header.header_period, 6)
+    writer.write(n_frames, FRAME_NUMBER_BITS)
+    writer.write(header.rotation_order, 5)
     writer.write_bit(int(tight))
     writer.write(len(bones), 10)
     for b in bones:
         writer.write(b, 10)
         _write_animatable(writer, animatable[b])
-        exponent = _rotation_step_exponents(skeleton).get(b, 7)
-        writer.write(exponent, 4)
+        writer.write(_rotation_step_exponents(skeleton).get(b, 7), 4)
     if tight:
         pc.write_range_fields(writer, fields)
-    _write_crc(writer, 32)                    # the header, after the 4-byte BBA start code
+    _write_crc(writer, header_start)
+
+
+def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, tight, skeleton) -> bytes:
+    h = stream.header
+    numbers = display_numbers(stream.frames)
+    writer = BitWriter()
+    _write_header(writer, h, int(numbers[-1]) + 1, bones, animatable, fields, tight, skeleton)
     models = None
     if h.coding == "pred":
         low_i, high_i = pc.alphabet(fields[0], fields[1], h.q)
@@ -343,11 +460,21 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
         key_index = {key: j for j, key in enumerate(keys)}
     tables = pc.vlc_tables() if h.coding == "dct" else None
     previous_dc = None
+    n_intra = 0
     for k, (unit, intra) in enumerate(zip(units, intra_flags)):
         frame = stream.frames[unit[0]]
+        if intra:
+            if h.header_period and n_intra and n_intra % h.header_period == 0:
+                _write_header(writer, h, int(numbers[-1]) + 1, bones, animatable, fields, tight, skeleton)
+            n_intra += 1
         writer.start_code(FRAME_START_CODE)
         unit_start = writer.n_bits
         writer.write_bit(int(intra))
+        number = int(numbers[unit[0]])
+        if intra:
+            writer.write(number, FRAME_NUMBER_BITS)
+        else:
+            writer.write(number % (1 << P_FRAME_NUMBER_BITS), P_FRAME_NUMBER_BITS)
         writer.write(frame.kfi, 5)
         if h.coding == "dct":
             writer.write(len(unit) - 1, 4)
@@ -408,6 +535,7 @@ def _check_crc(reader: BitReader, start_bit: int, what: str) -> None:
 @dataclass
 class _DecoderState:
     header: BBAHeader
+    n_frames: int                             # display frames of the stream
     bones: dict[int, int]                     # boneID -> animatable mask
     exponents: dict[int, int]
     keys: list[tuple[int, int]]
@@ -419,9 +547,9 @@ class _DecoderState:
     synced: bool = False
 
 
-def _read_header(reader: BitReader) -> _DecoderState:
-    if reader.read_start_code() != BBA_START_CODE:
-        raise SigncastError("not a BBA stream: it does not start with the BBA start code")
+def _read_header(data: bytes, position: int) -> _DecoderState:
+    """The header after the BBA start code whose 00 00 01 prefix is at byte `position`."""
+    reader = BitReader(data, start_byte=position + 4)
     if reader.read(8) != VERSION:
         raise SigncastError("unsupported BBA stream version")
     fps = pc.fps_from_fields(reader.read(8), reader.read(4), reader.read_bit())
@@ -431,8 +559,10 @@ def _read_header(reader: BitReader) -> _DecoderState:
     keyframes = bool(reader.read_bit())
     q = reader.read(5)
     intra_period = reader.read(6)
+    header_period = reader.read(6)
+    n_frames = reader.read(FRAME_NUMBER_BITS)
     order = reader.read(5)
-    if q == 0 or intra_period == 0 or order >= 24:
+    if q == 0 or intra_period == 0 or n_frames == 0 or order >= 24:
         raise SigncastError("corrupt BBA stream header")
     tight = reader.read_bit()
     bones, exponents = {}, {}
@@ -444,19 +574,40 @@ def _read_header(reader: BitReader) -> _DecoderState:
     fields = None
     if coding == 0:
         fields = pc.read_range_fields(reader, len(keys)) if tight else np.full((4, len(keys)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64)
-    _check_crc(reader, 32, "the header")
-    header = BBAHeader("", fps, "pred" if coding == 0 else "dct", q, intra_period, keyframes, order)
-    return _DecoderState(header, bones, exponents, keys, fields)
+    _check_crc(reader, 8 * (position + 3), "the header")
+    if not reader.at_start_code():
+        raise SigncastError("corrupt BBA stream: header does not end at a start code")
+    header = BBAHeader("", fps, "pred" if coding == 0 else "dct", q, intra_period, keyframes, order, header_period)
+    return _DecoderState(header, n_frames, bones, exponents, keys, fields)
 
 
 def _step(state: _DecoderState, bone: int, bit: int) -> int:
     return 2 if bit in TRANSLATION_BITS else 1 << state.exponents[bone]
 
 
-def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool) -> list[BBAFrame]:
+def _unit_number(field: int, intra: bool, kfi: int, n: int, display_end: int, state: _DecoderState,
+                 strict: bool) -> int:
+    """Display frame of a unit's first frame, from its frame-number field. The unit (n frames, the
+    KeyFrameIndex frames before it interpolated) must start at display_end, the frame after the
+    last one placed (resilient: at or after it), inside the stream's frame count."""
+    expected = display_end + kfi
+    if not intra and field != expected % (1 << P_FRAME_NUMBER_BITS):
+        raise SigncastError("corrupt BBA stream: a predicted unit does not follow its reference")
+    number = field if intra else expected
+    start = number - kfi
+    if start < display_end or (strict and start != display_end) or (kfi and start == 0) or number + n > state.n_frames:
+        raise SigncastError(f"corrupt BBA stream: a unit numbered {number} after frame {display_end - 1}, "
+                            f"in a stream of {state.n_frames} frames")
+    return number
+
+
+def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool, display_end: int,
+               strict: bool) -> tuple[int, list[BBAFrame]]:
+    """(display frame of the unit's first frame, its frames)."""
     h = state.header
     unit_start = reader.pos
     intra = bool(reader.read_bit())
+    number_field = reader.read(FRAME_NUMBER_BITS if intra else P_FRAME_NUMBER_BITS)
     kfi = reader.read(5)
     n_frames = reader.read(4) + 1 if h.coding == "dct" else 1
     same = False if intra else bool(reader.read_bit())
@@ -482,8 +633,11 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool) -> l
             state.models = {"I": pc.make_models(low_i, high_i), "P": pc.make_models(low_p, high_p)}
         chosen, low = (state.models["I"], low_i) if intra else (state.models["P"], low_p)
         level = pc.read_levels(reader, [chosen[j] for j in idx], low[idx] if len(idx) else low[:0])
-        previous = np.array([state.held.get(key, 0) for key in keys], dtype=np.int64)
-        recon = level * steps * h.q + (0 if intra else previous)
+        if intra:
+            recon = level * steps * h.q
+        else:
+            previous = np.array([state.held.get(key, 0) for key in keys], dtype=np.int64)
+            recon = _fold(previous + level * steps * h.q, _is_angle(keys))
         rows = recon[None]
     else:
         tables = pc.vlc_tables()
@@ -495,11 +649,11 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool) -> l
             if state.previous_dc is None or len(state.previous_dc) != len(dc):
                 raise SigncastError("corrupt BBA stream: DCT segment without a DC reference")
             dc += state.previous_dc
-        state.previous_dc = dc
         dc_step, ac_step = pc.dct_steps(steps, h.q)
         rows = pc.dct_reconstruct(dc, ac, dc_step, ac_step)
     n_muscles = reader.read(10)
     _check_crc(reader, unit_start, "a frame")
+    number = _unit_number(number_field, intra, kfi, len(rows), display_end, state, strict)
     muscles = []
     if n_muscles and not skip_muscles:
         if reader.read_start_code() != MUSCLE_START_CODE:
@@ -511,6 +665,8 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool) -> l
             values = [reader.read_signed(MUSCLE_VALUE_BITS) for _ in range(sum(mask))]
             muscles.append(MuscleUpdate(muscle_id, ncp, nk, mask, values))
         _check_crc(reader, muscle_start, "muscle data")
+    if h.coding == "dct":
+        state.previous_dc = dc
     state.held.update(zip(keys, rows[-1].tolist()))
     state.previous_bones = bones
     state.synced = True
@@ -522,7 +678,7 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool) -> l
             values[b] = row[j:j + count].tolist()
             j += count
         frames.append(BBAFrame(kfi, dict(bones), values, muscles if not frames else []))
-    return frames
+    return number, frames
 
 
 def _check_unit_end(reader: BitReader, end_byte: int) -> None:
@@ -533,57 +689,90 @@ def _check_unit_end(reader: BitReader, end_byte: int) -> None:
         raise SigncastError("corrupt BBA frame: its data does not end at the next start code")
 
 
+def _find_header(data: bytes, codes: list[tuple[int, int]], resilient: bool) -> _DecoderState:
+    """The stream header: the first one (strict), or the first intact copy (resilient)."""
+    if not resilient:
+        if BitReader(data).read_start_code() != BBA_START_CODE:
+            raise SigncastError("not a BBA stream: it does not start with the BBA start code")
+        return _read_header(data, codes[0][0])
+    for position, code in codes:
+        if code == BBA_START_CODE:
+            try:
+                return _read_header(data, position)
+            except SigncastError:
+                continue
+    raise SigncastError("corrupt BBA stream: no intact stream header (and no header copy)")
+
+
+def _conceal(frames: list[BBAFrame], n: int) -> None:
+    """Append n frames holding the last frame (the rest pose when there is none)."""
+    hold = frames[-1] if frames else BBAFrame(0, {}, {})
+    frames.extend(BBAFrame(0, dict(hold.bones), dict(hold.values)) for _ in range(n))
+
+
 def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = False) -> tuple[BBAStream, list[int]]:
-    """Decode a binary BBA stream. Returns the stream (reconstructed values) and the indices of
-    units (frames, or DCT segments) that were lost.
+    """Decode a binary BBA stream. Returns the stream (reconstructed values) and the display
+    frames that were lost (indices of the frames of stream_to_motion's Motion; without key
+    frames, also of the returned frames).
 
     resilient: a damaged unit is dropped and decoding resumes at the next start code (predicted
-    units after it are lost until the next intra unit); each lost unit is concealed by holding the
-    last good frame (16 frames for a DCT segment, 1 for a frame, whose KeyFrameIndex is then
-    unknown and taken as 0); without it, damage raises SigncastError.
-    skip_muscles: ignore muscle data (a weak terminal), jumping to the next frame start code."""
+    units after it are lost until the next intra unit); each good unit is placed at its frame
+    number, and every frame not decoded is concealed by holding the last good frame (KeyFrameIndex
+    0), so the stream has its frame count. A damaged header is replaced by an intact header copy
+    when the stream has one. Without it, damage raises SigncastError.
+    skip_muscles: ignore muscle data (a weak terminal), jumping to the next frame start code.
+    Streams above MAX_DECODED_VALUES frames x values are refused before their frames are decoded."""
     data = bytes(data)
-    reader = BitReader(data)
-    state = _read_header(reader)
-    if not reader.at_start_code():
-        raise SigncastError("corrupt BBA stream: header does not end at a start code")
-    codes = find_start_codes(data, reader.pos // 8)
-    if not codes or codes[-1][1] != END_CODE:
-        raise SigncastError("truncated BBA stream: the end code is missing")
-    if codes[-1][0] + 4 != len(data):
-        raise SigncastError("corrupt BBA stream: data after the end code")
+    codes = find_start_codes(data)
+    end_position = len(data) - 4
+    if not resilient:
+        if not codes or codes[-1][1] != END_CODE:
+            raise SigncastError("truncated BBA stream: the end code is missing")
+        if codes[-1][0] != end_position:
+            raise SigncastError("corrupt BBA stream: data after the end code")
+    state = _find_header(data, codes, resilient)
+    _check_size(state.n_frames, len(state.keys))
+    # The stream ends with its 4-byte end code; in resilient mode also when that code is damaged.
+    codes = [(p, c) for p, c in codes if p < end_position] + [(end_position, END_CODE)]
+    header_span = None if resilient else data[codes[0][0]:codes[1][0]]
     frames: list[BBAFrame] = []
     lost: list[int] = []
-    unit_index = -1
+    display_end = 0
     for k, (position, code) in enumerate(codes[:-1]):
         if code == MUSCLE_START_CODE:
             continue
+        if code == BBA_START_CODE:
+            if resilient or data[position:codes[k + 1][0]] == header_span:
+                continue
+            raise SigncastError("corrupt BBA stream: a header copy differs from the header")
         if code != FRAME_START_CODE:
             if resilient:
                 continue
             raise SigncastError(f"corrupt BBA stream: unexpected start code 0x{code:02X}")
-        unit_index += 1
         end = codes[k + 1][0]
         has_muscles = codes[k + 1][1] == MUSCLE_START_CODE
-        stop = codes[k + 2][0] if has_muscles and k + 2 < len(codes) else end
-        unit_end = stop if (has_muscles and not skip_muscles) else end
+        unit_end = codes[k + 2][0] if has_muscles and not skip_muscles else end
         reader = BitReader(data, start_byte=position + 4, end_byte=unit_end)
         try:
-            unit = _read_unit(reader, state, skip_muscles or not has_muscles)
+            number, unit = _read_unit(reader, state, skip_muscles or not has_muscles, display_end, not resilient)
             _check_unit_end(reader, unit_end)
         except SigncastError:
             if not resilient:
                 raise
             state.synced = False
             state.previous_dc = None
-            lost.append(unit_index)
-            n = pc.SEGMENT if state.header.coding == "dct" else 1
-            hold = frames[-1] if frames else BBAFrame(0, {}, {})
-            frames.extend(BBAFrame(0, dict(hold.bones), dict(hold.values)) for _ in range(n))
             continue
+        start = number - unit[0].kfi
+        if start > display_end:
+            _conceal(frames, start - display_end)
+            lost.extend(range(display_end, number))
         frames.extend(unit)
-    if not frames:
-        raise SigncastError("corrupt BBA stream: no frames")
+        display_end = number + len(unit)
+    if display_end < state.n_frames:
+        if not resilient:
+            raise SigncastError(f"corrupt BBA stream: {display_end} of its {state.n_frames} frames")
+        _conceal(frames, state.n_frames - display_end)
+        lost.extend(range(display_end, state.n_frames))
     return BBAStream(state.header, frames), lost
 
 
@@ -591,9 +780,13 @@ def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = Fa
 
 def motion_to_stream(motion: Motion, q: int, coding: str = "pred", *, keyframes: bool = False,
                      threshold_rad: float | None = None, intra_period: int | None = None,
-                     rotation_order: int = 0, name: str = "signcast", skeleton: Skeleton | None = None) -> BBAStream:
-    """The encoder's analysis: bone IDs (skeleton indices), Euler values (1e-5 rad, mm), masks of
-    the values that change in each intra period, and key frames (KeyFrameIndex) when asked."""
+                     rotation_order: int = 0, header_period: int = 0, name: str = "signcast",
+                     skeleton: Skeleton | None = None) -> BBAStream:
+    """The encoder's analysis: bone IDs (skeleton indices), Euler values (1e-5 rad, mm), the mask
+    of the values the motion moves (the same in every frame), and key frames (KeyFrameIndex) when
+    asked.
+    header_period: repeat the header before every n-th intra unit (0: never), so a resilient
+    decoder survives a damaged header."""
     skeleton = skeleton or load_avatar().skeleton
     q = pc.check_q(q)
     if keyframes and coding != "pred":
@@ -625,24 +818,20 @@ def motion_to_stream(motion: Motion, q: int, coding: str = "pred", *, keyframes:
     steps = np.array([step_of(b, bit, skeleton) for b, bit in columns], dtype=np.int64)
     if intra_period is None:
         intra_period = DEFAULT_INTRA_PERIOD if coding == "pred" else DEFAULT_INTRA_SEGMENTS
-    period = intra_period * (pc.SEGMENT if coding == "dct" else 1)
-    held = np.zeros(len(columns), dtype=np.int64)
+    # Every frame carries every value that is ever sent (not only those changing in its intra
+    # period), so an intra unit refreshes the whole pose: after a loss, the frames from the next
+    # intra unit on are exact, and the frames a decoder reports lost are the only wrong ones.
+    sent = np.flatnonzero(np.any(pc.quantize(_fold(values, _is_angle(columns)), steps * q) != 0, axis=0))
+    mask: dict[int, int] = {}
+    for c in sent:
+        b, bit = columns[c]
+        mask[b] = mask.get(b, 0) | (1 << bit)
+    order = {b: [columns.index((b, bit)) for bit in _bits(mask[b])] for b in mask}
     frames = []
-    for start in range(0, len(values), period):
-        block = values[start:start + period]
-        changed = np.any(pc.quantize(block - held, steps * q) != 0, axis=0)
-        for t in range(len(block)):
-            bones, vals = {}, {}
-            for c in np.flatnonzero(changed):
-                b, bit = columns[c]
-                bones[b] = bones.get(b, 0) | (1 << bit)
-            for b in bones:
-                vals[b] = [int(block[t, columns.index((b, bit))]) for bit in _bits(bones[b])]
-            index = start + t
-            kfi = int(keys_frames[index] - keys_frames[index - 1] - 1) if index else 0
-            frames.append(BBAFrame(kfi, bones, vals))
-        held = np.where(changed, block[-1], held)
-    header = BBAHeader(name, motion.fps, coding, q, intra_period, keyframes, rotation_order)
+    for index, row in enumerate(values):
+        kfi = int(keys_frames[index] - keys_frames[index - 1] - 1) if index else 0
+        frames.append(BBAFrame(kfi, dict(mask), {b: [int(row[c]) for c in order[b]] for b in mask}))
+    header = BBAHeader(name, motion.fps, coding, q, intra_period, keyframes, rotation_order, header_period)
     return BBAStream(header, frames)
 
 
@@ -655,6 +844,7 @@ def stream_to_motion(stream: BBAStream, skeleton: Skeleton | None = None) -> Mot
     for b in bones:
         if b >= len(skeleton):
             raise SigncastError(f"BBA stream animates bone {b}, the avatar has {len(skeleton)}")
+    _check_size(*_size(stream.frames))
     order = ORDER_NAMES[stream.header.rotation_order]
     held: dict[tuple[int, int], int] = {}
     quats, trans = [], []

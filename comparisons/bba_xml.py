@@ -15,9 +15,11 @@
         </bba:Frame> ...
 
 The schema has no place for the coding parameters of the binary form; signcast writes them into
-`encodingParametersFile` as "signcast:coding=pred;q=4;intra_period=32;keyframes=0;rotation_order=0"
-so that binary -> XML -> binary gives back the same bytes (the masks and KeyFrameIndex of every
-frame are in the XML itself; values are the decoded integers).
+`encodingParametersFile` as
+"signcast:coding=pred;q=4;intra_period=32;keyframes=0;rotation_order=0;header_period=0" so that
+binary -> XML -> binary gives back the same bytes (the masks and KeyFrameIndex of every frame are
+in the XML itself; values are the decoded integers; frame numbers follow from the KeyFrameIndex
+values). header_period may be left out (0: no header copies).
 """
 from __future__ import annotations
 
@@ -41,7 +43,7 @@ def to_xml(stream: BBAStream) -> str:
     h = stream.header
     root = ET.Element(_NS + "BBA")
     params = (f"{PARAMETERS_PREFIX}coding={h.coding};q={h.q};intra_period={h.intra_period};"
-              f"keyframes={int(h.keyframes)};rotation_order={h.rotation_order}")
+              f"keyframes={int(h.keyframes)};rotation_order={h.rotation_order};header_period={h.header_period}")
     ET.SubElement(root, _NS + "header", version="3.0", name=h.name, frameRate=_fps_text(h.fps),
                   encodingParametersFile=params)
     body = ET.SubElement(root, _NS + "body")
@@ -107,7 +109,8 @@ def from_xml(text: str) -> BBAStream:
     try:
         fps = float(header.get("frameRate", "10"))
         stream_header = BBAHeader(header.get("name", ""), fps, params["coding"], int(params["q"]),
-                                  int(params["intra_period"]), params["keyframes"] == "1", int(params["rotation_order"]))
+                                  int(params["intra_period"]), params["keyframes"] == "1", int(params["rotation_order"]),
+                                  int(params.get("header_period", "0")))
     except (KeyError, ValueError) as error:
         raise SigncastError(f"BBA XML: bad header ({error})") from None
     frames = []

@@ -153,3 +153,185 @@ def test_bba_stream_resyncs_after_a_bit_error_inside_a_frame():
     decoded, lost = bba.read_stream(bytes(damaged), resilient=True)
     assert lost == [13, 14, 15, 16, 17, 18, 19]
     assert _values(decoded)[20:] == _values(clean)[20:] and _values(decoded)[:13] == _values(clean)[:13]
+
+
+# ------------------------------------------------------------------ angles across +-pi, no clipping
+
+def test_bba_pred_follows_an_angle_turning_through_pi():
+    turns = np.array([3.10, 3.15, 3.20, 3.25])                       # Euler X: 3.10, then -3.13 ... (wrapped)
+    q = rotations.from_axis_angle(np.tile([1.0, 0, 0], (4, 1)), turns)[:, None]
+    motion = Motion(25.0, ("lowerarm01.R",), q, np.zeros((4, 3)))
+    stream = bba.motion_to_stream(motion, 4, "pred")
+    decoded, lost = bba.read_stream(bba.write_stream(stream))
+    sent = np.array([f.values[64][0] for f in stream.frames])
+    back = np.array([f.values[64][0] for f in decoded.frames])
+    assert lost == [] and np.all(np.abs(bba.fold_angles(back - sent)) <= 128)      # half of step 64 x Q 4
+    error = rotations.angle_between(bba.stream_to_motion(decoded).rotations[:, -1], q[:, 0])
+    assert error.max() < 0.003
+
+
+def test_bba_pred_decoded_stream_re_encodes_to_the_same_bytes_when_angles_turn_half_a_circle():
+    turns = np.arange(6) * 3.1414                                     # nearly pi per frame: folded changes near +-pi
+    q = rotations.from_axis_angle(np.tile([1.0, 0, 0], (6, 1)), turns)[:, None]
+    data = bba.write_stream(bba.motion_to_stream(Motion(25.0, ("lowerarm01.R",), q, np.zeros((6, 3))), 1, "pred"))
+    assert bba.write_stream(bba.read_stream(data)[0]) == data
+
+
+def _root_motion(x_metres):
+    n = len(x_metres)
+    translation = np.zeros((n, 3))
+    translation[:, 0] = x_metres
+    return Motion(25.0, ("root",), np.tile([1.0, 0, 0, 0], (n, 1, 1)), translation)
+
+
+def test_bba_pred_sends_an_intra_frame_where_a_change_does_not_fit_the_p_alphabet():
+    stream = bba.motion_to_stream(_root_motion([-10.0, -10.0, 10.0, 10.0]), 1, "pred")   # a 20 m jump
+    decoded, _ = bba.read_stream(bba.write_stream(stream))
+    root = bba.load_avatar().skeleton.index("root")
+    assert [f.values[root][0] for f in decoded.frames] == [-10000, -10000, 10000, 10000]
+
+
+def test_bba_pred_refuses_a_value_its_intra_alphabet_cannot_hold():
+    stream = bba.motion_to_stream(_root_motion([0.0, 16.0]), 1, "pred")                 # > 7620 levels x 2 mm
+    with pytest.raises(SigncastError, match="cannot be sent"):
+        bba.write_stream(stream)
+
+
+def test_asl_letters_in_a_proper_euler_order_decode_within_a_few_milliradians():
+    from media.fingerspelling import letter_motion
+    motion = letter_motion("ase", "H", 10)                            # 1.39 rad off when angles were clipped
+    decoded = bba.stream_to_motion(bba.read_stream(bba.write_stream(bba.motion_to_stream(motion, 1, "pred", rotation_order=2)))[0])
+    index = [decoded.bone_names.index(n) for n in motion.bone_names if n in decoded.bone_names]
+    shared = [motion.bone_names.index(n) for n in motion.bone_names if n in decoded.bone_names]
+    assert rotations.angle_between(decoded.rotations[:, index], motion.rotations[:, shared]).max() < 0.01
+
+
+# ------------------------------------------------------------------ recovery keeps frame timing
+
+def _resilient_case(coding="pred", intra_period=10, keyframes=False, n_frames=40, header_period=0):
+    motion = smooth_motion(n_frames=n_frames, bones=ARM)
+    stream = bba.motion_to_stream(motion, 4, coding, intra_period=intra_period, keyframes=keyframes,
+                                  threshold_rad=0.05 if keyframes else None, header_period=header_period)
+    data = bba.write_stream(stream)
+    return data, bba.read_stream(data)[0]
+
+
+def test_bba_resilient_decoder_keeps_timing_after_a_damaged_start_code():
+    data, clean = _resilient_case()
+    start, _ = _frame_chunks(data)[5]
+    damaged = data[:start + 3] + bytes([bba.END_CODE]) + data[start + 4:]          # frame 5's D1 -> D3
+    decoded, lost = bba.read_stream(damaged, resilient=True)
+    assert len(decoded.frames) == 40 and lost == [5, 6, 7, 8, 9]
+    assert _values(decoded)[:5] == _values(clean)[:5] and _values(decoded)[10:] == _values(clean)[10:]
+    assert all(v == _values(clean)[4] for v in _values(decoded)[5:10])           # frame 4 held
+
+
+def test_bba_resilient_decoder_is_exact_from_the_next_intra_frame_on():
+    n = 30
+    bend = np.concatenate([np.linspace(0.0, 1.0, 10), np.full(n - 10, 1.0)])   # the elbow stops at frame 9
+    elbow = rotations.from_axis_angle(np.tile([1.0, 0, 0], (n, 1)), bend)
+    wrist = rotations.from_axis_angle(np.tile([0, 0, 1.0], (n, 1)), np.linspace(0.0, 1.5, n))
+    motion = Motion(25.0, ("lowerarm01.R", "wrist.R"), np.stack([elbow, wrist], axis=1), np.zeros((n, 3)))
+    data = bba.write_stream(bba.motion_to_stream(motion, 4, "pred", intra_period=10))
+    start, end = _frame_chunks(data)[5]
+    decoded, lost = bba.read_stream(data[:start] + data[end:], resilient=True)
+    clean = bba.stream_to_motion(bba.read_stream(data)[0])
+    assert lost == [5, 6, 7, 8, 9]
+    assert np.array_equal(bba.stream_to_motion(decoded).rotations[10:], clean.rotations[10:])
+
+
+def test_bba_resilient_decoder_keeps_timing_after_a_deleted_frame():
+    data, clean = _resilient_case()
+    start, end = _frame_chunks(data)[5]
+    decoded, lost = bba.read_stream(data[:start] + data[end:], resilient=True)
+    assert len(decoded.frames) == 40 and lost == [5, 6, 7, 8, 9]
+    assert _values(decoded)[10:] == _values(clean)[10:]
+    with pytest.raises(SigncastError):
+        bba.read_stream(data[:start] + data[end:])
+
+
+def test_bba_resilient_decoder_keeps_timing_after_a_lost_dct_segment():
+    data, clean = _resilient_case("dct", intra_period=1, n_frames=45)
+    start, end = _frame_chunks(data)[1]
+    decoded, lost = bba.read_stream(data[:start] + data[end:], resilient=True)
+    assert len(decoded.frames) == 45 and lost == list(range(16, 32))
+    assert _values(decoded)[32:] == _values(clean)[32:] and _values(decoded)[:16] == _values(clean)[:16]
+
+
+def test_bba_resilient_decoder_keeps_key_frame_timing_after_a_lost_key_frame():
+    data, clean = _resilient_case(keyframes=True, intra_period=2, n_frames=60)
+    clean_motion = bba.stream_to_motion(clean)
+    numbers = bba.display_numbers(clean.frames)                                  # key frames 0, 20, 37, 40, 59
+    start, end = _frame_chunks(data)[2]                                          # intra key 2 and P key 3 lost
+    decoded, lost = bba.read_stream(data[:start] + data[end:], resilient=True)
+    motion = bba.stream_to_motion(decoded)
+    assert len(numbers) == 5 and motion.n_frames == clean_motion.n_frames == 60
+    assert lost == list(range(numbers[1] + 1, numbers[4]))
+    good = [t for t in range(60) if t not in lost]
+    assert np.array_equal(motion.rotations[good], clean_motion.rotations[good])
+
+
+def test_bba_resilient_decoder_conceals_a_lost_last_frame_and_a_damaged_end_code():
+    data, clean = _resilient_case()
+    start, _ = _frame_chunks(data)[-1]
+    damaged = bytearray(data)
+    damaged[start + 8] ^= 0x21                                                   # inside the last frame
+    damaged[-2] ^= 0x01                                                          # the end code's 0x01
+    decoded, lost = bba.read_stream(bytes(damaged), resilient=True)
+    assert len(decoded.frames) == 40 and lost == [39]
+    assert _values(decoded)[:39] == _values(clean)[:39] and _values(decoded)[39] == _values(clean)[38]
+
+
+def test_bba_resilient_decoder_recovers_a_damaged_header_from_its_copy():
+    data, clean = _resilient_case(header_period=1)
+    assert data.count(b"\x00\x00\x01\xd0") == 4                                   # the header, then at intra 10, 20, 30
+    damaged = bytearray(data)
+    damaged[12] ^= 0x08
+    decoded, lost = bba.read_stream(bytes(damaged), resilient=True)
+    assert lost == [] and _values(decoded) == _values(clean) and decoded.header == clean.header
+    with pytest.raises(SigncastError):
+        bba.read_stream(bytes(damaged))
+    plain, _ = _resilient_case()
+    damaged = bytearray(plain)
+    damaged[12] ^= 0x08
+    with pytest.raises(SigncastError, match="header"):
+        bba.read_stream(bytes(damaged), resilient=True)
+
+
+def test_bba_header_copies_round_trip_through_xml():
+    data, clean = _resilient_case(header_period=2)
+    assert bba.write_stream(from_xml(to_xml(clean))) == data
+
+
+# ------------------------------------------------------------------ memory bound
+
+def _header_only_stream(n_frames, bones, animatable):
+    writer = BitWriter()
+    bba._write_header(writer, bba.BBAHeader("big", 25.0), n_frames, bones, animatable, None, False,
+                      load_avatar().skeleton)
+    writer.start_code(bba.END_CODE)
+    return writer.getvalue()
+
+
+def test_bba_decoder_refuses_a_stream_above_its_size_limit_before_decoding_frames():
+    arm = [load_avatar().skeleton.index(n) for n in ARM]
+    n_frames = bba.MAX_DECODED_VALUES // (3 * len(arm)) + 1
+    data = _header_only_stream(n_frames, arm, {b: 0b111000 for b in arm})
+    for resilient in (False, True):
+        with pytest.raises(SigncastError, match="limit"):
+            bba.read_stream(data, resilient=resilient)
+    # one frame fewer is inside the limit: the same header is read, and the missing frames are the error
+    with pytest.raises(SigncastError, match="of its"):
+        bba.read_stream(_header_only_stream(n_frames - 1, arm, {b: 0b111000 for b in arm}))
+
+
+def test_bba_encoder_and_motion_glue_refuse_streams_above_the_size_limit():
+    bones = range(len(load_avatar().skeleton))                                   # every bone, three angles
+    n_keys = bba.MAX_DECODED_VALUES // (32 * 3 * len(bones)) + 1                 # 32 display frames each
+    frames = [bba.BBAFrame(0 if k == 0 else 31, {b: 0b111000 for b in bones}, {b: [0, 0, 0] for b in bones})
+              for k in range(n_keys + 1)]
+    stream = bba.BBAStream(bba.BBAHeader("big", 25.0), frames)
+    with pytest.raises(SigncastError, match="limit"):
+        bba.write_stream(stream)
+    with pytest.raises(SigncastError, match="limit"):
+        bba.stream_to_motion(stream)
