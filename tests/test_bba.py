@@ -11,7 +11,7 @@ from media.avatar import load_avatar
 from media.errors import SigncastError
 from media.kinematics import joint_positions
 from media.motion import Motion
-from tests.test_fba import smooth_motion
+from motion_samples import smooth_motion
 
 ARM = ("clavicle.R", "shoulder01.R", "upperarm01.R", "upperarm02.R", "lowerarm01.R", "lowerarm02.R", "wrist.R",
        "finger2-1.R", "finger2-2.R", "finger2-3.R", "finger1-1.R")

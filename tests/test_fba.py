@@ -17,19 +17,7 @@ from media.avatar import load_avatar
 from media.errors import SigncastError
 from media.kinematics import joint_positions
 from media.motion import Motion
-
-
-def smooth_motion(n_frames=40, fps=10.0, seed=0, max_angle=0.6, bones=None):
-    """Slerps between a few random poses of the avatar's BAP-carrying bones, plus a root drift."""
-    rng = np.random.default_rng(seed)
-    names = bones or tuple(b.bone for b in avatar_bap_map().bones)
-    keys = rotations.from_axis_angle(rng.normal(size=(4, len(names), 3)), rng.uniform(-max_angle, max_angle, (4, len(names))))
-    position = np.linspace(0, 3, n_frames)
-    left = np.minimum(position.astype(int), 2)
-    t = np.broadcast_to((position - left)[:, None], (n_frames, len(names)))
-    q = rotations.slerp(keys[left], keys[left + 1], t)
-    translation = np.stack([0.02 * np.sin(position), 0.01 * position, np.zeros(n_frames)], axis=1)
-    return Motion(fps, names, q, translation)
+from motion_samples import smooth_motion
 
 
 def test_bap_table_holds_the_standard_set_groups_and_steps():

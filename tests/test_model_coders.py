@@ -6,7 +6,7 @@ from comparisons.model_coders import (N_NORM, GestureCoder, HybridCoder, Posture
                                       posture_keys, raised_cosine, warp)
 from comparisons.vector_quantization import train_codebook
 from media.errors import SigncastError
-from test_waveform_coders import FPS, psnr, signing_like
+from motion_samples import FPS, psnr, signing_like
 
 LOWER, UPPER = np.full(5, -1.6), np.full(5, 1.6)
 GROUPS = [np.arange(3), np.arange(3, 5)]

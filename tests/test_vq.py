@@ -6,7 +6,7 @@ from comparisons.lab_codecs import EVALUATION_LANGUAGES, dof_layout, training_la
 from comparisons.vector_quantization import (CODEBOOK_SIZES, SpatialVQ, TemporalVQ, group_layout, load_vq_tables,
                                              nearest, temporal_vectors, train_codebook)
 from media.errors import SigncastError
-from test_waveform_coders import FPS, signing_like, psnr
+from motion_samples import FPS, psnr, signing_like
 
 LOWER, UPPER = np.full(5, -1.6), np.full(5, 1.6)
 

@@ -7,33 +7,9 @@ from comparisons.coded_streams import (StreamReader, StreamWriter, from_magnitud
 from comparisons.waveform_coders import (WAVEFORM_CODERS, DeadReckoningCoder, UniformQuantizer, haar_forward,
                                          haar_inverse)
 from media.errors import SigncastError
-
-FPS = 25.0
-
-
-def signing_like(n_frames: int = 150, seed: int = 0) -> np.ndarray:
-    """(T, 5) radians: smooth moves between held postures (as letters), a sinusoid, a still DOF."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(n_frames) / FPS
-    holds = rng.uniform(-1.0, 1.0, size=(n_frames // 25 + 2, 3))
-    position = np.arange(n_frames) / 25.0
-    k = np.floor(position).astype(int)
-    f = position - k
-    smooth = f * f * (3 - 2 * f)
-    moves = holds[k] + (holds[k + 1] - holds[k]) * smooth[:, None]
-    wave = 0.6 * np.sin(2 * np.pi * 1.3 * t)
-    still = np.full(n_frames, 0.25)
-    return np.column_stack([moves, wave, still])
-
+from motion_samples import FPS, psnr, signing_like
 
 LOWER, UPPER = np.full(5, -1.6), np.full(5, 1.6)
-
-
-def psnr(original, decoded):
-    spread = np.ptp(original, axis=0)
-    moving = spread > 1e-9
-    mse = np.mean((original - decoded) ** 2, axis=0)[moving]
-    return float(np.mean(10 * np.log10(spread[moving] ** 2 / np.maximum(mse, 1e-30))))
 
 
 @pytest.mark.parametrize("name", sorted(WAVEFORM_CODERS))
