@@ -1,4 +1,5 @@
 """Model-based coders of seed 002 ch. 8: segmentation, interpolation, exact decoders, Motion codecs."""
+import functools
 import numpy as np
 import pytest
 
@@ -62,6 +63,7 @@ def test_hermite_interpolation_passes_through_the_keys_and_raised_cosine_spans_o
     assert warp(np.arange(5.0)[:, None], 9)[:, 0] == pytest.approx(np.linspace(0, 4, 9))
 
 
+@functools.cache
 def tables():
     """Posture and gesture tables of other clips than the coded one (seeds 20..23)."""
     training = np.concatenate([signing_like(300, seed) for seed in range(20, 24)])

@@ -1,4 +1,5 @@
 """Vector quantisation (seed 002 §7.9): LBG training, exact decoders, shipped codebooks."""
+import functools
 import numpy as np
 import pytest
 
@@ -27,6 +28,7 @@ def test_nearest_returns_the_closest_code_vector():
     assert np.array_equal(nearest(vectors, codebook, chunk=64), brute)
 
 
+@functools.cache
 def small_codebooks():
     """Codebooks trained on other clips than the coded one (seeds 10..13)."""
     training = np.concatenate([signing_like(300, seed) for seed in range(10, 14)])
