@@ -7,6 +7,8 @@ its operating point scores 6, the next 5, and so on (ties share the better score
 """
 from __future__ import annotations
 
+# The source tables' six columns, in its order; media.domain.SOLUTION_ORDER names every solution a record may
+# carry (NSV3O+C and the seed-002 motion coders have no column of their own here).
 SOLUTIONS = ("NSV", "NSV2O", "NSV3O", "SSV", "FBA", "BBA")
 
 CARRIED_OVER = {

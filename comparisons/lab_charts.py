@@ -1,10 +1,8 @@
-"""The charts of seed 002 ch. 9 on real signing: every coder on the whole-alphabet sequence of each language.
-
-For each language the avatar fingerspells its whole alphabet (comparisons.lab_codecs.alphabet_motion,
-25 fps); every seed-002 coder at every operating point and the MPEG-4 FBA/BBA codecs at a set of Q
-are measured with comparisons.param_study.measure_point (rate from the coded bytes, PSNR and VPSNR
-averaged over the rotation BAPs that move, joint position error). Writes in the output folder:
-  records.jsonl         one record per point (solution FBA/BBA, clip "<language>:alphabet", codec, q)
+"""The tables and charts of seed 002 ch. 9, made from the records of the lab study (pipeline.studies.lab: every
+coder on the whole-alphabet sequence of each language, 25 fps; rate from the coded bytes, PSNR and VPSNR averaged
+over the rotation BAPs that move, joint position error). What the study writes with them:
+  records.jsonl         one record per point (solution FBA, BBA or motion coder: media.domain.solution_of;
+                        clip "<language>:alphabet", codec, q)
   lab_points.csv        the points as a table
   lab_ranges.csv        per codec and language: the operating range (kbps, PSNR, VPSNR)
   lab_waveform_psnr.png PSNR vs kbps, waveform coders and FBA/BBA (seed 002 figs 9-1)
@@ -19,9 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from comparisons.lab_codecs import EVALUATION_LANGUAGES, MODEL_NAMES, WAVEFORM_NAMES, LabCodec, alphabet_motion
-from comparisons.param_study import measure_point
-from comparisons.records import make_record, write_records
+from comparisons.lab_codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec
 
 MPEG4_CODECS = ("fba-pred", "fba-dct", "bba-pred", "bba-dct")
 MPEG4_Q = (1, 2, 4, 8, 16, 31)
@@ -44,47 +40,12 @@ SEED_POINTS = {
 }
 
 
-def measure_language(language: str, codecs: list[str], mpeg4_q=MPEG4_Q, progress=None) -> list[dict]:
-    """Records of every codec and operating point on the language's whole alphabet."""
-    motion = alphabet_motion(language, FPS)
-    clip = f"{language}:alphabet"
-    records = []
-    for name in codecs:
-        lab = name in WAVEFORM_NAMES + MODEL_NAMES
-        qs = range(1, len(LabCodec(name).settings()) + 1) if lab else mpeg4_q
-        for q in qs:
-            point = measure_point(motion, name, q)
-            fields = {"family": "seed002-model" if name in MODEL_NAMES else "seed002-waveform" if lab else "mpeg4"}
-            if lab:
-                fields["setting"] = str(LabCodec(name).settings()[q - 1])
-            solution = "BBA" if name.startswith("bba") else "FBA"
-            records.append(make_record(solution, clip, name, q, FPS, 0, 0, point.pop("bits"), motion.duration_s,
-                                       **fields, **point))
-            if progress:
-                progress(1)
-    return records
-
-
 def count_points(codecs: list[str], mpeg4_q=MPEG4_Q) -> int:
     return sum(len(LabCodec(n).settings()) if n in WAVEFORM_NAMES + MODEL_NAMES else len(mpeg4_q) for n in codecs)
 
 
-def run_lab(out_dir: Path, languages=EVALUATION_LANGUAGES, codecs=None, mpeg4_q=MPEG4_Q, progress=None) -> list[dict]:
-    codecs = list(codecs or (WAVEFORM_NAMES + MODEL_NAMES + MPEG4_CODECS))
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    records = []
-    for language in languages:
-        records += measure_language(language, codecs, mpeg4_q, progress)
-    write_records(out_dir / "records.jsonl", records)
-    write_points(out_dir / "lab_points.csv", records)
-    write_ranges(out_dir / "lab_ranges.csv", records)
-    write_charts(out_dir, records)
-    return records
-
-
 def write_points(path: Path, records: list[dict]) -> Path:
-    columns = ["clip", "codec", "q", "setting", "frames", "bits", "kbps", "psnr", "vpsnr", "joint_error_mm_mean"]
+    columns = ["clip", "codec", "q", "setting", "frames", "bits", "kbps", "param_psnr", "vpsnr", "joint_error_mm_mean"]
     with Path(path).open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(columns)
@@ -99,7 +60,7 @@ def operating_ranges(records: list[dict]) -> list[dict]:
     for key in dict.fromkeys((r["codec"], r["clip"]) for r in records):
         mine = [r for r in records if (r["codec"], r["clip"]) == key]
         row = {"codec": key[0], "clip": key[1], "points": len(mine)}
-        for field in ("kbps", "psnr", "vpsnr"):
+        for field in ("kbps", "param_psnr", "vpsnr"):
             values = [r[field] for r in mine]
             row[f"{field}_min"], row[f"{field}_max"] = min(values), max(values)
         rows.append(row)
@@ -135,7 +96,7 @@ def _chart(path: Path, records: list[dict], names: list[str], quality: str, titl
             if name in SEED_POINTS:
                 seed = np.array(SEED_POINTS[name])
                 axis.plot(seed[:, 0], seed[:, 1], ":", marker="x", markersize=4, color=colours(k % 20), alpha=0.45)
-        axis.set(xscale="log", xlabel="kbit/s", ylabel=f"{quality.upper()} (dB, mean over moving BAPs)",
+        axis.set(xscale="log", xlabel="kbit/s", ylabel=f"{quality.replace('param_', '').upper()} (dB, mean over moving BAPs)",
                  title=f"{clip.split(':')[0]}: whole alphabet, 25 fps")
         axis.grid(True, which="both", alpha=0.3)
     axes[0][0].legend(fontsize=7, ncol=2, title="dotted x: seed 002 (conv., 30 Hz)", title_fontsize=7)
@@ -146,7 +107,7 @@ def _chart(path: Path, records: list[dict], names: list[str], quality: str, titl
 
 
 def write_charts(out_dir: Path, records: list[dict]) -> None:
-    _chart(Path(out_dir) / "lab_waveform_psnr.png", records, list(WAVEFORM_NAMES) + list(MPEG4_CODECS), "psnr",
+    _chart(Path(out_dir) / "lab_waveform_psnr.png", records, list(WAVEFORM_NAMES) + list(MPEG4_CODECS), "param_psnr",
            "Waveform coders (seed 002 ch. 7) and MPEG-4 FBA/BBA: PSNR vs rate")
     _chart(Path(out_dir) / "lab_model_vpsnr.png", records, list(MODEL_NAMES) + ["dpcm", "dct"] + list(MPEG4_CODECS),
            "vpsnr", "Model-based coders (seed 002 ch. 8), two waveform coders and MPEG-4 FBA/BBA: VPSNR vs rate")

@@ -30,6 +30,7 @@ from comparisons.model_coders import (GestureCoder, HybridCoder, PostureCoder, g
 from comparisons.vector_quantization import (TABLES_DIR, SpatialVQ, TemporalVQ, load_vq_tables, spatial_vq,
                                              temporal_vq)
 from comparisons.waveform_coders import WAVEFORM_CODERS, DofCoder
+from media.domain import MODEL_NAMES, MOTION_CODER_NAMES, WAVEFORM_NAMES
 from media.errors import SigncastError
 from media.motion import Motion
 
@@ -38,9 +39,7 @@ MAGIC = b"SCL1"
 NOT_SIGNING = {"root", "pelvis", "upperleg01", "upperleg02", "lowerleg01", "lowerleg02", "foot", "toe1-1"}
 HAND_BONES = ("finger", "metacarpal")
 ARM_BONES = ("clavicle", "shoulder01", "upperarm", "lowerarm", "wrist")
-WAVEFORM_NAMES = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavelet", "svq", "tvq")
-MODEL_NAMES = ("posture", "gesture", "hybrid")
-LAB_CODEC_NAMES = WAVEFORM_NAMES + MODEL_NAMES
+LAB_CODEC_NAMES = MOTION_CODER_NAMES           # WAVEFORM_NAMES + MODEL_NAMES (media.domain)
 CODER_IDS = {name: i + 1 for i, name in enumerate(LAB_CODEC_NAMES)}
 
 

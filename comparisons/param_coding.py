@@ -32,6 +32,7 @@ import numpy as np
 
 from comparisons.bitstream import BitReader, BitWriter
 from comparisons.entropy import ArithmeticDecoder, ArithmeticEncoder, CanonicalHuffman, FrequencyModel
+from media.domain import check_q  # noqa: F401  (the FBA/BBA coders call pc.check_q)
 from media.errors import SigncastError
 
 RANGE_DELTA = 60
@@ -43,12 +44,6 @@ N_CATEGORIES = 21                            # categories 0..20
 MAX_RUN = SEGMENT - 2                        # runs of zero AC coefficients 0..14
 AC_EOB = 0
 TABLE_PATH = Path(__file__).resolve().parent / "tables" / "param_vlc.json"
-
-
-def check_q(q: int) -> int:
-    if not (isinstance(q, (int, np.integer)) and 1 <= int(q) <= 31):
-        raise SigncastError(f"bad global quantisation value Q={q}: choose an integer in 1..31")
-    return int(q)
 
 
 def quantize(values: np.ndarray, step: np.ndarray) -> np.ndarray:

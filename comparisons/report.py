@@ -1,11 +1,12 @@
 """The comparison report: one self-contained HTML page (plots embedded as PNG) made from records only.
 
-Records are dicts as written to records.jsonl. Measured points carry at least solution, codec, q, fps,
-kbps, width and height. Points with a picture (width and height > 0: `signcast compare`, `demo`, `video`)
-carry image quality where measured: psnr / ssim (whole frame), psnr_skin / ssim_skin (face and hands)
-and psnr_object (inside the sent objects), each against that point's reference frames (see `reference`).
-Points without a picture (width = height = 0: `signcast params`, `lab`) measure the animation parameters
-themselves: their psnr is parameter-domain (seed 000 eq. 2.6), with vpsnr and joint errors in mm, against
+Records are dicts as read_records returns them (comparisons.records.Record.to_json; records given in
+memory are brought to that form first, legacy names renamed). Measured points carry at least solution,
+codec, q, fps, kbps, width and height. Points with a picture (width and height > 0: `signcast compare`,
+`demo`, `video`) carry image quality where measured: image_psnr / ssim (whole frame), skin_psnr / skin_ssim
+(face and hands) and object_psnr (inside the sent objects), each against that point's reference frames (see
+`reference`). Points without a picture (width = height = 0: `signcast params`, `lab`) measure the animation
+parameters themselves: param_psnr (parameter domain, seed 000 eq. 2.6), vpsnr and joint errors in mm, against
 the motion before coding; the report never puts the two kinds of PSNR in one column or chart.
 A record with kind == "stage" carries a stage's wall time (stage, wall_s); one with kind == "run" carries
 the software versions and the backend. Points flagged operating_point == True are the solutions'
@@ -26,18 +27,21 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from comparisons.criteria import SOLUTIONS, criteria_table  # noqa: E402
+from comparisons.records import normalize_records  # noqa: E402
 from comparisons.video_codecs import CODECS as VIDEO_CODECS  # noqa: E402
+from media.domain import BBA, FBA, PARAMETER_SOLUTIONS, SOLUTION_ORDER  # noqa: E402
 from media.errors import SigncastError  # noqa: E402
 
 REQUIREMENTS = (("broadcast", 100.0), ("webcast", 56.0), ("phone line", 64.0))
 MIN_COMFORT_FPS = 15.0
-SOLUTION_ORDER = ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "FBA", "BBA")
-RENDERED_SOLUTIONS = ("SSV", "FBA", "BBA")   # pictures of the avatar: measured against its lossless render
+RENDERED_SOLUTIONS = ("SSV", FBA, BBA)   # pictures of the avatar: measured against its lossless render
 # Today's video codecs, coded at matched quality; their quantiser is on their own scale, not MPEG-4's Q 1-31.
 OTHER_VIDEO_CODECS = {"libx264": "H.264", "libsvtav1": "AV1"}
 # One colour per series: ten distinct colours, then their light shades (drawn with another marker).
 PALETTE = (*plt.get_cmap("tab10").colors, *plt.get_cmap("tab20").colors[1::2])
 MARKERS = ("o", "^", "v", "<", ">")
+# An image metric's record fields: (whole frame, face and hands)
+IMAGE_METRICS = {"psnr": ("image_psnr", "skin_psnr"), "ssim": ("ssim", "skin_ssim")}
 
 
 def points(records: list[dict]) -> list[dict]:
@@ -217,7 +221,9 @@ def chart_kbps_vs_fps(records: list[dict], styles: dict | None = None):
 
 
 def _picture_points(records: list[dict], metric: str) -> list[dict]:
-    return [r for r in points(records) if has_picture(r) and r.get(metric) is not None and r.get("full_resolution", True)]
+    """Points with a picture measured with metric ("psnr" or "ssim") over the whole frame."""
+    field = IMAGE_METRICS[metric][0]
+    return [r for r in points(records) if has_picture(r) and r.get(field) is not None and r.get("full_resolution", True)]
 
 
 def measured_against(records: list[dict]) -> str:
@@ -231,19 +237,20 @@ def chart_rate_quality(records: list[dict], metric: str, styles: dict | None = N
     """Image quality (metric: "psnr" or "ssim"; whole frame and face-and-hands region) against kbps, each against
     the point's reference frames: each series' quantizer sweep at its top frame rate as a line, today's codecs at
     matched quality as single open markers. Points without a picture are left out."""
+    records = normalize_records(records)
     styles = styles or series_styles(records)
     figure, panels = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
     measured = _picture_points(records, metric)
-    for panel, suffix, title in ((panels[0], "", "whole frame (unsent pixels count as error)"),
-                                 (panels[1], "_skin", "face and hands")):
-        swept = [r for r in measured if r.get("sweep") in ("q", None) and r.get(metric + suffix) is not None]
+    for panel, field, title in ((panels[0], IMAGE_METRICS[metric][0], "whole frame (unsent pixels count as error)"),
+                                (panels[1], IMAGE_METRICS[metric][1], "face and hands")):
+        swept = [r for r in measured if r.get("sweep") in ("q", None) and r.get(field) is not None]
         for name, group in _groups(swept, _series_key).items():
-            rows = [r for r in _by_quantiser(_top_rate(group)[1], ("kbps", metric + suffix)) if r[metric + suffix] is not None]
+            rows = [r for r in _by_quantiser(_top_rate(group)[1], ("kbps", field)) if r[field] is not None]
             rows.sort(key=lambda r: r["kbps"])
-            panel.plot([r["kbps"] for r in rows], [r[metric + suffix] for r in rows], "-", ms=4, label=name, **styles[name])
-        for r in (r for r in measured if r.get("sweep") == "codec" and r.get(metric + suffix) is not None):
+            panel.plot([r["kbps"] for r in rows], [r[field] for r in rows], "-", ms=4, label=name, **styles[name])
+        for r in (r for r in measured if r.get("sweep") == "codec" and r.get(field) is not None):
             name = _series_key(r)
-            panel.plot([r["kbps"]], [r[metric + suffix]], "D" if "264" in r["codec"] else "s", mfc="none", ms=7,
+            panel.plot([r["kbps"]], [r[field]], "D" if "264" in r["codec"] else "s", mfc="none", ms=7,
                        color=styles[name]["color"], label=f"{name} (matched quality)")
         for label, limit in REQUIREMENTS:
             panel.axvline(limit, color="grey", ls=":", lw=1)
@@ -275,10 +282,11 @@ def _parameter_points(records: list[dict]) -> list[dict]:
 def chart_parameter_quality(records: list[dict], styles: dict | None = None):
     """Parameter-domain PSNR (seed 000 eq. 2.6) and VPSNR against kbps, against the motion before coding, for
     points without a picture; each series at its top frame rate, averaged over clips per quantiser."""
+    records = normalize_records(records)
     styles = styles or series_styles(records)
     figure, panels = plt.subplots(1, 2, figsize=(12, 4.8))
     measured = _parameter_points(records)
-    for panel, metric, title in ((panels[0], "psnr", "parameter PSNR (seed 000 eq. 2.6)"),
+    for panel, metric, title in ((panels[0], "param_psnr", "parameter PSNR (seed 000 eq. 2.6)"),
                                  (panels[1], "vpsnr", "VPSNR (velocity)")):
         for name, group in _groups([r for r in measured if r.get(metric) is not None], _series_key).items():
             fps, top = _top_rate(group)
@@ -287,7 +295,7 @@ def chart_parameter_quality(records: list[dict], styles: dict | None = None):
                        label=f"{name} ({fps:g} fps{_clips_note(rows[0]['clips'])})", **styles[name])
         panel.set_xscale("log")
         panel.set_xlabel("kbps")
-        panel.set_ylabel(f"{metric.upper()} dB")
+        panel.set_ylabel(f"{metric.replace('param_', '').upper()} dB")
         panel.set_title(title)
         panel.grid(True, which="both", alpha=0.3)
     figure.suptitle("Against the motion before coding (full-precision BAPs, rotation BAPs that move); "
@@ -353,8 +361,8 @@ def _picture_summary(records: list[dict]) -> str:
     rows = [r for r in operating_points(records) if has_picture(r)]
     heading = "Summary at the operating points" if rows else "Summary: the quantizer sweep"
     if rows:
-        video = [r for r in rows if r["solution"] not in ("FBA", "BBA")]
-        params = [r for r in rows if r["solution"] in ("FBA", "BBA")]
+        video = [r for r in rows if r["solution"] not in PARAMETER_SOLUTIONS]
+        params = [r for r in rows if r["solution"] in PARAMETER_SOLUTIONS]
         parts = []
         if video:
             parts.append(f"video solutions at MPEG-4 Q = {_list(r['q'] for r in video)} and "
@@ -369,13 +377,13 @@ def _picture_summary(records: list[dict]) -> str:
                       key=lambda r: (_order(r["solution"]), r.get("codec", ""), r.get("q") or 0))
         intro = "No point is flagged as an operating point: every quantizer of the sweep is listed."
     joint = any(r.get("joint_error_mm_mean") is not None for r in rows)
-    dropped = [r["solution"] for r in rows if r.get("psnr_object") is not None]
+    dropped = [r["solution"] for r in rows if r.get("object_psnr") is not None]
     table_rows = []
     for r in rows:
-        mark = " *" if r.get("psnr_object") is not None else ""
+        mark = " *" if r.get("object_psnr") is not None else ""
         cells = [_fmt(r["solution"]), _fmt(r.get("codec")), _fmt(quantiser(r)), _fmt(float(r["fps"]), 0),
-                 _fmt(float(r["kbps"]), 2), _fmt(reference(r)), _fmt(r.get("psnr_skin"), 2), _fmt(r.get("ssim_skin"), 3),
-                 _fmt(r.get("psnr"), 2) + mark, _fmt(r.get("ssim"), 3) + mark]
+                 _fmt(float(r["kbps"]), 2), _fmt(reference(r)), _fmt(r.get("skin_psnr"), 2), _fmt(r.get("skin_ssim"), 3),
+                 _fmt(r.get("image_psnr"), 2) + mark, _fmt(r.get("ssim"), 3) + mark]
         if joint:
             cells.append(_fmt(r.get("joint_error_mm_mean"), 2))
         table_rows.append(cells + [_meets(r["kbps"])])
@@ -397,7 +405,7 @@ def _picture_summary(records: list[dict]) -> str:
 
 def _parameter_summary(records: list[dict]) -> str:
     """Points without a picture, per series and quantiser, averaged over clips."""
-    fields = ("kbps", "psnr", "vpsnr", "joint_error_mm_mean")
+    fields = ("kbps", "param_psnr", "vpsnr", "joint_error_mm_mean")
     rows = []
     for name, group in _groups(_parameter_points(records), _series_key).items():
         for fps, same_fps in sorted(_groups(group, lambda r: r["fps"]).items(), key=lambda kv: -kv[0]):
@@ -405,7 +413,7 @@ def _parameter_summary(records: list[dict]) -> str:
                 first = row["record"]
                 rows.append([_fmt(first["solution"]), _fmt(first.get("codec")), _fmt(quantiser(first)), _fmt(float(fps), 0),
                              _clips(row["clips"]), "motion before coding (full-precision BAPs)", _fmt(row["kbps"], 2),
-                             _fmt(row["psnr"], 2), _fmt(row["vpsnr"], 2), _fmt(row["joint_error_mm_mean"], 2)])
+                             _fmt(row["param_psnr"], 2), _fmt(row["vpsnr"], 2), _fmt(row["joint_error_mm_mean"], 2)])
     return ("<h2>Summary: parameter coding</h2><p>These points have no pictures: they measure the animation parameters "
             "themselves, each clip's coded and decoded motion against the same motion before coding. Their PSNR is "
             "parameter-domain (seed 000 eq. 2.6, over the rotation BAPs that move), not image PSNR: do not compare it "
@@ -464,7 +472,7 @@ def _every_point(records: list[dict]) -> str:
                                             "SSIM whole frame"],
                                  [[_fmt(r["solution"]), _fmt(r.get("codec")), _fmt(r.get("clip")), _fmt(quantiser(r)),
                                    _fmt(float(r["fps"]), 0), f"{r['width']}×{r['height']}", _fmt(float(r["kbps"]), 2),
-                                   _fmt(r.get("psnr_skin"), 2), _fmt(r.get("psnr_object"), 2), _fmt(r.get("psnr"), 2),
+                                   _fmt(r.get("skin_psnr"), 2), _fmt(r.get("object_psnr"), 2), _fmt(r.get("image_psnr"), 2),
                                    _fmt(r.get("ssim"), 3)] for r in pictures]))
     parameters = sorted(_parameter_points(records), key=order)
     # Without clips to average over, the parameter summary already lists every point.
@@ -472,7 +480,7 @@ def _every_point(records: list[dict]) -> str:
         html_parts.append(_table("parameter_points", ["solution", "codec", "clip", "quantiser", "fps", "kbps",
                                                       "parameter PSNR dB", "VPSNR dB", "joint error mm mean", "max"],
                                  [[_fmt(r["solution"]), _fmt(r.get("codec")), _fmt(r.get("clip")), _fmt(quantiser(r)),
-                                   _fmt(float(r["fps"]), 0), _fmt(float(r["kbps"]), 2), _fmt(r.get("psnr"), 2),
+                                   _fmt(float(r["fps"]), 0), _fmt(float(r["kbps"]), 2), _fmt(r.get("param_psnr"), 2),
                                    _fmt(r.get("vpsnr"), 2), _fmt(r.get("joint_error_mm_mean"), 2),
                                    _fmt(r.get("joint_error_mm_max"), 2)] for r in parameters]))
     return "".join(html_parts) if len(html_parts) > 1 else ""
@@ -499,6 +507,7 @@ def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes
     Raises SigncastError when the records hold no measured point.
     """
     out_path = Path(out_path)
+    records = normalize_records(records)
     measured = points(records)
     if not measured:
         kinds = _list(sorted({str(r.get("kind", "point")) for r in records})) or "none"
@@ -534,7 +543,7 @@ def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes
                         "error; the face-and-hands region carries the message.</p>"
                         + "".join(_image(f"{metric}_vs_kbps", _png(chart_rate_quality(records, metric, styles)), alt)
                                   for metric, alt in charts))
-    if any(r.get("psnr") is not None or r.get("vpsnr") is not None for r in parameters):
+    if any(r.get("param_psnr") is not None or r.get("vpsnr") is not None for r in parameters):
         sections.append("<h2>Rate and parameter quality</h2><p>Each clip's decoded parameters against the same motion before "
                         "coding (full-precision BAPs); parameter PSNR and VPSNR are not image figures.</p>"
                         + _image("parameter_quality", _png(chart_parameter_quality(records, styles)),

@@ -25,10 +25,6 @@ from media.errors import SigncastError
 ASSET_DIR = Path(__file__).resolve().parent / "assets"
 DEFAULT_AVATAR = ASSET_DIR / "makehuman_base.npz"
 
-PART_BACKGROUND, PART_BODY, PART_HEAD, PART_LEFT_HAND, PART_RIGHT_HAND = 0, 1, 2, 3, 4
-PART_NAMES = {0: "background", 1: "body", 2: "head", 3: "left_hand", 4: "right_hand"}
-SKIN_PARTS = (PART_HEAD, PART_LEFT_HAND, PART_RIGHT_HAND)
-
 
 @dataclass(frozen=True)
 class Skeleton:

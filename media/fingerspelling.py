@@ -12,23 +12,17 @@ rises and the last one drops. A space holds the last pose for a short pause. Not
 from __future__ import annotations
 
 import functools
-import math
 
 import numpy as np
 
 from media import lexicon, rotations
+from media.domain import check_fps
 from media.errors import SigncastError
 from media.motion import Motion, resample
 from media.retarget import retarget_clip
 
 TRANSITION_S = 0.12     # cross-fade between letters (3 frames at 25 fps)
 PAUSE_S = 0.3           # hold for a space between words
-
-
-def check_fps(fps: float) -> float:
-    if not (isinstance(fps, (int, float)) and math.isfinite(fps) and 0 < fps <= 240):
-        raise SigncastError(f"bad frame rate {fps}: choose a value in (0, 240], e.g. 10, 15, 20 or 25")
-    return float(fps)
 
 
 RISE_SPEED = 0.15       # palm lengths per 1/25 s: faster vertical wrist motion at a clip's ends is the approach/retreat
@@ -77,7 +71,7 @@ def letter_motion(language: str, unit: str, fps: float = 25.0, *, keep_rise: boo
 
     keep_rise / keep_drop: keep the clip's frames of the hand rising into place / dropping away.
     """
-    fps = check_fps(fps)
+    fps = check_fps(fps, "frame rate")
     language = lexicon.check_language(language)
     entry = lexicon.lookup(language, unit)
     motion, (start, stop) = _native_letter(language, entry.unit)
@@ -108,7 +102,7 @@ def fingerspell(language: str, word: str, fps: float = 25.0) -> Motion:
     Raises SigncastError for an unknown language, a letter the language's lexicon lacks, an
     empty word or a bad frame rate; the message names what exists.
     """
-    fps = check_fps(fps)
+    fps = check_fps(fps, "frame rate")
     language = lexicon.check_language(language)
     units = lexicon.split_word(language, word)
     transition = max(1, int(round(TRANSITION_S * fps)))

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from media import rotations
+from media.domain import check_fps
 from media.errors import SigncastError
 
 SUPPORTED_FPS = (10.0, 15.0, 20.0, 25.0, 29.97, 30.0)
@@ -101,8 +102,7 @@ def resample(motion: Motion, fps: float) -> Motion:
     Frames are taken at t = k / fps for k = 0 .. floor(duration * fps - eps); values between
     source frames are interpolated (slerp for rotations, linear for translation).
     """
-    if not (np.isfinite(fps) and 0 < fps <= 240):
-        raise SigncastError(f"bad frame rate {fps}: choose a value in (0, 240], e.g. 10, 15, 20 or 25")
+    fps = check_fps(fps, "frame rate")
     if abs(fps - motion.fps) < 1e-9:
         return motion.copy()
     last_time = (motion.n_frames - 1) / motion.fps

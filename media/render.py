@@ -15,35 +15,14 @@ import numpy as np
 from kernels import backends, camera, muscles, raster, skinning
 from kernels.errors import KernelError
 from media.avatar import Avatar
+from media.domain import BODY, CLOTHES, DEFAULT_SIZE, EYE_WHITE, IRIS, SKIN_TONE
 from media.errors import SigncastError
 from media.kinematics import bone_matrices, joint_positions
 from media.motion import Motion
 from media.muscles import activations, muscle_influence, stacked_control_points
 
-DEFAULT_SIZE = (352, 288)
-SIZES = {"cif": (352, 288), "qcif": (176, 144), "ssv": (400, 340)}
 LOOKS = raster.LOOKS
 BACKENDS = backends.CHOICES
-
-SKIN_TONE = (226, 176, 146)
-CLOTHES = (46, 52, 70)
-EYE_WHITE = (236, 232, 226)
-IRIS = (70, 48, 34)
-
-
-def parse_size(text: str) -> tuple[int, int]:
-    """'352x288' (or 'cif', 'qcif', 'ssv') -> (width, height) in pixels."""
-    key = str(text).strip().lower()
-    if key in SIZES:
-        return SIZES[key]
-    parts = key.split("x")
-    try:
-        width, height = (int(p) for p in parts)
-    except ValueError:
-        raise SigncastError(f"bad size {text!r}: write WIDTHxHEIGHT, e.g. 352x288, 400x340 or 176x144") from None
-    if not (16 <= width <= 4096 and 16 <= height <= 4096):
-        raise SigncastError(f"bad size {text!r}: width and height must lie in 16..4096 pixels")
-    return width, height
 
 
 def check_backend(backend: str) -> str:
@@ -88,7 +67,7 @@ def signing_space_camera(avatar: Avatar, width: int, height: int) -> np.ndarray:
 
 def triangle_colours(avatar: Avatar) -> np.ndarray:
     """(F, 3) uint8 albedo for the shaded look: skin for head and hands, dark clothes, eyes white with an iris."""
-    colour = np.where((avatar.triangle_part == 1)[:, None], CLOTHES, SKIN_TONE).astype(np.uint8)
+    colour = np.where((avatar.triangle_part == BODY)[:, None], CLOTHES, SKIN_TONE).astype(np.uint8)
     for shape, name in enumerate(avatar.shape_names):
         if "eye" not in name:
             continue

@@ -1,41 +1,18 @@
 """Checks the commands run on their arguments before the work: frame size bounds, a memory estimate, codec names.
 
-The one place that holds the limits: every command that takes a frame size (`render`, `video --ssv`, `compare`,
-`demo`) parses it with parse_size / check_size and, once it knows the frame count, calls check_memory with the
-bytes per pixel it will hold.
+Every command that takes a frame size (`render`, `video --ssv`, `compare`, `demo`) parses it with parse_size /
+check_size (the rule itself is media.domain's, re-exported here) and, once it knows the frame count, calls
+check_memory with the bytes per pixel it will hold.
 """
 from __future__ import annotations
 
 import os
 
+from media.domain import check_size, parse_size  # noqa: F401  (re-exported for the commands)
 from media.errors import SigncastError
 
-MIN_SIDE, MAX_SIDE = 32, 1920         # pixels; even sizes only (4:2:0 video and the half-resolution sweep)
 MEMORY_LIMIT_VARIABLE = "SIGNCAST_MEMORY_LIMIT_MB"
 NO_CODECS = ("none", "")
-
-
-def check_size(width: int, height: int, option: str = "--size") -> tuple[int, int]:
-    """(width, height) in pixels if both are even and within MIN_SIDE..MAX_SIDE, else SigncastError."""
-    if not (MIN_SIDE <= width <= MAX_SIDE and MIN_SIDE <= height <= MAX_SIDE) or width % 2 or height % 2:
-        raise SigncastError(f"bad size {width}x{height} for {option}: width and height must be even numbers in "
-                            f"{MIN_SIDE}..{MAX_SIDE} pixels, e.g. 352x288, 400x340 or 176x144")
-    return width, height
-
-
-def parse_size(text: str, option: str = "--size") -> tuple[int, int]:
-    """'352x288' (or a name: cif, qcif, ssv) -> (width, height) in pixels, checked by check_size."""
-    from media.render import SIZES
-
-    key = str(text).strip().lower()
-    if key in SIZES:
-        return check_size(*SIZES[key], option)
-    try:
-        width, height = (int(part) for part in key.split("x"))
-    except ValueError:
-        raise SigncastError(f"bad size {text!r} for {option}: write WIDTHxHEIGHT, e.g. 352x288, 400x340 or "
-                            f"176x144") from None
-    return check_size(width, height, option)
 
 
 def memory_limit_bytes() -> int:

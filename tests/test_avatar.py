@@ -4,7 +4,8 @@ import pytest
 
 from media import rotations
 from kernels.skinning import SkinWeights
-from media.avatar import PART_BODY, PART_HEAD, PART_LEFT_HAND, PART_RIGHT_HAND, BoneTransform, load_avatar
+from media.avatar import BoneTransform, load_avatar
+from media.domain import BODY, HEAD, LEFT_HAND, RIGHT_HAND
 from media.errors import SigncastError
 from media.influence import InfluenceVolume, affectedness, dominant_agreement, falloff, fit_volumes, influence_weights
 
@@ -21,11 +22,11 @@ def test_avatar_keeps_body_skin_and_eyes_in_metres(avatar):
 def test_avatar_parts_follow_the_body(avatar):
     centroid = avatar.vertices[avatar.triangles].mean(axis=1)
     part = avatar.triangle_part
-    assert set(np.unique(part)) == {PART_BODY, PART_HEAD, PART_LEFT_HAND, PART_RIGHT_HAND}
-    assert centroid[part == PART_HEAD, 1].mean() > 0.6                      # the head is on top
-    assert centroid[part == PART_LEFT_HAND, 0].mean() > 0.35               # the avatar's left is +X
-    assert centroid[part == PART_RIGHT_HAND, 0].mean() < -0.35
-    assert np.count_nonzero(part == PART_LEFT_HAND) == np.count_nonzero(part == PART_RIGHT_HAND)
+    assert set(np.unique(part)) == {BODY, HEAD, LEFT_HAND, RIGHT_HAND}
+    assert centroid[part == HEAD, 1].mean() > 0.6                      # the head is on top
+    assert centroid[part == LEFT_HAND, 0].mean() > 0.35               # the avatar's left is +X
+    assert centroid[part == RIGHT_HAND, 0].mean() < -0.35
+    assert np.count_nonzero(part == LEFT_HAND) == np.count_nonzero(part == RIGHT_HAND)
 
 
 def test_skeleton_is_ordered_parents_first_with_joints_on_the_mesh(avatar):
@@ -49,7 +50,7 @@ def test_skin_weights_are_normalised_rows(avatar):
     assert np.allclose(sums, 1.0, atol=1e-5)
     assert weights.n_vertices == len(avatar.vertices)
     dominant = weights.dominant_bone()
-    assert avatar.skeleton.names[dominant[avatar.triangles[avatar.triangle_part == PART_LEFT_HAND][0, 0]]].endswith(".L")
+    assert avatar.skeleton.names[dominant[avatar.triangles[avatar.triangle_part == LEFT_HAND][0, 0]]].endswith(".L")
 
 
 def test_bone_transform_composes_eq_3_5():
@@ -91,7 +92,7 @@ def test_influence_volume_weights_agree_with_makehuman(avatar):
     volumes = fit_volumes(avatar.vertices.astype(np.float64), skeleton, bones)
     computed = influence_weights(avatar.vertices, skeleton, bones, volumes)
     overall = dominant_agreement(computed, reference)
-    hands = dominant_agreement(computed, reference, np.isin(avatar.vertex_part(), [PART_LEFT_HAND, PART_RIGHT_HAND]))
+    hands = dominant_agreement(computed, reference, np.isin(avatar.vertex_part(), [LEFT_HAND, RIGHT_HAND]))
     print(f"dominant bone agreement with MakeHuman weights: {overall:.1%} overall, {hands:.1%} on the hands")
     assert overall > 0.5 and hands > 0.75
     assert np.allclose(np.add.reduceat(computed.values, computed.indptr[:-1]), 1.0, atol=1e-5)

@@ -8,9 +8,10 @@ import pytest
 
 from media.video_io import read_video
 from pipeline.cli import main
-from pipeline.compare import CompareSettings, run_compare
+from pipeline.studies.compare import CompareSettings, run as run_compare
+from pipeline.studies.video import VideoSweep
 
-SMALL = CompareSettings(word="AB", video_qs=(12, 31), frame_rates=(25.0, 10.0), other_codecs=(),
+SMALL = CompareSettings(word="AB", video=VideoSweep(qs=(12, 31), frame_rates=(25.0, 10.0), other_codecs=()),
                         param_codecs=("fba-pred", "bba-key"), param_qs=(2, 31), size=(176, 144), max_clip_frames=48)
 
 

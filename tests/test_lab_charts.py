@@ -3,22 +3,25 @@ import json
 
 import pytest
 
-from comparisons.lab_charts import operating_ranges, run_lab
+from comparisons.lab_charts import operating_ranges
+from pipeline.studies import lab
 from pipeline.cli import main
 
 
 @pytest.mark.slow
 def test_lab_measures_every_operating_point_and_writes_charts(tmp_path):
-    records = run_lab(tmp_path, ["ase"], ["dct", "posture", "fba-pred"], mpeg4_q=(8, 31))
+    records = lab.run(lab.LabSettings(("ase",), ("dct", "posture", "fba-pred"), mpeg4_q=(8, 31)), tmp_path)
     by_codec = {}
     for r in records:
         by_codec.setdefault(r["codec"], []).append(r)
     assert len(by_codec["dct"]) == 6 and len(by_codec["posture"]) == 10 and len(by_codec["fba-pred"]) == 2
+    assert {(r["codec"], r["solution"]) for r in records} == {("dct", "motion coder"), ("posture", "motion coder"),
+                                                              ("fba-pred", "FBA")}
     for r in records:
         assert r["clip"] == "ase:alphabet" and r["bits"] > 0 and r["frames"] > 300
         assert r["kbps"] == pytest.approx(r["bits"] / r["duration_s"] / 1000)
     dct = sorted(by_codec["dct"], key=lambda r: r["q"])
-    assert dct[-1]["kbps"] > dct[0]["kbps"] and dct[-1]["psnr"] > dct[0]["psnr"]
+    assert dct[-1]["kbps"] > dct[0]["kbps"] and dct[-1]["param_psnr"] > dct[0]["param_psnr"]
     # model-based coding works at a fraction of the waveform coders' rate
     assert max(r["kbps"] for r in by_codec["posture"]) < min(r["kbps"] for r in by_codec["dct"])
     ranges = {row["codec"]: row for row in operating_ranges(records)}
@@ -30,7 +33,7 @@ def test_lab_measures_every_operating_point_and_writes_charts(tmp_path):
 
 
 def test_lab_command_rejects_unknown_codecs_and_languages(tmp_path, capsys):
-    assert main(["lab", "ase", "--codec", "mp3", "--out", str(tmp_path)]) == 2
-    assert main(["lab", "xx", "--codec", "dct", "--out", str(tmp_path)]) == 2
-    assert main(["lab", "ase", "--codec", "dct", "--fba-q", "0", "--out", str(tmp_path)]) == 2
+    assert main(["lab", "ase", "--codecs", "mp3", "--out", str(tmp_path)]) == 2
+    assert main(["lab", "xx", "--codecs", "dct", "--out", str(tmp_path)]) == 2
+    assert main(["lab", "ase", "--codecs", "dct", "--param-q", "0", "--out", str(tmp_path)]) == 2
     assert capsys.readouterr().err.count("error") == 3

@@ -16,7 +16,7 @@ def carphone():
 
 
 def _run(capsys, *args):
-    code = main(["video", *map(str, args), "--q", "12", "--codecs", "--no-progress"])
+    code = main(["video", *map(str, args), "--video-q", "12", "--video-codecs", "none", "--no-progress"])
     captured = capsys.readouterr()
     return code, captured.out, captured.err
 

@@ -41,7 +41,7 @@ def test_every_codec_decodes_real_fingerspelling_close_to_the_original(name):
 @pytest.mark.slow
 def test_params_command_writes_records_table_and_plot(tmp_path, capsys):
     out = tmp_path / "params"
-    assert main(["params", "ase", "AB", "--codec", "fba-pred,bba-dct", "--q", "2,16", "--fps", "10", "--out", str(out)]) == 0
+    assert main(["params", "ase", "AB", "--codecs", "fba-pred,bba-dct", "--param-q", "2,16", "--fps", "10", "--out", str(out)]) == 0
     records = [json.loads(line) for line in (out / "records.jsonl").read_text().splitlines()]
     assert len(records) == 2 * 2 * 2
     for record in records:
@@ -54,7 +54,7 @@ def test_params_command_writes_records_table_and_plot(tmp_path, capsys):
     assert "fba-pred" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("args", [["--q", "0"], ["--codec", "fba-nope"], ["--fps", "0"]])
+@pytest.mark.parametrize("args", [["--param-q", "0"], ["--codecs", "fba-nope"], ["--fps", "0"]])
 def test_params_command_rejects_bad_arguments_with_exit_code_2(tmp_path, args, capsys):
     assert main(["params", "ase", "A", "--out", str(tmp_path)] + args) == 2
     assert "error" in capsys.readouterr().err
@@ -74,11 +74,13 @@ def test_every_codec_rejects_single_bit_errors(name):
 
 def test_params_alphabet_draws_the_seed_002_charts(tmp_path):
     from pipeline.cli import main
-    assert main(["params", "ase", "--alphabet", "--codec", "dpcm,fba-pred", "--q", "8", "--out", str(tmp_path)]) == 0
+    assert main(["params", "ase", "--alphabet", "--codecs", "dpcm,fba-pred", "--param-q", "8", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "lab_waveform_psnr.png").stat().st_size > 10_000
     from comparisons.records import read_records
-    codecs = {r["codec"] for r in read_records(tmp_path / "records.jsonl") if r.get("kind", "point") == "point"}
-    assert codecs == {"dpcm", "fba-pred"}
+    points = [r for r in read_records(tmp_path / "records.jsonl") if r.get("kind", "point") == "point"]
+    assert {r["codec"] for r in points} == {"dpcm", "fba-pred"}
+    # dpcm is a seed-002 motion coder, not an MPEG-4 FBA stream: its records say so
+    assert {(r["codec"], r["solution"]) for r in points} == {("dpcm", "motion coder"), ("fba-pred", "FBA")}
 
 
 def test_params_without_letters_or_alphabet_is_a_clear_error(tmp_path, capsys):

@@ -6,7 +6,8 @@ from media.errors import SigncastError
 from media.kinematics import bone_matrices, joint_positions
 from media.motion import Motion
 from media.muscles import activations
-from media.render import AvatarRenderer, RenderSettings, parse_size, render_motion
+from media.domain import parse_size
+from media.render import AvatarRenderer, RenderSettings, render_motion
 
 
 def bent_elbow(avatar, degrees: float, side: str = "R") -> Motion:
@@ -23,7 +24,7 @@ def bent_elbow(avatar, degrees: float, side: str = "R") -> Motion:
 def test_sizes_parse_and_bad_sizes_fail_with_one_line():
     assert parse_size("352x288") == (352, 288) and parse_size("400x340") == (400, 340) and parse_size("qcif") == (176, 144)
     for bad in ("352", "axb", "10x10", "352x288x3"):
-        with pytest.raises(SigncastError, match=rf"^bad size '{bad}': "):
+        with pytest.raises(SigncastError, match=rf"^bad size '{bad}' for --size: "):
             parse_size(bad)
 
 

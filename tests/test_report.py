@@ -24,15 +24,15 @@ def _records():
         picture = {"clip": clip, "width": width, "height": height}
         for q in (2, 12, 31):
             records.append({"solution": solution, "codec": "mpeg4", "q": q, "fps": 25.0, "kbps": (3.0 + base) * (12 / q) ** 0.8,
-                            "psnr": 45 - 0.5 * q, "psnr_skin": 44 - 0.5 * q, "ssim": 0.99 - 0.005 * q,
-                            "ssim_skin": 0.98 - 0.005 * q, "sweep": "q", "operating_point": q == 12, **picture})
+                            "image_psnr": 45 - 0.5 * q, "skin_psnr": 44 - 0.5 * q, "ssim": 0.99 - 0.005 * q,
+                            "skin_ssim": 0.98 - 0.005 * q, "sweep": "q", "operating_point": q == 12, **picture})
             if solution != "NSV":                        # object solutions: the background is not sent
-                records[-1].update(psnr=8.0, psnr_object=42 - 0.5 * q, ssim=0.1)
+                records[-1].update(image_psnr=8.0, object_psnr=42 - 0.5 * q, ssim=0.1)
         for fps in (10.0, 15.0, 20.0):
             records.append({"solution": solution, "codec": "mpeg4", "q": 12, "fps": fps, "kbps": 3.0 + base * fps / 25,
                             "sweep": "fps", **picture})
     for q, kbps in ((1, 20.0), (8, 6.0)):
-        records.append({"solution": "FBA", "codec": "fba-pred", "q": q, "fps": 25.0, "kbps": kbps, "psnr": 40.0 - q,
+        records.append({"solution": "FBA", "codec": "fba-pred", "q": q, "fps": 25.0, "kbps": kbps, "image_psnr": 40.0 - q,
                         "sweep": "q", "operating_point": q == 8, "clip": "ase-HELLO", "width": 352, "height": 288})
     return records
 
@@ -121,7 +121,7 @@ def test_quantiser_cells_keep_h264_and_av1_scales_apart_from_mpeg4_q():
     assert quantiser({**point, "codec": "mpeg4"}) == "Q 12 (+31 clothes)"
     assert quantiser({"solution": "NSV", "codec": "libx264", "q": 37}) == "H.264 QP 37 (0-51)"
     assert quantiser({"solution": "NSV", "codec": "libsvtav1", "q": 55}) == "AV1 QP 55 (1-63)"
-    assert quantiser({"solution": "FBA", "codec": "dpcm", "q": 3, "setting": "16"}) == "setting 3 (16)"
+    assert quantiser({"solution": "motion coder", "codec": "dpcm", "q": 3, "setting": "16"}) == "setting 3 (16)"
 
 
 def test_every_codec_gets_its_own_colour_in_the_charts():
@@ -129,7 +129,7 @@ def test_every_codec_gets_its_own_colour_in_the_charts():
     for codec in ("fba-dct", "bba-pred", "bba-dct", "bba-key"):
         for q, kbps in ((1, 18.0), (8, 7.0)):
             records.append({"solution": "BBA" if codec.startswith("bba") else "FBA", "codec": codec, "q": q, "fps": 25.0,
-                            "kbps": kbps, "psnr": 40.0 - q, "psnr_skin": 30.0 - q, "sweep": "q", "clip": "ase-HELLO",
+                            "kbps": kbps, "image_psnr": 40.0 - q, "skin_psnr": 30.0 - q, "sweep": "q", "clip": "ase-HELLO",
                             "width": 352, "height": 288})
     records.append({**records[3], "codec": "libx264", "q": 30, "sweep": "codec", "operating_point": False})
     figure = chart_kbps_vs_q(records)
@@ -161,9 +161,9 @@ def command_records(tmp_path_factory):
     def make(kind: str) -> Path:
         if kind not in made:
             out = tmp_path_factory.mktemp(kind)
-            args = {"params": ["params", "ase", "AB", "--codec", "fba-pred,bba-dct", "--q", "4,16", "--fps", "10"],
-                    "lab": ["lab", "ase", "--codec", "dpcm,fba-pred", "--fba-q", "4,16"],
-                    "video": ["video", "--video", "carphone", "--frames", "12", "--q", "12", "31", "--codecs", "libx264",
+            args = {"params": ["params", "ase", "AB", "--codecs", "fba-pred,bba-dct", "--param-q", "4,16", "--fps", "10"],
+                    "lab": ["lab", "ase", "--codecs", "dpcm,fba-pred", "--param-q", "4,16"],
+                    "video": ["video", "--video", "carphone", "--frames", "12", "--video-q", "12,31", "--video-codecs", "libx264",
                               "--no-progress"]}[kind]
             assert main([*args, "--out", str(out)]) == 0
             made[kind] = out / "records.jsonl"
@@ -197,6 +197,8 @@ def test_report_on_lab_records_keeps_coder_settings_apart_from_quantisers(comman
     _assert_nothing_empty_or_broken(page)
     summary = page.tables["parameter_summary"]
     assert {row[1] for row in summary} == {"dpcm", "fba-pred"}
+    # FBA's rows first, then the motion coder's (media.domain.SOLUTION_ORDER)
+    assert [row[0] for row in summary] == ["FBA"] * 2 + ["motion coder"] * (len(summary) - 2)
     assert all(row[2].startswith("setting ") for row in summary if row[1] == "dpcm")
     assert [row[2] for row in summary if row[1] == "fba-pred"] == ["Q 4", "Q 16"]
     assert set(page.charts) == {"kbps_vs_q", "parameter_quality"}

@@ -28,7 +28,7 @@ def synthetic_signer(frames=4, height=96, width=128, seed=0):
         picture = np.empty((height, width, 3), np.float64)
         picture[:] = BACKGROUND_RGB
         picture[label == seg.BODY] = CLOTHES_RGB
-        picture[np.isin(label, seg.SKIN_LABELS)] = SKIN_RGB
+        picture[np.isin(label, seg.SKIN_PARTS)] = SKIN_RGB
         picture += rng.normal(0, 3, picture.shape)
         images[t] = np.clip(picture, 0, 255).astype(np.uint8)
         labels[t] = label

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from comparisons import image_quality, video_codecs, video_objects
-from comparisons.records import make_record, read_records, versions, write_records
+from comparisons.records import SCHEMA_VERSION, make_record, read_records, versions, write_records
 from media.errors import SigncastError
 from media.video_io import read_video, resolve_video
 
@@ -130,11 +130,13 @@ def test_psnr_and_ssim_values():
 
 
 def test_records_round_trip_with_kbps_and_nan_as_null(tmp_path):
-    record = make_record("NSV", "carphone", "mpeg4", 12, 25, 176, 144, 480_000, 4.8, psnr=float("nan"), ssim=0.9)
+    record = make_record("NSV", "carphone", "mpeg4", 12, 25, 176, 144, 480_000, 4.8, image_psnr=float("nan"), ssim=0.9)
     assert record["kbps"] == pytest.approx(100.0)
     path = write_records(tmp_path / "records.jsonl", [record, {"kind": "run", "versions": versions()}])
     back = read_records(path)
-    assert back[0]["kbps"] == pytest.approx(100.0) and back[0]["psnr"] is None and back[1]["versions"]["av"]
+    assert back[0]["kbps"] == pytest.approx(100.0) and back[1]["versions"]["av"]
+    # NaN is written as null, and a null quality field is left out: .get reads None
+    assert back[0].get("image_psnr") is None and back[0]["ssim"] == 0.9 and back[0]["schema"] == SCHEMA_VERSION
     (tmp_path / "bad.jsonl").write_text(json.dumps(record) + "\n{oops\n")
     with pytest.raises(SigncastError, match="bad.jsonl:2"):
         read_records(tmp_path / "bad.jsonl")

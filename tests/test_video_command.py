@@ -11,7 +11,7 @@ from pipeline.cli import main
 @pytest.mark.slow
 def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_path, capsys):
     out = tmp_path / "carphone"
-    code = main(["video", "--video", "carphone", "--frames", "12", "--q", "12", "31", "--codecs", "libx264",
+    code = main(["video", "--video", "carphone", "--frames", "12", "--video-q", "12,31", "--video-codecs", "libx264",
                  "--out", str(out), "--no-progress"])
     assert code == 0
     records = read_records(out / "records.jsonl")
@@ -27,7 +27,7 @@ def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_
     assert by_key[("NSV", "mpeg4", 31, native, 176)]["kbps"] < nsv["kbps"]
     assert by_key[("NSV", "mpeg4", 12, 10.0, 176)]["kbps"] < nsv["kbps"]
     assert by_key[("NSV", "mpeg4", 12, native, 88)]["kbps"] < nsv["kbps"]
-    assert 25 < nsv["psnr_skin"] < 40 and 0.5 < nsv3o["ssim_skin"] <= 1
+    assert 25 < nsv["skin_psnr"] < 40 and 0.5 < nsv3o["skin_ssim"] <= 1
     plus = by_key[("NSV3O+C", "mpeg4", 12, native, 176)]
     assert plus["kbps"] == pytest.approx(nsv3o["kbps"] + plus["clothes_overload_kbps"])
     assert all(r["versions"]["av"] for r in points)
@@ -46,8 +46,8 @@ def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_
 @pytest.mark.slow
 def test_video_command_on_the_rendered_signer_reports_segmentation_iou(tmp_path, capsys):
     out = tmp_path / "ssv"
-    code = main(["video", "--ssv", "ase", "HI", "--frames", "8", "--size", "160", "136", "--q", "12",
-                 "--codecs", "--out", str(out), "--no-progress"])
+    code = main(["video", "--ssv", "ase", "HI", "--frames", "8", "--size", "160x136", "--video-q", "12",
+                 "--video-codecs", "none", "--out", str(out), "--no-progress"])
     assert code == 0
     records = read_records(out / "records.jsonl")
     segmentation = {r["method"]: r for r in records if r.get("kind") == "segmentation"}
@@ -56,13 +56,13 @@ def test_video_command_on_the_rendered_signer_reports_segmentation_iou(tmp_path,
     assert segmentation["colour segmentation of the shaded rendering"]["iou_signer"] > 0.8
     ssv = [r for r in records if r.get("kind") == "point" and r["solution"] == "SSV" and r["fps"] == 25.0
            and r["width"] == 160]
-    assert ssv and ssv[0]["shape_bits"] > 0 and np.isfinite(ssv[0]["psnr_skin"])
+    assert ssv and ssv[0]["shape_bits"] > 0 and np.isfinite(ssv[0]["skin_psnr"])
     assert (out / "colour_segmentation_overlay.png").is_file()
 
 
 def test_video_command_rejects_bad_arguments(tmp_path, capsys):
-    assert main(["video", "--video", "carphone", "--q", "6", "--out", str(tmp_path)]) == 2
-    assert main(["video", "--video", "carphone", "--q", "12", "40", "--out", str(tmp_path)]) == 2
+    assert main(["video", "--video", "carphone", "--video-q", "6", "--out", str(tmp_path)]) == 2
+    assert main(["video", "--video", "carphone", "--video-q", "12,40", "--out", str(tmp_path)]) == 2
     assert main(["video", "--video", "no/such/file.mp4", "--out", str(tmp_path)]) == 2
-    assert main(["video", "--video", "carphone", "--codecs", "h263", "--out", str(tmp_path)]) == 2
+    assert main(["video", "--video", "carphone", "--video-codecs", "h263", "--out", str(tmp_path)]) == 2
     assert "error:" in capsys.readouterr().err

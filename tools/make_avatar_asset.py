@@ -17,13 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
+from media.domain import BODY, HEAD, LEFT_HAND, RIGHT_HAND
+
 KEPT_GROUPS = ("body", "helper-l-eye", "helper-r-eye")
 DECIMETRE = 0.1
 
 HEAD_BONE_PREFIXES = ("head", "jaw", "eye", "neck", "levator", "oris", "orbicularis", "risorius",
                       "temporalis", "oculi", "special", "tongue")
 HAND_BONE_PREFIXES = ("wrist", "metacarpal", "finger")
-PART_BODY, PART_HEAD, PART_LEFT_HAND, PART_RIGHT_HAND = 1, 2, 3, 4
 
 
 def read_obj(path: Path) -> tuple[np.ndarray, dict[str, list[list[int]]]]:
@@ -42,10 +43,10 @@ def read_obj(path: Path) -> tuple[np.ndarray, dict[str, list[list[int]]]]:
 
 def part_of_bone(name: str) -> int:
     if name.startswith(HAND_BONE_PREFIXES):
-        return PART_LEFT_HAND if name.endswith(".L") else PART_RIGHT_HAND
+        return LEFT_HAND if name.endswith(".L") else RIGHT_HAND
     if name.startswith(HEAD_BONE_PREFIXES):
-        return PART_HEAD
-    return PART_BODY
+        return HEAD
+    return BODY
 
 
 def part_labels(vertices: np.ndarray, triangles: np.ndarray, triangle_shape: np.ndarray, dominant: np.ndarray,
@@ -60,17 +61,17 @@ def part_labels(vertices: np.ndarray, triangles: np.ndarray, triangle_shape: np.
     centroid = vertices[triangles].mean(axis=1)
     head = heads[order.index("neck01")]
     neckline = head[1] - 0.004 - 0.25 * (centroid[:, 2] - head[2])
-    part = np.full(len(triangles), PART_BODY, dtype=np.uint8)
-    part[(centroid[:, 1] > neckline) & (np.abs(centroid[:, 0]) < 0.12)] = PART_HEAD
+    part = np.full(len(triangles), BODY, dtype=np.uint8)
+    part[(centroid[:, 1] > neckline) & (np.abs(centroid[:, 0]) < 0.12)] = HEAD
     majority_bone = np.array([np.bincount(dominant[t]).argmax() for t in triangles])
-    for side, label in ((".L", PART_LEFT_HAND), (".R", PART_RIGHT_HAND)):
+    for side, label in ((".L", LEFT_HAND), (".R", RIGHT_HAND)):
         elbow, wrist = heads[order.index("lowerarm01" + side)], heads[order.index("wrist" + side)]
         axis = (wrist - elbow) / np.linalg.norm(wrist - elbow)
         on_forearm_or_hand = np.isin(majority_bone, [i for i, n in enumerate(order) if n.endswith(side) and
                                                       n.startswith(("lowerarm", "wrist", "metacarpal", "finger"))])
         past_cuff = (centroid - wrist) @ axis > -0.015
         part[on_forearm_or_hand & past_cuff] = label
-    part[triangle_shape > 0] = PART_HEAD   # the eyes
+    part[triangle_shape > 0] = HEAD   # the eyes
     return part
 
 

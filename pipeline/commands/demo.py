@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 
 from pipeline.commands.compare import add_scenario_arguments, execute
 
@@ -17,8 +16,5 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pipeline.checks import parse_size
-    from pipeline.compare import CompareSettings
-    settings = replace(CompareSettings.demo(), language=args.language, word=args.word, clip=args.video,
-                       size=parse_size(args.size), backend=args.backend)
-    return execute(settings, args)
+    from pipeline.studies.compare import CompareSettings
+    return execute(CompareSettings.demo(), args)

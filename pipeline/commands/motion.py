@@ -1,13 +1,9 @@
 """`signcast motion LANGUAGE WORD -o out.bvh [--fps 25]`: fingerspell a word with real signers'
-letters retargeted to the avatar and write the motion as BVH."""
+letters retargeted to the avatar and write the motion as BVH (the study is pipeline.studies.motion)."""
 from __future__ import annotations
 
 import argparse
-import math
-import sys
 from pathlib import Path
-
-from media.errors import SigncastError
 
 
 def add_parser(subparsers) -> None:
@@ -23,19 +19,11 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if not (math.isfinite(args.fps) and 0 < args.fps <= 240):
-        raise SigncastError(f"bad --fps {args.fps}: choose a frame rate in (0, 240], e.g. 10, 15, 20 or 25")
-    from media.avatar import load_avatar
-    from media.bvh import write_bvh
-    from media.fingerspelling import fingerspell
     from pipeline.outputs import output_files
-
+    from pipeline.studies import motion
+    settings = motion.MotionSettings(args.language, args.word, args.output, args.fps)
+    motion.check(settings)
     with output_files((args.output, "BVH")):
-        motion = fingerspell(args.language, args.word, fps=args.fps)
-        try:
-            write_bvh(args.output, motion, load_avatar().skeleton)
-        except OSError as error:
-            raise SigncastError(f"cannot write {args.output}: {error.strerror or error}") from None
-    print(f"{args.output}: {args.language} {args.word!r}, {motion.n_frames} frames at {motion.fps:g} fps "
-          f"({motion.duration_s:.2f} s), {len(motion.bone_names)} bones", file=sys.stdout)
+        line = motion.run(settings)
+    print(line)
     return 0

@@ -13,14 +13,18 @@ measured over the clip's real duration. Sweeps, all with MPEG-4 Part 2 at fixed 
 NSV3O+C's clothes are coded at Q = 31 (Table 4.15). Outputs go to the study's folder: records.jsonl (each
 record appended as it is measured), CSV tables, PNG plots and mask overlays.
 
-A user's clip is read with a progress bar, scaled down to fit DEFAULT_MAX_SIZE unless asked otherwise, and
-refused before the long work when it holds fewer than 2 frames or no face (`media.faces`).
+`run(VideoSettings, out)` is the whole study of `signcast video`: a natural clip (read, segmented by colour) or
+the synthetic signer (rendered shaded and flat, with the colour segmentation's IoU against the label buffer),
+coded by `code_clip` over a `VideoSweep` (which `compare` reuses). A user's clip is read with a progress bar,
+scaled down to fit DEFAULT_MAX_SIZE unless asked otherwise, and refused before the long work when it holds fewer
+than 2 frames or no face (`media.faces`).
 """
 from __future__ import annotations
 
 import csv
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Callable
 
 import cv2
 import numpy as np
@@ -31,12 +35,13 @@ from comparisons.records import make_record, versions, write_records
 from media import faces, segmentation
 from media.errors import SigncastError
 from media.video_io import Clip, crop_even, frame_indices_at_rate, read_clip, resolve_video, video_info
+from pipeline.checks import check_memory
 
 DEFAULT_MAX_SIZE = (352, 288)   # (width, height), CIF: larger clips are scaled down to fit unless asked otherwise
 
 
 @dataclass(frozen=True)
-class VideoStudySettings:
+class VideoSweep:
     """qs: MPEG-4 quantisers; frame_rates: the rates swept (those below source_fps are used); source_fps: the
     rate of the frames given to the study, frames per second."""
 
@@ -79,7 +84,7 @@ class _Config:
     full_resolution: bool
 
 
-def _configs(frames: np.ndarray, labels: np.ndarray, settings: VideoStudySettings, timing: Timing) -> list[_Config]:
+def _configs(frames: np.ndarray, labels: np.ndarray, settings: VideoSweep, timing: Timing) -> list[_Config]:
     """The "q" sweep's frame set first, then those of the frame-rate and resolution sweeps."""
     source = settings.source_fps
     configs = [_Config(f"full@{source:g}", "q", frames, labels, source, True)]
@@ -95,7 +100,7 @@ def _configs(frames: np.ndarray, labels: np.ndarray, settings: VideoStudySetting
 
 
 def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, codec: str, q: int, timing: Timing,
-            settings: VideoStudySettings, software: dict, sweep: str, clothes_bits: int | None = None) -> dict:
+            settings: VideoSweep, software: dict, sweep: str, clothes_bits: int | None = None) -> dict:
     duration_s = timing.duration_s
     masks = segmentation.object_masks(config.labels)
     quality = image_quality.quality_fields(config.frames, coded.picture, masks["skin"],
@@ -169,14 +174,17 @@ def segment_clip(frames: np.ndarray, *, progress: bool = True) -> np.ndarray:
         return segmentation.segment_parts(frames, signer, progress=bar.update)
 
 
-def run_video_study(frames: np.ndarray, labels: np.ndarray, clip: str, settings: VideoStudySettings = VideoStudySettings(),
+def code_clip(frames: np.ndarray, labels: np.ndarray, clip: str, settings: VideoSweep = VideoSweep(),
                     *, timing: Timing | None = None, records_path: str | Path | None = None,
-                    progress: bool = True) -> list[dict]:
+                    progress: bool = True,
+                    operating: dict[str, video_objects.CodedSolution] | None = None) -> list[dict]:
     """Every measured point of the study as records. frames (T, H, W, 3) uint8 RGB at settings.source_fps;
     labels (T, H, W) uint8 part labels (0 background, 1 body/clothes, 2 head, 3 left hand, 4 right hand).
 
     timing: when the frames are shown (default: every 1/source_fps s); kbps are bits over its duration_s.
     records_path: a records.jsonl that each record is appended to as soon as it is measured.
+    operating: filled with each solution's coded pictures at the operating Q (the frames' own rate, full size),
+    for callers that show them (compare's side by side) without coding them again.
     """
     frames, labels = np.asarray(frames), np.asarray(labels)
     if labels.shape != frames.shape[:3]:
@@ -193,7 +201,7 @@ def run_video_study(frames: np.ndarray, labels: np.ndarray, clip: str, settings:
             for q in (settings.qs if c.sweep == "q" else (settings.operating_q,))]
     jobs += [(configs[0], s, codec) for s in settings.solutions for codec in settings.other_codecs]
     records = []
-    operating: dict[str, video_objects.CodedSolution] = {}
+    operating = {} if operating is None else operating
     for config, solution, q_or_codec in tqdm(jobs, desc=f"video {clip}", unit="point", disable=not progress):
         if isinstance(q_or_codec, str):
             codec = q_or_codec
@@ -359,3 +367,128 @@ def write_outputs(records: list[dict], frames: np.ndarray, labels: np.ndarray, o
     written += write_plots(records, out_dir)
     written.append(write_overlays(frames, labels, out_dir))
     return written
+
+
+# ------------------------------------------------------------------------------------------------------------
+# the study of `signcast video`
+
+# --ssv holds per pixel and frame: the shaded and the flat render with their labels (8 bytes), two
+# segmentations (2), and the study's decoded pictures and frame-rate / half-size copies (about 6)
+SSV_BYTES_PER_PIXEL = 16
+
+
+@dataclass(frozen=True)
+class VideoSettings:
+    """One `signcast video` run: a natural clip (video: a file or 'carphone') or the synthetic signer (ssv:
+    (language, word)); frames: only the first N; fps: the rate to code at (None: the clip's own, 25 for ssv);
+    max_size: (width, height) a natural clip is scaled down to fit (None keeps its size); size: (width, height) of
+    the rendered signer; sweep: Q, codecs (its source_fps and solutions are set from the source)."""
+
+    video: str | None = None
+    ssv: tuple[str, str] | None = None
+    frames: int | None = None
+    fps: float | None = None
+    max_size: tuple[int, int] | None = DEFAULT_MAX_SIZE
+    size: tuple[int, int] = (400, 340)
+    sweep: VideoSweep = VideoSweep()
+
+
+@dataclass
+class VideoResult:
+    records: list[dict]
+    written: list[Path]
+    lines: list[str]          # the segmentation IoU lines of an ssv run, printed after the main table
+
+
+def check(settings: VideoSettings) -> None:
+    """Refuse bad settings before any work (one-line SigncastError naming the command-line option)."""
+    from media.domain import check_fps, check_q, check_size
+    if (settings.video is None) == (settings.ssv is None):
+        raise SigncastError("give one source: a natural video or the synthetic signer (ssv)")
+    if settings.fps is not None:
+        check_fps(settings.fps)
+    if settings.frames is not None and settings.frames < 2:
+        raise SigncastError(f"bad --frames {settings.frames}: at least 2")
+    for q in settings.sweep.qs:
+        check_q(q, "--video-q")
+    if settings.sweep.operating_q not in settings.sweep.qs:
+        raise SigncastError(f"--video-q must include {settings.sweep.operating_q}, the operating point of the "
+                            f"frame-rate, resolution and codec sweeps")
+    if settings.ssv is not None:
+        check_size(*settings.size)
+
+
+def run(settings: VideoSettings, out: str | Path, *, progress: bool = True,
+        notify: Callable[[str], object] | None = None) -> VideoResult:
+    """Load the source, code it over the sweep, write records.jsonl (grown as points are measured, so an
+    interrupted run keeps them), CSV tables, PNG plots and mask overlays to out. notify: called with each one-line
+    note on a natural clip (frames read, downscaling, warnings)."""
+    check(settings)
+    out = Path(out)
+    if settings.video is not None:
+        frames, labels, clip, extra = _natural(settings, progress, notify)
+        solutions = VideoSweep.solutions
+    else:
+        frames, labels, clip, extra = _synthetic(settings, progress)
+        solutions = ("NSV", "SSV")
+    sweep = replace(settings.sweep, source_fps=extra["fps"], solutions=solutions)
+    records_path = write_records(out / "records.jsonl", extra["records"])
+    records = code_clip(frames, labels, clip, sweep, timing=extra.get("timing"), records_path=records_path,
+                        progress=progress)
+    records = extra["records"] + records
+    written = write_outputs(records, frames, labels, out)
+    for name, (overlay_frames, overlay_labels) in extra.get("overlays", {}).items():
+        written.append(write_overlays(overlay_frames, overlay_labels, out, name))
+    return VideoResult(records, written, extra.get("lines", []))
+
+
+def _natural(settings: VideoSettings, progress: bool, notify: Callable[[str], object] | None):
+    clip, notes = read_natural_clip(settings.video, settings.frames, settings.max_size, settings.fps,
+                                    progress=progress)
+    for line in notes:
+        if notify:
+            notify(line)
+    labels = segment_clip(clip.frames, progress=progress)
+    areas = segmentation.area_percent(labels)
+    record = {"kind": "segmentation", "clip": clip.path.stem, "method": "colour (GrabCut border model + clothes clusters)",
+              "native_fps": clip.native_fps, "coded_fps": clip.fps, "duration_s": clip.duration_s,
+              "source_size": list(clip.source_size), "coded_size": list(clip.size),
+              "announced_frames": clip.announced_frames, **{f"{k}_area_percent": v for k, v in areas.items()}}
+    return clip.frames, labels, clip.path.stem, {"records": [record], "fps": clip.fps, "timing": Timing.of_clip(clip)}
+
+
+def _synthetic(settings: VideoSettings, progress: bool):
+    from kernels.raster import FLAT_PALETTE
+    from media.avatar import load_avatar
+    from media.fingerspelling import fingerspell
+    from media.motion import Motion
+    from media.render import RenderSettings, render_motion
+
+    language, word = settings.ssv
+    width, height = settings.size
+    motion = fingerspell(language, word, fps=settings.fps or 25.0)
+    if settings.frames is not None:
+        count = min(settings.frames, motion.n_frames)
+        motion = Motion(motion.fps, motion.bone_names, motion.rotations[:count], motion.root_translation[:count])
+    check_memory(motion.n_frames, width, height, SSV_BYTES_PER_PIXEL, "video --ssv")
+    avatar = load_avatar()
+    renders = {}
+    for look in ("shaded", "flat"):
+        with tqdm(total=motion.n_frames, desc=f"render {look}", unit="frame", disable=not progress) as bar:
+            renders[look] = render_motion(avatar, motion, RenderSettings(width=width, height=height, look=look),
+                                          progress=bar.update)
+    frames, truth = renders["shaded"]
+    palette = {label: tuple(int(c) for c in colour) for label, colour in enumerate(FLAT_PALETTE)}
+    by_flat_colour = segmentation.labels_from_flat(renders["flat"][0], palette)
+    by_colour = segmentation.segment_parts(frames)
+    clip = f"ssv-{language}-{word}"
+    records = []
+    lines = ["segmentation IoU against the renderer's label buffer:"]
+    for method, labels in (("flat-colour rendering", by_flat_colour),
+                           ("colour segmentation of the shaded rendering", by_colour)):
+        iou = segmentation.iou_per_label(labels, truth)
+        records.append({"kind": "segmentation", "clip": clip, "method": method,
+                        **{f"iou_{k}": v for k, v in iou.items()}})
+        lines.append(f"  {method}: " + ", ".join(f"{k} {v:.3f}" for k, v in iou.items()))
+    overlays = {"colour_segmentation": (frames, by_colour), "flat_colour": (frames, by_flat_colour)}
+    return frames, truth, clip, {"records": records, "lines": lines, "overlays": overlays, "fps": motion.fps}

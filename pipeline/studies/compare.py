@@ -28,7 +28,7 @@ from media.render import AvatarRenderer, RenderSettings
 from media.tiling import tile_videos
 from media import lexicon
 from media.video_io import frame_indices_at_rate, resolve_video, write_video
-from pipeline import video_study
+from pipeline.studies import video as video_study
 from pipeline.stages import StageClock
 
 DISPLAY_FPS = 25.0
@@ -37,16 +37,14 @@ JOINT_TOLERANCE_MM = 5.0   # fallback operating point of a parameter codec when 
 
 @dataclass(frozen=True)
 class CompareSettings:
-    """One scenario and its sweeps. size: (width, height) of the rendered signer, pixels. The natural clip is
-    coded at its own frame rate (frame_rates below it are swept by dropping frames) and scaled down to fit
-    max_clip_size (width, height; None keeps its size); the avatar is rendered at DISPLAY_FPS."""
+    """One scenario and its sweeps. video: the video study's sweep (Q, operating Q, frame rates, today's codecs),
+    used for the natural clip and for SSV; size: (width, height) of the rendered signer, pixels. The natural clip
+    is coded at its own frame rate (video.frame_rates below it are swept by dropping frames) and scaled down to
+    fit max_clip_size (width, height; None keeps its size); the avatar is rendered at DISPLAY_FPS."""
     language: str = "ase"
     word: str = "HELLO"
     clip: str = "carphone"
-    video_qs: tuple[int, ...] = (2, 6, 12, 24, 31)
-    operating_q: int = 12
-    frame_rates: tuple[float, ...] = (25.0, 20.0, 15.0, 10.0)
-    other_codecs: tuple[str, ...] = ("libx264", "libsvtav1")
+    video: video_study.VideoSweep = video_study.VideoSweep()
     param_codecs: tuple[str, ...] = ("fba-pred", "fba-dct", "bba-pred", "bba-dct", "bba-key")
     param_qs: tuple[int, ...] = (1, 2, 4, 8, 16, 31)
     size: tuple[int, int] = (352, 288)
@@ -57,7 +55,8 @@ class CompareSettings:
     @classmethod
     def demo(cls) -> "CompareSettings":
         """A small sweep that runs in a few minutes on two CPU cores."""
-        return cls(video_qs=(2, 12, 31), frame_rates=(25.0, 15.0, 10.0), other_codecs=("libx264",),
+        return cls(video=video_study.VideoSweep(qs=(2, 12, 31), frame_rates=(25.0, 15.0, 10.0),
+                                                other_codecs=("libx264",)),
                    param_qs=(1, 2, 4, 8, 31), max_clip_frames=75)
 
 
@@ -78,14 +77,33 @@ class CompareResult:
     operating: list[dict] = field(default_factory=list)
 
 
+def check(settings: CompareSettings, command: str = "compare") -> None:
+    """Refuse bad settings, and work beyond the memory limit, before any work (one-line SigncastError)."""
+    from media.render import check_backend
+    from pipeline.checks import check_memory
+    check_backend(settings.backend)
+    check_settings(settings)
+    n_frames = fingerspell(settings.language, settings.word, fps=DISPLAY_FPS).n_frames
+    check_memory(n_frames, *settings.size, bytes_per_pixel(settings), command)
+
+
+def bytes_per_pixel(settings: CompareSettings) -> int:
+    """What the comparison holds per pixel and frame of the rendered signer: the reference and its labels (4),
+    the skin mask (1), the SSV study's working copies and operating picture (about 9), and every parameter point's
+    re-rendered frames (3 each), which it keeps until the end."""
+    points = len(settings.param_codecs) * (len(settings.param_qs) + len(settings.video.frame_rates) - 1)
+    return 4 + 1 + 9 + 3 * points
+
+
 def check_settings(settings: CompareSettings) -> None:
-    if settings.operating_q not in settings.video_qs:
-        raise SigncastError(f"the operating Q {settings.operating_q} must be among the swept Q {settings.video_qs}")
-    if DISPLAY_FPS not in settings.frame_rates:
-        raise SigncastError(f"the frame rates {settings.frame_rates} must include {DISPLAY_FPS:g}")
-    for q in settings.video_qs:
+    sweep = settings.video
+    if sweep.operating_q not in sweep.qs:
+        raise SigncastError(f"the operating Q {sweep.operating_q} must be among the swept Q {sweep.qs}")
+    if DISPLAY_FPS not in sweep.frame_rates:
+        raise SigncastError(f"the frame rates {sweep.frame_rates} must include {DISPLAY_FPS:g}")
+    for q in sweep.qs:
         check_q(q, "video Q")
-    for fps in settings.frame_rates:
+    for fps in sweep.frame_rates:
         if not 0 < fps <= DISPLAY_FPS:
             raise SigncastError(f"bad frame rate {fps:g}: choose rates in (0, {DISPLAY_FPS:g}]")
     for name in settings.param_codecs:
@@ -96,7 +114,7 @@ def check_settings(settings: CompareSettings) -> None:
     resolve_video(settings.clip)
 
 
-def run_compare(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True,
+def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True,
                 notify: Callable[[str], object] | None = None) -> CompareResult:
     """Run the whole comparison; write records.jsonl, report.html, side_by_side.mp4 and CSV tables to out_dir.
 
@@ -117,17 +135,18 @@ def run_compare(settings: CompareSettings, out_dir: str | Path, *, progress: boo
             if notify:
                 notify(line)
         clip_labels = video_study.segment_clip(clip.frames, progress=progress)
-    video_settings = video_study.VideoStudySettings(
-        qs=settings.video_qs, operating_q=settings.operating_q, frame_rates=settings.frame_rates,
-        source_fps=clip.fps, other_codecs=settings.other_codecs, half_resolution=True)
+    video_settings = replace(settings.video, source_fps=clip.fps, half_resolution=True,
+                             solutions=video_study.VideoSweep.solutions)
+    operating_q = video_settings.operating_q
     with clock.stage("natural video: NSV, NSV2O, NSV3O, NSV3O+C"):
-        records += _points(video_study.run_video_study(clip.frames, clip_labels, clip.path.stem, video_settings,
-                                                       timing=video_study.Timing.of_clip(clip),
-                                                       records_path=records_path, progress=progress))
+        coded: dict[str, video_objects.CodedSolution] = {}
+        records += _points(video_study.code_clip(clip.frames, clip_labels, clip.path.stem, video_settings,
+                                                 timing=video_study.Timing.of_clip(clip), records_path=records_path,
+                                                 progress=progress, operating=coded))
         # the side-by-side plays at DISPLAY_FPS: the frames on screen at its ticks
         shown = frame_indices_at_rate(clip.times_s, clip.duration_s, DISPLAY_FPS)
         received += [replace(r, frames=r.frames[shown]) for r in _operating_pictures(
-            clip.frames, clip_labels, video_settings.solutions, settings.operating_q, clip.fps, records)]
+            coded, video_settings.solutions, operating_q, records)]
 
     avatar = load_avatar()
     render_settings = RenderSettings(width=settings.size[0], height=settings.size[1], look="shaded", backend=settings.backend)
@@ -139,11 +158,11 @@ def run_compare(settings: CompareSettings, out_dir: str | Path, *, progress: boo
     scenario = f"{settings.language}-{settings.word}"
     with clock.stage("synthetic signer: SSV"):
         ssv_settings = replace(video_settings, solutions=("SSV",), half_resolution=False, source_fps=DISPLAY_FPS)
-        ssv_records = _points(video_study.run_video_study(reference, reference_labels, scenario, ssv_settings,
-                                                          records_path=records_path, progress=progress))
+        ssv_coded: dict[str, video_objects.CodedSolution] = {}
+        ssv_records = _points(video_study.code_clip(reference, reference_labels, scenario, ssv_settings,
+                                                    records_path=records_path, progress=progress, operating=ssv_coded))
         records += ssv_records
-        received += _operating_pictures(reference, reference_labels, ("SSV",), settings.operating_q, DISPLAY_FPS,
-                                        ssv_records)
+        received += _operating_pictures(ssv_coded, ("SSV",), operating_q, ssv_records)
 
     skin = np.isin(reference_labels, SKIN_PARTS)
     with clock.stage("parameters: FBA and BBA, coded, decoded and re-rendered"):
@@ -187,17 +206,16 @@ def _render(renderer: AvatarRenderer, motion: Motion, label: str, progress: bool
     return frames, labels
 
 
-def _operating_pictures(frames: np.ndarray, labels: np.ndarray, solutions, q: int, fps: float,
+def _operating_pictures(coded: dict[str, video_objects.CodedSolution], solutions, q: int,
                         records: list[dict]) -> list[Received]:
-    """Decoded pictures of each solution at its operating point (Q, the frames' own rate fps), captioned with the
-    measured kbps."""
+    """Decoded pictures of each solution at its operating point (Q, the frames' own rate), as the video study
+    coded them, captioned with the measured kbps."""
     shown = []
     for solution in solutions:
         point = next((r for r in records if r["solution"] == solution and r.get("operating_point")), None)
-        if point is None:
+        if point is None or solution not in coded:
             continue
-        coded = video_objects.code_solution(solution, frames, labels, fps, "mpeg4", q)
-        shown.append(Received(coded.picture, f"{solution} Q{q} {point['kbps']:.0f} kbps", solution))
+        shown.append(Received(coded[solution].picture, f"{solution} Q{q} {point['kbps']:.0f} kbps", solution))
     return shown
 
 
@@ -215,7 +233,7 @@ def _parameter_points(settings: CompareSettings, motion: Motion, renderer: Avata
     duration_s = motion.n_frames / DISPLAY_FPS
     records, frames_by_key = [], {}
     jobs = [(codec, q, DISPLAY_FPS) for codec in settings.param_codecs for q in settings.param_qs]
-    bar = tqdm(total=len(jobs) + len(settings.param_codecs) * (len(settings.frame_rates) - 1), desc="parameters",
+    bar = tqdm(total=len(jobs) + len(settings.param_codecs) * (len(settings.video.frame_rates) - 1), desc="parameters",
                unit="point", disable=not progress)
 
     def measure(codec_name: str, q: int, fps: float, sweep: str) -> dict:
@@ -247,7 +265,7 @@ def _parameter_points(settings: CompareSettings, motion: Motion, renderer: Avata
         chosen["operating_point"] = True
         chosen["operating_rule"] = ("matched skin PSNR of SSV" if target_skin_psnr is not None
                                     else f"joint error <= {JOINT_TOLERANCE_MM:g} mm") + ("" if within else " (not reached)")
-        for fps in settings.frame_rates:
+        for fps in settings.video.frame_rates:
             if fps != DISPLAY_FPS:
                 records.append(measure(codec_name, chosen["q"], fps, "fps"))
     bar.close()

@@ -1,0 +1,99 @@
+"""The parameter-transmission study (seed 000 Tables 2.1, 3.1, 3.2): each fingerspelled letter retargeted to the
+avatar, coded with each parameter codec at each Q, decoded, and measured (comparisons.param_study.measure_point).
+
+Writes records.jsonl, params_table.csv and params_rate.png in the output folder, and each letter's
+full-precision BAPs as a version 3.2 .bap file in bap/ (for other MPEG-4 body animation tools).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from comparisons.bap_file import write_bap
+from comparisons.fba_mapping import motion_to_baps
+from comparisons.param_codecs import codec_names, get_codec
+from comparisons.param_study import measure_point, write_plots, write_table
+from comparisons.records import make_record, write_records
+from media import lexicon
+from media.domain import check_fps, solution_of
+from media.errors import SigncastError
+from media.fingerspelling import letter_motion
+
+DEFAULT_CODECS = ("fba-pred", "fba-dct", "bba-pred", "bba-dct", "bba-key")
+DEFAULT_Q = (1, 2, 4, 8, 16, 31)
+
+
+@dataclass(frozen=True)
+class ParamsSettings:
+    """language: sign language code; letters: the letters coded, each separately (e.g. "ABCDEFGHIJ"); codecs:
+    parameter codecs; qs: global quantisation values; fps: coding frame rate, frames per second."""
+
+    language: str
+    letters: str
+    codecs: tuple[str, ...] = DEFAULT_CODECS
+    qs: tuple[int, ...] = DEFAULT_Q
+    fps: float = 10.0
+
+    def units(self) -> list[str]:
+        return [u for u in lexicon.split_word(self.language, self.letters) if u != " "]
+
+
+def check(settings: ParamsSettings) -> None:
+    """Refuse bad settings before any work (one-line SigncastError)."""
+    check_fps(settings.fps)
+    if not settings.codecs:
+        raise SigncastError(f"no codec given; known: {', '.join(codec_names())}")
+    for name in settings.codecs:
+        get_codec(name)
+    settings.units()
+
+
+def count_points(settings: ParamsSettings) -> int:
+    return len(settings.units()) * len(settings.codecs) * len(settings.qs)
+
+
+def pose_file_kbps(language: str, unit: str) -> float:
+    """Size of the lexicon clip's .pose file over the clip's duration, kbit/s."""
+    entry = lexicon.lookup(language, unit)
+    clip = lexicon.read_clip(entry)
+    return entry.path.stat().st_size * 8 / (clip.n_frames / clip.fps) / 1000.0
+
+
+def run(settings: ParamsSettings, out: str | Path, *, progress: Callable[[int], object] | None = None) -> list[dict]:
+    """Measure every (letter, codec, Q); write the records, the table, the plots and the .bap files to out.
+    progress: called with 1 after each point."""
+    check(settings)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    language, fps = settings.language, settings.fps
+    records = []
+    for unit in settings.units():
+        motion = letter_motion(language, unit, fps)
+        pose_kbps = pose_file_kbps(language, unit)
+        (out / "bap").mkdir(exist_ok=True)
+        write_bap(out / "bap" / f"{language}_{unit}.bap", motion_to_baps(motion), fps, f"{language}_{unit}")
+        for name in settings.codecs:
+            solution = solution_of(name)
+            for q in settings.qs:
+                point = measure_point(motion, name, q)
+                records.append(make_record(solution, f"{language}:{unit}", name, q, fps, 0, 0, point.pop("bits"),
+                                           motion.duration_s, pose_kbps=pose_kbps, **point))
+                if progress:
+                    progress(1)
+    write_records(out / "records.jsonl", records)
+    write_table(out / "params_table.csv", records, list(settings.codecs), list(settings.qs))
+    write_plots(out, records, list(settings.codecs))
+    return records
+
+
+def main_table(settings: ParamsSettings, records: list[dict]) -> str:
+    """kbps (and distortion) per letter and codec at each Q."""
+    qs = settings.qs
+    lines = [f"{'sign':>5} {'codec':>9} " + " ".join(f"{'Q=' + str(q):>8}" for q in qs) + "   kbps (distortion rad^2)"]
+    for unit in settings.units():
+        for name in settings.codecs:
+            mine = {r["q"]: r for r in records if r["clip"].endswith(":" + unit) and r["codec"] == name}
+            lines.append(f"{unit:>5} {name:>9} " + " ".join(f"{mine[q]['kbps']:8.2f}" for q in qs)
+                         + "   (" + " ".join(f"{mine[q]['distortion']:.1e}" for q in qs) + ")")
+    return "\n".join(lines)

@@ -1,0 +1,94 @@
+"""The synthetic signer fingerspelling a word, rendered by the kernels to a lossless FFV1 video (the reference for
+quality measurements), with the per-pixel part labels of every frame and an optional PNG preview."""
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from media.errors import SigncastError
+
+VIDEO_SUFFIXES = (".mkv", ".avi", ".nut", ".mp4")   # containers that hold FFV1
+BYTES_PER_PIXEL = 4                                 # held until written: RGB frames (3) and labels (1)
+PART_NAMES = ("background", "body", "head", "left_hand", "right_hand")
+
+
+@dataclass(frozen=True)
+class RenderWordSettings:
+    """language, word: what the avatar fingerspells; output: the video file; labels: a .npz for the label frames
+    (T, H, W) uint8; preview: a PNG of frame preview_frame (None: the middle one); size: (width, height) pixels;
+    fps: frames per second; look: shaded or flat; segmented: an FBA-style segmented body; backend: kernels."""
+
+    language: str
+    word: str
+    output: Path
+    labels: Path | None = None
+    preview: Path | None = None
+    preview_frame: int | None = None
+    size: tuple[int, int] = (352, 288)
+    fps: float = 25.0
+    look: str = "shaded"
+    segmented: bool = False
+    backend: str = "auto"
+
+
+def check(settings: RenderWordSettings) -> str:
+    """Refuse bad settings before any work (one-line SigncastError); the backend the kernels will use."""
+    from kernels import backends
+    from media.domain import check_fps, check_size
+    from media.render import check_backend, check_look
+    check_size(*settings.size)
+    check_backend(settings.backend)
+    check_look(settings.look)
+    check_fps(settings.fps)
+    return backends.describe(settings.backend)   # a backend that cannot run here fails now, in one line
+
+
+def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable[[str], object] | None = None) -> str:
+    """Render and write the files; a one-line summary (frames, size, bytes, speed). notify: called with the
+    backend auto chose, once the work is known to fit."""
+    from tqdm import tqdm
+
+    from media.avatar import load_avatar
+    from media.fingerspelling import fingerspell
+    from media.render import RenderSettings, render_motion
+    from media.video_io import write_video
+    from pipeline.checks import check_memory
+
+    width, height = settings.size
+    motion = fingerspell(settings.language, settings.word, fps=settings.fps)
+    if settings.preview_frame is not None and not 0 <= settings.preview_frame < motion.n_frames:
+        raise SigncastError(f"--preview-frame {settings.preview_frame} outside 0..{motion.n_frames - 1}")
+    check_memory(motion.n_frames, width, height, BYTES_PER_PIXEL, "render")
+    chosen = check(settings)
+    avatar = load_avatar()
+    render_settings = RenderSettings(width=width, height=height, look=settings.look, segmented=settings.segmented,
+                                     backend=settings.backend)
+    if settings.backend == "auto" and notify:
+        notify(f"backend auto chose {chosen}")
+    started = time.perf_counter()
+    with tqdm(total=motion.n_frames, desc="render", unit="frame", file=sys.stderr, leave=False,
+              disable=not progress) as bar:
+        frames, labels = render_motion(avatar, motion, render_settings, progress=bar.update)
+    rendered = time.perf_counter()
+    size = write_video(settings.output, frames, motion.fps)
+    elapsed = time.perf_counter() - started
+    if settings.labels is not None:
+        np.savez_compressed(settings.labels, labels=labels, fps=np.float64(motion.fps), part_names=np.array(PART_NAMES))
+    if settings.preview is not None:
+        middle = motion.n_frames // 2 if settings.preview_frame is None else settings.preview_frame
+        _write_png(settings.preview, frames[middle])
+    return (f"{settings.output}: {settings.language} {settings.word!r}, {motion.n_frames} frames {width}x{height} at "
+            f"{motion.fps:g} fps, {settings.look}{', segmented' if settings.segmented else ''}, {size} bytes; "
+            f"rendered at {motion.n_frames / (rendered - started):.1f} frames/s, "
+            f"{motion.n_frames / elapsed:.1f} frames/s with encoding")
+
+
+def _write_png(path: Path, rgb: np.ndarray) -> None:
+    import cv2
+    if not cv2.imwrite(str(path), rgb[..., ::-1]):
+        raise SigncastError(f"cannot write PNG {path}")
