@@ -65,8 +65,9 @@ def ssim(reference: np.ndarray, decoded: np.ndarray, mask: np.ndarray | None = N
 
 def quality_fields(reference: np.ndarray, decoded: np.ndarray, skin: np.ndarray | None,
                    region: np.ndarray | None = None) -> dict[str, float]:
-    """psnr / ssim over the frame, psnr_skin / ssim_skin inside the skin mask, and psnr_object / ssim_object
-    inside the transmitted region when given (objects that leave parts of the frame unsent).
+    """Record fields (dB, SSIM in [0, 1]): image_psnr / ssim over the frame, skin_psnr / skin_ssim inside the skin
+    mask, and object_psnr / object_ssim inside the transmitted region when given (objects that leave parts of the
+    frame unsent).
 
     Computes the squared error and the SSIM map once per frame and pools them per region.
     """
@@ -79,15 +80,15 @@ def quality_fields(reference: np.ndarray, decoded: np.ndarray, skin: np.ndarray 
     error = (ref_y - dec_y) ** 2
     ssim_map = np.stack([structural_similarity(ref_y[t], dec_y[t], data_range=255.0, full=True)[1]
                          for t in range(len(ref_y))])
-    regions = {"": None, "_skin": skin, "_object": region}
+    regions = (("image_psnr", "ssim", None), ("skin_psnr", "skin_ssim", skin), ("object_psnr", "object_ssim", region))
     fields = {}
-    for suffix, mask in regions.items():
-        if suffix and mask is None:
+    for k, (psnr_name, ssim_name, mask) in enumerate(regions):
+        if k and mask is None:
             continue
         if mask is not None and not mask.any():
-            fields["psnr" + suffix] = fields["ssim" + suffix] = float("nan")
+            fields[psnr_name] = fields[ssim_name] = float("nan")
             continue
         mse = float(error.mean() if mask is None else error[mask].mean())
-        fields["psnr" + suffix] = math.inf if mse == 0 else 10.0 * math.log10(255.0 ** 2 / mse)
-        fields["ssim" + suffix] = float(ssim_map.mean() if mask is None else ssim_map[mask].mean())
+        fields[psnr_name] = math.inf if mse == 0 else 10.0 * math.log10(255.0 ** 2 / mse)
+        fields[ssim_name] = float(ssim_map.mean() if mask is None else ssim_map[mask].mean())
     return fields

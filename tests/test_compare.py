@@ -30,7 +30,7 @@ def test_compare_measures_every_solution_at_its_operating_point(result):
     assert operating["NSV3O"]["kbps"] < operating["NSV"]["kbps"]           # dropping background and clothes saves bits
     assert operating["NSV3O+C"]["kbps"] > operating["NSV3O"]["kbps"]
     # FBA/BBA quality is measured on the frames the terminal re-renders, against the same reference as SSV.
-    assert 10 < operating["FBA"]["psnr_skin"] < 60 and 0 < operating["BBA"]["ssim"] <= 1
+    assert 10 < operating["FBA"]["skin_psnr"] < 60 and 0 < operating["BBA"]["ssim"] <= 1
     stages = [r for r in result.records if r.get("kind") == "stage"]
     assert len(stages) >= 5 and all(s["wall_s"] >= 0 for s in stages)
 

@@ -126,7 +126,7 @@ def test_psnr_and_ssim_values():
     mask = np.zeros((2, 24, 24), bool)
     assert math.isnan(image_quality.psnr(reference, shifted, mask))
     fields = image_quality.quality_fields(reference, shifted, ~mask)
-    assert fields["psnr_skin"] == pytest.approx(fields["psnr"])
+    assert fields["skin_psnr"] == pytest.approx(fields["image_psnr"])
 
 
 def test_records_round_trip_with_kbps_and_nan_as_null(tmp_path):

@@ -167,7 +167,7 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
     skin = np.isin(reference_labels, SKIN_PARTS)
     with clock.stage("parameters: FBA and BBA, coded, decoded and re-rendered"):
         ssv_operating = next((r for r in ssv_records if r.get("operating_point")), None)
-        target_skin_psnr = ssv_operating["psnr_skin"] if ssv_operating else None
+        target_skin_psnr = ssv_operating["skin_psnr"] if ssv_operating else None
         param_records, param_frames = _parameter_points(settings, motion, renderer, reference, skin, scenario,
                                                         target_skin_psnr, progress)
         write_records(records_path, param_records, append=True)
@@ -258,7 +258,7 @@ def _parameter_points(settings: CompareSettings, motion: Motion, renderer: Avata
     for codec_name in settings.param_codecs:
         swept = [r for r in records if r["codec"] == codec_name]
         if target_skin_psnr is not None:
-            within = [r for r in swept if r["psnr_skin"] >= target_skin_psnr]
+            within = [r for r in swept if r["skin_psnr"] >= target_skin_psnr]
         else:
             within = [r for r in swept if r["joint_error_mm_mean"] <= JOINT_TOLERANCE_MM]
         chosen = min(within, key=lambda r: r["kbps"]) if within else min(swept, key=lambda r: r["q"])
@@ -316,7 +316,7 @@ def _backend_name(backend: str) -> str:
 def summary_rows(records: list[dict]) -> list[dict]:
     """One row per solution and codec at its operating point."""
     return [{"solution": r["solution"], "codec": r["codec"], "q": r.get("q"), "fps": r["fps"], "kbps": r["kbps"],
-             "psnr": r.get("psnr"), "psnr_skin": r.get("psnr_skin"), "ssim": r.get("ssim"), "ssim_skin": r.get("ssim_skin"),
+             "image_psnr": r.get("image_psnr"), "skin_psnr": r.get("skin_psnr"), "ssim": r.get("ssim"), "skin_ssim": r.get("skin_ssim"),
              "joint_error_mm": r.get("joint_error_mm_mean")} for r in operating_points(records)]
 
 
@@ -337,6 +337,6 @@ def format_summary(records: list[dict]) -> str:
         def fmt(value, spec):
             return format(value, spec) if isinstance(value, (int, float)) and np.isfinite(value) else "–"
         lines.append(f"{row['solution']:9} {row['codec']:9} {fmt(row['q'], '>3')} {row['fps']:>4.0f} {row['kbps']:>8.1f} "
-                     f"{fmt(row['psnr'], '>6.2f')} {fmt(row['psnr_skin'], '>6.2f')} {fmt(row['ssim'], '>6.3f')}  "
+                     f"{fmt(row['image_psnr'], '>6.2f')} {fmt(row['skin_psnr'], '>6.2f')} {fmt(row['ssim'], '>6.3f')}  "
                      f"{fmt(row['joint_error_mm'], '.2f')}")
     return "\n".join(lines)

@@ -110,7 +110,7 @@ def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, code
         # measure the coded skin, not the missing background (skin PSNR is the same either way)
         filled = np.where(coded.region[..., None], coded.picture, config.frames)
         skin_only = image_quality.quality_fields(config.frames, filled, masks["skin"])
-        quality["ssim_skin"] = skin_only["ssim_skin"]
+        quality["skin_ssim"] = skin_only["skin_ssim"]
     areas = segmentation.area_percent(config.labels)
     objects = [{"name": o.name, "q": o.q, "box": list(o.box), "texture_bytes": o.texture_bytes,
                 "shape_bytes": o.shape_bytes, "area_percent": o.area_percent} for o in coded.objects]
@@ -264,8 +264,8 @@ def write_tables(records: list[dict], out_dir: Path) -> list[Path]:
     def columns(r: dict) -> list:
         area = _area(r)
         return [r["solution"], r["codec"], r["clip"], f"{r['width']}x{r['height']}", "" if area is None else f"{area:.1f}%",
-                r["fps"], r["q"], r["kbps"], r["kbps"] - r["shape_kbps"], r["shape_kbps"], r["psnr"],
-                r.get("psnr_object", r["psnr"]), r.get("psnr_skin"), r.get("ssim_skin")]
+                r["fps"], r["q"], r["kbps"], r["kbps"] - r["shape_kbps"], r["shape_kbps"], r["image_psnr"],
+                r.get("object_psnr", r["image_psnr"]), r.get("skin_psnr"), r.get("skin_ssim")]
     header = ["solution", "codec", "clip", "resolution", "object area", "fps", "Q", "kbps", "texture kbps", "shape kbps",
               "frame PSNR dB", "sent-region PSNR dB", "skin PSNR dB", "skin SSIM"]
     tables = {
@@ -348,13 +348,13 @@ def main_table(records: list[dict]) -> str:
         area = _area(next(iter(row.values())))
         cells = "".join(f"{row[q]['kbps']:9.1f}" if q in row else f"{'-':>9}" for q in qs)
         op = next((r for r in row.values() if r["operating_point"]), None)
-        extra = f"  [{op['psnr_skin']:.2f}]" if op and op.get("psnr_skin") is not None else ""
+        extra = f"  [{op['skin_psnr']:.2f}]" if op and op.get("skin_psnr") is not None else ""
         lines.append(f"{solution:<10}{cells}{'' if area is None else f'{area:7.1f}%':>8}{extra}")
     codec_rows = [r for r in points if r["sweep"] == "codec" or (r["sweep"] == "q" and r["operating_point"])]
     if codec_rows:
         lines.append("matched quality (each object's PSNR >= MPEG-4 Q=12): kbps / skin PSNR dB")
         for r in sorted(codec_rows, key=lambda r: (report._order(r["solution"]), r["codec"])):
-            lines.append(f"  {r['solution']:<9}{r['codec']:<11}{r['kbps']:8.1f}  {r.get('psnr_skin') or float('nan'):6.2f}")
+            lines.append(f"  {r['solution']:<9}{r['codec']:<11}{r['kbps']:8.1f}  {r.get('skin_psnr') or float('nan'):6.2f}")
     return "\n".join(lines)
 
 
