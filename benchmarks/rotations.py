@@ -1,6 +1,7 @@
 """Rotation arithmetic: signcast's hand-written NumPy functions against scipy.spatial.transform.
 
-The NumPy side is media/rotations.py as it was before it used scipy (copied below unchanged);
+The NumPy side is media/rotations.py as it was before it used scipy (the functions it replaced are copied
+below unchanged; those it still computes in NumPy are taken from it);
 the scipy side is each function written as scipy calls through media.rotations' scalar-first
 adapter. Both are timed on the sizes signcast uses: a whole motion (T = 250 frames x B = 163
 avatar bones) at once, and the per-call sizes of the loops that call them many times (FBA
@@ -33,20 +34,16 @@ from media import rotations  # noqa: E402
 
 _AXIS = {"X": 0, "Y": 1, "Z": 2}
 
-
-def np_multiply(a, b):
-    aw, ax, ay, az = np.moveaxis(np.asarray(a, dtype=np.float64), -1, 0)
-    bw, bx, by, bz = np.moveaxis(np.asarray(b, dtype=np.float64), -1, 0)
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+# multiply, slerp, angle_between, normalize and canonical are still NumPy in media.rotations: the baseline is the
+# module itself
+np_multiply, np_canonical, np_normalize = rotations.multiply, rotations.canonical, rotations.normalize
+np_slerp, np_angle_between = rotations.slerp, rotations.angle_between
 
 
-def np_canonical(q):
-    return np.where(q[..., :1] < 0, -q, q)
 
 
-def np_normalize(q):
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
 
 
 def np_from_axis_angle(axis, angle):
@@ -89,21 +86,8 @@ def np_rotate(q, v):
     return np.einsum("...ij,...j->...i", np_to_matrix(q), v)
 
 
-def np_slerp(q0, q1, t):
-    t = np.asarray(t, dtype=np.float64)[..., None]
-    dot = np.sum(q0 * q1, axis=-1, keepdims=True)
-    q1 = np.where(dot < 0, -q1, q1)
-    alpha = np.arccos(np.clip(np.abs(dot), -1.0, 1.0))
-    sin_alpha = np.sin(alpha)
-    near = sin_alpha < 1e-9
-    safe = np.where(near, 1.0, sin_alpha)
-    w0 = np.where(near, 1.0 - t, np.sin((1.0 - t) * alpha) / safe)
-    w1 = np.where(near, t, np.sin(t * alpha) / safe)
-    return np_normalize(w0 * q0 + w1 * q1)
 
 
-def np_angle_between(q0, q1):
-    return 2.0 * np.arccos(np.clip(np.abs(np.sum(q0 * q1, axis=-1)), 0.0, 1.0))
 
 
 def _axis_quaternion(axis, angle):

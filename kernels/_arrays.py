@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from kernels import backends
 from kernels.errors import KernelError
 
 
@@ -45,3 +46,18 @@ class UploadCache:
             self._entries.pop(next(iter(self._entries)))
         self._entries[slot] = (array, array.copy(), device_array)
         return device_array
+
+
+class OpenCLBuffers:
+    """Read-write OpenCL device buffers kept by name; a buffer is reallocated only when its size changes."""
+
+    def __init__(self) -> None:
+        self._buffers: dict[str, tuple[object, int]] = {}
+
+    def get(self, name: str, nbytes: int):
+        """The buffer called `name`, of `nbytes` bytes, on the process's OpenCL context."""
+        import pyopencl as cl
+        context, _ = backends.opencl_queue()
+        if self._buffers.get(name, (None, -1))[1] != nbytes:
+            self._buffers[name] = (cl.Buffer(context, cl.mem_flags.READ_WRITE, nbytes), nbytes)
+        return self._buffers[name][0]

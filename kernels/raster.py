@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from kernels import backends
-from kernels._arrays import UploadCache, as_array, check_indices
+from kernels._arrays import OpenCLBuffers, UploadCache, as_array, check_indices
 from kernels.errors import KernelError
 
 LOOKS = ("shaded", "flat")
@@ -452,14 +452,7 @@ class _OpenCLRaster:
 
     def __init__(self):
         self._uploads = None
-        self._buffers = {}
-
-    def _buffer(self, name, nbytes):
-        import pyopencl as cl
-        context, _ = backends.opencl_queue()
-        if self._buffers.get(name, (None, -1))[1] != nbytes:
-            self._buffers[name] = (cl.Buffer(context, cl.mem_flags.READ_WRITE, nbytes), nbytes)
-        return self._buffers[name][0]
+        self._buffer = OpenCLBuffers().get
 
     def render(self, s: _Scene):
         import pyopencl as cl

@@ -98,31 +98,30 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
     i2 = triangles[3 * t + 2]
     if valid[i0] == 0 or valid[i1] == 0 or valid[i2] == 0:
         return
-    x0 = fixed_x[i0]
-    y0 = fixed_y[i0]
-    x1 = fixed_x[i1]
-    y1 = fixed_y[i1]
-    x2 = fixed_x[i2]
-    y2 = fixed_y[i2]
-    z0 = depth[i0]
-    z1 = depth[i1]
-    z2 = depth[i2]
-    area = edge(x0, y0, x1, y1, x2, y2)
+    area = edge(fixed_x[i0], fixed_y[i0], fixed_x[i1], fixed_y[i1], fixed_x[i2], fixed_y[i2])
     if area == wp.int64(0):
         return
+    # window y points down: front faces turn clockwise, area < 0; a back face drawn anyway takes its vertices
+    # 1 and 2 swapped, so it turns clockwise like a front face
+    j1 = i1
+    j2 = i2
     flipped = int(0)
-    if area > wp.int64(0):          # window y points down: front faces turn clockwise, area < 0
+    if area > wp.int64(0):
         if cull != 0:
             return
-        # a back face drawn anyway: orient it clockwise in window space like a front face
-        x1 = fixed_x[i2]
-        y1 = fixed_y[i2]
-        x2 = fixed_x[i1]
-        y2 = fixed_y[i1]
-        z1 = depth[i2]
-        z2 = depth[i1]
+        j1 = i2
+        j2 = i1
         area = -area
         flipped = 1
+    x0 = fixed_x[i0]
+    y0 = fixed_y[i0]
+    x1 = fixed_x[j1]
+    y1 = fixed_y[j1]
+    x2 = fixed_x[j2]
+    y2 = fixed_y[j2]
+    z0 = depth[i0]
+    z1 = depth[j1]
+    z2 = depth[j2]
     # bounding box, clipped to the image
     if wp.max(wp.max(x0, x1), x2) < wp.int64(0) or wp.max(wp.max(y0, y1), y2) < wp.int64(0):
         return
