@@ -1,14 +1,12 @@
-"""Checks the commands run on their arguments before the work: frame size bounds, a memory estimate, codec names.
+"""Checks the commands run on their arguments before the work: a memory estimate and video codec names.
 
-Every command that takes a frame size (`render`, `video --ssv`, `compare`, `demo`) parses it with parse_size /
-check_size (the rule itself is media.domain's, re-exported here) and, once it knows the frame count, calls
-check_memory with the bytes per pixel it will hold.
+Every command that takes a frame size (`render`, `video --ssv`, `compare`, `demo`) parses it with
+media.domain.parse_size and, once it knows the frame count, calls check_memory with the bytes per pixel it will hold.
 """
 from __future__ import annotations
 
 import os
 
-from media.domain import check_size, parse_size  # noqa: F401  (re-exported for the commands)
 from media.errors import SigncastError
 
 MEMORY_LIMIT_VARIABLE = "SIGNCAST_MEMORY_LIMIT_MB"

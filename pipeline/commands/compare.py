@@ -50,7 +50,7 @@ def execute(settings, args: argparse.Namespace) -> int:
     """Complete settings with the scenario arguments (shared with demo), check, run, print the summary."""
     from dataclasses import replace
 
-    from pipeline.checks import parse_size
+    from media.domain import parse_size
     from pipeline.studies import compare
     settings = replace(settings, language=args.language, word=args.word, clip=args.video, size=parse_size(args.size),
                        backend=args.backend, max_clip_size=options.parse_max_size(args.max_size))

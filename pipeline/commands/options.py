@@ -55,7 +55,7 @@ def parse_video_codecs(text: str, option: str = "--video-codecs") -> tuple[str, 
 
 def parse_max_size(text: str) -> tuple[int, int] | None:
     """--max-size: (width, height) in pixels, or None for 'none'."""
-    from pipeline.checks import parse_size
+    from media.domain import parse_size
     return None if str(text).strip().lower() == "none" else parse_size(text, "--max-size")
 
 

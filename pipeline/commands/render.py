@@ -35,7 +35,7 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pipeline.checks import parse_size
+    from media.domain import parse_size
     from pipeline.outputs import output_files
     from pipeline.studies import render
     settings = render.RenderWordSettings(args.language, args.word, args.output, args.labels, args.preview,

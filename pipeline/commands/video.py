@@ -35,7 +35,7 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pipeline.checks import parse_size
+    from media.domain import parse_size
     from pipeline.studies import video
 
     sweep = video.VideoSweep(qs=tuple(sorted(set(options.parse_qs(args.video_q, "--video-q")))),
