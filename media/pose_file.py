@@ -6,6 +6,9 @@ checks, before the body is read, that the layout is the lexicon's (the component
 of `HOLISTIC_LAYOUT`, format XYZC) and that the body the header announces (frames x people x points
 x 4 float32) is exactly the bytes that follow, so nothing is allocated that the file does not hold.
 Every failure is a SigncastError.
+
+`write_pose` writes a SignClip in that same layout (pose-format version 0.2, one person), masked where the
+confidence is 0, so that `read_pose` and pose-format's own `Pose.read` read it back.
 """
 from __future__ import annotations
 
@@ -107,3 +110,38 @@ def _clip(fps: float, data: np.ma.MaskedArray, confidence: np.ndarray) -> SignCl
         confidences[name] = confidence[:, start:stop]
         start = stop
     return SignClip(fps, points, confidences)
+
+
+def write_pose(path: str | Path, clip: SignClip, width: int, height: int) -> int:
+    """Write clip (the five HOLISTIC_LAYOUT components, x y pixels of a width x height frame) as a `.pose` file
+    (format XYZC, one person, points masked where their confidence is 0). Returns the file size in bytes."""
+    from pose_format import Pose  # heavy import, only when a file is written
+    from pose_format.numpy import NumPyPoseBody
+    from pose_format.pose_header import PoseHeader, PoseHeaderComponent, PoseHeaderDimensions
+
+    missing = [name for name, _ in HOLISTIC_LAYOUT if name not in clip.points or name not in clip.confidence]
+    if missing:
+        raise SigncastError(f"cannot write {path}: the clip lacks {', '.join(missing)}")
+    frames = clip.n_frames
+    for name, names in HOLISTIC_LAYOUT:
+        if clip.points[name].shape != (frames, len(names), 3) or clip.confidence[name].shape != (frames, len(names)):
+            raise SigncastError(f"cannot write {path}: {name} has shape {clip.points[name].shape}, "
+                                f"expected ({frames}, {len(names)}, 3)")
+    if frames < 1 or not (np.isfinite(clip.fps) and clip.fps > 0):
+        raise SigncastError(f"cannot write {path}: {frames} frames at {clip.fps} fps")
+    components = [PoseHeaderComponent(name, list(names), [], [], POINT_FORMAT) for name, names in HOLISTIC_LAYOUT]
+    header = PoseHeader(0.2, PoseHeaderDimensions(int(width), int(height), 0), components)
+    confidence = np.concatenate([clip.confidence[name] for name, _ in HOLISTIC_LAYOUT], axis=1)
+    points = np.concatenate([clip.points[name] for name, _ in HOLISTIC_LAYOUT], axis=1)
+    seen = np.isfinite(confidence) & (confidence > 0) & np.all(np.isfinite(points), axis=-1)
+    confidence = np.where(seen, np.clip(confidence, 0.0, 1.0), 0.0).astype(np.float32)[:, None]
+    values = np.where(seen[..., None], points, 0.0).astype(np.float32)[:, None]
+    mask = np.repeat(~seen[:, None, :, None], 3, axis=3)
+    body = NumPyPoseBody(float(clip.fps), np.ma.masked_array(values, mask=mask), confidence)
+    path = Path(path)
+    try:
+        with path.open("wb") as handle:
+            Pose(header, body).write(handle)
+    except OSError as error:
+        raise SigncastError(f"cannot write pose file {path}: {error.strerror or error}") from None
+    return path.stat().st_size

@@ -26,6 +26,7 @@ COMMAND_MODULES = [
     "pipeline.commands.params",
     "pipeline.commands.lab",
     "pipeline.commands.analyze",
+    "pipeline.commands.pose",
 ]
 
 

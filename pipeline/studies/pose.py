@@ -1,0 +1,134 @@
+"""`signcast pose VIDEO -o clip.pose`: a real signer's video in, MediaPipe Holistic landmarks out.
+
+The video is read at its own rate (scaled down to fit max_size, as the video command does), every frame goes
+through signcast's Holistic graph (media.landmarks.holistic), and the landmarks are written as a `.pose` file in
+the lexicon's layout (media.pose_file.write_pose), optionally with a preview video of the landmarks drawn on the
+frames. A video with no person in it is refused (SigncastError); a hand missing from some frames (outside the
+picture or hidden) is only noted: those frames are masked in the file.
+"""
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import cv2
+import numpy as np
+from tqdm import tqdm
+
+from media.errors import SigncastError
+from media.lexicon import SignClip
+from media.video_io import read_clip, resolve_video, video_info
+from pipeline.studies.video import DEFAULT_MAX_SIZE
+
+POSE_SUFFIXES = (".pose",)
+PREVIEW_SUFFIXES = (".mkv", ".avi", ".nut", ".mp4")   # containers that hold FFV1
+
+
+@dataclass(frozen=True)
+class PoseSettings:
+    """video: a path or a bundled clip name; output: the .pose file; preview: a video of the landmarks drawn on
+    the frames, or None; max_size: (width, height) larger videos are scaled down to fit, None keeps the size;
+    frames: only the first N frames (None: all)."""
+    video: str
+    output: Path
+    preview: Path | None = None
+    max_size: tuple[int, int] | None = DEFAULT_MAX_SIZE
+    frames: int | None = None
+
+
+@dataclass
+class PoseResult:
+    clip: SignClip
+    width: int
+    height: int
+    shares: dict[str, float]         # part -> share of frames in which it was found
+    frames_per_second: float         # extraction speed
+    notes: list[str]
+
+
+def check(settings: PoseSettings) -> Path:
+    """Refuse a missing or unreadable video before any work; the video's path."""
+    path = resolve_video(settings.video)
+    video_info(path)
+    if settings.frames is not None and settings.frames < 1:
+        raise SigncastError(f"--frames must be at least 1, got {settings.frames}")
+    return path
+
+
+def run(settings: PoseSettings, *, progress: bool = True) -> PoseResult:
+    """Read, extract, check and write (see the module's docstring)."""
+    from media.landmarks.holistic import PARTS, extract_landmarks, found_shares, frames_missing
+    from media.pose_file import write_pose
+    from media.video_io import write_video
+
+    path = check(settings)
+    info = video_info(path)
+    expected = min(filter(None, (info.announced_frames, settings.frames)), default=None)
+    with tqdm(total=expected, desc=f"read {path.name}", unit="frame", file=sys.stderr, leave=False,
+              disable=not progress) as bar:
+        video = read_clip(path, settings.frames, settings.max_size, progress=bar.update)
+    frames = video.frames
+    height, width = frames.shape[1:3]
+    started = time.perf_counter()
+    with tqdm(total=len(frames), desc="landmarks", unit="frame", file=sys.stderr, disable=not progress) as bar:
+        clip = extract_landmarks(frames, video.fps, progress=bar.update)
+    speed = len(frames) / max(time.perf_counter() - started, 1e-9)
+    shares = found_shares(clip)
+    if shares["pose"] == 0.0:
+        raise SigncastError(f"no person found in {path}: no body pose in any of its {len(frames)} frames")
+    notes = []
+    for part in PARTS:
+        missing = frames_missing(clip, part)
+        if part != "pose" and 0 < missing:
+            notes.append(f"note: the {part} is not found in {missing} of {len(frames)} frames (outside the frame "
+                         f"or hidden); those frames are masked in the .pose")
+        elif part == "pose" and missing:
+            notes.append(f"note: no person is found in {missing} of {len(frames)} frames; those frames are masked "
+                         f"in the .pose")
+    write_pose(settings.output, clip, width, height)
+    if settings.preview is not None:
+        write_video(settings.preview, draw_landmarks(frames, clip), video.fps)
+    return PoseResult(clip, width, height, shares, speed, notes)
+
+
+def summary(settings: PoseSettings, result: PoseResult) -> str:
+    """The one line the command prints."""
+    shares = ", ".join(f"{part} {100 * share:.0f}%" for part, share in result.shares.items())
+    return (f"{settings.output}: {result.clip.n_frames} frames at {result.clip.fps:.4g} fps, "
+            f"{result.width}x{result.height}; found in frames: {shares}; "
+            f"extracted at {result.frames_per_second:.1f} frames/s")
+
+
+# MediaPipe's drawing connections: pose (POSE_CONNECTIONS, without the face) and hand (HAND_CONNECTIONS)
+POSE_LINES = ((11, 12), (11, 13), (13, 15), (15, 17), (15, 19), (15, 21), (17, 19), (12, 14), (14, 16), (16, 18),
+              (16, 20), (16, 22), (18, 20), (11, 23), (12, 24), (23, 24), (23, 25), (24, 26), (25, 27), (26, 28),
+              (27, 29), (28, 30), (29, 31), (30, 32), (27, 31), (28, 32))
+HAND_LINES = ((0, 1), (1, 2), (2, 3), (3, 4), (0, 5), (5, 6), (6, 7), (7, 8), (5, 9), (9, 10), (10, 11), (11, 12),
+              (9, 13), (13, 14), (14, 15), (15, 16), (13, 17), (0, 17), (17, 18), (18, 19), (19, 20))
+COLOURS = {"POSE_LANDMARKS": (255, 255, 255), "LEFT_HAND_LANDMARKS": (255, 128, 0),
+           "RIGHT_HAND_LANDMARKS": (0, 200, 255), "FACE_LANDMARKS": (80, 255, 80)}
+
+
+def draw_landmarks(frames: np.ndarray, clip: SignClip, progress: Callable[[int], object] | None = None) -> np.ndarray:
+    """frames (T, H, W, 3) uint8 RGB with the clip's landmarks drawn: skeleton lines for pose and hands, dots for
+    the face; only points with confidence > 0. Returns a new (T, H, W, 3) uint8 array."""
+    drawn = np.array(frames, copy=True)
+    lines = {"POSE_LANDMARKS": POSE_LINES, "LEFT_HAND_LANDMARKS": HAND_LINES, "RIGHT_HAND_LANDMARKS": HAND_LINES}
+    for t, picture in enumerate(drawn):
+        face = clip.points["FACE_LANDMARKS"][t]
+        for x, y in face[clip.confidence["FACE_LANDMARKS"][t] > 0, :2]:
+            cv2.circle(picture, (int(round(x)), int(round(y))), 0, COLOURS["FACE_LANDMARKS"], -1)
+        for name, connections in lines.items():
+            points, seen = clip.points[name][t], clip.confidence[name][t] > 0
+            for a, b in connections:
+                if seen[a] and seen[b]:
+                    cv2.line(picture, tuple(int(round(v)) for v in points[a, :2]),
+                             tuple(int(round(v)) for v in points[b, :2]), COLOURS[name], 1, cv2.LINE_AA)
+            for x, y in points[seen, :2]:
+                cv2.circle(picture, (int(round(x)), int(round(y))), 2, COLOURS[name], -1)
+        if progress is not None:
+            progress(1)
+    return drawn
