@@ -6,9 +6,11 @@ as float32 arrays with the batch axis removed, in the model's output order.
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -44,8 +46,9 @@ class Model:
             raise SigncastError(f"landmark model {path.name} does not match models.sha256: "
                                 "re-run tools/extract_mediapipe_models.py")
         self.name = name
-        self._interpreter = Interpreter(model_content=data, num_threads=THREADS)
-        self._interpreter.allocate_tensors()
+        with _quiet_native_stderr():
+            self._interpreter = Interpreter(model_content=data, num_threads=THREADS)
+            self._interpreter.allocate_tensors()
         detail = self._interpreter.get_input_details()[0]
         self._input = detail["index"]
         self.input_size = (int(detail["shape"][1]), int(detail["shape"][2]))
@@ -56,6 +59,25 @@ class Model:
         self._interpreter.set_tensor(self._input, np.ascontiguousarray(image, dtype=np.float32)[None])
         self._interpreter.invoke()
         return [self._interpreter.get_tensor(index)[0].copy() for index in self._outputs]
+
+
+@contextlib.contextmanager
+def _quiet_native_stderr():
+    """LiteRT's C++ side prints an INFO line per model ("Created TensorFlow Lite XNNPACK delegate") straight
+    to file descriptor 2, past Python's sys.stderr; the user would see it between progress bars."""
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):   # stderr replaced (pytest capture, notebooks)
+        fd = 2
+    sys.stderr.flush()
+    saved = os.dup(fd)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), fd)
+        yield
+    finally:
+        os.dup2(saved, fd)
+        os.close(saved)
 
 
 @functools.lru_cache(maxsize=None)
