@@ -13,7 +13,8 @@ Per side (the person's own left/right, as MediaPipe's pose names LEFT_WRIST = 15
      the pose wrist not visible) it is kept as is, which Holistic itself would not do.
   3. hand_landmark_full on the chosen ROI (input RGB [0, 1], 224 x 224); a presence score (a probability)
      under 0.5 means no hand there. If the chosen ROI finds none, the other one is tried.
-  4. Fallback for a side still without a hand: palm detection over the whole (letterboxed) frame; each palm
+  4. Fallback for a side still without a hand: palm detection (on the first frame, then on every 5th frame
+     while a side stays without a hand) over the whole (letterboxed) frame; each palm
      gives a ROI (palm box, rotated wrist -> middle knuckle up, enlarged 2.6x, shifted 0.5 towards the
      fingers) whose hand goes to the side of the nearest pose wrist, or, without a pose, to the side
      hand_landmark's handedness output says.
@@ -56,6 +57,9 @@ TRACKING_RECROP_MARGIN = -0.1
 MIN_ROI_SIDE = 2.0                 # pixels: smaller (degenerate) ROIs are not cropped
 SAME_HAND_IOU = 0.5                # two sides' landmark boxes overlapping this much hold the same hand
 
+# While a side stays without a hand, palm detection (the dearest model of the hand stage) runs on every
+# PALM_FALLBACK_PERIOD-th frame only: a hand that comes back is found within 0.2 s at 25 fps.
+PALM_FALLBACK_PERIOD = 5
 PALM_MAX_HANDS = 2                 # hand_landmark_tracking_cpu.pbtxt num_hands default
 PALM_WRIST, PALM_MIDDLE_MCP = 0, 2  # palm keypoints giving the ROI's rotation
 
@@ -191,11 +195,13 @@ class HandTracker:
 
     def __init__(self):
         self._previous: dict[str, Hand | None] = {}
+        self._frames_without_palm_search = 0
         self.reset()
 
     def reset(self) -> None:
         """Forget last frame's hands (start of a new video)."""
         self._previous = {side: None for side in SIDES}
+        self._frames_without_palm_search = PALM_FALLBACK_PERIOD   # the first frame searches
 
     def process(self, frame: np.ndarray, pose: np.ndarray | None = None,
                 pose_visibility: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -210,7 +216,11 @@ class HandTracker:
             loser = _weaker_claim(hands["left"], hands["right"], pose)
             hands[loser] = None
         if any(hand is None for hand in hands.values()):
-            self._palm_fallback(frame, hands, pose)
+            if self._frames_without_palm_search + 1 >= PALM_FALLBACK_PERIOD:
+                self._palm_fallback(frame, hands, pose)
+                self._frames_without_palm_search = 0
+            else:
+                self._frames_without_palm_search += 1
         self._previous = hands
         return {side: _as_output(hands[side]) for side in SIDES}
 

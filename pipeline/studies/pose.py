@@ -20,7 +20,7 @@ from tqdm import tqdm
 
 from media.errors import SigncastError
 from media.lexicon import SignClip
-from media.video_io import read_clip, resolve_video, video_info
+from media.video_io import resolve_video, video_info
 from pipeline.studies.video import DEFAULT_MAX_SIZE
 
 POSE_SUFFIXES = (".pose",)
@@ -60,16 +60,13 @@ def check(settings: PoseSettings) -> Path:
 
 def run(settings: PoseSettings, *, progress: bool = True) -> PoseResult:
     """Read, extract, check and write (see the module's docstring)."""
-    from media.landmarks.holistic import PARTS, extract_landmarks, found_shares, frames_missing
+    from media.landmarks.holistic import extract_landmarks, found_shares
     from media.pose_file import write_pose
     from media.video_io import write_video
+    from pipeline.studies.video import read_natural_clip
 
     path = check(settings)
-    info = video_info(path)
-    expected = min(filter(None, (info.announced_frames, settings.frames)), default=None)
-    with tqdm(total=expected, desc=f"read {path.name}", unit="frame", file=sys.stderr, leave=False,
-              disable=not progress) as bar:
-        video = read_clip(path, settings.frames, settings.max_size, progress=bar.update)
+    video, notes = read_natural_clip(str(path), settings.frames, settings.max_size, progress=progress)
     frames = video.frames
     height, width = frames.shape[1:3]
     started = time.perf_counter()
@@ -79,19 +76,40 @@ def run(settings: PoseSettings, *, progress: bool = True) -> PoseResult:
     shares = found_shares(clip)
     if shares["pose"] == 0.0:
         raise SigncastError(f"no person found in {path}: no body pose in any of its {len(frames)} frames")
-    notes = []
-    for part in PARTS:
-        missing = frames_missing(clip, part)
-        if part != "pose" and 0 < missing:
-            notes.append(f"note: the {part} is not found in {missing} of {len(frames)} frames (outside the frame "
-                         f"or hidden); those frames are masked in the .pose")
-        elif part == "pose" and missing:
-            notes.append(f"note: no person is found in {missing} of {len(frames)} frames; those frames are masked "
-                         f"in the .pose")
+    notes += missing_part_notes(clip, width, height)
     write_pose(settings.output, clip, width, height)
     if settings.preview is not None:
         write_video(settings.preview, draw_landmarks(frames, clip), video.fps)
     return PoseResult(clip, width, height, shares, speed, notes)
+
+
+def missing_part_notes(clip: SignClip, width: int, height: int) -> list[str]:
+    """One line per part missing from some frames; for a hand, how many of those frames have the pose's wrist
+    outside the picture (width x height pixels): the hand left the frame, rather than being hidden."""
+    from media.landmarks.holistic import PARTS, frames_missing
+    from media.landmarks.hands import POSE_WRIST_PINKY_INDEX
+
+    notes = []
+    pose_points, pose_seen = clip.points["POSE_LANDMARKS"], clip.confidence["POSE_LANDMARKS"] > 0
+    for part, component in PARTS.items():
+        missing = frames_missing(clip, part)
+        if not missing:
+            continue
+        if part == "pose":
+            notes.append(f"note: no person is found in {missing} of {clip.n_frames} frames; those frames are "
+                         "masked in the .pose")
+            continue
+        where = ""
+        if part.endswith("hand"):
+            wrist = POSE_WRIST_PINKY_INDEX[part.split()[0]][0]
+            absent = ~np.any(clip.confidence[component] > 0, axis=1)
+            x, y = pose_points[:, wrist, 0], pose_points[:, wrist, 1]
+            outside = pose_seen[:, wrist] & ((x < 0) | (x >= width) | (y < 0) | (y >= height))
+            left_frame = int(np.sum(absent & outside))
+            where = f" (its wrist is outside the picture in {left_frame} of them)" if left_frame else ""
+        notes.append(f"note: the {part} is not found in {missing} of {clip.n_frames} frames{where}; those "
+                     "frames are masked in the .pose")
+    return notes
 
 
 def summary(settings: PoseSettings, result: PoseResult) -> str:
