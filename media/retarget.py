@@ -1,7 +1,24 @@
-"""Retargeting MediaPipe Holistic keypoints (a lexicon clip) to the avatar's skeleton.
+"""Retargeting MediaPipe Holistic keypoints (a lexicon clip or any `.pose`) to the avatar's skeleton.
 
-- Torso: spine01..05 lean with the shoulder line, neck01..03 and head follow the eyes (roll) and
-  the nose between the ears (yaw), from the pose landmarks.
+Any SignClip in the Holistic layout works (media.pose_file.read_pose); a lexicon clip (clip.entry
+set) differs only in its defaults (see `retarget`) and in where the phalanx lengths come from.
+
+- Keypoint clean-up: each point's coordinates are filtered over time against MediaPipe's jitter
+  (media.jitter_filter: "binomial" [1, 2, 1] / 4 after filling gaps, "one-euro" on the seen
+  samples before filling, in shoulder widths so its beta does not depend on the video's size, or
+  "off"), and a point missing in some frames takes the nearest frame that has it.
+- Torso and head (all angles small and clamped, from the pose landmarks; the avatar faces +Z,
+  Y up): spine roll follows the shoulder line (clamped to 20 deg, shared 0.2/0.4/0.4 by
+  spine03/02/01). Torso yaw and lean are not driven: in 2D keypoints they show only as the
+  shoulder line's or the shoulders-to-hips distance's foreshortening, and over 40 lexicon clips of
+  signers facing the camera those alone read as 9-26 deg of yaw and 8-25 deg of lean (the shoulder
+  landmarks shift as the arms rise), so they are not measurable here. neck01..03 and head share
+  equally: roll from the eyes' line relative to the shoulders' (clamped to 34 deg), yaw from the
+  nose between the ears (arcsin of twice its offset from the ears' midpoint in ear spans, clamped
+  to 53 deg), and pitch (nod) from the nose's height under the ears' line in ear spans:
+  pitch = arcsin((ratio - HEAD_NEUTRAL_RATIO) / HEAD_PITCH_SPAN), clamped to 15 deg, nodding down
+  as the nose drops (HEAD_NEUTRAL_RATIO 0.14 is the lexicon signers' median ratio; per clip their
+  medians span 0.10-0.18, i.e. +-4 deg). A part whose landmarks are never seen stays level.
 - Arms: the shoulder->elbow and elbow->wrist directions are lifted to 3D with the avatar's bone
   lengths (media.lifting; the hand is in front of the body, so dz >= 0), and the palm's rotation
   comes from the wrist, index and little-finger knuckles (a weak-perspective triangle fit, its
@@ -13,7 +30,10 @@
   the sign of each phalanx's depth is the one that respects the limits best (fingers flex
   towards the palm). Phalanges are lifted with the lexicon signer's own lengths (measured over
   all the language's clips: the avatar's proximal phalanges are a third shorter than a real
-  hand's). Metacarpals stay at rest.
+  hand's). A clip without lexicon entry (any `.pose`) uses its own: the same percentiles of the
+  phalanx image lengths over the frames its hand is fully seen (at least OWN_LENGTH_MIN_FRAMES),
+  never shorter than the avatar's phalanx (a clip that only shows a fist cannot tell how long
+  straight fingers are); a hand seen less is lifted with the avatar's. Metacarpals stay at rest.
 - Closed hands (A, S, E, M, N, T, ...): MediaPipe places a fist's knuckle landmarks too near the
   wrist (the knuckles hide behind the curled fingers), which tilts the fitted palm and makes the
   proximal phalanges look long and upright, so a fist came out as a half-curled open hand. The
@@ -22,8 +42,14 @@
   the palm within limits, a curled finger flexes at its knuckle, the wrist does not strain,
   knuckles are assumed misplaced only when that helps; a curled finger's hidden last joint
   flexes at least 2/3 of its middle joint. `Retargeted.overridden` marks what priors set.
-- A hand the clip never shows (ASL has no left hand) keeps its arm and fingers at rest; points
-  missing in some frames take the nearest frame that has them. No output is ever NaN.
+- A hand the clip never shows (seen fully in under MIN_HAND_SHARE of the frames; ASL has no left
+  hand) leaves its arm unposed: "natural" (the default for any `.pose`) hangs it beside the body
+  (REST_ARM: upper arm 8 deg out and 6 deg forward of the vertical, elbow flexed 25 deg, palm
+  turned towards the thigh, fingers slightly curled, the hand beside the thigh); "a-pose" (the
+  default for lexicon clips, which existing figures and tests show) keeps the avatar's rest pose.
+  A hand that is seen, but not in some frames (also at the start or end of the clip), holds the
+  nearest frame where it was seen: a hand leaving the picture stays where it was last seen
+  rather than dropping to rest along a path nobody observed. No output is ever NaN.
 """
 from __future__ import annotations
 
@@ -33,8 +59,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from media import ik, lifting, rotations
+from media import jitter_filter as filters
 from media.avatar import Skeleton, load_avatar
 from media.errors import SigncastError
+from media.jitter_filter import OneEuro
 from media.kinematics import bone_matrices, joint_positions
 from media.lexicon import HAND_COMPONENTS, POSE_COMPONENT, POSE_POINTS, SignClip
 from media.motion import Motion
@@ -85,6 +113,38 @@ SIGNER_LENGTH_PERCENTILES = (75.0, 90.0, 90.0)   # proximal, middle, distal
 FIST_KNUCKLE_FLEXION = 75.0
 FIST_WEIGHT = 4.0
 DIP_COUPLING = 2.0 / 3.0      # a curled finger's last joint flexes at least this share of its middle joint
+OWN_LENGTH_MIN_FRAMES = 10    # frames a .pose must show a hand fully for its own phalanx lengths
+
+# Defaults (see `retarget`): lexicon clips keep what existing figures and tests show; any other
+# clip (a .pose from a video) gets the One-Euro filter and the natural rest arm.
+LEXICON_FILTER = "binomial"
+POSE_FILTER = "one-euro"
+LEXICON_UNSEEN_ARM = "a-pose"
+POSE_UNSEEN_ARM = "natural"
+UNSEEN_ARMS = ("natural", "a-pose")
+# One-Euro settings for keypoints in shoulder widths at the clip's fps (docs/retargeting.md: measured)
+ONE_EURO = OneEuro(min_cutoff=1.0, beta=2.0, d_cutoff=1.0)
+
+# Torso and head (module docstring): clamps in degrees
+SHOULDER_ROLL_MAX = 20.0
+HEAD_ROLL_MAX = 34.0
+HEAD_YAW_MAX = 53.0
+HEAD_NEUTRAL_RATIO = 0.14     # nose below the ears' line, in ear spans, of a level head (lexicon median)
+HEAD_PITCH_SPAN = 0.6         # ear-axis-to-nose-tip distance in ear spans: ratio change per sin(pitch)
+HEAD_PITCH_MAX = 15.0
+
+# The natural rest of an arm whose hand is never seen (degrees): the upper arm hangs
+# `abduction` out and `flexion` forward of the vertical, the elbow bends `elbow`, the forearm turns
+# the palm towards the thigh (`palm_back` degrees backward of straight inwards), the wrist stays
+# straight and the fingers curl a little at each joint (knuckle, middle, last; thumb: base, MCP, IP).
+REST_ARM = {
+    "abduction": 8.0,
+    "flexion": 6.0,
+    "elbow": 25.0,
+    "palm_back": 20.0,
+    "finger_curl": (15.0, 20.0, 10.0),
+    "thumb_curl": (5.0, 10.0, 10.0),
+}
 
 
 @dataclass
@@ -132,19 +192,37 @@ def _filled(points: np.ndarray, valid: np.ndarray) -> np.ndarray:
 
 def _smoothed(points: np.ndarray) -> np.ndarray:
     """A light [1, 2, 1] / 4 temporal filter (T, N, D): MediaPipe jitters by a pixel or two."""
-    if len(points) < 3:
-        return points
-    padded = np.concatenate([points[:1], points, points[-1:]])
-    return 0.25 * padded[:-2] + 0.5 * padded[1:-1] + 0.25 * padded[2:]
+    return filters.binomial(points)
 
 
-def _component(clip: SignClip, name: str) -> tuple[np.ndarray, np.ndarray]:
-    """(points (T, N, 2) pixels, filled and smoothed; valid (T, N) as recorded)."""
+def _component(clip: SignClip, name: str, filter_name: str = "binomial",
+               unit_px: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """(points (T, N, 2) pixels, filtered and filled; valid (T, N) as recorded).
+
+    filter_name: "binomial" (fill, then [1, 2, 1] / 4), "one-euro" (ONE_EURO on the seen samples in
+    units of unit_px pixels at the clip's fps, then fill) or "off" (fill only)."""
     if name not in clip.points:
         raise SigncastError(f"clip has no {name} keypoints; a MediaPipe Holistic .pose file is needed")
     points = clip.points[name][..., :2]
     valid = clip.confidence[name] > 0
-    return _smoothed(_filled(points, valid)), valid
+    if filter_name == "binomial":
+        return _smoothed(_filled(points, valid)), valid
+    if filter_name == "one-euro":
+        points = filters.one_euro(points / unit_px, valid, clip.fps, ONE_EURO) * unit_px
+    return _filled(points, valid), valid
+
+
+def _shoulder_width_px(clip: SignClip) -> float:
+    """Median distance (pixels) between the shoulders over the frames both are seen (0 if never)."""
+    pose = clip.points.get(POSE_COMPONENT)
+    if pose is None:
+        return 0.0
+    index = {name: i for i, name in enumerate(POSE_POINTS)}
+    left, right = index["LEFT_SHOULDER"], index["RIGHT_SHOULDER"]
+    both = (clip.confidence[POSE_COMPONENT][:, left] > 0) & (clip.confidence[POSE_COMPONENT][:, right] > 0)
+    if not both.any():
+        return 0.0
+    return float(np.median(np.linalg.norm(pose[both, left, :2] - pose[both, right, :2], axis=-1)))
 
 
 # --------------------------------------------------------------------------- rig geometry
@@ -220,32 +298,43 @@ def _arm_chain(skeleton: Skeleton, side: str) -> list[ik.ChainJoint]:
 # --------------------------------------------------------------------------- the parts
 
 def _torso_rotations(pose: np.ndarray, pose_valid: np.ndarray) -> dict[str, np.ndarray]:
-    """Local rotations (T, 4) of spine, neck and head bones from pose landmarks (T, 33, 2) pixels."""
+    """Local rotations (T, 4) of spine, neck and head bones from pose landmarks (T, 33, 2) pixels
+    (module docstring: roll, yaw and pitch rules)."""
     n_frames = len(pose)
     index = {name: i for i, name in enumerate(POSE_POINTS)}
     plane = lifting.to_plane(pose, 1.0)
+    seen = lambda *names: all(pose_valid[:, index[name]].any() for name in names)
     result = {}
 
     def roll_of(left: str, right: str) -> np.ndarray:
         v = plane[:, index[left]] - plane[:, index[right]]
-        ok = pose_valid[:, index[left]].any() and pose_valid[:, index[right]].any()
-        return np.arctan2(v[:, 1], v[:, 0]) if ok else np.zeros(n_frames)
+        return np.arctan2(v[:, 1], v[:, 0]) if seen(left, right) else np.zeros(n_frames)
 
-    shoulder_roll = np.clip(roll_of("LEFT_SHOULDER", "RIGHT_SHOULDER"), -0.35, 0.35)
-    head_roll = np.clip(roll_of("LEFT_EYE", "RIGHT_EYE"), -0.6, 0.6) - shoulder_roll
-    ears = 0.5 * (plane[:, index["LEFT_EAR"]] + plane[:, index["RIGHT_EAR"]])
-    ear_span = np.maximum(np.linalg.norm(plane[:, index["LEFT_EAR"]] - plane[:, index["RIGHT_EAR"]], axis=-1), 1e-6)
-    yaw = np.arcsin(np.clip(2.0 * (plane[:, index["NOSE"], 0] - ears[:, 0]) / ear_span, -0.8, 0.8))
-    if not (pose_valid[:, index["NOSE"]].any() and pose_valid[:, index["LEFT_EAR"]].any()):
-        yaw = np.zeros(n_frames)
-    z_axis = np.array([0.0, 0.0, 1.0])
-    y_axis = np.array([0.0, 1.0, 0.0])
+    shoulder_roll = np.clip(roll_of("LEFT_SHOULDER", "RIGHT_SHOULDER"), *np.radians([-SHOULDER_ROLL_MAX, SHOULDER_ROLL_MAX]))
+    head_roll = np.clip(roll_of("LEFT_EYE", "RIGHT_EYE"), *np.radians([-HEAD_ROLL_MAX, HEAD_ROLL_MAX])) - shoulder_roll
+    yaw = np.zeros(n_frames)
+    pitch = np.zeros(n_frames)
+    if seen("NOSE", "LEFT_EAR", "RIGHT_EAR"):
+        ears = 0.5 * (plane[:, index["LEFT_EAR"]] + plane[:, index["RIGHT_EAR"]])
+        ear_span = np.maximum(np.linalg.norm(plane[:, index["LEFT_EAR"]] - plane[:, index["RIGHT_EAR"]], axis=-1), 1e-6)
+        nose = plane[:, index["NOSE"]]
+        yaw = np.arcsin(np.clip(2.0 * (nose[:, 0] - ears[:, 0]) / ear_span, -np.sin(np.radians(HEAD_YAW_MAX)),
+                                np.sin(np.radians(HEAD_YAW_MAX))))
+        # the plane's y points up: a nose further below the ears' line has a more negative offset
+        drop = (ears[:, 1] - nose[:, 1]) / ear_span
+        pitch_max = np.sin(np.radians(HEAD_PITCH_MAX))
+        pitch = np.arcsin(np.clip((drop - HEAD_NEUTRAL_RATIO) / HEAD_PITCH_SPAN, -pitch_max, pitch_max))
+    x_axis = np.broadcast_to(np.array([1.0, 0.0, 0.0]), (n_frames, 3))
+    y_axis = np.broadcast_to(np.array([0.0, 1.0, 0.0]), (n_frames, 3))
+    z_axis = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (n_frames, 3))
     for bone, share in (("spine03", 0.2), ("spine02", 0.4), ("spine01", 0.4)):
-        result[bone] = rotations.from_axis_angle(np.broadcast_to(z_axis, (n_frames, 3)), share * shoulder_roll)
+        result[bone] = rotations.from_axis_angle(z_axis, share * shoulder_roll)
     for bone, share in (("neck01", 0.25), ("neck02", 0.25), ("neck03", 0.25), ("head", 0.25)):
+        # a positive angle about +X turns +Y (the top of the head) towards +Z (the viewer): a nod down
         result[bone] = rotations.multiply(
-            rotations.from_axis_angle(np.broadcast_to(z_axis, (n_frames, 3)), share * head_roll),
-            rotations.from_axis_angle(np.broadcast_to(y_axis, (n_frames, 3)), share * yaw))
+            rotations.multiply(rotations.from_axis_angle(z_axis, share * head_roll),
+                               rotations.from_axis_angle(y_axis, share * yaw)),
+            rotations.from_axis_angle(x_axis, share * pitch))
     return result
 
 
@@ -389,10 +478,72 @@ def _hand_template(skeleton: Skeleton, side: str) -> np.ndarray:
                      _head(skeleton, f"finger5-1.{side}")])
 
 
+# --------------------------------------------------------------------------- the unseen arm
+
+def natural_rest(skeleton: Skeleton, side: str) -> dict[str, np.ndarray]:
+    """Local rotations (bone -> (4,)) of the arm and hand `side` ('L'/'R') hanging at rest (REST_ARM).
+
+    The upper arm's world direction is set first, turned about itself so that the elbow's hinge
+    bends the forearm forward in the arm's plane; the elbow then flexes to REST_ARM["elbow"], the
+    forearm twists (within +-90 deg) to turn the palm towards the thigh, and each phalanx curls
+    towards the palm. Bones not named (clavicle, shoulder, wrist, metacarpals) stay at rest.
+    """
+    outwards = 1.0 if side == "L" else -1.0             # the avatar's left is +X
+    angles = {key: np.radians(value) for key, value in REST_ARM.items()}
+    shoulder = _head(skeleton, f"upperarm01.{side}")
+    elbow = _head(skeleton, f"lowerarm01.{side}")
+    wrist = _head(skeleton, f"wrist.{side}")
+    upper_rest, fore_rest = _unit(elbow - shoulder), _unit(wrist - elbow)
+    upper = _unit(np.array([outwards * np.tan(angles["abduction"]), -1.0, np.tan(angles["flexion"])]))
+    forward = _unit(np.array([0.0, 0.0, 1.0]) - upper[2] * upper)
+    fore = np.cos(angles["elbow"]) * upper + np.sin(angles["elbow"]) * forward
+    # the upper arm's frame: its direction and its hinge's normal (the arm's plane) both land
+    rest_frame = np.stack([upper_rest, _unit(np.cross(upper_rest, fore_rest))])
+    rest_frame = np.vstack([rest_frame, np.cross(rest_frame[0], rest_frame[1])])
+    posed_frame = np.stack([upper, _unit(np.cross(upper, fore))])
+    posed_frame = np.vstack([posed_frame, np.cross(posed_frame[0], posed_frame[1])])
+    upper_world = rotations.from_matrix(posed_frame.T @ rest_frame)
+    elbow_local = rotations.between(fore_rest, rotations.rotate(rotations.conjugate(upper_world), fore))
+    arm_world = rotations.multiply(upper_world, elbow_local)
+    # forearm twist: about the forearm's own axis, turning the palm's normal towards the thigh
+    twist_axis = _unit(_bone_vector(skeleton, f"lowerarm02.{side}"))
+    axis_world = rotations.rotate(arm_world, twist_axis)
+    palm_now = rotations.rotate(arm_world, _palmar_normal(skeleton, side))
+    wanted = np.array([-outwards * np.cos(angles["palm_back"]), 0.0, -np.sin(angles["palm_back"])])
+    flat = lambda v: _unit(v - np.dot(v, axis_world) * axis_world)
+    now, goal = flat(palm_now), flat(wanted)
+    twist = np.arctan2(np.dot(np.cross(now, goal), axis_world), np.dot(now, goal))
+    result = {
+        f"upperarm01.{side}": upper_world,
+        f"lowerarm01.{side}": elbow_local,
+        f"lowerarm02.{side}": rotations.from_axis_angle(twist_axis, np.clip(twist, -np.pi / 2, np.pi / 2)),
+    }
+    for finger, chain in FINGER_CHAINS.items():
+        towards = _flexion_direction(skeleton, side, finger)
+        curls = REST_ARM["thumb_curl" if finger == "thumb" else "finger_curl"]
+        for (bone, _, _), curl in zip(chain, curls):
+            e1 = _unit(_bone_vector(skeleton, f"{bone}.{side}"))
+            e2 = _unit(towards - np.dot(towards, e1) * e1)
+            result[f"{bone}.{side}"] = rotations.from_axis_angle(np.cross(e1, e2), np.radians(curl))
+    return {name: rotations.canonical(rotations.normalize(q)) for name, q in result.items()}
+
+
 # --------------------------------------------------------------------------- main entry
 
-def retarget(clip: SignClip, skeleton: Skeleton | None = None) -> Retargeted:
-    """Retarget one clip of MediaPipe Holistic keypoints to the avatar (Motion at the clip's fps)."""
+def retarget(clip: SignClip, skeleton: Skeleton | None = None, *, jitter_filter: str | None = None,
+             unseen_arm: str | None = None) -> Retargeted:
+    """Retarget one clip of MediaPipe Holistic keypoints to the avatar (Motion at the clip's fps).
+
+    jitter_filter: "one-euro", "binomial" or "off" (None: LEXICON_FILTER for a lexicon clip, else
+    POSE_FILTER); unseen_arm: "natural" or "a-pose", the pose of an arm whose hand the clip never
+    shows (None: LEXICON_UNSEEN_ARM for a lexicon clip, else POSE_UNSEEN_ARM). Raises
+    SigncastError for a clip without the Holistic components or without shoulders.
+    """
+    lexicon_clip = clip.entry is not None
+    filter_name = filters.check_filter(jitter_filter or (LEXICON_FILTER if lexicon_clip else POSE_FILTER))
+    unseen_arm = unseen_arm or (LEXICON_UNSEEN_ARM if lexicon_clip else POSE_UNSEEN_ARM)
+    if unseen_arm not in UNSEEN_ARMS:
+        raise SigncastError(f"unknown rest for an unseen arm {unseen_arm!r}: choose {' or '.join(UNSEEN_ARMS)}")
     skeleton = skeleton or load_avatar().skeleton
     names = driven_bones(skeleton)
     column = {name: k for k, name in enumerate(names)}
@@ -403,7 +554,8 @@ def retarget(clip: SignClip, skeleton: Skeleton | None = None) -> Retargeted:
     projected: dict[str, np.ndarray] = {}
     overridden: dict[str, np.ndarray] = {}
 
-    pose_all, pose_valid_all = _component(clip, POSE_COMPONENT)
+    unit_px = max(_shoulder_width_px(clip), 1e-6)      # the One-Euro filter works in shoulder widths
+    pose_all, pose_valid_all = _component(clip, POSE_COMPONENT, filter_name, unit_px)
     pose, pose_valid = pose_all[:, :len(POSE_POINTS)], pose_valid_all[:, :len(POSE_POINTS)]
     point = {name: i for i, name in enumerate(POSE_POINTS)}
     for shoulder in ("LEFT_SHOULDER", "RIGHT_SHOULDER"):
@@ -418,20 +570,38 @@ def retarget(clip: SignClip, skeleton: Skeleton | None = None) -> Retargeted:
 
     hands = []
     for hand, side in SIDES.items():
-        hand_points, hand_valid = _component(clip, HAND_COMPONENTS[hand])
+        hand_points, hand_valid = _component(clip, HAND_COMPONENTS[hand], filter_name, unit_px)
         seen = np.all(hand_valid, axis=1)
         if seen.mean() < MIN_HAND_SHARE:
+            if unseen_arm == "natural":
+                for bone, q in natural_rest(skeleton, side).items():
+                    local[:, column[bone]] = q
             continue
         hands.append(hand)
         # frames where the hand was not seen take the nearest frame where it was (whole hand at once)
         frames = np.flatnonzero(seen)
         nearest = frames[np.abs(frames[None, :] - np.arange(n_frames)[:, None]).argmin(axis=1)]
         hand_points = hand_points[nearest]
-        lengths = signer_lengths(clip.entry.signed_language, hand, skeleton) if clip.entry is not None else None
+        if lexicon_clip:
+            lengths = signer_lengths(clip.entry.signed_language, hand, skeleton)
+        else:
+            lengths = own_lengths(hand_points[frames], skeleton, side)
         _retarget_arm_and_hand(skeleton, side, hand.upper(), pose, pose_valid, hand_points, body_scale,
                                local, column, followed, projected, names, lengths, overridden)
     motion = Motion(clip.fps, names, rotations.canonical(rotations.normalize(local)), np.zeros((n_frames, 3)))
     return Retargeted(motion, followed, projected, tuple(hands), overridden)
+
+
+def own_lengths(hand_points: np.ndarray, skeleton: Skeleton, side: str) -> dict[str, float] | None:
+    """Phalanx lengths (bone without side -> metres, palm scaled to the avatar's) of a clip without
+    lexicon entry, from its frames that show the hand (M, 21, 2) pixels: SIGNER_LENGTH_PERCENTILES
+    of the image lengths, at least the avatar's own; None (the avatar's) with fewer than
+    OWN_LENGTH_MIN_FRAMES frames."""
+    if len(hand_points) < OWN_LENGTH_MIN_FRAMES:
+        return None
+    measured = _phalanx_lengths([_palm_plane(_hand_template(skeleton, side), hand_points)], SIGNER_LENGTH_PERCENTILES)
+    return {bone: max(length, float(np.linalg.norm(_bone_vector(skeleton, f"{bone}.{side}"))))
+            for bone, length in measured.items()}
 
 
 def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_points, body_scale,
@@ -627,9 +797,9 @@ def _world_quaternions(skeleton: Skeleton, motion: Motion, bone: str) -> np.ndar
     return world
 
 
-def retarget_clip(clip: SignClip, skeleton: Skeleton | None = None) -> Motion:
-    """The avatar Motion (at the clip's fps) of one clip."""
-    return retarget(clip, skeleton).motion
+def retarget_clip(clip: SignClip, skeleton: Skeleton | None = None, **options) -> Motion:
+    """The avatar Motion (at the clip's fps) of one clip; options: those of `retarget`."""
+    return retarget(clip, skeleton, **options).motion
 
 
 # --------------------------------------------------------------------------- accuracy

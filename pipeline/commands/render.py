@@ -1,5 +1,6 @@
-"""`signcast render LANGUAGE WORD -o out.mkv --labels labels.npz`: the synthetic signer fingerspelling a
-word, rendered by the kernels to a lossless FFV1 video plus the per-pixel part labels of every frame
+"""`signcast render LANGUAGE WORD -o out.mkv --labels labels.npz` (or `--pose clip.pose` instead of LANGUAGE
+WORD): the synthetic signer fingerspelling a word, or moving as any .pose of MediaPipe Holistic keypoints says,
+rendered by the kernels to a lossless FFV1 video plus the per-pixel part labels of every frame
 (the study is pipeline.studies.render)."""
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import sys
 from pathlib import Path
 
 from pipeline.commands import options
+from pipeline.commands.motion import add_source_arguments, check_source
 
 BACKEND_CHOICES = ("auto", "warp", "opencl", "numpy")
 
@@ -15,16 +17,16 @@ BACKEND_CHOICES = ("auto", "warp", "opencl", "numpy")
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "render", help="render the avatar fingerspelling a word to a lossless video and label frames",
-        description="Fingerspell WORD in sign language LANGUAGE on the avatar, render every frame with the "
+        description="Fingerspell WORD in sign language LANGUAGE on the avatar (or retarget a .pose file of "
+                    "MediaPipe Holistic keypoints to it: --pose), render every frame with the "
                     "kernels (skinning, muscles, rasterizer) and write a lossless FFV1 video plus the label "
                     "frames (0 background, 1 body, 2 head, 3 left hand, 4 right hand).")
-    parser.add_argument("language", help="sign language code, e.g. ase")
-    parser.add_argument("word", help="word to fingerspell, e.g. HELLO")
+    add_source_arguments(parser, "fingerspell")
     parser.add_argument("-o", "--output", required=True, type=Path, help="video file to write (.mkv, .avi, .nut, .mp4)")
     parser.add_argument("--labels", type=Path, help="write the label frames (T, H, W) uint8 to this .npz")
     parser.add_argument("--backend", default="auto", help="kernels backend: auto, warp, opencl or numpy (default auto)")
     options.add_size(parser, "352x288", "frame size (also 400x340, 176x144):")
-    parser.add_argument("--fps", type=float, default=25.0, help="frame rate (default 25)")
+    parser.add_argument("--fps", type=float, help="frame rate (default 25 for a word, the .pose file's own for --pose)")
     parser.add_argument("--look", default="shaded", help="shaded (lit) or flat (one colour per part, no light)")
     parser.add_argument("--segmented", action="store_true",
                         help="animate a segmented FBA-style body (each vertex follows one bone) instead of the seamless skin")
@@ -38,9 +40,10 @@ def run(args: argparse.Namespace) -> int:
     from media.domain import parse_size
     from pipeline.outputs import output_files
     from pipeline.studies import render
+    check_source(args)
     settings = render.RenderWordSettings(args.language, args.word, args.output, args.labels, args.preview,
                                          args.preview_frame, parse_size(args.size), args.fps, args.look, args.segmented,
-                                         args.backend)
+                                         args.backend, args.pose, args.jitter_filter)
     render.check(settings)
     with output_files((args.output, "video", render.VIDEO_SUFFIXES), (args.labels, "labels", (".npz",)),
                       (args.preview, "preview", (".png",))):

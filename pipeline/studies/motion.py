@@ -1,37 +1,74 @@
-"""The avatar fingerspelling a word from real signers' letters retargeted to it, written as BVH."""
+"""The avatar's motion written as BVH: a word fingerspelled from real signers' letters retargeted to it, or any
+`.pose` file of MediaPipe Holistic keypoints retargeted the same way (media.retarget)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from media.errors import SigncastError
+
+LEXICON_FPS = 25.0
 
 
 @dataclass(frozen=True)
 class MotionSettings:
-    """language, word: what the avatar fingerspells; output: the BVH file; fps: frames per second."""
+    """language, word: what the avatar fingerspells (or None with `pose`); output: the BVH file; fps: frames per
+    second (None: 25 for a word, the file's own rate for a .pose); pose: a .pose file to retarget instead of a
+    word; jitter_filter: one-euro, binomial or off for the .pose keypoints (None: media.retarget's default)."""
 
-    language: str
-    word: str
+    language: str | None
+    word: str | None
     output: Path
-    fps: float = 25.0
+    fps: float | None = LEXICON_FPS
+    pose: Path | None = None
+    jitter_filter: str | None = None
 
 
 def check(settings: MotionSettings) -> None:
     from media.domain import check_fps
-    check_fps(settings.fps)
+    from media.jitter_filter import check_filter
+    if settings.fps is not None:
+        check_fps(settings.fps)
+    if settings.jitter_filter is not None:
+        check_filter(settings.jitter_filter)
+    if (settings.pose is None) == (settings.language is None or settings.word is None):
+        raise SigncastError("give either LANGUAGE WORD or --pose FILE")
 
 
-def run(settings: MotionSettings) -> str:
-    """Fingerspell and write the BVH; a one-line summary (frames, rate, duration, bones)."""
+def pose_motion(pose: Path, fps: float | None, jitter_filter: str | None,
+                notify: Callable[[str], object] | None = None):
+    """(Motion, Retargeted) of a .pose file retargeted to the avatar, resampled to `fps` (None: the file's own).
+
+    notify: called with a one-line notice when the file shows neither hand (both arms then rest)."""
+    from media.avatar import load_avatar
+    from media.motion import resample
+    from media.pose_file import read_pose
+    from media.retarget import retarget
+
+    clip = read_pose(pose)
+    result = retarget(clip, load_avatar().skeleton, jitter_filter=jitter_filter)
+    if not result.hands and notify:
+        notify(f"{pose} shows no hand in enough frames: both arms rest, only the head and torso move")
+    motion = result.motion if fps is None else resample(result.motion, fps)
+    return motion, result
+
+
+def run(settings: MotionSettings, *, notify: Callable[[str], object] | None = None) -> str:
+    """Build the motion and write the BVH; a one-line summary (frames, rate, duration, bones)."""
     from media.avatar import load_avatar
     from media.bvh import write_bvh
     from media.fingerspelling import fingerspell
 
-    motion = fingerspell(settings.language, settings.word, fps=settings.fps)
+    if settings.pose is not None:
+        motion, result = pose_motion(settings.pose, settings.fps, settings.jitter_filter, notify)
+        source = f"{settings.pose.name} (hands: {', '.join(result.hands) or 'none'})"
+    else:
+        motion = fingerspell(settings.language, settings.word, fps=settings.fps or LEXICON_FPS)
+        source = f"{settings.language} {settings.word!r}"
     try:
         write_bvh(settings.output, motion, load_avatar().skeleton)
     except OSError as error:
         raise SigncastError(f"cannot write {settings.output}: {error.strerror or error}") from None
-    return (f"{settings.output}: {settings.language} {settings.word!r}, {motion.n_frames} frames at {motion.fps:g} fps "
+    return (f"{settings.output}: {source}, {motion.n_frames} frames at {motion.fps:g} fps "
             f"({motion.duration_s:.2f} s), {len(motion.bone_names)} bones")

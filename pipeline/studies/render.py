@@ -1,4 +1,4 @@
-"""The synthetic signer fingerspelling a word, rendered by the kernels to a lossless FFV1 video (the reference for
+"""The synthetic signer fingerspelling a word (or moving as a .pose file of MediaPipe Holistic keypoints says), rendered by the kernels to a lossless FFV1 video (the reference for
 quality measurements), with the per-pixel part labels of every frame and an optional PNG preview."""
 from __future__ import annotations
 
@@ -19,38 +19,48 @@ PART_NAMES = ("background", "body", "head", "left_hand", "right_hand")
 
 @dataclass(frozen=True)
 class RenderWordSettings:
-    """language, word: what the avatar fingerspells; output: the video file; labels: a .npz for the label frames
+    """language, word: what the avatar fingerspells (None with `pose`); output: the video file; labels: a .npz for the label frames
     (T, H, W) uint8; preview: a PNG of frame preview_frame (None: the middle one); size: (width, height) pixels;
-    fps: frames per second; look: shaded or flat; segmented: an FBA-style segmented body; backend: kernels."""
+    fps: frames per second (None: 25 for a word, the file's own for a .pose); look: shaded or flat; segmented: an
+    FBA-style segmented body; backend: kernels; pose: a .pose file to retarget instead of a word; jitter_filter:
+    one-euro, binomial or off for its keypoints (None: media.retarget's default)."""
 
-    language: str
-    word: str
+    language: str | None
+    word: str | None
     output: Path
     labels: Path | None = None
     preview: Path | None = None
     preview_frame: int | None = None
     size: tuple[int, int] = (352, 288)
-    fps: float = 25.0
+    fps: float | None = 25.0
     look: str = "shaded"
     segmented: bool = False
     backend: str = "auto"
+    pose: Path | None = None
+    jitter_filter: str | None = None
 
 
 def check(settings: RenderWordSettings) -> str:
     """Refuse bad settings before any work (one-line SigncastError); the backend the kernels will use."""
     from kernels import backends
     from media.domain import check_fps, check_size
+    from media.jitter_filter import check_filter
     from media.render import check_backend, check_look
     check_size(*settings.size)
     check_backend(settings.backend)
     check_look(settings.look)
-    check_fps(settings.fps)
+    if settings.fps is not None:
+        check_fps(settings.fps)
+    if settings.jitter_filter is not None:
+        check_filter(settings.jitter_filter)
+    if (settings.pose is None) == (settings.language is None or settings.word is None):
+        raise SigncastError("give either LANGUAGE WORD or --pose FILE")
     return backends.describe(settings.backend)   # a backend that cannot run here fails now, in one line
 
 
 def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable[[str], object] | None = None) -> str:
-    """Render and write the files; a one-line summary (frames, size, bytes, speed). notify: called with the
-    backend auto chose, once the work is known to fit."""
+    """Render and write the files; a one-line summary (frames, size, bytes, speed). notify: called with one-line
+    notices: the backend auto chose, once the work is known to fit; a .pose that shows no hand."""
     from tqdm import tqdm
 
     from media.avatar import load_avatar
@@ -58,9 +68,15 @@ def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable
     from media.render import RenderSettings, render_motion
     from media.video_io import write_video
     from pipeline.checks import check_memory
+    from pipeline.studies.motion import LEXICON_FPS, pose_motion
 
     width, height = settings.size
-    motion = fingerspell(settings.language, settings.word, fps=settings.fps)
+    if settings.pose is not None:
+        motion, result = pose_motion(settings.pose, settings.fps, settings.jitter_filter, notify)
+        source = f"{settings.pose.name} (hands: {', '.join(result.hands) or 'none'})"
+    else:
+        motion = fingerspell(settings.language, settings.word, fps=settings.fps or LEXICON_FPS)
+        source = f"{settings.language} {settings.word!r}"
     if settings.preview_frame is not None and not 0 <= settings.preview_frame < motion.n_frames:
         raise SigncastError(f"--preview-frame {settings.preview_frame} outside 0..{motion.n_frames - 1}")
     check_memory(motion.n_frames, width, height, BYTES_PER_PIXEL, "render")
@@ -82,7 +98,7 @@ def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable
     if settings.preview is not None:
         middle = motion.n_frames // 2 if settings.preview_frame is None else settings.preview_frame
         _write_png(settings.preview, frames[middle])
-    return (f"{settings.output}: {settings.language} {settings.word!r}, {motion.n_frames} frames {width}x{height} at "
+    return (f"{settings.output}: {source}, {motion.n_frames} frames {width}x{height} at "
             f"{motion.fps:g} fps, {settings.look}{', segmented' if settings.segmented else ''}, {size} bytes; "
             f"rendered at {motion.n_frames / (rendered - started):.1f} frames/s, "
             f"{motion.n_frames / elapsed:.1f} frames/s with encoding")

@@ -1,0 +1,185 @@
+"""Closed loop with known ground truth: render known motion, extract its landmarks, retarget them, compare.
+
+The known motion is a fingerspelled word (media.fingerspelling, lexicon retargeting). It is rendered with the
+shaded look (media.render, the signing-space camera), MediaPipe Holistic landmarks are extracted from the frames
+(media.landmarks.holistic), and the extracted clip is retargeted to the avatar (media.retarget, as any `.pose`).
+Compared with the original:
+
+- image-plane hand keypoint error, pixels: the hand joints of both motions (avatar forward kinematics) projected
+  with the render's own camera ("retargeted"), and the extracted hand landmarks against the original's projected
+  joints where they correspond ("extracted": landmark 0 the wrist's head, each finger landmark the head of its
+  phalanx, a fingertip the last phalanx's tail), over the frames the hand was found;
+- joint-angle error per bone group, degrees: the geodesic angle between the two motions' local rotations of the
+  torso (spine, neck, head), arm (upperarm01, lowerarm01, lowerarm02, wrist) and finger bones of the signing
+  side, mean and 90th percentile over bones and frames.
+
+    python benchmarks/closed_loop.py [--language ase] [--word HI] [--size 352x288] [--filters one-euro,binomial,off]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from media import rotations  # noqa: E402
+from media.retarget import FINGER_CHAINS, SIDES, TORSO_BONES  # noqa: E402
+
+ARM_JOINTS = ("upperarm01", "lowerarm01", "lowerarm02", "wrist")
+HAND_PREFIX = {"L": "LEFT", "R": "RIGHT"}
+
+
+@dataclass
+class Loop:
+    """One closed loop's material: the original Motion, the rendered frames (T, H, W, 3) uint8, the extracted
+    SignClip, the camera (4, 4) world -> clip, the frame size (width, height) and the seconds each step took."""
+    original: object
+    frames: np.ndarray
+    clip: object
+    camera: np.ndarray
+    size: tuple[int, int]
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def run_loop(language: str = "ase", word: str = "HI", size: tuple[int, int] = (352, 288), fps: float = 25.0,
+             backend: str = "auto") -> Loop:
+    """Render the fingerspelled word shaded and extract its landmarks."""
+    from media.avatar import load_avatar
+    from media.fingerspelling import fingerspell
+    from media.landmarks.holistic import extract_landmarks
+    from media.render import RenderSettings, render_motion, signing_space_camera
+
+    avatar = load_avatar()
+    seconds = {}
+    started = time.perf_counter()
+    original = fingerspell(language, word, fps=fps)
+    frames, _ = render_motion(avatar, original, RenderSettings(size[0], size[1], look="shaded", backend=backend))
+    seconds["render"] = time.perf_counter() - started
+    started = time.perf_counter()
+    clip = extract_landmarks(iter(frames), fps, n_frames=len(frames))
+    seconds["extract"] = time.perf_counter() - started
+    return Loop(original, frames, clip, np.asarray(signing_space_camera(avatar, *size), np.float64), size, seconds)
+
+
+def project(camera: np.ndarray, points: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """World points (..., 3) metres -> image (..., 2) pixels (x right, y down), as the rasterizer places them."""
+    homogeneous = np.concatenate([points, np.ones(points.shape[:-1] + (1,))], axis=-1) @ camera.T
+    ndc = homogeneous[..., :2] / homogeneous[..., 3:4]
+    return np.stack([(ndc[..., 0] * 0.5 + 0.5) * size[0], (0.5 - ndc[..., 1] * 0.5) * size[1]], axis=-1)
+
+
+def hand_joints(skeleton, motion, side: str) -> np.ndarray:
+    """(T, 21, 3) world positions (metres) of hand `side` ('L'/'R') in MediaPipe's hand landmark order."""
+    from media.kinematics import joint_positions
+
+    heads = joint_positions(skeleton, motion)
+    tails = joint_positions(skeleton, motion, tails=True)
+    points = np.zeros((motion.n_frames, 21, 3))
+    points[:, 0] = heads[:, skeleton.index(f"wrist.{side}")]
+    for chain in FINGER_CHAINS.values():
+        for bone, head_landmark, tail_landmark in chain:
+            points[:, head_landmark] = heads[:, skeleton.index(f"{bone}.{side}")]
+        bone, _, tail_landmark = chain[-1]
+        points[:, tail_landmark] = tails[:, skeleton.index(f"{bone}.{side}")]
+    return points
+
+
+def _summary(values: np.ndarray) -> dict[str, float]:
+    values = np.asarray(values, dtype=np.float64).ravel()
+    if not len(values):
+        return {"mean": float("nan"), "p90": float("nan"), "n": 0}
+    return {"mean": float(np.mean(values)), "p90": float(np.percentile(values, 90)), "n": int(len(values))}
+
+
+def angle_errors(original, retargeted, side: str = "R") -> dict[str, dict[str, float]]:
+    """Geodesic angle (degrees) between local rotations per bone group: torso, arm, fingers (mean, p90, n)."""
+    groups = {
+        "torso": TORSO_BONES,
+        "arm": tuple(f"{bone}.{side}" for bone in ARM_JOINTS),
+        "fingers": tuple(f"{bone}.{side}" for chain in FINGER_CHAINS.values() for bone, _, _ in chain),
+    }
+    result = {}
+    for group, bones in groups.items():
+        angles = [np.degrees(rotations.angle_between(original.rotations[:, original.bone(bone)],
+                                                     retargeted.rotations[:, retargeted.bone(bone)]))
+                  for bone in bones]
+        result[group] = _summary(np.concatenate(angles))
+    return result
+
+
+def measure(loop: Loop, jitter_filter: str | None = None, side: str = "R") -> dict:
+    """Retarget the loop's extracted clip (jitter_filter: media.retarget's) and compare with the original."""
+    from media.avatar import load_avatar
+    from media.retarget import retarget
+
+    skeleton = load_avatar().skeleton
+    clip = loop.clip
+    result = retarget(clip, skeleton, jitter_filter=jitter_filter)
+    motion = result.motion
+    original = loop.original
+    if motion.n_frames != original.n_frames:
+        raise ValueError(f"{motion.n_frames} retargeted frames for {original.n_frames} rendered")
+    component = f"{HAND_PREFIX[side]}_HAND_LANDMARKS"
+    found = np.all(clip.confidence[component] > 0, axis=1)
+    truth_px = project(loop.camera, hand_joints(skeleton, original, side), loop.size)
+    retargeted_px = project(loop.camera, hand_joints(skeleton, motion, side), loop.size)
+    extracted_px = clip.points[component][..., :2]
+    retargeted_error = np.linalg.norm(retargeted_px - truth_px, axis=-1)            # (T, 21)
+    extracted_error = np.linalg.norm(extracted_px - truth_px, axis=-1)[found]       # (F, 21)
+    palm_px = np.median(np.linalg.norm(truth_px[:, 9] - truth_px[:, 0], axis=-1))
+    return {
+        "filter": jitter_filter or "default",
+        "frames": int(original.n_frames),
+        "hands": list(result.hands),
+        "found_share": float(np.mean(found)),
+        "palm_px": float(palm_px),
+        "wrist_px": {"retargeted": _summary(retargeted_error[:, 0]), "extracted": _summary(extracted_error[:, 0])},
+        "hand_px": {"retargeted": _summary(retargeted_error), "extracted": _summary(extracted_error)},
+        "angles_deg": angle_errors(original, motion, side),
+    }
+
+
+def format_table(rows: list[dict]) -> str:
+    lines = [f"{'filter':9} {'found':>5} {'palm':>5} | {'wrist px':>13} {'hand px':>13} {'landmark px':>13} | "
+             f"{'torso deg':>11} {'arm deg':>11} {'finger deg':>11}",
+             f"{'':9} {'':>5} {'px':>5} | {'retarget':>13} {'retarget':>13} {'extracted':>13} | "
+             f"{'mean/p90':>11} {'mean/p90':>11} {'mean/p90':>11}"]
+    for row in rows:
+        pair = lambda d: f"{d['mean']:5.1f}/{d['p90']:5.1f}"
+        lines.append(f"{row['filter']:9} {row['found_share']:5.2f} {row['palm_px']:5.1f} | "
+                     f"{pair(row['wrist_px']['retargeted']):>13} {pair(row['hand_px']['retargeted']):>13} "
+                     f"{pair(row['hand_px']['extracted']):>13} | {pair(row['angles_deg']['torso']):>11} "
+                     f"{pair(row['angles_deg']['arm']):>11} {pair(row['angles_deg']['fingers']):>11}")
+    return "\n".join(lines)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--language", default="ase")
+    parser.add_argument("--word", default="HI")
+    parser.add_argument("--size", default="352x288", help="WxH")
+    parser.add_argument("--filters", default="one-euro,binomial,off")
+    parser.add_argument("--save-pose", type=Path, help="also write the extracted clip's arrays to this .npz")
+    args = parser.parse_args()
+    width, height = (int(v) for v in args.size.lower().split("x"))
+    loop = run_loop(args.language, args.word, (width, height))
+    print(f"{args.language} {args.word!r} {width}x{height}: {loop.original.n_frames} frames, render "
+          f"{loop.seconds['render']:.1f} s, extract {loop.seconds['extract']:.1f} s")
+    if args.save_pose:
+        np.savez_compressed(args.save_pose, fps=loop.clip.fps,
+                            **{f"points_{k}": v for k, v in loop.clip.points.items()},
+                            **{f"confidence_{k}": v for k, v in loop.clip.confidence.items()})
+    rows = [measure(loop, name) for name in args.filters.split(",")]
+    print(format_table(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
