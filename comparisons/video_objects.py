@@ -9,7 +9,15 @@ Padding (the texture encoder has no shape tool, so padding must keep the outside
 padding in each frame (transparent runs in a row take the value of the opaque pixel at their border, or the
 rounded mean of both borders; rows with no opaque pixel then take the nearest padded rows above / below),
 and in predicted frames the pixels outside the shape in this and the previous frame repeat the previous padded
-frame, so that the encoder finds nothing to code there (MPEG-4 sends nothing for a transparent macroblock).
+frame, so that the encoder finds nothing to code there.
+
+Transparent macroblocks (MPEG-4 Core sends no texture for a 16x16 macroblock of the box that holds no opaque
+pixel): the texture encoder has no such mode, so such macroblocks are filled with what it codes almost for
+free: in intra frames a flat grey (RGB 128, MPEG-4's padding value where no opaque pixel is near), a block of
+DC only whose DC equals its neighbours'; in predicted frames the co-located block of the previous padded frame,
+which the encoder skips (no motion, no residual). They still cost the encoder's few bits per macroblock (the
+not-coded flag, the intra DC): the reported texture bytes are len() of the real, decodable stream, nothing is
+subtracted from it. The box is aligned to the 16x16 grid, so these macroblocks are the encoder's own.
 
 Solutions (seed 000, §4.2.1-4.2.2): NSV the whole frame; NSV2O the signer (labels > 0) — the segmentation
 makes two objects, signer and background, but only the signer's texture and shape are coded, "ignoring the
@@ -85,27 +93,52 @@ def repetitive_padding(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return np.swapaxes(filled, 0, 1).astype(np.uint8)
 
 
-def pad_object(frames: np.ndarray, masks: np.ndarray, gop: int = video_codecs.GOP) -> np.ndarray:
+def pad_object(frames: np.ndarray, masks: np.ndarray, gop: int = video_codecs.GOP,
+               skip_transparent: bool = True) -> np.ndarray:
     """Padded texture (T, h, w, 3) uint8 of an object cropped to its box: frames (T, h, w, 3), masks (T, h, w).
 
     Intra frames (every gop frames) get repetitive padding only; in the other frames a pixel outside the
     shape that was outside in the previous frame too keeps its previous padded value, so the encoder finds
     no change to code there, and only newly uncovered pixels take the repetitive padding.
+    skip_transparent: fully transparent 16x16 macroblocks are flat grey in intra frames and repeat the previous
+    padded frame whole in the others (the module's docstring says why).
     """
     padded = np.empty_like(frames)
     for t in range(len(frames)):
         padded[t] = repetitive_padding(frames[t], masks[t])
+        transparent = transparent_pixels(masks[t]) if skip_transparent else np.zeros(masks.shape[1:], bool)
         if t % gop:
-            held = ~masks[t] & ~masks[t - 1]
+            held = (~masks[t] & ~masks[t - 1]) | transparent
             padded[t][held] = padded[t - 1][held]
+        elif transparent.any():
+            padded[t] = _flatten_macroblocks(padded[t], _transparent_macroblocks(masks[t]))
     return padded
 
 
+def _flatten_macroblocks(image: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+    """image (H, W, 3) uint8 with each macroblock marked in blocks (ceil(H/16), ceil(W/16)) bool set to its own
+    rounded mean colour."""
+    height, width = image.shape[:2]
+    flat = image.copy()
+    for by, bx in zip(*np.nonzero(blocks)):
+        view = flat[by * MB:min(height, (by + 1) * MB), bx * MB:min(width, (bx + 1) * MB)]
+        view[:] = np.round(view.reshape(-1, 3).mean(axis=0)).astype(np.uint8)
+    return flat
+
+
 def _transparent_macroblocks(mask: np.ndarray) -> np.ndarray:
+    """(ceil(H/16), ceil(W/16)) bool: the 16x16 macroblocks of mask (H, W) bool with no opaque pixel."""
     height, width = mask.shape
     grid = np.zeros((-(-height // MB) * MB, -(-width // MB) * MB), bool)
     grid[:height, :width] = mask
     return ~grid.reshape(grid.shape[0] // MB, MB, grid.shape[1] // MB, MB).any(axis=(1, 3))
+
+
+def transparent_pixels(mask: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels of mask (H, W) bool that lie in a fully transparent 16x16 macroblock."""
+    height, width = mask.shape
+    blocks = _transparent_macroblocks(mask)
+    return np.repeat(np.repeat(blocks, MB, axis=0), MB, axis=1)[:height, :width]
 
 
 @dataclass
@@ -144,9 +177,10 @@ class ShapeCache:
 
 
 def code_object(name: str, frames: np.ndarray, masks: np.ndarray | None, fps: float, codec: str, q: int,
-                shapes: ShapeCache | None = None, shape_key=None) -> CodedObject | None:
+                shapes: ShapeCache | None = None, shape_key=None, skip_transparent: bool = True) -> CodedObject | None:
     """Code one object: frames (T, H, W, 3) uint8 RGB, masks (T, H, W) bool (None: the whole frame, no shape).
 
+    skip_transparent: fill fully transparent macroblocks so that they cost (almost) no texture bits (pad_object).
     Returns None for an object that never appears.
     """
     frames = np.asarray(frames)
@@ -164,7 +198,7 @@ def code_object(name: str, frames: np.ndarray, masks: np.ndarray | None, fps: fl
     shapes = shapes or ShapeCache()
     shape_bytes, decoded_masks = shapes.get(shape_key or (name, masks.shape, id(masks)), masks)
     y0, y1, x0, x1 = box
-    texture = pad_object(frames[:, y0:y1, x0:x1], decoded_masks[:, y0:y1, x0:x1])
+    texture = pad_object(frames[:, y0:y1, x0:x1], decoded_masks[:, y0:y1, x0:x1], skip_transparent=skip_transparent)
     coded = video_codecs.code_video(texture, fps, codec, q)
     return CodedObject(name, q, box, len(coded.data), shape_bytes, coded.decoded, decoded_masks,
                        100.0 * float(masks.mean()))

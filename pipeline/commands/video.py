@@ -1,6 +1,7 @@
-"""`signcast video --video carphone --out DIR` (a natural clip: NSV, NSV2O, NSV3O, NSV3O+C) and
-`signcast video --ssv ase HELLO --out DIR` (the rendered synthetic signer: NSV and SSV, plus the colour
-segmentation's IoU against the renderer's label buffer): the study is pipeline.studies.video."""
+"""`signcast video --video carphone --out DIR` (a natural clip: NSV, NSV2O, NSV3O, NSV3O+C, segmented by
+landmarks or, with --segmentation colour, by the source's colour models) and `signcast video --ssv ase HELLO --out
+DIR` (the rendered synthetic signer: NSV and SSV, plus both segmentations' IoU against the renderer's label
+buffer): the study is pipeline.studies.video."""
 from __future__ import annotations
 
 import argparse
@@ -13,7 +14,7 @@ from pipeline.outputs import output_folder
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "video", help="code a signer as video objects (NSV, NSV2O, NSV3O, NSV3O+C, SSV) and measure rate and quality",
-        description="Segment a signer video by colour (or render the synthetic signer with its label buffer), code "
+        description="Segment a signer video into signer, head and hands (or render the synthetic signer with its label buffer), code "
                     "each solution's video objects with MPEG-4 Part 2 at fixed Q (GOP I B B P ..., 12 frames) plus "
                     "lossless binary shape, sweep Q, frame rate and resolution, compare with H.264 and AV1 at "
                     "matched quality, and write records.jsonl, CSV tables, PNG plots and mask overlays to --out.")
@@ -30,6 +31,10 @@ def add_parser(subparsers) -> None:
     options.add_video_q(parser)
     options.add_video_codecs(parser)
     options.add_size(parser, "400x340", "rendered signer size for --ssv, as the source's Visia:")
+    parser.add_argument("--segmentation", choices=("landmarks", "colour"), default="landmarks",
+                        help="how a natural clip is cut into signer, head and hands: landmarks (selfie segmentation, "
+                             "face and hand landmarks, skin colour learnt from the face; default) or colour (the "
+                             "source's colour models of background and clothes, skin as the rest)")
     options.add_no_progress(parser)
     parser.set_defaults(func=run)
 
@@ -42,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
                              other_codecs=options.parse_video_codecs(args.video_codecs))
     settings = video.VideoSettings(video=args.video, ssv=tuple(args.ssv) if args.ssv else None, frames=args.frames,
                                    fps=args.fps, max_size=options.parse_max_size(args.max_size),
-                                   size=parse_size(args.size), sweep=sweep)
+                                   size=parse_size(args.size), sweep=sweep, segmentation=args.segmentation)
     video.check(settings)
     with output_folder(args.out, force=args.force):
         result = video.run(settings, args.out, progress=not args.no_progress,

@@ -13,8 +13,9 @@ measured over the clip's real duration. Sweeps, all with MPEG-4 Part 2 at fixed 
 NSV3O+C's clothes are coded at Q = 31 (Table 4.15). Outputs go to the study's folder: records.jsonl (each
 record appended as it is measured), CSV tables, PNG plots and mask overlays.
 
-`run(VideoSettings, out)` is the whole study of `signcast video`: a natural clip (read, segmented by colour) or
-the synthetic signer (rendered shaded and flat, with the colour segmentation's IoU against the label buffer),
+`run(VideoSettings, out)` is the whole study of `signcast video`: a natural clip (read, its landmarks extracted,
+segmented by landmarks or by colour, with the share of frames whose landmark-detected face and hands the masks
+cover) or the synthetic signer (rendered shaded and flat, with both segmentations' IoU against the label buffer),
 coded by `code_clip` over a `VideoSweep` (which `compare` reuses). A user's clip is read with a progress bar,
 scaled down to fit DEFAULT_MAX_SIZE unless asked otherwise, and refused before the long work when it holds fewer
 than 2 frames or no face (`media.faces`).
@@ -166,12 +167,59 @@ def read_natural_clip(name_or_path: str, max_frames: int | None = None,
     return clip, notes
 
 
-def segment_clip(frames: np.ndarray, *, progress: bool = True) -> np.ndarray:
-    """Colour segmentation of frames (T, H, W, 3) uint8 RGB into part labels (T, H, W) uint8, with progress bars."""
-    with tqdm(total=len(frames), desc="segment signer", unit="frame", disable=not progress) as bar:
-        signer = segmentation.segment_signer(frames, progress=bar.update)
+SEGMENTATIONS = {
+    "landmarks": "landmarks (selfie segmentation + face and hand landmarks + skin colour)",
+    "colour": "colour (GrabCut border model + clothes clusters)",
+}
+DEFAULT_SEGMENTATION = "landmarks"
+COVERED_SHARE = 0.9     # a landmark-detected part is covered when this share of its landmarks is on its own label
+
+
+def check_segmentation(method: str) -> str:
+    if method not in SEGMENTATIONS:
+        raise SigncastError(f"unknown --segmentation {method!r}: choose {' or '.join(SEGMENTATIONS)}")
+    return method
+
+
+def extract_clip_landmarks(frames: np.ndarray, fps: float, *, progress: bool = True):
+    """Landmarks (media.lexicon.SignClip, pixels) of frames (T, H, W, 3) uint8 RGB shown at fps, with a progress bar."""
+    from media.landmarks.holistic import extract_landmarks
+
+    with tqdm(total=len(frames), desc="landmarks", unit="frame", disable=not progress) as bar:
+        return extract_landmarks(frames, fps, progress=bar.update)
+
+
+def segment_clip(frames: np.ndarray, *, progress: bool = True, method: str = DEFAULT_SEGMENTATION,
+                 landmarks=None, fps: float = 25.0) -> np.ndarray:
+    """Part labels (T, H, W) uint8 of frames (T, H, W, 3) uint8 RGB, with progress bars.
+
+    method: "colour" (media.segmentation) or "landmarks" (media.segmentation_landmarks; landmarks: the clip's
+    SignClip, extracted here at fps frames per second when not given)."""
+    check_segmentation(method)
+    if method == "colour":
+        with tqdm(total=len(frames), desc="segment signer", unit="frame", disable=not progress) as bar:
+            signer = segmentation.segment_signer(frames, progress=bar.update)
+        with tqdm(total=len(frames), desc="segment parts", unit="frame", disable=not progress) as bar:
+            return segmentation.segment_parts(frames, signer, progress=bar.update)
+    from media.landmarks.person_mask import person_masks
+    from media.segmentation_landmarks import segment_by_landmarks
+
+    if landmarks is None:
+        landmarks = extract_clip_landmarks(frames, fps, progress=progress)
+    with tqdm(total=len(frames), desc="person mask", unit="frame", disable=not progress) as bar:
+        person = person_masks(frames, progress=bar.update)
     with tqdm(total=len(frames), desc="segment parts", unit="frame", disable=not progress) as bar:
-        return segmentation.segment_parts(frames, signer, progress=bar.update)
+        return segment_by_landmarks(frames, landmarks, person, progress=bar.update)
+
+
+def coverage_line(method: str, coverage: dict) -> str:
+    """One printed line: the share of frames whose landmark-detected face and hands are covered by their masks."""
+    parts = ", ".join(f"{part.replace('_', ' ')} {coverage[f'{part}_covered_percent']:.0f}% of "
+                      f"{coverage[f'{part}_detected_frames']}" for part in ("head", "left_hand", "right_hand")
+                      if coverage[f"{part}_detected_frames"])
+    return (f"{method} segmentation covers every landmark-detected face and hand in "
+            f"{coverage['all_covered_percent']:.1f}% of {coverage['frames_with_parts']} frames"
+            f"{f' ({parts})' if parts else ''}; covered: >= {COVERED_SHARE:.0%} of a part's landmarks on its label")
 
 
 def code_clip(frames: np.ndarray, labels: np.ndarray, clip: str, settings: VideoSweep = VideoSweep(),
@@ -372,9 +420,9 @@ def write_outputs(records: list[dict], frames: np.ndarray, labels: np.ndarray, o
 # ------------------------------------------------------------------------------------------------------------
 # the study of `signcast video`
 
-# --ssv holds per pixel and frame: the shaded and the flat render with their labels (8 bytes), two
-# segmentations (2), and the study's decoded pictures and frame-rate / half-size copies (about 6)
-SSV_BYTES_PER_PIXEL = 16
+# --ssv holds per pixel and frame: the shaded and the flat render with their labels (8 bytes), three
+# segmentations and a person mask (4), and the study's decoded pictures and frame-rate / half-size copies (about 6)
+SSV_BYTES_PER_PIXEL = 18
 
 
 @dataclass(frozen=True)
@@ -382,7 +430,9 @@ class VideoSettings:
     """One `signcast video` run: a natural clip (video: a file or 'carphone') or the synthetic signer (ssv:
     (language, word)); frames: only the first N; fps: the rate to code at (None: the clip's own, 25 for ssv);
     max_size: (width, height) a natural clip is scaled down to fit (None keeps its size); size: (width, height) of
-    the rendered signer; sweep: Q, codecs (its source_fps and solutions are set from the source)."""
+    the rendered signer; sweep: Q, codecs (its source_fps and solutions are set from the source); segmentation:
+    how a natural clip is cut into parts, "landmarks" or "colour" (the rendered signer is coded with its label
+    buffer and both methods are measured against it)."""
 
     video: str | None = None
     ssv: tuple[str, str] | None = None
@@ -391,13 +441,14 @@ class VideoSettings:
     max_size: tuple[int, int] | None = DEFAULT_MAX_SIZE
     size: tuple[int, int] = (400, 340)
     sweep: VideoSweep = VideoSweep()
+    segmentation: str = DEFAULT_SEGMENTATION
 
 
 @dataclass
 class VideoResult:
     records: list[dict]
     written: list[Path]
-    lines: list[str]          # the segmentation IoU lines of an ssv run, printed after the main table
+    lines: list[str]          # the segmentation lines (IoU, landmark coverage), printed after the main table
 
 
 def check(settings: VideoSettings) -> None:
@@ -416,6 +467,7 @@ def check(settings: VideoSettings) -> None:
                             f"frame-rate, resolution and codec sweeps")
     if settings.ssv is not None:
         check_size(*settings.size)
+    check_segmentation(settings.segmentation)
 
 
 def run(settings: VideoSettings, out: str | Path, *, progress: bool = True,
@@ -448,13 +500,19 @@ def _natural(settings: VideoSettings, progress: bool, notify: Callable[[str], ob
     for line in notes:
         if notify:
             notify(line)
-    labels = segment_clip(clip.frames, progress=progress)
+    from media.segmentation_landmarks import landmark_coverage
+
+    landmarks = extract_clip_landmarks(clip.frames, clip.fps, progress=progress)
+    labels = segment_clip(clip.frames, progress=progress, method=settings.segmentation, landmarks=landmarks)
     areas = segmentation.area_percent(labels)
-    record = {"kind": "segmentation", "clip": clip.path.stem, "method": "colour (GrabCut border model + clothes clusters)",
-              "native_fps": clip.native_fps, "coded_fps": clip.fps, "duration_s": clip.duration_s,
-              "source_size": list(clip.source_size), "coded_size": list(clip.size),
-              "announced_frames": clip.announced_frames, **{f"{k}_area_percent": v for k, v in areas.items()}}
-    return clip.frames, labels, clip.path.stem, {"records": [record], "fps": clip.fps, "timing": Timing.of_clip(clip)}
+    coverage = landmark_coverage(labels, landmarks, COVERED_SHARE)
+    record = {"kind": "segmentation", "clip": clip.path.stem, "method": SEGMENTATIONS[settings.segmentation],
+              "segmentation": settings.segmentation, "native_fps": clip.native_fps, "coded_fps": clip.fps,
+              "duration_s": clip.duration_s, "source_size": list(clip.source_size), "coded_size": list(clip.size),
+              "announced_frames": clip.announced_frames, **{f"{k}_area_percent": v for k, v in areas.items()},
+              "covered_share": COVERED_SHARE, **{f"landmarks_{k}": v for k, v in coverage.items()}}
+    return clip.frames, labels, clip.path.stem, {"records": [record], "fps": clip.fps, "timing": Timing.of_clip(clip),
+                                                 "lines": [coverage_line(settings.segmentation, coverage)]}
 
 
 def _synthetic(settings: VideoSettings, progress: bool):
@@ -480,15 +538,22 @@ def _synthetic(settings: VideoSettings, progress: bool):
     frames, truth = renders["shaded"]
     palette = {label: tuple(int(c) for c in colour) for label, colour in enumerate(FLAT_PALETTE)}
     by_flat_colour = segmentation.labels_from_flat(renders["flat"][0], palette)
-    by_colour = segmentation.segment_parts(frames)
+    by_colour = segment_clip(frames, progress=progress, method="colour")
+    landmarks = extract_clip_landmarks(frames, motion.fps, progress=progress)
+    by_landmarks = segment_clip(frames, progress=progress, method="landmarks", landmarks=landmarks)
     clip = f"ssv-{language}-{word}"
     records = []
     lines = ["segmentation IoU against the renderer's label buffer:"]
-    for method, labels in (("flat-colour rendering", by_flat_colour),
-                           ("colour segmentation of the shaded rendering", by_colour)):
+    for method, segmentation_name, labels in (("flat-colour rendering", None, by_flat_colour),
+                                              ("colour segmentation of the shaded rendering", "colour", by_colour),
+                                              ("landmark segmentation of the shaded rendering", "landmarks",
+                                               by_landmarks)):
         iou = segmentation.iou_per_label(labels, truth)
-        records.append({"kind": "segmentation", "clip": clip, "method": method,
-                        **{f"iou_{k}": v for k, v in iou.items()}})
+        record = {"kind": "segmentation", "clip": clip, "method": method, **{f"iou_{k}": v for k, v in iou.items()}}
+        if segmentation_name:
+            record["segmentation"] = segmentation_name
+        records.append(record)
         lines.append(f"  {method}: " + ", ".join(f"{k} {v:.3f}" for k, v in iou.items()))
-    overlays = {"colour_segmentation": (frames, by_colour), "flat_colour": (frames, by_flat_colour)}
+    overlays = {"colour_segmentation": (frames, by_colour), "landmark_segmentation": (frames, by_landmarks),
+                "flat_colour": (frames, by_flat_colour)}
     return frames, truth, clip, {"records": records, "lines": lines, "overlays": overlays, "fps": motion.fps}
