@@ -125,6 +125,10 @@ def read_group_masks(reader: BitReader) -> np.ndarray:
     return mask
 
 
+SETTLING_BAPS = 8          # BAPs that jump once and hold before a one-frame intra plane pays for itself
+SETTLING_MIN_FRAMES = 8
+
+
 def _changed_mask(block: np.ndarray, held: np.ndarray, steps: np.ndarray) -> np.ndarray:
     return np.any(pc.quantize(block - held, steps) != 0, axis=0)
 
@@ -147,6 +151,18 @@ def _predictive_period(block: np.ndarray, held: np.ndarray, q: int):
     if frames < len(block):              # a residual too large for the range fields: new intra plane there
         return _predictive_period(block[:frames], held, q)
     return frames, mask, order, intra, p_levels, recon
+
+
+def _settles_at_once(block: np.ndarray, held: np.ndarray, q: int) -> bool:
+    """Whether SETTLING_BAPS or more BAPs of block (T, 296) change from the held values (296,) at its first frame
+    and then hold (a rest pose set at the start of a stream): in one intra period they would be masked in and
+    cost a zero residual in every P frame, so a one-frame intra plane that sets them is cheaper."""
+    if len(block) < SETTLING_MIN_FRAMES:
+        return False
+    steps = bap_table.steps() * q
+    levels = pc.quantize(block - held, steps)
+    settled = (levels[0] != 0) & np.all(levels == levels[0], axis=0)
+    return int(settled.sum()) >= SETTLING_BAPS
 
 
 def _write_predictive_period(writer: BitWriter, period: tuple, held: np.ndarray, q: int, fps: float) -> np.ndarray:
@@ -277,6 +293,8 @@ def encode_fba(values: np.ndarray, fps: float, q: int, coding: str = "pred", *,
         if coding == "dct":
             held = _write_dct_period(writer, block, held, q, fps, start + period >= len(values))
         else:
+            if _settles_at_once(block, held, q):      # values that jump once and hold: an intra plane of one frame
+                block = block[:1]
             decisions = _predictive_period(block, held, q)
             block = block[:decisions[0]]
             held = _write_predictive_period(writer, decisions, held, q, fps)

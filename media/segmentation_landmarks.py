@@ -4,7 +4,9 @@ Labels, one byte per pixel, as media.segmentation's: 0 background, 1 body/clothe
 4 right hand (the signer's own left and right, as the landmark components name them).
 
 Per frame:
-- person: MediaPipe's selfie segmentation (media.landmarks.person_mask), probability >= 0.5;
+- person: MediaPipe's selfie segmentation (media.landmarks.person_mask), probability >= 0.5, its edge snapped
+  to the colours: within `edge_band` pixels of it, a pixel goes to whichever local mean colour (of the sure
+  person or the sure background pixels nearby) is nearer;
 - skin colour: a Gaussian in rg chromaticity (r and g over r + g + b, which shading changes little), learnt
   once per clip from the pixels inside the face meshes (shrunk, so that hair and the background at the mesh's
   rim count little; the farthest tenth of the samples is dropped and the model refitted, twice, which removes
@@ -63,6 +65,8 @@ class LandmarkSegmentationSettings:
     face_shrink: float = 0.15       # face hull shrunk by this share of the face's width for skin samples
     min_face_points: int = 100      # a face is detected with at least this many confident mesh points
     min_hand_points: int = 15       # a hand is detected with at least this many of its 21 points
+    edge_band: int = 3              # pixels each side of the selfie mask's edge that colour may move to either side
+    edge_window: int = 15           # pixels: side of the window whose sure person / background colours are compared
 
 
 @dataclass(frozen=True)
@@ -163,10 +167,43 @@ def _hand_region(shape: tuple[int, int], hand: np.ndarray, settings: LandmarkSeg
     return region
 
 
+def snap_person_edge(frame: np.ndarray, person: np.ndarray, band: int, window: int) -> np.ndarray:
+    """The person mask (H, W) bool with its edge moved to the colours: a pixel within `band` pixels of the edge
+    is the person's when its Lab colour is nearer the mean colour of the sure person pixels (deeper inside than
+    `band`) in the `window` x `window` pixels around it than the mean of the sure background pixels there.
+
+    The selfie model sees the frame at 256x256, so its edge wanders by a pixel or two from frame to frame; a
+    video object whose edge wanders costs texture bits (each padded run takes its colour from the edge pixel)."""
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * band + 1, 2 * band + 1))
+    mask = person.astype(np.uint8)
+    sure_person = cv2.erode(mask, kernel).astype(np.float32)
+    sure_background = 1.0 - cv2.dilate(mask, kernel).astype(np.float32)
+    ring = (sure_person == 0) & (sure_background == 0)
+    if not ring.any():
+        return person
+    lab = cv2.cvtColor(frame, cv2.COLOR_RGB2LAB).astype(np.float32)
+    size = (window, window)
+
+    def local_mean(weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        count = cv2.boxFilter(weight, -1, size, normalize=False)
+        total = cv2.boxFilter(lab * weight[..., None], -1, size, normalize=False)
+        return total / np.maximum(count, 1e-6)[..., None], count > 0
+
+    person_colour, has_person = local_mean(sure_person)
+    background_colour, has_background = local_mean(sure_background)
+    nearer_person = (np.linalg.norm(lab - person_colour, axis=-1) < np.linalg.norm(lab - background_colour, axis=-1))
+    decided = ring & has_person & has_background
+    snapped = person.copy()
+    snapped[decided] = nearer_person[decided]
+    return snapped
+
+
 def label_frame(frame: np.ndarray, person: np.ndarray, landmarks: SignClip, t: int, skin_colour: SkinColour | None,
                 settings: LandmarkSegmentationSettings = LandmarkSegmentationSettings()) -> np.ndarray:
-    """Labels (H, W) uint8 of frame t: frame (H, W, 3) uint8 RGB, person (H, W) bool, landmarks of the clip."""
+    """Labels (H, W) uint8 of frame t: frame (H, W, 3) uint8 RGB, person (H, W) bool (the selfie mask, its edge
+    snapped to the colours here), landmarks of the clip."""
     shape = frame.shape[:2]
+    person = snap_person_edge(frame, person, settings.edge_band, settings.edge_window)
     skin = (skin_colour.distance(_chroma(frame)) < settings.skin_distance if skin_colour is not None
             else np.ones(shape, bool))
     labels = np.where(person, BODY, BACKGROUND).astype(np.uint8)

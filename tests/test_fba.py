@@ -212,3 +212,18 @@ def test_fba_frame_limit_allows_hours_of_signing_in_under_a_gigabyte_and_the_enc
     for coding in ("pred", "dct"):
         with pytest.raises(SigncastError, match=f"at most {fba_codec.MAX_FRAMES} frames"):
             encode_fba(too_long, 25, 4, coding)
+
+
+def test_values_that_jump_once_and_hold_get_a_one_frame_intra_plane_and_cost_less(monkeypatch):
+    rng = np.random.default_rng(5)
+    values = np.zeros((40, bap_table.N_BAPS), dtype=np.int64)
+    values[:, 0:3] = np.cumsum(rng.integers(-300, 300, size=(40, 3)), axis=0)     # moving BAPs
+    values[:, 40:60] = rng.integers(-20000, 20000, size=20)                        # a pose set once, then held
+    settled = encode_fba(values, 25.0, 2)
+    monkeypatch.setattr(fba_codec, "SETTLING_BAPS", 10**6)                          # the rule off
+    one_period = encode_fba(values, 25.0, 2)
+    assert len(settled) < len(one_period)
+    for data in (settled, one_period):
+        decoded, _ = decode_fba(data)
+        steps = bap_table.steps() * 2
+        assert np.all(np.abs(decoded - values) <= steps // 2 + 1)
