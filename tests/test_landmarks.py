@@ -141,3 +141,25 @@ def test_pose_command_refuses_a_video_with_no_person(tmp_path, capsys):
     err = [line for line in capsys.readouterr().err.splitlines() if "no person" in line]
     assert len(err) == 1 and "no person found in" in err[0]
     assert not output.exists()
+
+
+def test_pose_command_says_when_a_hand_leaves_the_frame(tmp_path, capsys):
+    from media.avatar import load_avatar
+    from media.fingerspelling import fingerspell
+    from media.render import RenderSettings, render_motion
+
+    motion = fingerspell("ase", "HI")
+    frames, labels = render_motion(load_avatar(), motion, RenderSettings(width=352, height=288, look="shaded"))
+    frames, labels = frames[:12], labels[:12]
+    _, _, right_hand_x = np.nonzero(labels == 4)
+    cut = int(right_hand_x.max()) + 30                       # the signer's right hand lies left of the cut
+    video = tmp_path / "cut.mkv"
+    write_video(video, np.ascontiguousarray(frames[:, :, cut:cut + 200]), motion.fps)
+    output = tmp_path / "cut.pose"
+    assert main(["pose", str(video), "-o", str(output), "--no-progress"]) == 0
+    captured = capsys.readouterr()
+    notes = [line for line in captured.err.splitlines() if "right hand is not found" in line]
+    assert len(notes) == 1 and "wrist is outside the picture" in notes[0]
+    assert "left hand" not in captured.err
+    clip = read_pose(output)
+    assert not np.any(clip.confidence["RIGHT_HAND_LANDMARKS"]) and np.all(clip.confidence["LEFT_HAND_LANDMARKS"].max(1) > 0)
