@@ -5,8 +5,10 @@ Labels, one byte per pixel, as media.segmentation's: 0 background, 1 body/clothe
 
 Per frame:
 - person: MediaPipe's selfie segmentation (media.landmarks.person_mask), probability >= 0.5, its edge snapped
-  to the colours: within `edge_band` pixels of it, a pixel goes to whichever local mean colour (of the sure
-  person or the sure background pixels nearby) is nearer;
+  to the colours: within `edge_band` of it (a share of the frame size), a pixel goes to whichever local mean colour (of the sure
+  person or the sure background pixels nearby) is nearer (measured on the avatar at 400x340, against its label
+  buffer: signer IoU 0.976 -> 0.989, head 0.975 -> 0.987, and the NSV2O texture at Q 12 50.2 -> 37.5 kB, the
+  true silhouette's being 35.8 kB);
 - skin colour: a Gaussian in rg chromaticity (r and g over r + g + b, which shading changes little), learnt
   once per clip from the pixels inside the face meshes (shrunk, so that hair and the background at the mesh's
   rim count little; the farthest tenth of the samples is dropped and the model refitted, twice, which removes
@@ -65,7 +67,8 @@ class LandmarkSegmentationSettings:
     face_shrink: float = 0.15       # face hull shrunk by this share of the face's width for skin samples
     min_face_points: int = 100      # a face is detected with at least this many confident mesh points
     min_hand_points: int = 15       # a hand is detected with at least this many of its 21 points
-    edge_band: int = 3              # pixels each side of the selfie mask's edge that colour may move to either side
+    edge_band: float = 0.0025       # share of the frame's longer side (at least 1 pixel) each side of the selfie
+                                    # mask's edge that colour may move to either side: 1 px up to 600 px, 5 at 1080p
     edge_window: int = 15           # pixels: side of the window whose sure person / background colours are compared
 
 
@@ -203,7 +206,8 @@ def label_frame(frame: np.ndarray, person: np.ndarray, landmarks: SignClip, t: i
     """Labels (H, W) uint8 of frame t: frame (H, W, 3) uint8 RGB, person (H, W) bool (the selfie mask, its edge
     snapped to the colours here), landmarks of the clip."""
     shape = frame.shape[:2]
-    person = snap_person_edge(frame, person, settings.edge_band, settings.edge_window)
+    band = max(1, round(settings.edge_band * max(shape))) if settings.edge_band > 0 else 0
+    person = snap_person_edge(frame, person, band, settings.edge_window) if band else person
     skin = (skin_colour.distance(_chroma(frame)) < settings.skin_distance if skin_colour is not None
             else np.ones(shape, bool))
     labels = np.where(person, BODY, BACKGROUND).astype(np.uint8)

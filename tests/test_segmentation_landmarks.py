@@ -9,7 +9,8 @@ from media.domain import BACKGROUND, BODY, HEAD, LEFT_HAND, RIGHT_HAND
 from media.errors import SigncastError
 from media.landmarks.person_mask import person_masks, person_probability
 from media.lexicon import SignClip
-from media.segmentation_landmarks import HANDS, landmark_coverage, segment_by_landmarks
+from media.segmentation_landmarks import (HANDS, LandmarkSegmentationSettings, landmark_coverage, segment_by_landmarks,
+                                         snap_person_edge)
 from media.video_io import read_video, resolve_video
 
 
@@ -108,7 +109,10 @@ def test_labels_follow_the_landmarks_where_the_person_mask_disagrees(avatar_clip
     empty = SignClip(25.0, {n: np.zeros_like(p) for n, p in landmarks.points.items()},
                      {n: np.zeros_like(c) for n, c in landmarks.confidence.items()})
     bare = segment_by_landmarks(frames, empty, person)
-    assert set(np.unique(bare)) <= {BACKGROUND, BODY} and np.array_equal(bare == BODY, person)
+    snapped = np.stack([snap_person_edge(frame, mask, 1, LandmarkSegmentationSettings().edge_window)
+                        for frame, mask in zip(frames, person)])          # 1 px at 176x144
+    assert set(np.unique(bare)) <= {BACKGROUND, BODY} and np.array_equal(bare == BODY, snapped)
+    assert np.mean(snapped != person) < 0.01                                # the edge moves, the person stays
     with pytest.raises(SigncastError):
         segment_by_landmarks(frames[:2], landmarks, person[:2])
 
@@ -152,3 +156,17 @@ def test_transparent_macroblocks_cost_less_texture_and_leave_the_opaque_pixels(c
     decoded, _ = video_codecs.decode_video(stream, "mpeg4")
     assert len(stream) == skipped.texture_bytes
     assert np.array_equal(decoded[masks], skipped.decoded_texture[masks])
+
+
+def test_snapped_person_edge_makes_the_signer_object_cost_about_what_the_true_silhouette_costs(avatar_clip, person):
+    from comparisons.video_objects import code_object
+    from media.landmarks.holistic import extract_landmarks
+
+    frames, truth = avatar_clip
+    landmarks = extract_landmarks(frames, 25.0)
+    snapped = segment_by_landmarks(frames, landmarks, person) > BACKGROUND
+    raw = segment_by_landmarks(frames, landmarks, person, LandmarkSegmentationSettings(edge_band=0)) > BACKGROUND
+    cost = {name: code_object("signer", frames, masks, 25.0, "mpeg4", 12).texture_bytes
+            for name, masks in (("truth", truth > BACKGROUND), ("snapped", snapped), ("raw", raw))}
+    assert cost["snapped"] < cost["raw"]
+    assert cost["snapped"] < 1.15 * cost["truth"], cost
