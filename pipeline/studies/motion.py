@@ -26,13 +26,20 @@ class MotionSettings:
 
 
 def check(settings: MotionSettings) -> None:
+    check_source(settings.language, settings.word, settings.pose, settings.fps, settings.jitter_filter)
+
+
+def check_source(language: str | None, word: str | None, pose: Path | None, fps: float | None,
+                 jitter_filter: str | None) -> None:
+    """Refuse (one-line SigncastError) a motion source that is not exactly one of LANGUAGE WORD and a .pose, a bad
+    frame rate (None: the source's own) or an unknown jitter filter (None: the default)."""
     from media.domain import check_fps
     from media.jitter_filter import check_filter
-    if settings.fps is not None:
-        check_fps(settings.fps)
-    if settings.jitter_filter is not None:
-        check_filter(settings.jitter_filter)
-    if (settings.pose is None) == (settings.language is None or settings.word is None):
+    if fps is not None:
+        check_fps(fps)
+    if jitter_filter is not None:
+        check_filter(jitter_filter)
+    if (pose is None) == (language is None or word is None):
         raise SigncastError("give either LANGUAGE WORD or --pose FILE")
 
 

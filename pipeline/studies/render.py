@@ -43,18 +43,13 @@ class RenderWordSettings:
 def check(settings: RenderWordSettings) -> str:
     """Refuse bad settings before any work (one-line SigncastError); the backend the kernels will use."""
     from kernels import backends
-    from media.domain import check_fps, check_size
-    from media.jitter_filter import check_filter
+    from media.domain import check_size
     from media.render import check_backend, check_look
+    from pipeline.studies.motion import check_source
     check_size(*settings.size)
     check_backend(settings.backend)
     check_look(settings.look)
-    if settings.fps is not None:
-        check_fps(settings.fps)
-    if settings.jitter_filter is not None:
-        check_filter(settings.jitter_filter)
-    if (settings.pose is None) == (settings.language is None or settings.word is None):
-        raise SigncastError("give either LANGUAGE WORD or --pose FILE")
+    check_source(settings.language, settings.word, settings.pose, settings.fps, settings.jitter_filter)
     return backends.describe(settings.backend)   # a backend that cannot run here fails now, in one line
 
 
