@@ -8,7 +8,7 @@ from media.pose_file import read_pose, write_pose
 from media.video_io import read_video, resolve_video, write_video
 from pipeline.cli import main
 
-N_FRAMES = 8
+N_FRAMES = 120                  # every frame of carphone
 
 
 @pytest.fixture(scope="module")
