@@ -115,11 +115,14 @@ FIST_WEIGHT = 4.0
 DIP_COUPLING = 2.0 / 3.0      # a curled finger's last joint flexes at least this share of its middle joint
 OWN_LENGTH_MIN_FRAMES = 10    # frames a .pose must show a hand fully for its own phalanx lengths
 
-# Defaults (see `retarget`): lexicon clips keep the binomial filter their figures were measured with; any
-# other clip (a .pose from a video) gets the One-Euro filter. An arm whose hand is never seen rests naturally.
+# Defaults (see `retarget`): lexicon clips keep the binomial filter and the rig's A-pose for an unseen arm, as
+# their parameter figures were measured (FBA's BAP 0 is the rig's rest, so the A-pose costs nothing, while a
+# natural rest costs a letter clip its intra values); any other clip (a .pose from a video) gets the One-Euro
+# filter and the natural rest.
 LEXICON_FILTER = "binomial"
 POSE_FILTER = "one-euro"
-UNSEEN_ARM = "natural"
+LEXICON_UNSEEN_ARM = "a-pose"
+POSE_UNSEEN_ARM = "natural"
 UNSEEN_ARMS = ("natural", "a-pose")
 # One-Euro settings for keypoints in shoulder widths at the clip's fps (docs/retargeting.md: measured)
 ONE_EURO = OneEuro(min_cutoff=1.0, beta=2.0, d_cutoff=1.0)
@@ -535,12 +538,12 @@ def retarget(clip: SignClip, skeleton: Skeleton | None = None, *, jitter_filter:
 
     jitter_filter: "one-euro", "binomial" or "off" (None: LEXICON_FILTER for a lexicon clip, else
     POSE_FILTER); unseen_arm: "natural" or "a-pose", the pose of an arm whose hand the clip never
-    shows (None: UNSEEN_ARM). Raises
+    shows (None: LEXICON_UNSEEN_ARM for a lexicon clip, else POSE_UNSEEN_ARM). Raises
     SigncastError for a clip without the Holistic components or without shoulders.
     """
     lexicon_clip = clip.entry is not None
     filter_name = filters.check_filter(jitter_filter or (LEXICON_FILTER if lexicon_clip else POSE_FILTER))
-    unseen_arm = unseen_arm or UNSEEN_ARM
+    unseen_arm = unseen_arm or (LEXICON_UNSEEN_ARM if lexicon_clip else POSE_UNSEEN_ARM)
     if unseen_arm not in UNSEEN_ARMS:
         raise SigncastError(f"unknown rest for an unseen arm {unseen_arm!r}: choose {' or '.join(UNSEEN_ARMS)}")
     skeleton = skeleton or load_avatar().skeleton

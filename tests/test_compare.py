@@ -26,9 +26,7 @@ def test_compare_measures_every_solution_at_its_operating_point(result):
     assert set(operating) == {"NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "FBA", "BBA"}
     for record in result.operating:
         assert record["bits"] > 0 and record["kbps"] == pytest.approx(record["bits"] / record["duration_s"] / 1000)
-    # parameters cost far less than pixels, even at 176x144 for a 1.5-s word whose intra plane also sets the
-    # unseen arm's natural rest (52 non-zero BAPs): measured 2.96x
-    assert operating["FBA"]["kbps"] < operating["SSV"]["kbps"] / 2.5
+    assert operating["FBA"]["kbps"] < operating["SSV"]["kbps"] / 3          # parameters cost far less than pixels
     assert operating["NSV3O"]["kbps"] < operating["NSV"]["kbps"]           # dropping background and clothes saves bits
     assert operating["NSV3O+C"]["kbps"] > operating["NSV3O"]["kbps"]
     # FBA/BBA quality is measured on the frames the terminal re-renders, against the same reference as SSV.
