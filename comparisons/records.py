@@ -47,12 +47,17 @@ SCHEMA_VERSION = 2
 REQUIRED_FIELDS = ("solution", "clip", "codec", "q", "fps", "width", "height", "bits", "duration_s", "kbps")
 IMAGE_QUALITY_FIELDS = ("image_psnr", "skin_psnr", "object_psnr", "ssim", "skin_ssim", "object_ssim")
 PARAM_QUALITY_FIELDS = ("param_psnr", "vpsnr", "joint_error_mm_mean", "joint_error_mm_max", "group_errors")
+# what a viewer can read: landmarks extracted from what the viewer sees against the reference's landmarks
+INTELLIGIBILITY_FIELDS = ("hand_error", "hand_error_p90", "hand_pck_10", "hand_pck_20", "left_hand_found",
+                          "right_hand_found", "face_error", "face_error_p90", "letter_top1", "letter_top3",
+                          "hand_joint_error_mm", "arm_joint_error_mm")
 # legacy name -> schema 2 name; "psnr" depends on the point (see _legacy)
 LEGACY_NAMES = {"psnr_skin": "skin_psnr", "psnr_object": "object_psnr", "ssim_skin": "skin_ssim",
                 "ssim_object": "object_ssim"}
-STRING_FIELDS = ("kind", "solution", "clip", "codec", "sweep", "stage", "setting", "operating_rule", "backend")
+STRING_FIELDS = ("kind", "solution", "clip", "codec", "sweep", "stage", "setting", "operating_rule", "backend",
+                 "reference")
 NUMBER_FIELDS = ("q", "fps", "width", "height", "bits", "duration_s", "kbps", *IMAGE_QUALITY_FIELDS,
-                 *PARAM_QUALITY_FIELDS[:-1], "wall_s", "psnr", *LEGACY_NAMES)
+                 *PARAM_QUALITY_FIELDS[:-1], *INTELLIGIBILITY_FIELDS, "wall_s", "psnr", *LEGACY_NAMES)
 CONTAINER_FIELDS = {"versions": dict, "objects": list, "group_errors": dict}
 NULLABLE = ("group_errors",)                         # the other container fields, where present, are never null
 NEEDED = {"point": ("solution", "fps"), "stage": ("stage", "wall_s")}
@@ -90,6 +95,21 @@ class Record:
     joint_error_mm_mean: float | None = None
     joint_error_mm_max: float | None = None
     group_errors: dict | None = None       # joint group -> [mean, max] weighted error
+    # intelligibility (comparisons.intelligibility), against `reference`: "source video" (message fidelity) or
+    # "lossless render" (codec loss of an avatar solution); errors per frame, then mean (and 90th percentile)
+    reference: str | None = None
+    hand_error: float | None = None        # hand keypoint error in hand sizes
+    hand_error_p90: float | None = None
+    hand_pck_10: float | None = None       # % of hand keypoints within 0.1 hand sizes
+    hand_pck_20: float | None = None       # % within 0.2 hand sizes
+    left_hand_found: float | None = None   # % of the frames showing the hand in the reference where it is found
+    right_hand_found: float | None = None
+    face_error: float | None = None        # face keypoint error in interocular distances
+    face_error_p90: float | None = None
+    letter_top1: float | None = None       # % of fingerspelled letters recognised first (fingerspelling only)
+    letter_top3: float | None = None       # % among the first three
+    hand_joint_error_mm: float | None = None   # parameter points: joint position error of the hands, mm
+    arm_joint_error_mm: float | None = None    # and of the arms (shoulder to wrist), mm
     # stage and run records
     stage: str | None = None
     wall_s: float | None = None
