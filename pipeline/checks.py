@@ -32,16 +32,16 @@ def memory_limit_bytes() -> int:
     return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
 
 
-def check_memory(n_frames: int, width: int, height: int, bytes_per_pixel: float, what: str) -> int:
+def check_memory(n_frames: int, width: int, height: int, bytes_per_pixel: float, what: str,
+                 advice: str = "choose a smaller --size or a shorter word") -> int:
     """Refuse work that would hold n_frames x width x height x bytes_per_pixel bytes of frames (and labels)
-    beyond memory_limit_bytes(). Returns the estimate in bytes."""
+    beyond memory_limit_bytes(), with `advice` on what to change. Returns the estimate in bytes."""
     estimate = int(n_frames * width * height * bytes_per_pixel)
     limit = memory_limit_bytes()
     if estimate > limit:
         raise SigncastError(f"{what} would hold about {estimate / 2**30:.2f} GiB ({n_frames} frames of "
                             f"{width}x{height} at {bytes_per_pixel:g} bytes per pixel), more than the limit of "
-                            f"{limit / 2**30:.2f} GiB (available memory, or ${MEMORY_LIMIT_VARIABLE}): choose a "
-                            f"smaller --size or a shorter word")
+                            f"{limit / 2**30:.2f} GiB (available memory, or ${MEMORY_LIMIT_VARIABLE}): {advice}")
     return estimate
 
 

@@ -65,7 +65,7 @@ def _file_argv(name: str, tmp_path: Path, path: Path) -> list[str]:
     return [a.format(path=path, tmp=tmp_path, records=records) for a in arguments]
 
 
-@pytest.mark.parametrize("command", ["render", "video --ssv", "compare", "demo"])
+@pytest.mark.parametrize("command", ["render", "video --ssv", "video --video", "pose", "compare", "demo"])
 @pytest.mark.parametrize("size", ["0x0", "7x7", "5000x5000", "353x288"])
 def test_bad_frame_size_is_one_line_before_any_output(tmp_path, capsys, command, size):
     argv = {"render": ["render", "ase", "A", "-o", tmp_path / "a.mkv", "--size", size],
@@ -76,12 +76,15 @@ def test_bad_frame_size_is_one_line_before_any_output(tmp_path, capsys, command,
     assert _tree(tmp_path) == set()
 
 
-@pytest.mark.parametrize("command", ["render", "video --ssv", "compare", "demo"])
+@pytest.mark.parametrize("command", ["render", "video --ssv", "video --video", "pose", "compare", "demo"])
 def test_work_beyond_the_memory_limit_is_refused_with_the_estimate(tmp_path, capsys, monkeypatch, command):
     monkeypatch.setenv("SIGNCAST_MEMORY_LIMIT_MB", "1")
     argv = {"render": ["render", "ase", "AB", "-o", tmp_path / "a.mkv", "--size", "352x288", "--no-progress"],
             "video --ssv": ["video", "--ssv", "ase", "AB", "--size", "352x288", "--video-q", "12", "--video-codecs", "none",
                             "--no-progress", "--out", tmp_path / "out"],
+            "video --video": ["video", "--video", "carphone", "--video-q", "12", "--video-codecs", "none",
+                              "--no-progress", "--out", tmp_path / "out"],
+            "pose": ["pose", "carphone", "-o", tmp_path / "c.pose", "--no-progress"],
             "compare": [*FOLDER_COMMANDS["compare"], "--out", tmp_path / "out"],
             "demo": [*FOLDER_COMMANDS["demo"], "--out", tmp_path / "out"]}[command]
     error = _fails_with_one_line(capsys, argv, "GiB", "limit of 0.00 GiB", "SIGNCAST_MEMORY_LIMIT_MB")

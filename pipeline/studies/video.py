@@ -35,7 +35,7 @@ from comparisons import image_quality, report, video_codecs, video_objects
 from comparisons.records import make_record, versions, write_records
 from media import faces, segmentation
 from media.errors import SigncastError
-from media.video_io import Clip, crop_even, frame_indices_at_rate, read_clip, resolve_video, video_info
+from media.video_io import Clip, crop_even, fit_size, frame_indices_at_rate, read_clip, resolve_video, video_info
 from pipeline.checks import check_memory
 
 DEFAULT_MAX_SIZE = (352, 288)   # (width, height), CIF: larger clips are scaled down to fit unless asked otherwise
@@ -142,6 +142,9 @@ def read_natural_clip(name_or_path: str, max_frames: int | None = None,
     path = resolve_video(name_or_path)
     info = video_info(path)
     expected = min(filter(None, (info.announced_frames, max_frames)), default=None)
+    if expected:                    # the decoded frames alone, before anything else is held
+        check_memory(expected, *fit_size(info.width, info.height, max_size), 3, f"reading {path.name}",
+                     "choose a smaller --max-size or fewer --frames")
     with tqdm(total=expected, desc=f"read {path.name}", unit="frame", disable=not progress) as bar:
         clip = read_clip(path, max_frames, max_size, progress=bar.update)
     read = len(clip.frames)
