@@ -65,7 +65,7 @@ def _file_argv(name: str, tmp_path: Path, path: Path) -> list[str]:
     return [a.format(path=path, tmp=tmp_path, records=records) for a in arguments]
 
 
-@pytest.mark.parametrize("command", ["render", "video --ssv", "video --video", "pose", "compare", "demo"])
+@pytest.mark.parametrize("command", ["render", "video --ssv", "compare", "demo"])
 @pytest.mark.parametrize("size", ["0x0", "7x7", "5000x5000", "353x288"])
 def test_bad_frame_size_is_one_line_before_any_output(tmp_path, capsys, command, size):
     argv = {"render": ["render", "ase", "A", "-o", tmp_path / "a.mkv", "--size", size],
