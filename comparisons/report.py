@@ -12,13 +12,26 @@ A record with kind == "stage" carries a stage's wall time (stage, wall_s); one w
 the software versions and the backend. Points flagged operating_point == True are the solutions'
 operating points (video Q = 12 at 25 fps, parameters at 25 fps). The page shows only the sections the
 records have data for.
+
+What a viewer can read (issue 13) comes first. Points may carry intelligibility fields (comparisons.intelligibility:
+hand_pck_20 and hand_pck_10 in percent, hand_error / hand_error_p90 in hand sizes, left_hand_found /
+right_hand_found in percent of frames, face_error / face_error_p90 in interocular distances, letter_top1 /
+letter_top3 in percent, hand_joint_error_mm / arm_joint_error_mm in mm) against their `reference` ("source video"
+or "lossless render"). A record with kind == "matched" is one solution's (and codec's) operating point at matched
+intelligibility: solution, codec, reference, kbps (interpolated between the swept Q values q_low and q_high),
+threshold (text, e.g. "hand PCK@0.2 >= 98.0 %"), reached (bool), fps_holds (the lowest frames/s at which the
+threshold holds, or null) and the intelligibility fields there. From them the page gives the table "kbps at matched
+intelligibility" with the delivery channels each rate fits (DELIVERY_CHANNELS), the chart of rate against
+intelligibility, and the requirement lines of EN 301 549 clause 6.5 and Tran et al. (ASSETS 2013).
 """
 from __future__ import annotations
 
 import base64
 import html
 import io
+import re
 from pathlib import Path
+from typing import NamedTuple
 
 import matplotlib
 
@@ -29,11 +42,47 @@ import numpy as np  # noqa: E402
 from comparisons.criteria import SOLUTIONS, criteria_table  # noqa: E402
 from comparisons.records import normalize_records  # noqa: E402
 from comparisons.video_codecs import CODECS as VIDEO_CODECS  # noqa: E402
-from media.domain import BBA, FBA, PARAMETER_SOLUTIONS, SOLUTION_ORDER  # noqa: E402
+from media.domain import BBA, FBA, PARAMETER_SOLUTIONS, SOLUTION_ORDER, VIDEO_SOLUTIONS  # noqa: E402
 from media.errors import SigncastError  # noqa: E402
 
 REQUIREMENTS = (("broadcast", 100.0), ("webcast", 56.0), ("phone line", 64.0))
 MIN_COMFORT_FPS = 15.0
+
+
+class Channel(NamedTuple):
+    """A delivery channel: its payload rate in kbit/s; a rate fits below it (or at it, where inclusive)."""
+    name: str
+    short: str          # the label of a table cell's mark
+    kbps: float
+    inclusive: bool
+    source: str
+
+
+# Delivery channels, cheapest first: the source's three lines, and the rates MobileASL ran at on phones
+# (public guidance notes: 15-25 kbit/s).
+MOBILE_PHONE = Channel("MobileASL phone link", "phone 25", 25.0, True, "MobileASL (2006-): 15-25 kbit/s on phones")
+MODEM = Channel("webcast (56 kbps modem)", "modem 56", 56.0, False, "the source: webcast < 56 kbps")
+ISDN_B_CHANNEL = Channel("phone line (64 kbps ISDN B channel)", "ISDN 64", 64.0, False, "the source: phone line < 64 kbps")
+BROADCAST = Channel("broadcast (100 kbps)", "broadcast 100", 100.0, False, "the source: broadcast < 100 kbps")
+DELIVERY_CHANNELS = (MOBILE_PHONE, MODEM, ISDN_B_CHANNEL, BROADCAST)
+# EN 301 549 clause 6.5, video communication for sign language: frames/s and pixels (width, height).
+EN301549_MIN_FPS = 12.0
+EN301549_PREFERRED_FPS = 20.0
+QCIF = (176, 144)
+CIF = (352, 288)
+# Tran, Riskin, Ladner, Wobbrock (ASSETS 2013): intelligibility stops improving above 10 fps; recommended
+# 10 fps at 60 kbit/s, measured at 320x240.
+TRAN_FPS = 10.0
+TRAN_KBPS = 60.0
+TRAN_SIZE = (320, 240)
+# The solutions of the matched-intelligibility table, in its order (seed 001's six and NSV3O with clothes).
+MATCHED_SOLUTIONS = (*VIDEO_SOLUTIONS, FBA, BBA)
+# Intelligibility fields a chart panel can show: (label with unit, higher is better).
+INTELLIGIBILITY_PANELS = {
+    "hand_pck_20": ("hand PCK@0.2 (% of hand keypoints within 0.2 hand sizes)", True),
+    "face_error": ("face error (interocular distances, mean; lower is better)", False),
+    "letter_top1": ("fingerspelled letters recognised first (top-1 %)", True),
+}
 RENDERED_SOLUTIONS = ("SSV", FBA, BBA)   # pictures of the avatar: measured against its lossless render
 # Today's video codecs, coded at matched quality; their quantiser is on their own scale, not MPEG-4's Q 1-31.
 OTHER_VIDEO_CODECS = {"libx264": "H.264", "libsvtav1": "AV1"}
@@ -405,7 +454,9 @@ def _picture_summary(records: list[dict]) -> str:
 
 def _parameter_summary(records: list[dict]) -> str:
     """Points without a picture, per series and quantiser, averaged over clips."""
-    fields = ("kbps", "param_psnr", "vpsnr", "joint_error_mm_mean")
+    fields = ("kbps", "param_psnr", "vpsnr", "joint_error_mm_mean", "hand_joint_error_mm", "arm_joint_error_mm")
+    # hands and arms apart, where the points carry them
+    apart = any(r.get(f) is not None for r in _parameter_points(records) for f in fields[-2:])
     rows = []
     for name, group in _groups(_parameter_points(records), _series_key).items():
         for fps, same_fps in sorted(_groups(group, lambda r: r["fps"]).items(), key=lambda kv: -kv[0]):
@@ -413,13 +464,15 @@ def _parameter_summary(records: list[dict]) -> str:
                 first = row["record"]
                 rows.append([_fmt(first["solution"]), _fmt(first.get("codec")), _fmt(quantiser(first)), _fmt(float(fps), 0),
                              _clips(row["clips"]), "motion before coding (full-precision BAPs)", _fmt(row["kbps"], 2),
-                             _fmt(row["param_psnr"], 2), _fmt(row["vpsnr"], 2), _fmt(row["joint_error_mm_mean"], 2)])
+                             _fmt(row["param_psnr"], 2), _fmt(row["vpsnr"], 2), _fmt(row["joint_error_mm_mean"], 2),
+                             *([_fmt(row["hand_joint_error_mm"], 2), _fmt(row["arm_joint_error_mm"], 2)] if apart else [])])
     return ("<h2>Summary: parameter coding</h2><p>These points have no pictures: they measure the animation parameters "
             "themselves, each clip's coded and decoded motion against the same motion before coding. Their PSNR is "
             "parameter-domain (seed 000 eq. 2.6, over the rotation BAPs that move), not image PSNR: do not compare it "
             "with a video solution's. Values are means over the clips listed.</p>"
             + _table("parameter_summary", ["solution", "codec", "quantiser", "fps", "clips", "measured against", "kbps",
-                                           "parameter PSNR dB", "VPSNR dB", "joint error mm"], rows))
+                                           "parameter PSNR dB", "VPSNR dB", "joint error mm",
+                                           *(["hand joint error mm", "arm joint error mm"] if apart else [])], rows))
 
 
 def _requirements(records: list[dict]) -> str:
@@ -461,19 +514,31 @@ def _criteria(records: list[dict]) -> str:
                             [[_fmt(r["criterion"]), *[_fmt(r[s]) for s in SOLUTIONS], _fmt(r["reason"])] for r in rows]))
 
 
+INTELLIGIBILITY_COLUMNS = ["measured against", "hand PCK@0.2 %", "hand error (hand sizes)", "hands found % (L / R)",
+                           "face error (interocular distances)"]
+
+
+def _intelligibility_cells(record: dict) -> list[str]:
+    """A point's intelligibility cells, in INTELLIGIBILITY_COLUMNS order."""
+    return [_fmt(record.get("reference")), _fmt(record.get("hand_pck_20"), 1), _fmt(record.get("hand_error"), 3),
+            _hands_found(record), _fmt(record.get("face_error"), 3)]
+
+
 def _every_point(records: list[dict]) -> str:
     def order(r):
         return (_order(r["solution"]), r.get("codec", ""), str(r.get("clip", "")), -r["fps"], r.get("q") or 0)
     html_parts = ["<h2>Every measured point</h2>"]
     pictures = sorted((r for r in points(records) if has_picture(r)), key=order)
     if pictures:
+        legible = any(r.get("hand_pck_20") is not None or r.get("face_error") is not None for r in pictures)
         html_parts.append(_table("points", ["solution", "codec", "clip", "quantiser", "fps", "size", "kbps",
                                             "PSNR face+hands dB", "PSNR sent objects dB", "PSNR whole frame dB",
-                                            "SSIM whole frame"],
+                                            "SSIM whole frame", *(INTELLIGIBILITY_COLUMNS if legible else [])],
                                  [[_fmt(r["solution"]), _fmt(r.get("codec")), _fmt(r.get("clip")), _fmt(quantiser(r)),
                                    _fmt(float(r["fps"]), 0), f"{r['width']}×{r['height']}", _fmt(float(r["kbps"]), 2),
                                    _fmt(r.get("skin_psnr"), 2), _fmt(r.get("object_psnr"), 2), _fmt(r.get("image_psnr"), 2),
-                                   _fmt(r.get("ssim"), 3)] for r in pictures]))
+                                   _fmt(r.get("ssim"), 3), *(_intelligibility_cells(r) if legible else [])]
+                                  for r in pictures]))
     parameters = sorted(_parameter_points(records), key=order)
     # Without clips to average over, the parameter summary already lists every point.
     if len({(_series_key(r), r["fps"], r["q"]) for r in parameters}) < len(parameters):
@@ -500,6 +565,305 @@ def _run(records: list[dict]) -> str:
     return "<h2>Run</h2>" + "".join(parts) if parts else ""
 
 
+# --------------------------------------------------------------------------- matched intelligibility (issue 13)
+def matched_records(records: list[dict]) -> list[dict]:
+    """The records of kind "matched" (one per solution and codec: its cheapest rate at matched intelligibility),
+    in MATCHED_SOLUTIONS order."""
+    chosen = [r for r in records if r.get("kind") == "matched" and r.get("solution")]
+    return sorted(chosen, key=lambda r: (_matched_order(r["solution"]), str(r.get("codec") or "")))
+
+
+def _matched_order(solution: str) -> int:
+    return MATCHED_SOLUTIONS.index(solution) if solution in MATCHED_SOLUTIONS else len(MATCHED_SOLUTIONS) + _order(solution)
+
+
+def fits(channel: Channel, kbps: float) -> bool:
+    """True when a rate (kbit/s) fits the channel's payload rate."""
+    return kbps <= channel.kbps if channel.inclusive else kbps < channel.kbps
+
+
+def _channel_marks(kbps: float | None) -> str:
+    """✔ / ✘ per delivery channel for a rate in kbit/s (HTML)."""
+    if kbps is None:
+        return "–"
+    return "<br>".join('<span class="nowrap">' + ("✔ " if fits(c, kbps) else "✘ ") + html.escape(c.short) + "</span>"
+                       for c in DELIVERY_CHANNELS)
+
+
+def threshold_value(threshold: str | None) -> float | None:
+    """The percent of a threshold on hand PCK@0.2 written as text ("hand PCK@0.2 >= 98.0 %"), else None."""
+    found = re.search(r"PCK@0\.2\D*?(?:>=|≥)\s*([0-9]+(?:\.[0-9]+)?)", threshold or "")
+    return float(found.group(1)) if found else None
+
+
+def _swept_for_intelligibility(records: list[dict], field: str) -> list[dict]:
+    """Points of a quantizer sweep on a Q scale at full resolution that carry the intelligibility field."""
+    return [r for r in points(records) if r.get(field) is not None and r.get("sweep") in ("q", None)
+            and r.get("full_resolution", True) and r.get("setting") is None
+            and r.get("codec") not in OTHER_VIDEO_CODECS]
+
+
+def _intelligibility_references(records: list[dict]) -> list[str]:
+    """The references ("source video", "lossless render", ...) the intelligibility figures are measured against."""
+    measured = [r for r in points(records) + matched_records(records)
+                if any(r.get(field) is not None for field in INTELLIGIBILITY_PANELS)]
+    return list(dict.fromkeys(str(r.get("reference") or "unnamed reference") for r in measured))
+
+
+def _against(references: list[str]) -> str:
+    return "against the " + " / ".join(references) if references else "against an unnamed reference"
+
+
+def operating_picture(matched: dict, records: list[dict]) -> dict:
+    """fps (frames/s), width and height (pixels) of a matched operating point: the matched record's own where it
+    carries them, else those of its swept points (same solution and codec, at q_low / q_high, top frame rate)."""
+    own = {name: matched.get(name) for name in ("fps", "width", "height")}
+    if all(value is not None for value in own.values()):
+        return own
+    bracket = {matched.get("q_low"), matched.get("q_high")} - {None}
+    swept = [r for r in points(records) if r["solution"] == matched["solution"] and r.get("codec") == matched.get("codec")
+             and r.get("sweep") in ("q", None) and (not bracket or r.get("q") in bracket)]
+    if not swept:
+        return own
+    fps, top = _top_rate(swept)
+    return {"fps": own["fps"] if own["fps"] is not None else fps,
+            "width": own["width"] if own["width"] is not None else top[0].get("width"),
+            "height": own["height"] if own["height"] is not None else top[0].get("height")}
+
+
+def _plot_intelligibility_sweeps(panel, records: list[dict], field: str, styles: dict, dashed_references: set) -> None:
+    """One line per solution · codec (and reference): its quantizer sweep at its top frame rate, the field's
+    mean over clips per Q, against kbps."""
+    for (name, ref), group in _groups(_swept_for_intelligibility(records, field),
+                                      lambda r: (_series_key(r), str(r.get("reference") or ""))).items():
+        fps, top = _top_rate(group)
+        rows = sorted((r for r in _by_quantiser(top, ("kbps", field)) if r[field] is not None), key=lambda r: r["kbps"])
+        label = f"{name} ({fps:g} fps{_clips_note(rows[0]['clips'])})" + (f", vs {ref}" if dashed_references else "")
+        style = styles.get(name, {"color": "grey", "marker": "o"})
+        panel.plot([r["kbps"] for r in rows], [r[field] for r in rows], "--" if ref in dashed_references else "-",
+                   ms=4, label=label, **style)
+
+
+def _plot_matched(panel, records: list[dict], field: str, styles: dict) -> None:
+    """The matched operating points as stars: filled where the threshold is reached, open where not."""
+    labelled = set()
+    for m in matched_records(records):
+        if m.get("kbps") is None or m.get(field) is None:
+            continue
+        reached = bool(m.get("reached", True))
+        label = "matched operating point" if reached else "best point (threshold not reached)"
+        color = styles.get(_series_key(m), {"color": "black"})["color"]
+        panel.plot([m["kbps"]], [m[field]], "*", ms=13, color=color, mec="black", mfc=color if reached else "none",
+                   ls="none", label=None if label in labelled else label)
+        labelled.add(label)
+
+
+def _finish_intelligibility_panel(panel, field: str) -> None:
+    for channel in DELIVERY_CHANNELS:
+        panel.axvline(channel.kbps, color="grey", ls=":", lw=1)
+    panel.set_xscale("log")
+    panel.set_xlabel("kbps (dotted: delivery channels " + ", ".join(f"{c.kbps:g}" for c in DELIVERY_CHANNELS) + ")")
+    panel.set_ylabel(INTELLIGIBILITY_PANELS[field][0], fontsize=8)
+    panel.grid(True, which="both", alpha=0.3)
+
+
+def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
+    """Rate against intelligibility: hand PCK@0.2 (percent) against kbps (log) for every solution's quantizer
+    sweep at its top frame rate, the threshold on it, the matched operating points marked; further panels with
+    face error (interocular distances) and letter top-1 (percent) where the points carry them."""
+    records = normalize_records(records)
+    styles = styles or series_styles(records)
+    fields = [f for f in INTELLIGIBILITY_PANELS if f == "hand_pck_20" or _swept_for_intelligibility(records, f)]
+    figure, panels = plt.subplots(1, len(fields), figsize=(6.2 * len(fields), 4.8), squeeze=False)
+    references = _intelligibility_references(records)
+    dashed = set(references[1:]) if len(references) > 1 else set()
+    for panel, field in zip(panels[0], fields):
+        _plot_intelligibility_sweeps(panel, records, field, styles, dashed)
+        _plot_matched(panel, records, field, styles)
+        _finish_intelligibility_panel(panel, field)
+    thresholds = {threshold_value(m.get("threshold")) for m in matched_records(records)} - {None}
+    for value in sorted(thresholds):
+        panels[0][0].axhline(value, color="firebrick", ls="--", lw=1)
+        panels[0][0].text(panels[0][0].get_xlim()[0], value, f" threshold {value:g} %", fontsize=7, va="bottom",
+                          color="firebrick")
+    panels[0][0].set_title("hand keypoints")
+    figure.suptitle(f"Rate against intelligibility, {_against(references)}", fontsize=10)
+    _figure_legend(figure, panels[0])
+    return figure
+
+
+def _fps_sweeps_for_intelligibility(records: list[dict]) -> dict[str, list[dict]]:
+    """Per solution · codec: hand PCK@0.2 over its frame-rate sweep (with the Q sweep's point at the same Q and a
+    frame rate the sweep lacks), averaged over clips per frame rate, sorted by fps."""
+    swept = [r for r in points(records) if r.get("sweep") == "fps" and r.get("hand_pck_20") is not None]
+    sweeps = {}
+    for name, group in _groups(swept, _series_key).items():
+        extra = [r for r in points(records) if _series_key(r) == name and r.get("sweep") == "q" and r.get("hand_pck_20") is not None
+                 and r.get("q") == group[0].get("q") and all(r["fps"] != g["fps"] for g in group)]
+        rows = [{"fps": fps, "hand_pck_20": _mean(r["hand_pck_20"] for r in same)}
+                for fps, same in _groups(group + extra, lambda r: r["fps"]).items()]
+        sweeps[name] = sorted(rows, key=lambda row: row["fps"])
+    return sweeps
+
+
+def chart_intelligibility_vs_fps(records: list[dict], styles: dict | None = None):
+    """Hand PCK@0.2 (percent) against frame rate (frames/s) over each series' frame-rate sweep, with the guidance's
+    frame-rate lines (EN 301 549: 12, preferably 20; Tran et al.: 10) and the threshold."""
+    records = normalize_records(records)
+    styles = styles or series_styles(records)
+    figure, axes = plt.subplots(figsize=(7.5, 4.5))
+    for name, rows in _fps_sweeps_for_intelligibility(records).items():
+        axes.plot([r["fps"] for r in rows], [r["hand_pck_20"] for r in rows], "-", ms=5, label=name,
+                  **styles.get(name, {"color": "grey", "marker": "o"}))
+    for fps, words, style in ((TRAN_FPS, "Tran et al. 10", ":"), (EN301549_MIN_FPS, "EN 301 549 min 12", "-"),
+                              (EN301549_PREFERRED_FPS, "EN 301 549 preferred 20", "--")):
+        axes.axvline(fps, color="grey", ls=style, lw=1)
+        axes.text(fps, axes.get_ylim()[0], f" {words}", rotation=90, fontsize=7, va="bottom", color="grey")
+    for value in sorted({threshold_value(m.get("threshold")) for m in matched_records(records)} - {None}):
+        axes.axhline(value, color="firebrick", ls="--", lw=1)
+    axes.set_xlabel("frames per second")
+    axes.set_ylabel(INTELLIGIBILITY_PANELS["hand_pck_20"][0], fontsize=8)
+    axes.set_title(f"Intelligibility against frame rate, {_against(_intelligibility_references(records))}", fontsize=9)
+    axes.grid(True, alpha=0.3)
+    if axes.lines:
+        axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    return figure
+
+
+def _bracket(matched: dict) -> str:
+    """kbps with the swept Q values bracketing it: "12.3 kbps (Q 8-12)"."""
+    low, high = matched.get("q_low"), matched.get("q_high")
+    qs = [f"{q:g}" for q in dict.fromkeys(q for q in (low, high) if q is not None)]
+    return _fmt(matched.get("kbps"), 1) + (f" (Q {'–'.join(qs)})" if qs else "")
+
+
+def _reached(matched: dict) -> str:
+    if "reached" not in matched:
+        return "–"
+    return "✔ yes" if matched["reached"] else "✘ no: rate of the best point"
+
+
+def _hands_found(matched: dict) -> str:
+    left, right = matched.get("left_hand_found"), matched.get("right_hand_found")
+    if left is None and right is None:
+        return "–"
+    return f"L {_fmt(left, 0)} / R {_fmt(right, 0)}"
+
+
+def _holds(matched: dict) -> str:
+    fps = matched.get("fps_holds")
+    return "–" if fps is None else f"{fps:g} fps"
+
+
+def _matched_table(records: list[dict]) -> str:
+    """One row per solution (and codec) with a matched record; a solution of MATCHED_SOLUTIONS without one says so."""
+    matched = matched_records(records)
+    joints = any(m.get(f) is not None for m in matched for f in ("hand_joint_error_mm", "arm_joint_error_mm"))
+    rows = []
+    for solution in dict.fromkeys([*MATCHED_SOLUTIONS, *(m["solution"] for m in matched)]):
+        mine = [m for m in matched if m["solution"] == solution]
+        if not mine:
+            rows.append([_fmt(solution), "–", "–", "no matched record", *["–"] * (9 + 2 * joints)])
+            continue
+        for m in mine:
+            cells = [_fmt(solution), _fmt(m.get("codec")), _fmt(m.get("reference")), _bracket(m), _fmt(m.get("threshold")),
+                     _reached(m), _fmt(m.get("hand_pck_20"), 1), _fmt(m.get("hand_error"), 3), _hands_found(m),
+                     _fmt(m.get("face_error"), 3), _fmt(m.get("letter_top1"), 0)]
+            if joints:
+                cells += [_fmt(m.get("hand_joint_error_mm"), 1), _fmt(m.get("arm_joint_error_mm"), 1)]
+            rows.append(cells + [_holds(m), _channel_marks(m.get("kbps"))])
+    header = ["solution", "codec", "measured against", "kbps at matched intelligibility (Q bracket)", "threshold",
+              "reached", "hand PCK@0.2 %", "hand error (hand sizes)", "hands found % (left / right)",
+              "face error (interocular distances)", "letter top-1 %",
+              *(["hand joint error mm", "arm joint error mm"] if joints else []), "holds down to",
+              "delivery channels it fits"]
+    return _table("matched", header, rows)
+
+
+def _matched_section(records: list[dict], styles: dict) -> str:
+    """The top of the report: kbps at matched intelligibility per solution, the rate-intelligibility chart and
+    intelligibility against frame rate."""
+    parts = ["<h2>kbps at matched intelligibility</h2>"]
+    if matched_records(records):
+        channels = "; ".join(f"“{html.escape(c.short)}”, {html.escape(c.name)}: {'≤' if c.inclusive else '&lt;'} {c.kbps:g} kbps "
+                             f"({html.escape(c.source)})" for c in DELIVERY_CHANNELS)
+        parts.append(
+            "<p>What a viewer can read: the landmarks of what the viewer sees (the decoded video, or the terminal's "
+            "re-render of the decoded parameters) against the landmarks of the reference named in “measured against” — "
+            "the <em>source video</em> measures the message's fidelity; the <em>lossless render</em> measures only an avatar "
+            "solution's codec loss, not the avatar's own distance from the signer. Each solution's operating point is the "
+            "cheapest rate whose intelligibility reaches the threshold, interpolated between the two swept Q values that "
+            "bracket it; where no swept point reaches it, the row gives the best point's rate. Hand errors are in hand "
+            "sizes (about 10 cm of palm: 0.1 is about a centimetre), face errors in interocular distances. “Holds down "
+            "to” is the lowest frame rate at which the threshold still holds. Delivery channels: " + channels + ".</p>"
+            + _table_note(records) + _matched_table(records))
+    if _swept_for_intelligibility(records, "hand_pck_20"):
+        parts.append(_image("rate_vs_intelligibility", _png(chart_rate_intelligibility(records, styles)),
+                            "rate against intelligibility"))
+    if _fps_sweeps_for_intelligibility(records):
+        parts.append(_image("intelligibility_vs_fps", _png(chart_intelligibility_vs_fps(records, styles)),
+                            "intelligibility against frame rate"))
+    return "".join(parts) if len(parts) > 1 else ""
+
+
+def _table_note(records: list[dict]) -> str:
+    """Says which references the table mixes: rows against different references are not comparable."""
+    references = list(dict.fromkeys(str(m.get("reference") or "–") for m in matched_records(records)))
+    if len(references) < 2:
+        return ""
+    return (f"<p><small>Rows are measured against different references ({_list(references)}): compare the rates of rows "
+            "with the same reference only.</small></p>")
+
+
+def _check(ok: bool | None, words: str) -> str:
+    return "? " + words if ok is None else ("✔ " if ok else "✘ ") + words
+
+
+def _at_least(width, height, size: tuple[int, int]) -> bool | None:
+    if not width or not height:
+        return None
+    return width >= size[0] and height >= size[1]
+
+
+def _guidance_row(matched: dict, records: list[dict]) -> list[str]:
+    """Which public requirement lines a matched operating point meets (see _guidance_section)."""
+    picture = operating_picture(matched, records)
+    fps, width, height, kbps = picture["fps"], picture["width"], picture["height"], matched.get("kbps")
+    holds = matched.get("fps_holds")
+    size = f"{width}×{height}" if width and height else "–"
+    en_fps = ("–" if fps is None else f"{fps:g} fps: " + _check(fps >= EN301549_MIN_FPS, "≥ 12") + ", "
+              + _check(fps >= EN301549_PREFERRED_FPS, "≥ 20 preferred"))
+    en_fps += "" if holds is None else "; holds at 12: " + ("✔" if holds <= EN301549_MIN_FPS else "✘")
+    en_size = (_check(_at_least(width, height, QCIF), "≥ QCIF 176×144") + ", "
+               + _check(_at_least(width, height, CIF), "≥ CIF 352×288 preferred"))
+    tran = [_check(None if holds is None else holds <= TRAN_FPS, "holds at 10 fps"),
+            _check(None if kbps is None else kbps <= TRAN_KBPS, f"≤ 60 kbps (at {_fmt(fps, 0)} fps)"),
+            _check(_at_least(width, height, TRAN_SIZE), "≥ 320×240")]
+    return [_fmt(matched["solution"]), _fmt(matched.get("codec")), size, _fmt(kbps, 1), en_fps, en_size, ", ".join(tran),
+            "–" if kbps is None else _meets(kbps)]
+
+
+def _guidance_section(records: list[dict]) -> str:
+    """Requirement lines from public guidance, per matched operating point: EN 301 549 clause 6.5 (frame rate and
+    resolution), Tran et al. (ASSETS 2013) and the source's kbps lines."""
+    matched = matched_records(records)
+    if not matched:
+        return ""
+    rows = [_guidance_row(m, records) for m in matched]
+    return ("<h2>Requirement lines from public guidance</h2><p>EN 301 549 clause 6.5 (video communication for sign "
+            "language): at least 12 frames/s, 20 or more preferred; at least QCIF (176×144), CIF (352×288) preferred. "
+            "Tran, Riskin, Ladner and Wobbrock (ASSETS 2013), 320×240 video: intelligibility stops improving above 10 "
+            "frames/s; they recommend 10 frames/s at 60 kbit/s. The source: broadcast &lt; 100, webcast &lt; 56, phone "
+            "line &lt; 64 kbps. Each row is a solution's matched operating point: its frame rate and size (FBA and BBA: "
+            "the size the terminal renders at, its own choice), its rate, and whether the threshold still holds at a "
+            "lower frame rate (“holds down to” above; ? where that is not known: no frame-rate sweep, or the threshold not "
+            "reached). The guidance judged natural "
+            "video by viewers; these rows judge landmarks against the reference, so a ✔ says the rate and format fit the "
+            "line, not that viewers were asked.</p>"
+            + _table("guidance", ["solution", "codec", "size", "kbps", "EN 301 549 frame rate", "EN 301 549 resolution",
+                                  "Tran et al. 2013", "source's lines"], rows))
+
+
 def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes | None = None,
                  title: str = "signcast: cost and quality of transmitting sign language") -> Path:
     """Write the HTML report to out_path and return it: the sections the records have data for.
@@ -515,7 +879,7 @@ def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes
     styles = series_styles(records)
     pictures = [r for r in measured if has_picture(r)]
     parameters = _parameter_points(records)
-    sections = []
+    sections = [_matched_section(records, styles), _guidance_section(records)]
     if pictures:
         sections.append(_picture_summary(records))
     if parameters:
@@ -562,6 +926,7 @@ table {{ border-collapse: collapse; margin: 0.8em 0 1.6em; font-size: 0.88em; }}
 th, td {{ border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }}
 th {{ background: #f0f0f0; }}
 img.chart {{ max-width: 100%; display: block; margin: 0.5em 0 1.2em; }}
+.nowrap {{ white-space: nowrap; }}
 #render-check {{ color: #888; font-size: 0.8em; }}
 </style></head><body>
 <h1>{html.escape(title)}</h1>
