@@ -128,3 +128,62 @@ def fingerspell(language: str, word: str, fps: float = 25.0) -> Motion:
         raise SigncastError(f"nothing to fingerspell in {word!r}")
     motion.fps = fps
     return motion
+
+
+def _held_frames(language: str, unit: str, fps: float, keep_rise: bool, keep_drop: bool) -> tuple[int, int, int]:
+    """(n_frames, first held, end held exclusive) of letter_motion(language, unit, fps, keep_rise, keep_drop)."""
+    native, (start, stop) = _native_letter(language, lexicon.lookup(language, unit).unit)
+    origin = 0 if keep_rise else start
+    last = (native.n_frames if keep_drop else stop) - 1 - origin        # native frames after the origin
+    n_frames = int(np.floor(last / native.fps * fps + 1e-9)) + 1 if abs(fps - native.fps) >= 1e-9 else last + 1
+    first_held = int(np.ceil((start - origin) / native.fps * fps - 1e-9))
+    end_held = int(np.floor((stop - 1 - origin) / native.fps * fps + 1e-9)) + 1
+    return n_frames, max(0, first_held), min(n_frames, end_held)
+
+
+def letter_spans(language: str, word: str, fps: float = 25.0) -> list[tuple[str, int, int]]:
+    """Where each letter's handshape is held in fingerspell(language, word, fps): (unit, start, end exclusive).
+
+    Frames of a letter's held span (held_span: no rise, no drop) that no cross-fade touches; a pause after
+    a letter (a space) holds its last pose and belongs to it. Units as written in the lexicon, in order;
+    the spans lie inside the word's motion and do not overlap. Raises SigncastError like fingerspell.
+    """
+    fps = check_fps(fps, "frame rate")
+    language = lexicon.check_language(language)
+    units = lexicon.split_word(language, word)
+    transition = max(1, int(round(TRANSITION_S * fps)))
+    letters = [k for k, unit in enumerate(units) if unit != " "]
+    if not letters:
+        raise SigncastError(f"nothing to fingerspell in {word!r}")
+    placed = []                      # (unit, start in the word, first unblended frame, first held, end held)
+    total = 0
+    pending_pause = False
+    for k, unit in enumerate(units):
+        if unit == " ":
+            pending_pause = total > 0
+            continue
+        n_frames, first_held, end_held = _held_frames(language, unit, fps, k == letters[0], k == letters[-1])
+        unit = lexicon.lookup(language, unit).unit
+        if not placed:
+            placed.append((unit, 0, 0, first_held, end_held))
+            total = n_frames
+            continue
+        if pending_pause:
+            total += max(1, int(round(PAUSE_S * fps)))
+            pending_pause = False
+        blend = max(0, min(transition, total - 1, n_frames - 1))   # as _cross_fade
+        start = total - blend
+        placed.append((unit, start, start + blend, start + first_held, start + end_held))
+        total = start + n_frames
+    spans = []
+    for index, (unit, start, unblended, first_held, end_held) in enumerate(placed):
+        last = index + 1 == len(placed)
+        next_blend = total if last else placed[index + 1][1]
+        span_start = max(unblended, first_held)
+        # inside the word a letter's motion ends held (no drop): it holds up to the next cross-fade
+        span_end = min(end_held, total) if last else next_blend
+        if span_end <= span_start:                       # a letter too short to be clear of the cross-fades
+            middle = (unblended + next_blend - 1) // 2
+            span_start, span_end = middle, middle + 1
+        spans.append((unit, span_start, span_end))
+    return spans
