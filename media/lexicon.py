@@ -12,7 +12,8 @@ preprocessing (std ~0.01 over a hand), so the keypoints are effectively 2D; fram
 here). The `start`/`end` columns (ms) refer to the source videos: start is always 0 and end
 always exceeds the clip's duration, so the clips are already cut; `read_clip` still honours them.
 Most languages sign with the right hand only, Italian (ise) with the left only, Czech, Croatian
-and Turkish (cse, csq, tsm) use both. The package is located, never imported, and nothing is
+and Turkish (cse, csq, tsm) use both. The French (fsl) clips are the very same `.pose` files as the ASL (ase) ones,
+all 26 letters: fsl is not another signer (comparisons.letter_recognition leaves clips out by file). The package is located, never imported, and nothing is
 downloaded.
 """
 from __future__ import annotations
