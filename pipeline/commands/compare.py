@@ -1,5 +1,9 @@
-"""`signcast compare`: the six solutions on one scenario, one report, one side-by-side video
-(the study is pipeline.studies.compare)."""
+"""`signcast compare`: the six solutions on one signing, one report, one side-by-side video
+(the study is pipeline.studies.compare).
+
+`compare --video FILE [--pose clip.pose]`: the natural clip (its landmarks from the .pose, else extracted) and the
+avatar driven by those landmarks; `compare LANGUAGE WORD`: the avatar fingerspelling a word is the reference of
+every solution; `compare --pose clip.pose` alone: the avatar-only scenario of that .pose."""
 from __future__ import annotations
 
 import argparse
@@ -13,27 +17,45 @@ from pipeline.outputs import output_folder
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "compare", help="run NSV, NSV2O, NSV3O(+C), SSV, FBA and BBA on one scenario and write the report",
-        description="Code a natural clip as NSV, NSV2O, NSV3O and NSV3O+C, and a fingerspelled word performed by the "
-                    "avatar as SSV (video objects), FBA and BBA (parameters re-rendered by the terminal); sweep Q and "
-                    "frame rate; write records.jsonl, report.html, side_by_side.mp4 and summary.csv to --out.")
+        description="Carry one signing through NSV, NSV2O, NSV3O, NSV3O+C (the video coded), SSV (the avatar's render "
+                    "as video objects), FBA and BBA (parameters re-rendered by the terminal): with --video, the natural "
+                    "clip and the avatar driven by its landmarks; else the avatar fingerspelling LANGUAGE WORD (or "
+                    "performing --pose). Landmarks extracted from what the viewer sees give the intelligibility of "
+                    "every point; each solution is matched at the cheapest rate whose intelligibility reaches the "
+                    "uncoded reference's threshold; write records.jsonl, report.html, side_by_side.mp4 and "
+                    "summary.csv to --out.")
     add_scenario_arguments(parser)
     options.add_video_q(parser)
-    parser.add_argument("--frame-rates", default="25,20,15,10", help="frame rates swept, comma-separated (default 25,20,15,10)")
+    parser.add_argument("--frame-rates", default="25,20,15,10",
+                        help="frame rates swept at each matched Q, comma-separated; those below the signing's own rate "
+                             "are used (default 25,20,15,10)")
     options.add_param_q(parser)
     options.add_codecs(parser)
-    options.add_video_codecs(parser)
+    options.add_video_codecs(parser, default="none")
     parser.set_defaults(func=run)
 
 
-def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
+def add_scenario_arguments(parser: argparse.ArgumentParser, natural: bool = True) -> None:
+    """LANGUAGE WORD, and (natural) --video, --pose and --frames; --max-size, --out, --size, --backend,
+    --no-progress."""
     parser.add_argument("language", nargs="?", default="ase", help="sign language of the fingerspelled word (default ase)")
     parser.add_argument("word", nargs="?", default="HELLO", help="word the avatar fingerspells (default HELLO)")
-    parser.add_argument("--video", default="carphone", help="natural signer video: a file or 'carphone' (default)")
+    if natural:
+        add_natural_arguments(parser)
     options.add_max_size(parser)
     options.add_out(parser, default=Path("signcast-out"))
-    options.add_size(parser, "352x288")
+    options.add_size(parser, "352x288", "rendered signer size of the avatar-only scenarios (with --video: the clip's)")
     parser.add_argument("--backend", default="auto", help="kernels backend: auto, warp, opencl, numpy (default auto)")
     options.add_no_progress(parser)
+
+
+def add_natural_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--video", default=None,
+                        help="natural signer video: a file or 'carphone' (default: none, the avatar-only scenario)")
+    parser.add_argument("--pose", default=None,
+                        help="a .pose file: with --video, that video's landmarks (signcast pose, same --max-size); "
+                             "alone, the avatar performs it (avatar-only scenario)")
+    parser.add_argument("--frames", type=int, default=None, help="only the first N frames (default: all)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -46,14 +68,23 @@ def run(args: argparse.Namespace) -> int:
                                    param_qs=options.parse_qs(args.param_q, "--param-q")), args)
 
 
+def scenario_fields(args: argparse.Namespace) -> dict:
+    """CompareSettings fields of the scenario arguments (shared with demo)."""
+    from media.domain import parse_size
+    fields = dict(language=args.language, word=args.word, clip=getattr(args, "video", None),
+                  pose=getattr(args, "pose", None), size=parse_size(args.size), backend=args.backend,
+                  max_clip_size=options.parse_max_size(args.max_size))
+    if getattr(args, "frames", None) is not None:
+        fields["max_clip_frames"] = args.frames
+    return fields
+
+
 def execute(settings, args: argparse.Namespace) -> int:
     """Complete settings with the scenario arguments (shared with demo), check, run, print the summary."""
     from dataclasses import replace
 
-    from media.domain import parse_size
     from pipeline.studies import compare
-    settings = replace(settings, language=args.language, word=args.word, clip=args.video, size=parse_size(args.size),
-                       backend=args.backend, max_clip_size=options.parse_max_size(args.max_size))
+    settings = replace(settings, **scenario_fields(args))
     compare.check(settings, args.command)
     with output_folder(args.out, force=args.force):
         result = compare.run(settings, args.out, progress=not args.no_progress,

@@ -1,14 +1,49 @@
-"""The comparison (seed 000 §4.2.4): NSV, NSV2O, NSV3O, NSV3O+C on a natural clip; SSV, FBA and BBA on a
-fingerspelled word performed by the avatar; one set of records, one report, one side-by-side video.
+"""The comparison (seed 000 §4.2.4): one signing through all six solutions, judged by what a viewer can read.
 
-The common quality axis (DESIGN.md): SSV frames decoded from video, and FBA/BBA parameters decoded and
-re-rendered by the terminal with the same kernels, are all compared with the same reference frames — the
-avatar rendered losslessly from the original, full-precision motion. Parameters sent at a reduced frame
-rate are interpolated back to the display rate by the terminal (slerp) before rendering.
+Scenarios (one pipeline):
+- "video" (`compare --video FILE [--pose clip.pose]`): the reference is the natural clip (scaled down to fit
+  max_clip_size). Its landmarks come from the .pose (which must hold at least the clip's frames, extracted at
+  the same size, e.g. by `signcast pose` with the same --max-size) or are extracted here. NSV, NSV2O, NSV3O and
+  NSV3O+C code the clip itself (segmented by landmarks). The avatar's motion is those landmarks retargeted
+  (media.retarget), at the clip's frame rate, over the same frames; it is rendered losslessly at the clip's
+  size (width x height): the "lossless render". Sizes are made equal by rendering at the natural frame's size:
+  the renderer frames the signing space for that aspect (hips to above the head, both arms' reach), so the
+  avatar fills the frame as the renderer frames it, not as the person filled the camera's frame.
+- "word" (`compare LANGUAGE WORD`, the demo): the avatar fingerspells the word at DISPLAY_FPS, rendered
+  losslessly at `size`; that render is the reference of every solution: the NSV family codes it as if it were
+  a natural video (segmented by landmarks), SSV with the renderer's label buffer; letters are recognised.
+- "pose" (`compare --pose clip.pose` without --video): the avatar-only scenario of a .pose: its landmarks
+  retargeted, rendered losslessly at `size` and the file's frame rate; that render is the reference (as "word",
+  without letters).
+
+SSV codes the lossless render as video objects; FBA and BBA code the motion, and the terminal decodes and
+re-renders it at the display size (parameters sent at a reduced frame rate are interpolated back by slerp).
+All solutions carry the same frames over the same duration.
+
+Intelligibility (comparisons.intelligibility): landmarks are extracted from what the viewer sees at every point
+(the decoded video, or the re-render) and measured against the reference's landmarks ("source video": message
+fidelity; for SSV, FBA, BBA this includes the retargeting loss in the video scenario) and, for SSV, FBA and BBA,
+against the lossless render's ("lossless render": codec loss). One point record per (point, reference). In the
+avatar scenarios the two references are the same landmarks. Image quality: luma PSNR / SSIM against the frames
+the solution codes (the reference video for the NSV family, the lossless render for the avatar solutions), the
+skin figures over the union of the reference's and the decoded skin masks (the decoded skin objects' shapes for
+NSV3O, NSV3O+C and SSV, the re-render's label buffer for FBA and BBA; NSV and NSV2O send no skin shape: the
+reference's mask alone).
+
+Matching (comparisons.matching): each solution's (and parameter codec's) operating point is the cheapest rate
+whose intelligibility reaches a threshold tied to the uncoded reference: hand PCK@0.2 within PCK_MARGIN points
+of the uncoded reference's own (100 %), or, where the reference shows hands in fewer than MIN_HAND_SHARE of its
+frames (carphone), face error within FACE_MARGIN interocular distances of the uncoded's; on fingerspelling also
+letter top-1 at least the uncoded reference's. The NSV family is matched against the source video, the avatar
+solutions against the lossless render (in the video scenario the retargeting loss alone keeps them from the
+source's threshold; their message fidelity is in the point records). The rate is interpolated in log-rate
+between the bracketing swept Q; the matched record's intelligibility and image-quality fields are interpolated
+the same way. At the upper bracket's Q the frame rates are swept and fps_holds is the lowest rate down to
+which the threshold holds.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -16,53 +51,104 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from comparisons import image_quality, metrics, param_codecs, video_objects
-from comparisons.records import make_record, versions, write_records
+from comparisons import image_quality, matching, metrics, param_codecs, video_objects
+from comparisons.records import INTELLIGIBILITY_FIELDS, make_record, versions, write_records
 from comparisons.report import build_report, operating_points
 from media.avatar import load_avatar
 from media.domain import SKIN_PARTS, check_q, check_size, solution_of
 from media.errors import SigncastError
-from media.fingerspelling import fingerspell
+from media.lexicon import SignClip
 from media.motion import Motion, resample
 from media.render import AvatarRenderer, RenderSettings
 from media.tiling import tile_videos
-from media import lexicon
-from media.video_io import frame_indices_at_rate, resolve_video, write_video
-from pipeline.studies import video as video_study
+from media.video_io import frame_indices_at_rate, resolve_video, video_info, write_video
 from pipeline.stages import StageClock
+from pipeline.studies import video as video_study
 
-DISPLAY_FPS = 25.0
-JOINT_TOLERANCE_MM = 5.0   # fallback operating point of a parameter codec when no SSV quality is there to match
+DISPLAY_FPS = 25.0           # frame rate of the avatar scenarios ("word"; "pose" keeps the file's own)
+SOURCE = "source video"      # reference: the reference video's landmarks (message fidelity)
+LOSSLESS = "lossless render"  # reference: the lossless render's landmarks (codec loss of an avatar solution)
+NATURAL_SOLUTIONS = ("NSV", "NSV2O", "NSV3O", "NSV3O+C")
+AVATAR_SOLUTIONS = ("SSV", "FBA", "BBA")
+PCK_MARGIN = 2.0             # hand PCK@0.2 points below the uncoded reference's
+FACE_MARGIN = 0.02           # face error, interocular distances above the uncoded reference's
+MIN_HAND_SHARE = 0.1         # a reference showing a hand in fewer frames is matched on the face
+ARM_BONES = ("upperarm01", "upperarm02", "lowerarm01", "lowerarm02", "wrist")   # shoulder to wrist
+HAND_BONE_PREFIXES = ("metacarpal", "finger")
+QUALITY_FIELDS = ("image_psnr", "ssim", "skin_psnr", "skin_ssim")
+SIZE_RULE = ("the avatar is rendered at the natural frame's size; the renderer frames the signing space for "
+             "that aspect, so the avatar fills the frame as the renderer frames it")
 
 
 @dataclass(frozen=True)
 class CompareSettings:
-    """One scenario and its sweeps. video: the video study's sweep (Q, operating Q, frame rates, today's codecs),
-    used for the natural clip and for SSV; size: (width, height) of the rendered signer, pixels. The natural clip
-    is coded at its own frame rate (video.frame_rates below it are swept by dropping frames) and scaled down to
-    fit max_clip_size (width, height; None keeps its size); the avatar is rendered at DISPLAY_FPS."""
+    """One scenario and its sweeps. clip: a natural video (file or 'carphone'; None: an avatar scenario); pose: a
+    .pose file (with clip: the clip's landmarks; alone: the avatar-only scenario's motion); language, word: the
+    fingerspelled word (neither clip nor pose). video: video Q and frame rates (its codecs and solutions are
+    set here); param_qs: FBA/BBA quantisers; size: (width, height) of the avatar scenarios' render, pixels (the
+    video scenario renders at the clip's size); max_clip_frames: only the first N frames of the clip, .pose or
+    word (None: all); max_clip_size: (width, height) a natural clip is scaled down to fit (None keeps it);
+    landmark_step: intelligibility is measured on every landmark_step-th frame of what the viewer sees (1: all; the
+    reference's landmarks at the same frames; letter spans shrink accordingly)."""
     language: str = "ase"
     word: str = "HELLO"
-    clip: str = "carphone"
-    video: video_study.VideoSweep = video_study.VideoSweep()
+    clip: str | None = None
+    pose: str | None = None
+    video: video_study.VideoSweep = video_study.VideoSweep(other_codecs=())
     param_codecs: tuple[str, ...] = ("fba-pred", "fba-dct", "bba-pred", "bba-dct", "bba-key")
     param_qs: tuple[int, ...] = (1, 2, 4, 8, 16, 31)
     size: tuple[int, int] = (352, 288)
     backend: str = "auto"
     max_clip_frames: int | None = None
     max_clip_size: tuple[int, int] | None = video_study.DEFAULT_MAX_SIZE
+    landmark_step: int = 1
+
+    @property
+    def scenario(self) -> str:
+        return "video" if self.clip is not None else "pose" if self.pose is not None else "word"
 
     @classmethod
     def demo(cls) -> "CompareSettings":
-        """A small sweep that runs in a few minutes on two CPU cores."""
-        return cls(video=video_study.VideoSweep(qs=(2, 12, 31), frame_rates=(25.0, 15.0, 10.0),
-                                                other_codecs=("libx264",)),
-                   param_qs=(1, 2, 4, 8, 31), max_clip_frames=75)
+        """The word scenario on a sweep small enough for under 5 minutes on two CPU cores: video Q 4, 12, 31;
+        frame rates 25 and 12.5; one FBA and one BBA codec at parameter Q 1, 4, 31; 352x288 render (at 176x144
+        the hands are about 15 pixels and the landmarks' own noise exceeds the threshold); intelligibility measured
+        on every 3rd frame (landmark extraction, 50-70 ms a frame, is most of the work)."""
+        return cls(video=video_study.VideoSweep(qs=(4, 12, 31), frame_rates=(25.0, 12.5), other_codecs=()),
+                   param_codecs=("fba-pred", "bba-key"), param_qs=(1, 4, 31), size=(352, 288), landmark_step=3)
+
+
+@dataclass
+class Scenario:
+    """The signing every solution carries. frames: (T, H, W, 3) uint8 reference frames; labels: (T, H, W) uint8
+    part labels of them (for the NSV family); landmarks: the reference's; motion: the avatar's (T frames at fps);
+    render, render_labels, render_landmarks: its lossless render (the reference itself in the avatar scenarios);
+    spans: (letter, first frame, end frame) of a fingerspelled word, else None."""
+    kind: str
+    name: str
+    fps: float
+    timing: video_study.Timing
+    frames: np.ndarray
+    labels: np.ndarray
+    landmarks: SignClip
+    motion: Motion
+    render: np.ndarray
+    render_labels: np.ndarray
+    render_landmarks: SignClip
+    spans: list | None = None
+    language: str | None = None
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.frames)
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.frames.shape[2], self.frames.shape[1]
 
 
 @dataclass
 class Received:
-    """What a viewer sees for one solution at its operating point: frames (T, H, W, 3) uint8 and a caption."""
+    """What a viewer sees for one solution: frames (T, H, W, 3) uint8 and a caption."""
     frames: np.ndarray
     caption: str
     solution: str = ""
@@ -75,127 +161,162 @@ class CompareResult:
     side_by_side: Path
     out_dir: Path
     operating: list[dict] = field(default_factory=list)
+    matched: list[dict] = field(default_factory=list)
 
+
+# ------------------------------------------------------------------------------------------------------------
+# checks
 
 def check(settings: CompareSettings, command: str = "compare") -> None:
-    """Refuse bad settings, and work beyond the memory limit, before any work (one-line SigncastError)."""
+    """Refuse bad settings, a missing video, a corrupt .pose and work beyond the memory limit, before any work
+    (one-line SigncastError)."""
     from media.render import check_backend
     from pipeline.checks import check_memory
     check_backend(settings.backend)
     check_settings(settings)
-    n_frames = fingerspell(settings.language, settings.word, fps=DISPLAY_FPS).n_frames
-    check_memory(n_frames, *settings.size, bytes_per_pixel(settings), command)
+    n_frames, width, height = _expected_frames(settings)
+    check_memory(n_frames, width, height, bytes_per_pixel(settings), command,
+                 "choose a smaller --size or --max-size, or fewer frames")
+
+
+def _expected_frames(settings: CompareSettings) -> tuple[int, int, int]:
+    """(frames, width, height) the scenario will hold, known before reading the video's frames."""
+    if settings.scenario == "video":
+        info = video_info(resolve_video(settings.clip))
+        width, height = settings.max_clip_size or (info.width, info.height)
+        count = min(filter(None, (info.announced_frames, settings.max_clip_frames)), default=1)
+        return count, min(width, info.width), min(height, info.height)
+    if settings.scenario == "pose":
+        count = _read_pose(settings.pose).n_frames
+    else:
+        from media.fingerspelling import fingerspell
+        count = fingerspell(settings.language, settings.word, fps=DISPLAY_FPS).n_frames
+    return min(count, settings.max_clip_frames or count), *settings.size
 
 
 def bytes_per_pixel(settings: CompareSettings) -> int:
-    """What the comparison holds per pixel and frame of the rendered signer: the reference and its labels (4),
-    the skin mask (1), the SSV study's working copies and operating picture (about 9), and every parameter point's
-    re-rendered frames (3 each), which it keeps until the end."""
-    points = len(settings.param_codecs) * (len(settings.param_qs) + len(settings.video.frame_rates) - 1)
-    return 4 + 1 + 9 + 3 * points
+    """What the comparison holds per pixel and frame: the reference, the lossless render and their labels (8),
+    the skin masks (2), a point's coding working copies and received frames (about 12), the side-by-side's tiles
+    (3 each, 9 tiles)."""
+    return 8 + 2 + 12 + 3 * 9
 
 
 def check_settings(settings: CompareSettings) -> None:
     sweep = settings.video
-    if sweep.operating_q not in sweep.qs:
-        raise SigncastError(f"the operating Q {sweep.operating_q} must be among the swept Q {sweep.qs}")
-    if DISPLAY_FPS not in sweep.frame_rates:
-        raise SigncastError(f"the frame rates {sweep.frame_rates} must include {DISPLAY_FPS:g}")
-    for q in sweep.qs:
-        check_q(q, "video Q")
+    if not sweep.qs:
+        raise SigncastError("give at least one video Q")
+    for q in (*sweep.qs, *settings.param_qs):
+        check_q(q, "Q")
     for fps in sweep.frame_rates:
-        if not 0 < fps <= DISPLAY_FPS:
-            raise SigncastError(f"bad frame rate {fps:g}: choose rates in (0, {DISPLAY_FPS:g}]")
+        if not (np.isfinite(fps) and fps > 0):
+            raise SigncastError(f"bad frame rate {fps:g}: choose positive rates")
     for name in settings.param_codecs:
         param_codecs.get_codec(name)
+    if sweep.other_codecs:
+        raise SigncastError(f"compare codes video with MPEG-4 Part 2 only for now: --video-codecs "
+                            f"{','.join(sweep.other_codecs)} is not measured; give --video-codecs none")
     check_size(*settings.size, "the rendered signer")
-    # Fail before the long video stages: the word must be spellable and the clip must exist.
-    lexicon.split_word(lexicon.check_language(settings.language), settings.word)
-    resolve_video(settings.clip)
+    if settings.max_clip_frames is not None and settings.max_clip_frames < 2:
+        raise SigncastError(f"bad frame count {settings.max_clip_frames}: at least 2")
+    if settings.scenario == "word":
+        from media import lexicon
+        lexicon.split_word(lexicon.check_language(settings.language), settings.word)
+    if settings.scenario == "video":
+        resolve_video(settings.clip)
 
 
-def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True,
-                notify: Callable[[str], object] | None = None) -> CompareResult:
-    """Run the whole comparison; write records.jsonl, report.html, side_by_side.mp4 and CSV tables to out_dir.
-
-    records.jsonl grows as points are measured (an interrupted run keeps them) and is rewritten, complete, at
-    the end. notify: called with each one-line note on the natural clip (frames read, downscaling, warnings)."""
-    check_settings(settings)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    records_path = write_records(out_dir / "records.jsonl", [])
-    clock = StageClock()
-    records: list[dict] = []
-    received: list[Received] = []
-
-    with clock.stage("natural video: read and segment"):
-        clip, notes = video_study.read_natural_clip(settings.clip, settings.max_clip_frames, settings.max_clip_size,
-                                                    progress=progress)
-        for line in notes:
-            if notify:
-                notify(line)
-        clip_labels = video_study.segment_clip(clip.frames, progress=progress)
-    video_settings = replace(settings.video, source_fps=clip.fps, half_resolution=True,
-                             solutions=video_study.VideoSweep.solutions)
-    operating_q = video_settings.operating_q
-    with clock.stage("natural video: NSV, NSV2O, NSV3O, NSV3O+C"):
-        coded: dict[str, video_objects.CodedSolution] = {}
-        records += _points(video_study.code_clip(clip.frames, clip_labels, clip.path.stem, video_settings,
-                                                 timing=video_study.Timing.of_clip(clip), records_path=records_path,
-                                                 progress=progress, operating=coded))
-        # the side-by-side plays at DISPLAY_FPS: the frames on screen at its ticks
-        shown = frame_indices_at_rate(clip.times_s, clip.duration_s, DISPLAY_FPS)
-        received += [replace(r, frames=r.frames[shown]) for r in _operating_pictures(
-            coded, video_settings.solutions, operating_q, records)]
-
-    avatar = load_avatar()
-    render_settings = RenderSettings(width=settings.size[0], height=settings.size[1], look="shaded", backend=settings.backend)
-    renderer = AvatarRenderer(avatar, render_settings)
-    with clock.stage("synthetic signer: retarget and render the reference"):
-        motion = fingerspell(settings.language, settings.word, fps=DISPLAY_FPS)
-        reference, reference_labels = _render(renderer, motion, "render reference", progress)
-        received.insert(0, Received(reference, f"reference: avatar, {settings.language} {settings.word} (lossless)"))
-    scenario = f"{settings.language}-{settings.word}"
-    with clock.stage("synthetic signer: SSV"):
-        ssv_settings = replace(video_settings, solutions=("SSV",), half_resolution=False, source_fps=DISPLAY_FPS)
-        ssv_coded: dict[str, video_objects.CodedSolution] = {}
-        ssv_records = _points(video_study.code_clip(reference, reference_labels, scenario, ssv_settings,
-                                                    records_path=records_path, progress=progress, operating=ssv_coded))
-        records += ssv_records
-        received += _operating_pictures(ssv_coded, ("SSV",), operating_q, ssv_records)
-
-    skin = np.isin(reference_labels, SKIN_PARTS)
-    with clock.stage("parameters: FBA and BBA, coded, decoded and re-rendered"):
-        ssv_operating = next((r for r in ssv_records if r.get("operating_point")), None)
-        target_skin_psnr = ssv_operating["skin_psnr"] if ssv_operating else None
-        param_records, param_frames = _parameter_points(settings, motion, renderer, reference, skin, scenario,
-                                                        target_skin_psnr, progress)
-        write_records(records_path, param_records, append=True)
-        records += param_records
-        received += _best_parameter_tiles(param_records, param_frames)
-
-    run_record = {"kind": "run", "backend": _backend_name(settings.backend), "versions": versions(),
-                  "scenario": scenario, "clip": clip.path.stem, "clip_native_fps": clip.native_fps,
-                  "clip_fps": clip.fps, "clip_duration_s": clip.duration_s, "clip_frames": len(clip.frames),
-                  "clip_source_size": list(clip.source_size), "clip_size": list(clip.size), "display_fps": DISPLAY_FPS,
-                  "signer_size": list(settings.size), "joint_tolerance_mm": JOINT_TOLERANCE_MM}
-    side_by_side = out_dir / "side_by_side.mp4"
-    with clock.stage("side-by-side video"):
-        poster = _write_side_by_side(received, side_by_side)
-    all_records = [run_record] + records + clock.records()
-    write_records(out_dir / "records.jsonl", all_records)
-    (out_dir / "side_by_side_poster.png").write_bytes(poster)
-    report = build_report(all_records, out_dir / "report.html", poster_png=poster)
-    write_summary_csv(all_records, out_dir / "summary.csv")
-    return CompareResult(all_records, report, side_by_side, out_dir, operating_points(all_records))
+def _read_pose(path: str) -> SignClip:
+    from media.pose_file import read_pose
+    clip = read_pose(path)
+    if clip.n_frames < 2:
+        raise SigncastError(f"pose file {path} holds {clip.n_frames} frames: at least 2 are needed")
+    return clip
 
 
-def _points(records: list[dict]) -> list[dict]:
-    """Measured points only (the video study's own run record is replaced by the comparison's)."""
-    return [r for r in records if r.get("kind", "point") == "point"]
+# ------------------------------------------------------------------------------------------------------------
+# the scenario
+
+def load_scenario(settings: CompareSettings, renderer_for: Callable[[int, int], AvatarRenderer], *,
+                  progress: bool = True, notify: Callable[[str], object] | None = None) -> Scenario:
+    """The reference, its landmarks, the avatar's motion and its lossless render (see the module's description)."""
+    if settings.scenario == "video":
+        return _video_scenario(settings, renderer_for, progress, notify)
+    return _avatar_scenario(settings, renderer_for, progress)
 
 
-def _render(renderer: AvatarRenderer, motion: Motion, label: str, progress: bool) -> tuple[np.ndarray, np.ndarray]:
+def _video_scenario(settings, renderer_for, progress, notify) -> Scenario:
+    from media.retarget import retarget
+    clip, notes = video_study.read_natural_clip(settings.clip, settings.max_clip_frames, settings.max_clip_size,
+                                                progress=progress)
+    for line in notes:
+        if notify:
+            notify(line)
+    frames = clip.frames
+    if settings.pose is not None:
+        landmarks = _clip_frames(_read_pose(settings.pose), len(frames), settings.pose)
+        landmarks = SignClip(clip.fps, landmarks.points, landmarks.confidence)
+    else:
+        landmarks = extract(frames, clip.fps, "landmarks: source video", progress)
+    if not np.any(landmarks.confidence["POSE_LANDMARKS"] > 0):
+        raise SigncastError(f"no person found in {clip.path.name}: no body pose in any of its {len(frames)} frames")
+    labels = video_study.segment_clip(frames, progress=progress, landmarks=landmarks, fps=clip.fps)
+    retargeted = retarget(landmarks, load_avatar().skeleton)
+    if not retargeted.hands and notify:
+        notify(f"{clip.path.name} shows no hand in enough frames: the avatar's arms rest")
+    motion = _fit_length(retargeted.motion, len(frames))
+    height, width = frames.shape[1:3]
+    render, render_labels = render_frames(renderer_for(width, height), motion, "render: lossless", progress)
+    render_landmarks = extract(render, clip.fps, "landmarks: lossless render", progress)
+    return Scenario("video", clip.path.stem, clip.fps, video_study.Timing.of_clip(clip), frames, labels, landmarks,
+                    motion, render, render_labels, render_landmarks)
+
+
+def _avatar_scenario(settings, renderer_for, progress) -> Scenario:
+    spans, language = None, None
+    if settings.scenario == "pose":
+        from media.retarget import retarget
+        clip = _read_pose(settings.pose)
+        motion = retarget(clip, load_avatar().skeleton).motion
+        name = Path(settings.pose).stem
+    else:
+        from media import fingerspelling
+        language = settings.language
+        motion = fingerspelling.fingerspell(language, settings.word, fps=DISPLAY_FPS)
+        spans = fingerspelling.letter_spans(language, settings.word, DISPLAY_FPS)
+        name = f"{language}-{settings.word}"
+    if settings.max_clip_frames is not None and motion.n_frames > settings.max_clip_frames:
+        motion = motion.frames(0, settings.max_clip_frames)
+    if spans is not None:
+        spans = [(letter, start, end) for letter, start, end in spans if end <= motion.n_frames]
+    render, render_labels = render_frames(renderer_for(*settings.size), motion, "render: reference", progress)
+    landmarks = extract(render, motion.fps, "landmarks: reference", progress)
+    labels = video_study.segment_clip(render, progress=progress, landmarks=landmarks, fps=motion.fps)
+    timing = video_study.Timing.regular(motion.n_frames, motion.fps)
+    return Scenario(settings.scenario, name, motion.fps, timing, render, labels, landmarks, motion, render,
+                    render_labels, landmarks, spans or None, language)
+
+
+def _clip_frames(clip: SignClip, n_frames: int, where: str) -> SignClip:
+    """The first n_frames of a clip's landmarks; SigncastError when it holds fewer."""
+    if clip.n_frames < n_frames:
+        raise SigncastError(f"pose file {where} holds {clip.n_frames} frames, the video {n_frames}: "
+                            "give the .pose of the same video (signcast pose, same --max-size)")
+    return SignClip(clip.fps, {k: v[:n_frames] for k, v in clip.points.items()},
+                    {k: v[:n_frames] for k, v in clip.confidence.items()})
+
+
+def _fit_length(motion: Motion, n_frames: int) -> Motion:
+    """The motion cut or held (last pose) to exactly n_frames frames."""
+    if motion.n_frames >= n_frames:
+        return motion.frames(0, n_frames) if motion.n_frames > n_frames else motion
+    pad = n_frames - motion.n_frames
+    return Motion(motion.fps, motion.bone_names,
+                  np.concatenate([motion.rotations, np.repeat(motion.rotations[-1:], pad, axis=0)]),
+                  np.concatenate([motion.root_translation, np.repeat(motion.root_translation[-1:], pad, axis=0)]))
+
+
+def render_frames(renderer: AvatarRenderer, motion: Motion, label: str, progress: bool) -> tuple[np.ndarray, np.ndarray]:
+    """frames (T, H, W, 3) uint8 and labels (T, H, W) uint8 of the motion, with a progress bar."""
     s = renderer.settings
     frames = np.empty((motion.n_frames, s.height, s.width, 3), np.uint8)
     labels = np.empty((motion.n_frames, s.height, s.width), np.uint8)
@@ -206,101 +327,414 @@ def _render(renderer: AvatarRenderer, motion: Motion, label: str, progress: bool
     return frames, labels
 
 
-def _operating_pictures(coded: dict[str, video_objects.CodedSolution], solutions, q: int,
-                        records: list[dict]) -> list[Received]:
-    """Decoded pictures of each solution at its operating point (Q, the frames' own rate), as the video study
-    coded them, captioned with the measured kbps."""
-    shown = []
-    for solution in solutions:
-        point = next((r for r in records if r["solution"] == solution and r.get("operating_point")), None)
-        if point is None or solution not in coded:
-            continue
-        shown.append(Received(coded[solution].picture, f"{solution} Q{q} {point['kbps']:.0f} kbps", solution))
-    return shown
+def extract(frames: np.ndarray, fps: float, label: str, progress: bool) -> SignClip:
+    """Landmarks (pixels) of frames (T, H, W, 3) uint8 RGB shown at fps, with a progress bar (counts, ETA)."""
+    from media.landmarks.holistic import extract_landmarks
+    with tqdm(total=len(frames), desc=label, unit="frame", disable=not progress, leave=False) as bar:
+        return extract_landmarks(frames, fps, progress=bar.update)
 
 
-def _parameter_points(settings: CompareSettings, motion: Motion, renderer: AvatarRenderer, reference: np.ndarray,
-                      skin: np.ndarray, scenario: str, target_skin_psnr: float | None,
-                      progress: bool) -> tuple[list[dict], dict]:
-    """Every (codec, Q) at 25 fps and every (codec, frame rate) at the codec's operating Q.
+def hold_indices(times_s: np.ndarray, fps: float, n_sent: int) -> np.ndarray:
+    """(T,) for each reference frame time (seconds), the index of the sent frame on screen then: frames sent at
+    the ticks 0, 1/fps, ... are held until the next tick."""
+    ticks = np.floor(np.asarray(times_s, np.float64) * fps + 1e-6).astype(int)
+    return np.clip(ticks, 0, n_sent - 1)
 
-    A codec's operating Q is the cheapest whose re-rendered skin PSNR reaches target_skin_psnr (SSV's at its
-    operating point: matched quality on the common axis), else the best Q measured; without a target, the
-    cheapest Q whose mean joint position error stays within JOINT_TOLERANCE_MM.
-    """
-    skeleton = renderer.avatar.skeleton
-    width, height = settings.size
-    duration_s = motion.n_frames / DISPLAY_FPS
-    records, frames_by_key = [], {}
-    jobs = [(codec, q, DISPLAY_FPS) for codec in settings.param_codecs for q in settings.param_qs]
-    bar = tqdm(total=len(jobs) + len(settings.param_codecs) * (len(settings.video.frame_rates) - 1), desc="parameters",
-               unit="point", disable=not progress)
 
-    def measure(codec_name: str, q: int, fps: float, sweep: str) -> dict:
+def select_frames(clip: SignClip, indices: np.ndarray, fps: float | None = None) -> SignClip:
+    """The landmarks of the frames at indices (M,), in that order (repeats allowed), at fps (None: the clip's)."""
+    return SignClip(clip.fps if fps is None else fps, {k: v[indices] for k, v in clip.points.items()},
+                    {k: v[indices] for k, v in clip.confidence.items()})
+
+
+def _measured_spans(spans: list | None, step: int, n_measured: int) -> list | None:
+    """Letter spans (letter, first, end exclusive) in the measured frames' indices (every step-th frame); a span
+    keeps at least one measured frame."""
+    if not spans:
+        return None
+    out = []
+    for letter, start, end in spans:
+        first = min(-(-start // step), n_measured - 1)
+        out.append((letter, first, min(max(-(-end // step), first + 1), n_measured)))
+    return out
+
+
+# ------------------------------------------------------------------------------------------------------------
+# measuring what the viewer sees
+
+@dataclass
+class Viewed:
+    """What the viewer sees at one point: frames (T, H, W, 3) uint8 at the reference's times, the decoded skin
+    mask (T, H, W) bool or None where the solution sends no skin shape, and the point's record fields."""
+    frames: np.ndarray
+    skin: np.ndarray | None
+    fields: dict
+
+
+class Judge:
+    """Measures what the viewer sees against a scenario's references (intelligibility, letters, image quality)."""
+
+    def __init__(self, scenario: Scenario, progress: bool, step: int = 1):
+        self.scenario, self.progress = scenario, progress
+        self.measured = np.arange(0, scenario.n_frames, max(1, step))     # (M,) frames measured
+        self.reference = select_frames(scenario.landmarks, self.measured)
+        self.render_reference = select_frames(scenario.render_landmarks, self.measured)
+        self.spans = _measured_spans(scenario.spans, max(1, step), len(self.measured))
+        self.recogniser = None
+        if scenario.spans:
+            from comparisons.letter_recognition import Recogniser
+            self.recogniser = Recogniser.from_lexicon([scenario.language])
+        self.reference_skin = np.isin(scenario.labels, SKIN_PARTS)
+        self.render_skin = np.isin(scenario.render_labels, SKIN_PARTS)
+
+    def letters(self, observed: SignClip) -> dict:
+        """letter_top1 / letter_top3 (percent) of a fingerspelled word's letters; {} without a word."""
+        if self.recogniser is None:
+            return {}
+        from comparisons.letter_recognition import recognise_spans, top_k
+        spans = self.spans
+        rankings = recognise_spans(self.recogniser, observed, self.scenario.language, spans)
+        truths = [letter for letter, _, _ in spans]
+        return {"letter_top1": top_k(rankings, truths, 1), "letter_top3": top_k(rankings, truths, 3)}
+
+    def references(self, solution: str) -> list[tuple[str, SignClip]]:
+        """The references a solution's points are measured against, at the measured frames."""
+        refs = [(SOURCE, self.reference)]
+        if solution in AVATAR_SOLUTIONS:
+            refs.append((LOSSLESS, self.render_reference))
+        return refs
+
+    def intelligibility(self, solution: str, observed: SignClip) -> list[tuple[str, dict]]:
+        """(reference name, intelligibility and letter fields) for each reference of the solution; observed: the
+        landmarks of the measured frames."""
+        from comparisons.intelligibility import measure
+        letters = self.letters(observed)
+        return [(name, {**measure(reference, observed).fields(), **letters})
+                for name, reference in self.references(solution)]
+
+    def records(self, solution: str, viewed: Viewed, observed: SignClip) -> list[dict]:
+        """One record per reference of the solution, each with the point's fields, image quality and
+        intelligibility."""
+        s = self.scenario
+        avatar = solution in AVATAR_SOLUTIONS
+        reference_frames = s.render if avatar else s.frames
+        reference_skin = self.render_skin if avatar else self.reference_skin
+        skin = reference_skin if viewed.skin is None else reference_skin | viewed.skin
+        quality = image_quality.quality_fields(reference_frames, viewed.frames, skin)
+        return [dict(viewed.fields, **quality, reference=name, **fields)
+                for name, fields in self.intelligibility(solution, observed)]
+
+    def uncoded(self) -> list[dict]:
+        """The ceiling: the uncoded reference against itself, and (video scenario) the lossless render against the
+        source video (the retargeting loss alone)."""
+        s = self.scenario
+        source, render = self.reference, self.render_reference
+        subjects = [("uncoded reference", SOURCE, source, source), ("uncoded lossless render", LOSSLESS, render, render)]
+        if s.kind == "video":
+            subjects.append(("uncoded lossless render", SOURCE, source, render))
+        from comparisons.intelligibility import measure
+        return [{"kind": "uncoded", "subject": subject, "clip": s.name, "reference": name, "fps": s.fps,
+                 **measure(reference, observed).fields(), **self.letters(observed)}
+                for subject, name, reference, observed in subjects]
+
+
+# ------------------------------------------------------------------------------------------------------------
+# coding
+
+class VideoPoints:
+    """NSV, NSV2O, NSV3O, NSV3O+C (coding the reference frames) and SSV (coding the lossless render)."""
+
+    def __init__(self, scenario: Scenario):
+        self.scenario = scenario
+        self.shapes = video_objects.ShapeCache()
+
+    def source(self, solution: str) -> tuple[np.ndarray, np.ndarray, str]:
+        s = self.scenario
+        return (s.render, s.render_labels, "render") if solution == "SSV" else (s.frames, s.labels, "reference")
+
+    def code(self, solution: str, q: int, fps: float) -> tuple[Viewed, np.ndarray, np.ndarray]:
+        """(what the viewer sees, the sent frames (K, H, W, 3), hold (T,) indices of the sent frame on screen)."""
+        s = self.scenario
+        frames, labels, key = self.source(solution)
+        full = fps >= s.fps * (1 - 1e-3)
+        kept = np.arange(s.n_frames) if full else frame_indices_at_rate(s.timing.times_s, s.timing.duration_s, fps)
+        rate = s.fps if full else fps
+        coded = video_objects.code_solution(solution, frames[kept], labels[kept], rate, "mpeg4", q, self.shapes,
+                                            f"{key}@{rate:g}")
+        hold = np.arange(s.n_frames) if full else hold_indices(s.timing.times_s, fps, len(kept))
+        skin_objects = [o.decoded_masks for o in coded.objects if o.name in ("head", "left_hand", "right_hand")]
+        skin = np.logical_or.reduce(skin_objects)[hold] if skin_objects else None
+        height, width = frames.shape[1:3]
+        fields = make_record(solution, s.name, "mpeg4", q, rate, width, height, coded.bits, s.timing.duration_s,
+                             sweep="q" if full else "fps", full_resolution=True, frames=len(kept),
+                             texture_bits=coded.bits - coded.shape_bits, shape_bits=coded.shape_bits,
+                             objects=[{"name": o.name, "q": o.q, "texture_bytes": o.texture_bytes,
+                                       "shape_bytes": o.shape_bytes, "area_percent": o.area_percent}
+                                      for o in coded.objects])
+        return Viewed(coded.picture[hold], skin, fields), coded.picture, hold
+
+
+class ParamPoints:
+    """FBA and BBA: the motion coded, decoded and re-rendered by the terminal at the display size."""
+
+    def __init__(self, scenario: Scenario, renderer: AvatarRenderer):
+        self.scenario, self.renderer = scenario, renderer
+        skeleton = renderer.avatar.skeleton
+        self.skeleton = skeleton
+        self.arm_joints = [i for i, n in enumerate(skeleton.names) if n.split(".")[0] in ARM_BONES]
+        self.hand_joints = [i for i, n in enumerate(skeleton.names) if n.startswith(HAND_BONE_PREFIXES)]
+
+    def decoded(self, codec_name: str, q: int, fps: float) -> tuple[Motion, int, int]:
+        """(the motion the terminal shows at the scenario's rate and length, bits sent, frames sent)."""
+        s = self.scenario
         codec = param_codecs.get_codec(codec_name)
-        sent = motion if fps == DISPLAY_FPS else resample(motion, fps)
+        full = fps >= s.fps * (1 - 1e-3)
+        sent = s.motion if full else resample(s.motion, fps)
         data = codec.encode(sent, q)
         decoded = codec.decode(data)
-        shown = decoded if fps == DISPLAY_FPS else _to_display_rate(decoded, motion.n_frames)
-        frames, _ = _render(renderer, shown, f"terminal {codec_name} Q{q}", False)
-        quality = image_quality.quality_fields(reference, frames, skin)
-        joint_mm = metrics.joint_position_error_mm(skeleton, motion, shown)
-        record = make_record(solution_of(codec_name), scenario, codec_name, q, fps, width, height, 8 * len(data), duration_s,
-                             sweep=sweep, full_resolution=True, frames=sent.n_frames,
-                             joint_error_mm_mean=float(joint_mm.mean()), joint_error_mm_max=float(joint_mm.max()),
-                             **quality)
-        frames_by_key[(codec_name, q, fps)] = frames
-        bar.update(1)
-        return record
+        shown = decoded if full else resample(Motion(fps, decoded.bone_names, decoded.rotations,
+                                                     decoded.root_translation), s.fps)
+        shown = Motion(s.fps, shown.bone_names, shown.rotations, shown.root_translation)
+        return _fit_length(shown, s.n_frames), 8 * len(data), sent.n_frames
 
-    for codec_name, q, fps in jobs:
-        records.append(measure(codec_name, q, fps, "q"))
-    for codec_name in settings.param_codecs:
-        swept = [r for r in records if r["codec"] == codec_name]
-        if target_skin_psnr is not None:
-            within = [r for r in swept if r["skin_psnr"] >= target_skin_psnr]
+    def code(self, codec_name: str, q: int, fps: float, progress: bool = False) -> tuple[Viewed, np.ndarray]:
+        """(what the viewer sees, the re-rendered frames (T, H, W, 3))."""
+        s = self.scenario
+        shown, bits, n_sent = self.decoded(codec_name, q, fps)
+        frames, labels = render_frames(self.renderer, shown, f"terminal {codec_name} Q{q}", progress)
+        joint_mm = metrics.joint_position_error_mm(self.skeleton, s.motion, shown)
+        full = fps >= s.fps * (1 - 1e-3)
+        width, height = s.size
+        fields = make_record(solution_of(codec_name), s.name, codec_name, q, s.fps if full else fps, width, height,
+                             bits, s.timing.duration_s, sweep="q" if full else "fps", full_resolution=True,
+                             frames=n_sent, joint_error_mm_mean=float(joint_mm.mean()),
+                             joint_error_mm_max=float(joint_mm.max()),
+                             hand_joint_error_mm=float(joint_mm[:, self.hand_joints].mean()),
+                             arm_joint_error_mm=float(joint_mm[:, self.arm_joints].mean()))
+        return Viewed(frames, np.isin(labels, SKIN_PARTS), fields), frames
+
+
+# ------------------------------------------------------------------------------------------------------------
+# the run
+
+@dataclass(frozen=True)
+class Series:
+    """One solution with one codec, swept over Q."""
+    solution: str
+    codec: str
+
+    @property
+    def avatar(self) -> bool:
+        return self.solution in AVATAR_SOLUTIONS
+
+    @property
+    def reference(self) -> str:
+        """The reference the series is matched against (see the module's description)."""
+        return LOSSLESS if self.avatar else SOURCE
+
+    def points(self, records: list[dict], sweep: str = "q") -> list[dict]:
+        return [r for r in records if r.get("kind") == "point" and r["solution"] == self.solution
+                and r["codec"] == self.codec and r.get("sweep") == sweep and r.get("reference") == self.reference]
+
+
+class Study:
+    """One run: points measured and appended to records.jsonl as they are measured, observed landmarks kept."""
+
+    def __init__(self, settings: CompareSettings, scenario: Scenario, renderer: AvatarRenderer,
+                 records_path: Path, progress: bool):
+        self.settings, self.scenario, self.progress = settings, scenario, progress
+        self.judge = Judge(scenario, progress, settings.landmark_step)
+        self.video = VideoPoints(scenario)
+        self.params = ParamPoints(scenario, renderer)
+        self.records_path = records_path
+        self.records: list[dict] = []
+        self.observed: dict[tuple, SignClip] = {}
+
+    def series(self) -> list[Series]:
+        return ([Series(s, "mpeg4") for s in (*NATURAL_SOLUTIONS, "SSV")]
+                + [Series(solution_of(c), c) for c in self.settings.param_codecs])
+
+    def lower_rates(self) -> list[float]:
+        return sorted({f for f in self.settings.video.frame_rates if f < self.scenario.fps * (1 - 1e-3)}, reverse=True)
+
+    def measure(self, series: Series, q: int, fps: float, bar) -> list[dict]:
+        """Code one point, extract the landmarks of what the viewer sees, measure it; its records."""
+        s = self.scenario
+        label = f"landmarks: {series.codec if series.solution in ('FBA', 'BBA') else series.solution} Q{q} {fps:g} fps"
+        measured = self.judge.measured
+        if series.solution in ("FBA", "BBA"):
+            viewed, _ = self.params.code(series.codec, q, fps)
+            observed = extract(viewed.frames[measured], s.fps, label, self.progress)
         else:
-            within = [r for r in swept if r["joint_error_mm_mean"] <= JOINT_TOLERANCE_MM]
-        chosen = min(within, key=lambda r: r["kbps"]) if within else min(swept, key=lambda r: r["q"])
-        chosen["operating_point"] = True
-        chosen["operating_rule"] = ("matched skin PSNR of SSV" if target_skin_psnr is not None
-                                    else f"joint error <= {JOINT_TOLERANCE_MM:g} mm") + ("" if within else " (not reached)")
-        for fps in settings.video.frame_rates:
-            if fps != DISPLAY_FPS:
-                records.append(measure(codec_name, chosen["q"], fps, "fps"))
-    bar.close()
-    # Keep only the frames of the operating points (the side-by-side tiles).
-    keep = {(r["codec"], r["q"], r["fps"]) for r in records if r.get("operating_point")}
-    return records, {key: frames for key, frames in frames_by_key.items() if key in keep}
+            viewed, sent, hold = self.video.code(series.solution, q, fps)
+            # the distinct sent frames on screen at the measured frames, extracted once each
+            distinct, on_screen = np.unique(hold[measured], return_inverse=True)
+            observed = select_frames(extract(sent[distinct], min(fps, s.fps), label, self.progress), on_screen, s.fps)
+        records = self.judge.records(series.solution, viewed, observed)
+        self.observed[(series.solution, series.codec, q, records[0]["fps"])] = observed
+        self.add(records)
+        bar.update(1)
+        return records
+
+    def add(self, records: list[dict]) -> None:
+        write_records(self.records_path, records, append=True)
+        self.records += records
+
+    def sweep_q(self) -> None:
+        qs = {False: self.settings.video.qs, True: self.settings.param_qs}
+        jobs = [(series, q) for series in self.series() for q in qs[series.solution in ("FBA", "BBA")]]
+        with tqdm(total=len(jobs), desc="points (Q sweep)", unit="point", disable=not self.progress) as bar:
+            for series, q in jobs:
+                self.measure(series, q, self.scenario.fps, bar)
+
+    def match(self) -> list[dict]:
+        """The matched record of every series, with its frame-rate sweep at the upper bracket's Q."""
+        matched = []
+        rates = self.lower_rates()
+        with tqdm(total=len(self.series()) * len(rates), desc="points (frame rates)", unit="point",
+                  disable=not self.progress) as bar:
+            for series in self.series():
+                criteria = self.criteria(series.reference)
+                found = matching.cheapest_rate(series.points(self.records), criteria)
+                _mark_operating(series.points(self.records), found.kbps, criteria)
+                q = found.upper["q"]
+                for fps in rates:
+                    self.measure(series, q, fps, bar)
+                at_q = [r for r in series.points(self.records, "fps") if r["q"] == q] + [found.upper]
+                matched.append(self.matched_record(series, found, criteria,
+                                                   matching.lowest_fps_holding(at_q, criteria)))
+        self.add(matched)
+        return matched
+
+    def matched_record(self, series: Series, found: matching.Match, criteria, fps_holds) -> dict:
+        lower = found.lower
+        qs = [found.upper["q"]] + ([lower["q"]] if lower is not None else [])
+        fields_at = "interpolated in log-rate between the bracketing points" if lower is not None else "the point's own"
+        return {"kind": "matched", "solution": series.solution, "codec": series.codec, "clip": self.scenario.name,
+                "reference": series.reference, "kbps": found.kbps, "q_low": min(qs), "q_high": max(qs),
+                "bracket_kbps": [lower["kbps"] if lower is not None else found.upper["kbps"], found.upper["kbps"]],
+                "q_shown": found.upper["q"], "threshold": matching.threshold_text(criteria),
+                "reached": found.reached, "fps_holds": fps_holds, "fields_at": fields_at,
+                **matching.fields_at(found, (*INTELLIGIBILITY_FIELDS, *QUALITY_FIELDS,
+                                             "joint_error_mm_mean"))}
+
+    def ceiling(self, reference: str) -> dict:
+        return next(r for r in self.records if r.get("kind") == "uncoded" and r["reference"] == reference
+                    and r["subject"] == ("uncoded reference" if reference == SOURCE else "uncoded lossless render"))
+
+    def criteria(self, reference: str) -> list[matching.Criterion]:
+        """The threshold tied to the uncoded reference (see the module's description)."""
+        ceiling = self.ceiling(reference)
+        landmarks = self.scenario.landmarks if reference == SOURCE else self.scenario.render_landmarks
+        if _hand_share(landmarks) >= MIN_HAND_SHARE and ceiling.get("hand_pck_20") is not None:
+            found = [matching.Criterion("hand_pck_20", ceiling["hand_pck_20"] - PCK_MARGIN, label="hand PCK@0.2 %")]
+        else:
+            found = [matching.Criterion("face_error", ceiling.get("face_error", 0.0) + FACE_MARGIN,
+                                        higher_is_better=False, label="face error (interocular)")]
+        if ceiling.get("letter_top1") is not None:
+            found.append(matching.Criterion("letter_top1", ceiling["letter_top1"], label="letter top-1 %"))
+        return found
 
 
-def _to_display_rate(decoded: Motion, n_frames: int) -> Motion:
-    """The terminal's interpolation of a reduced-rate motion back to the display rate (slerp), same length."""
-    shown = resample(decoded, DISPLAY_FPS)
-    if shown.n_frames >= n_frames:
-        return shown.frames(0, n_frames)
-    pad = n_frames - shown.n_frames   # the last received pose holds until the clip ends
-    return Motion(DISPLAY_FPS, shown.bone_names,
-                  np.concatenate([shown.rotations, np.repeat(shown.rotations[-1:], pad, axis=0)]),
-                  np.concatenate([shown.root_translation, np.repeat(shown.root_translation[-1:], pad, axis=0)]))
+def _hand_share(clip: SignClip) -> float:
+    """Share of frames showing either hand (all 21 points)."""
+    from media.lexicon import HAND_COMPONENTS
+    shown = np.zeros(clip.n_frames, bool)
+    for component in HAND_COMPONENTS.values():
+        shown |= np.all(clip.confidence[component] > 0, axis=1)
+    return float(shown.mean()) if clip.n_frames else 0.0
 
 
-def _best_parameter_tiles(records: list[dict], frames_by_key: dict) -> list[Received]:
-    """The cheapest FBA and the cheapest BBA codec at their operating points, as the terminal renders them."""
-    tiles = []
-    for solution in ("FBA", "BBA"):
-        candidates = [r for r in records if r["solution"] == solution and r.get("operating_point")]
-        if candidates:
-            best = min(candidates, key=lambda r: r["kbps"])
-            tiles.append(Received(frames_by_key[(best["codec"], best["q"], best["fps"])],
-                                  f"{best['codec']} Q{best['q']} {best['kbps']:.1f} kbps (terminal)", solution))
+def _mark_operating(points: list[dict], kbps: float, criteria) -> None:
+    """operating_point on the swept point nearest the matched rate (log-rate), with the rule."""
+    nearest = min(points, key=lambda r: abs(np.log(max(r["kbps"], 1e-9)) - np.log(max(kbps, 1e-9))))
+    nearest["operating_point"] = True
+    nearest["operating_rule"] = f"nearest the matched rate: {matching.threshold_text(criteria)}"
+
+
+def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True,
+        notify: Callable[[str], object] | None = None) -> CompareResult:
+    """Run the whole comparison; write records.jsonl, report.html, side_by_side.mp4 and summary.csv to out_dir.
+
+    records.jsonl grows as points are measured (an interrupted run keeps them) and is rewritten, complete, at
+    the end. notify: called with each one-line note on a natural clip (frames read, downscaling, warnings)."""
+    check_settings(settings)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    records_path = write_records(out_dir / "records.jsonl", [])
+    clock = StageClock()
+    avatar = load_avatar()
+    renderers: dict[tuple[int, int], AvatarRenderer] = {}
+
+    def renderer_for(width: int, height: int) -> AvatarRenderer:
+        if (width, height) not in renderers:
+            renderers[(width, height)] = AvatarRenderer(avatar, RenderSettings(
+                width=width, height=height, look="shaded", backend=settings.backend))
+        return renderers[(width, height)]
+
+    with clock.stage("scenario: reference, landmarks, retargeting, lossless render"):
+        scenario = load_scenario(settings, renderer_for, progress=progress, notify=notify)
+    study = Study(settings, scenario, renderer_for(*scenario.size), records_path, progress)
+    with clock.stage("uncoded references"):
+        study.add(study.judge.uncoded())
+    with clock.stage("Q sweep: code, view, extract landmarks, measure"):
+        study.sweep_q()
+    with clock.stage("matching and frame-rate sweep"):
+        matched = study.match()
+    side_by_side = out_dir / "side_by_side.mp4"
+    with clock.stage("side-by-side video"):
+        poster = _write_side_by_side(_tiles(study, matched), side_by_side, scenario.fps)
+    run_record = {"kind": "run", "backend": _backend_name(settings.backend), "versions": versions(),
+                  "scenario": scenario.kind, "clip": scenario.name, "clip_fps": scenario.fps,
+                  "clip_duration_s": scenario.timing.duration_s, "clip_frames": scenario.n_frames,
+                  "clip_size": list(scenario.size), "display_fps": scenario.fps, "signer_size": list(scenario.size),
+                  "size_rule": SIZE_RULE if scenario.kind == "video" else "the reference is the avatar's render",
+                  "pck_margin": PCK_MARGIN, "face_margin": FACE_MARGIN, "min_hand_share": MIN_HAND_SHARE,
+                  "matched_against": {"NSV family": SOURCE, "SSV, FBA, BBA": LOSSLESS}}
+    all_records = [run_record] + study.records + clock.records()
+    write_records(out_dir / "records.jsonl", all_records)
+    (out_dir / "side_by_side_poster.png").write_bytes(poster)
+    report = build_report(all_records, out_dir / "report.html", poster_png=poster)
+    write_summary_csv(all_records, out_dir / "summary.csv")
+    return CompareResult(all_records, report, side_by_side, out_dir, operating_points(all_records), matched)
+
+
+# ------------------------------------------------------------------------------------------------------------
+# the side by side
+
+def _tiles(study: Study, matched: list[dict]) -> list[Received]:
+    """The reference (and the lossless render) and each solution at its matched point's upper bracket Q (for FBA and
+    BBA the cheapest codec), each with the landmarks extracted from it drawn on it."""
+    from pipeline.studies.pose import draw_landmarks
+    s = study.scenario
+    tiles = [Received(draw_landmarks(s.frames, s.landmarks), f"reference: {s.name} (uncoded)")]
+    # each frame shows the landmarks of the last measured frame (every landmark_step-th)
+    last_measured = np.maximum(np.searchsorted(study.judge.measured, np.arange(s.n_frames), side="right") - 1, 0)
+    if s.kind == "video":
+        tiles.append(Received(draw_landmarks(s.render, s.render_landmarks), "avatar: lossless render"))
+    for solution in (*NATURAL_SOLUTIONS, *AVATAR_SOLUTIONS):
+        candidates = [m for m in matched if m["solution"] == solution]
+        if not candidates:
+            continue
+        best = min(candidates, key=lambda m: (not m["reached"], m["kbps"]))
+        q = best["q_shown"]
+        if solution in ("FBA", "BBA"):
+            _, frames = study.params.code(best["codec"], q, s.fps)
+        else:
+            viewed, _, _ = study.video.code(solution, q, s.fps)
+            frames = viewed.frames
+        observed = select_frames(study.observed[(solution, best["codec"], q, s.fps)], last_measured)
+        codec = f" {best['codec']}" if solution in ("FBA", "BBA") else ""
+        tiles.append(Received(draw_landmarks(frames, observed),
+                              f"{solution}{codec} Q{q}, matched {best['kbps']:.1f} kbps"
+                              f"{'' if best['reached'] else ' (not reached)'}", solution))
     return tiles
 
 
-def _write_side_by_side(received: list[Received], path: Path) -> bytes:
-    """Tile the received videos (25 fps), encode with H.264, return a PNG poster frame."""
+def _write_side_by_side(received: list[Received], path: Path, fps: float) -> bytes:
+    """Tile the received videos, encode with H.264 at fps, return a PNG poster frame."""
     tiled = tile_videos([(r.frames, r.caption) for r in received], tile_size=(352, 288), columns=4)
-    write_video(path, tiled, DISPLAY_FPS, codec="libx264", options={"crf": 18, "preset": "veryfast"})
+    write_video(path, tiled, fps, codec="libx264", options={"crf": 18, "preset": "veryfast"})
     ok, png = cv2.imencode(".png", cv2.cvtColor(tiled[len(tiled) // 2], cv2.COLOR_RGB2BGR))
     if not ok:
         raise SigncastError("could not encode the poster frame")
@@ -313,11 +747,16 @@ def _backend_name(backend: str) -> str:
     return f"warp ({warp_device()})" if resolved == "warp" else resolved
 
 
+# ------------------------------------------------------------------------------------------------------------
+# summaries
+
 def summary_rows(records: list[dict]) -> list[dict]:
-    """One row per solution and codec at its operating point."""
-    return [{"solution": r["solution"], "codec": r["codec"], "q": r.get("q"), "fps": r["fps"], "kbps": r["kbps"],
-             "image_psnr": r.get("image_psnr"), "skin_psnr": r.get("skin_psnr"), "ssim": r.get("ssim"), "skin_ssim": r.get("skin_ssim"),
-             "joint_error_mm": r.get("joint_error_mm_mean")} for r in operating_points(records)]
+    """One row per matched series."""
+    return [{"solution": r["solution"], "codec": r["codec"], "reference": r["reference"], "kbps": r["kbps"],
+             "q_low": r["q_low"], "q_high": r["q_high"], "reached": r["reached"], "fps_holds": r.get("fps_holds"),
+             "hand_pck_20": r.get("hand_pck_20"), "face_error": r.get("face_error"),
+             "letter_top1": r.get("letter_top1"), "skin_psnr": r.get("skin_psnr"), "threshold": r["threshold"]}
+            for r in records if r.get("kind") == "matched"]
 
 
 def write_summary_csv(records: list[dict], path: Path) -> Path:
@@ -331,12 +770,20 @@ def write_summary_csv(records: list[dict], path: Path) -> Path:
 
 
 def format_summary(records: list[dict]) -> str:
-    """The terminal's summary table."""
-    lines = [f"{'solution':9} {'codec':9} {'Q':>3} {'fps':>4} {'kbps':>8} {'PSNR':>6} {'skin':>6} {'SSIM':>6}  joint mm"]
-    for row in summary_rows(records):
-        def fmt(value, spec):
-            return format(value, spec) if isinstance(value, (int, float)) and np.isfinite(value) else "–"
-        lines.append(f"{row['solution']:9} {row['codec']:9} {fmt(row['q'], '>3')} {row['fps']:>4.0f} {row['kbps']:>8.1f} "
-                     f"{fmt(row['image_psnr'], '>6.2f')} {fmt(row['skin_psnr'], '>6.2f')} {fmt(row['ssim'], '>6.3f')}  "
-                     f"{fmt(row['joint_error_mm'], '.2f')}")
+    """The terminal's summary table: each solution at its matched rate."""
+    def fmt(value, spec):
+        return format(value, spec) if isinstance(value, (int, float)) and np.isfinite(value) else "–"
+    rows = summary_rows(records)
+    lines = [f"matched on: {rows[0]['threshold']}" if rows else "no matched point",
+             f"{'solution':9} {'codec':9} {'reference':16} {'kbps':>8} {'Q':>7} {'PCK@.2':>7} {'face':>6} "
+             f"{'top-1':>6} {'skin dB':>7}  holds to"]
+    for row in rows:
+        q = f"{row['q_low']}-{row['q_high']}" if row["q_low"] != row["q_high"] else str(row["q_low"])
+        holds = f"{row['fps_holds']:g} fps" if row["fps_holds"] is not None else "–"
+        lines.append(f"{row['solution']:9} {row['codec']:9} {row['reference']:16} {row['kbps']:>8.1f}"
+                     f"{'' if row['reached'] else '*'} {q:>6} {fmt(row['hand_pck_20'], '>7.1f')} "
+                     f"{fmt(row['face_error'], '>6.3f')} {fmt(row['letter_top1'], '>6.0f')} "
+                     f"{fmt(row['skin_psnr'], '>7.2f')}  {holds}")
+    if any(not row["reached"] for row in rows):
+        lines.append("* threshold not reached: the best swept point's rate")
     return "\n".join(lines)
