@@ -11,7 +11,7 @@ import pytest
 from comparisons.records import INTELLIGIBILITY_FIELDS
 from media.video_io import read_video, write_video
 from pipeline.cli import main
-from pipeline.studies.compare import CompareSettings, LOSSLESS, SOURCE, run as run_compare
+from pipeline.studies.compare import CompareSettings, LOSSLESS, SOURCE, UNCODED_SUBJECTS, run as run_compare
 from pipeline.studies.video import VideoSweep
 
 SMALL = CompareSettings(word="AB", video=VideoSweep(qs=(12, 31), frame_rates=(25.0, 10.0), other_codecs=()),
@@ -59,11 +59,14 @@ def test_every_point_is_read_against_the_source_and_avatar_points_also_against_t
 
 
 @pytest.mark.slow
-def test_the_uncoded_reference_is_the_ceiling(result):
+def test_the_uncoded_reference_resampled_by_half_a_pixel_is_the_ceiling(result):
     uncoded = [r for r in result.records if r.get("kind") == "uncoded"]
-    source = next(r for r in uncoded if r["reference"] == SOURCE and r["subject"] == "uncoded reference")
-    assert source["hand_pck_20"] == 100.0 and source["face_error"] == 0.0
+    source = next(r for r in uncoded if r["reference"] == SOURCE and r["subject"] == UNCODED_SUBJECTS[SOURCE])
+    # an invisible resampling moves the extracted landmarks a little: the extractor's noise floor
+    assert 85.0 < source["hand_pck_20"] <= 100.0 and 0.0 < source["face_error"] < 0.1
     assert 0 <= source["letter_top1"] <= source["letter_top3"] <= 100
+    for matched in (r for r in result.records if r.get("kind") == "matched" and r["reference"] == SOURCE):
+        assert f"{source['hand_pck_20'] - 2.0:.4g}" in matched["threshold"]
 
 
 @pytest.mark.slow
@@ -152,8 +155,8 @@ def test_compare_video_runs_end_to_end_on_a_rendered_avatar_clip(avatar_video, t
     points = [r for r in records if r["kind"] == "point"]
     assert {r["solution"] for r in points} == SOLUTIONS
     assert all(r["duration_s"] == pytest.approx(run["clip_duration_s"]) for r in points)
-    source = next(r for r in records if r["kind"] == "uncoded" and r["subject"] == "uncoded reference")
-    assert source["hand_pck_20"] == 100.0                     # hands visible: matched on the hands
+    source = next(r for r in records if r["kind"] == "uncoded" and r["subject"] == UNCODED_SUBJECTS[SOURCE])
+    assert source["hand_pck_20"] > 60.0     # hands visible (about 11 px palms at 176x144): matched on the hands
     assert all("PCK@0.2" in r["threshold"] for r in records if r["kind"] == "matched")
     retargeting = next(r for r in records if r["kind"] == "uncoded" and r["subject"] == "uncoded lossless render"
                        and r["reference"] == SOURCE)
