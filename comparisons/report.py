@@ -634,8 +634,10 @@ def operating_picture(matched: dict, records: list[dict]) -> dict:
 def _plot_intelligibility_sweeps(panel, records: list[dict], field: str, styles: dict, dashed_references: set) -> None:
     """One line per solution · codec (and reference): its quantizer sweep at its top frame rate, the field's
     mean over clips per Q, against kbps."""
-    for (name, ref), group in _groups(_swept_for_intelligibility(records, field),
-                                      lambda r: (_series_key(r), str(r.get("reference") or ""))).items():
+    matched_reference = {_series_key(m): m.get("reference") for m in matched_records(records) if m.get("reference")}
+    swept = [r for r in _swept_for_intelligibility(records, field)
+             if matched_reference.get(_series_key(r), r.get("reference")) == r.get("reference")]
+    for (name, ref), group in _groups(swept, lambda r: (_series_key(r), str(r.get("reference") or ""))).items():
         fps, top = _top_rate(group)
         rows = sorted((r for r in _by_quantiser(top, ("kbps", field)) if r[field] is not None), key=lambda r: r["kbps"])
         label = f"{name} ({fps:g} fps{_clips_note(rows[0]['clips'])})" + (f", vs {ref}" if dashed_references else "")
@@ -674,7 +676,8 @@ def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
     records = normalize_records(records)
     styles = styles or series_styles(records)
     fields = [f for f in INTELLIGIBILITY_PANELS if f == "hand_pck_20" or _swept_for_intelligibility(records, f)]
-    figure, panels = plt.subplots(1, len(fields), figsize=(6.2 * len(fields), 4.8), squeeze=False)
+    figure, panels = plt.subplots(len(fields), 1, figsize=(8.5, 3.6 * len(fields)), squeeze=False)
+    panels = panels.T                                      # one row of panels, drawn one above the other
     references = _intelligibility_references(records)
     dashed = set(references[1:]) if len(references) > 1 else set()
     for panel, field in zip(panels[0], fields):
@@ -759,25 +762,32 @@ def _matched_table(records: list[dict]) -> str:
     """One row per solution (and codec) with a matched record; a solution of MATCHED_SOLUTIONS without one says so."""
     matched = matched_records(records)
     joints = any(m.get(f) is not None for m in matched for f in ("hand_joint_error_mm", "arm_joint_error_mm"))
+    shared = shared_threshold(matched)
     rows = []
     for solution in dict.fromkeys([*MATCHED_SOLUTIONS, *(m["solution"] for m in matched)]):
         mine = [m for m in matched if m["solution"] == solution]
         if not mine:
-            rows.append([_fmt(solution), "–", "–", "no matched record", *["–"] * (9 + 2 * joints)])
+            rows.append([_fmt(solution), "–", "–", "no matched record", *["–"] * (9 + 2 * joints - bool(shared))])
             continue
         for m in mine:
-            cells = [_fmt(solution), _fmt(m.get("codec")), _fmt(m.get("reference")), _bracket(m), _fmt(m.get("threshold")),
-                     _reached(m), _fmt(m.get("hand_pck_20"), 1), _fmt(m.get("hand_error"), 3), _hands_found(m),
+            cells = [_fmt(solution), _fmt(m.get("codec")), _fmt(m.get("reference")), _bracket(m),
+                     *([_fmt(m.get("threshold"))] if not shared else []), _reached(m), _fmt(m.get("hand_pck_20"), 1), _fmt(m.get("hand_error"), 3), _hands_found(m),
                      _fmt(m.get("face_error"), 3), _fmt(m.get("letter_top1"), 0)]
             if joints:
                 cells += [_fmt(m.get("hand_joint_error_mm"), 1), _fmt(m.get("arm_joint_error_mm"), 1)]
             rows.append(cells + [_holds(m), _channel_marks(m.get("kbps"))])
-    header = ["solution", "codec", "measured against", "kbps at matched intelligibility (Q bracket)", "threshold",
-              "reached", "hand PCK@0.2 %", "hand error (hand sizes)", "hands found % (left / right)",
+    header = ["solution", "codec", "measured against", "kbps at matched intelligibility (Q bracket)",
+              *(["threshold"] if not shared else []), "reached", "hand PCK@0.2 %", "hand error (hand sizes)", "hands found % (left / right)",
               "face error (interocular distances)", "letter top-1 %",
               *(["hand joint error mm", "arm joint error mm"] if joints else []), "holds down to",
               "delivery channels it fits"]
     return _table("matched", header, rows)
+
+
+def shared_threshold(matched: list[dict]) -> str | None:
+    """The threshold text every matched record shares, or None when they differ (the table then has a column)."""
+    thresholds = {m.get("threshold") for m in matched}
+    return next(iter(thresholds)) if len(thresholds) == 1 and None not in thresholds else None
 
 
 def _matched_section(records: list[dict], styles: dict) -> str:
@@ -796,7 +806,11 @@ def _matched_section(records: list[dict], styles: dict) -> str:
             "bracket it; where no swept point reaches it, the row gives the best point's rate. Hand errors are in hand "
             "sizes (about 10 cm of palm: 0.1 is about a centimetre), face errors in interocular distances. “Holds down "
             "to” is the lowest frame rate at which the threshold still holds. Delivery channels: " + channels + ".</p>"
-            + _table_note(records) + _matched_table(records))
+            + _table_note(records)
+            + (f"<p><strong>Threshold</strong> (every row): {html.escape(shared_threshold(matched_records(records)))}, "
+               "tied to the uncoded reference (see each run's records).</p>"
+               if shared_threshold(matched_records(records)) else "")
+            + _matched_table(records))
     if _swept_for_intelligibility(records, "hand_pck_20"):
         parts.append(_image("rate_vs_intelligibility", _png(chart_rate_intelligibility(records, styles)),
                             "rate against intelligibility"))
