@@ -1,9 +1,7 @@
 """The HTML report: made from records only, self-contained, and rendered by a real browser."""
-import base64
 import json
 import shutil
 import subprocess
-from html.parser import HTMLParser
 from pathlib import Path
 
 import cv2
@@ -13,6 +11,7 @@ import pytest
 
 from comparisons.criteria import bandwidth_scores, criteria_table
 from comparisons.report import build_report, chart_kbps_vs_q, chart_rate_quality, linear_fits, quantiser
+from report_page import ReportPage
 
 
 def _records():
@@ -51,44 +50,7 @@ def test_bandwidth_row_ranks_measured_rates():
     assert rows[-2]["NSV"] == 5 and rows[-2]["FBA"] == 6 and rows[-2]["SSV"] is None
 
 
-class _Page(HTMLParser):
-    """A report page as its own footer check sees it: tables (name -> body rows, as lists of cell texts) and
-    charts (name -> decoded image)."""
-
-    def __init__(self, text: str):
-        super().__init__()
-        self.tables, self.charts, self._rows = {}, {}, None
-        self.feed(text)
-
-    def handle_starttag(self, tag, attrs):
-        attrs = dict(attrs)
-        if tag == "table":
-            self._rows = self.tables.setdefault(attrs["data-table"], [])
-        elif tag == "tbody":
-            self._body = True
-        elif tag == "tr" and self._rows is not None and getattr(self, "_body", False):
-            self._rows.append([])
-        elif tag == "td" and self._rows:
-            self._rows[-1].append("")
-        elif tag == "img" and attrs.get("class") == "chart":
-            png = np.frombuffer(base64.b64decode(attrs["src"].split(",", 1)[1]), np.uint8)
-            self.charts[attrs["data-chart"]] = cv2.imdecode(png, cv2.IMREAD_COLOR)
-
-    def handle_endtag(self, tag):
-        if tag == "tbody":
-            self._body = False
-        elif tag == "table":
-            self._rows = None
-
-    def handle_data(self, data):
-        if self._rows and self._rows[-1] and getattr(self, "_body", False):
-            self._rows[-1][-1] += data
-
-    def column(self, table: str, header_index: int) -> list[str]:
-        return [row[header_index] for row in self.tables[table]]
-
-
-def _assert_nothing_empty_or_broken(page: _Page) -> None:
+def _assert_nothing_empty_or_broken(page: ReportPage) -> None:
     """What the page's footer reports as broken: a table without rows, a chart that does not decode."""
     assert page.tables and all(page.tables.values()), {name: len(rows) for name, rows in page.tables.items()}
     assert all(image is not None and image.std() > 10 for image in page.charts.values())
@@ -97,7 +59,7 @@ def _assert_nothing_empty_or_broken(page: _Page) -> None:
 def test_report_is_self_contained(tmp_path):
     page = build_report(_records(), tmp_path / "report.html").read_text()
     assert "http://" not in page and "https://" not in page
-    parsed = _Page(page)
+    parsed = ReportPage(page)
     assert set(parsed.charts) == {"kbps_vs_q", "kbps_vs_fps", "psnr_vs_kbps", "ssim_vs_kbps"}
     assert set(parsed.tables) == {"summary", "linear_fits", "requirements", "points", "versions", "stages"}
     _assert_nothing_empty_or_broken(parsed)
@@ -105,7 +67,7 @@ def test_report_is_self_contained(tmp_path):
 
 def test_summary_names_each_rows_reference_and_marks_whole_frame_figures_of_object_solutions(tmp_path):
     text = build_report(_records(), tmp_path / "report.html").read_text()
-    page = _Page(text)
+    page = ReportPage(text)
     summary = page.tables["summary"]
     assert [row[0] for row in summary] == ["NSV", "NSV3O", "SSV", "FBA"]
     # solution, codec, quantiser, fps, kbps, measured against, PSNR face+hands, SSIM face+hands, PSNR whole frame, ...
@@ -171,11 +133,11 @@ def command_records(tmp_path_factory):
     return make
 
 
-def _report_of(records_path: Path) -> _Page:
+def _report_of(records_path: Path) -> ReportPage:
     from pipeline.cli import main
     output = records_path.with_name("report.html")
     assert main(["report", str(records_path), "-o", str(output)]) == 0
-    return _Page(output.read_text())
+    return ReportPage(output.read_text())
 
 
 def test_report_on_params_records_summarises_parameter_coding_without_image_charts(command_records):

@@ -3,12 +3,9 @@ the delivery channels it fits, the public requirement lines, and rate against in
 
 The records are built here, shaped like the reworked `signcast compare`: per solution a quantizer sweep at 25 fps
 whose points carry intelligibility fields, a frame-rate sweep for some, and one record of kind "matched"."""
-import base64
 import shutil
 import subprocess
-from html.parser import HTMLParser
 
-import cv2
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
@@ -16,6 +13,7 @@ import pytest
 from comparisons.records import read_records, write_records
 from comparisons.report import (DELIVERY_CHANNELS, MATCHED_SOLUTIONS, MOBILE_PHONE, MODEM, build_report,
                                 chart_rate_intelligibility, fits, threshold_value)
+from report_page import ReportPage
 
 SWEPT_Q = (4, 8, 16, 31)
 THRESHOLD = 95.0
@@ -69,43 +67,10 @@ def _records() -> list[dict]:
     return records
 
 
-class _Page(HTMLParser):
-    """Tables (name -> body rows as lists of cell texts), charts (name -> decoded image) and the page's text."""
-
-    def __init__(self, text: str):
-        super().__init__()
-        self.text, self.tables, self.charts, self._rows, self._body = text, {}, {}, None, False
-        self.feed(text)
-
-    def handle_starttag(self, tag, attrs):
-        attrs = dict(attrs)
-        if tag == "table":
-            self._rows = self.tables.setdefault(attrs["data-table"], [])
-        elif tag == "tbody":
-            self._body = True
-        elif tag == "tr" and self._rows is not None and self._body:
-            self._rows.append([])
-        elif tag == "td" and self._rows:
-            self._rows[-1].append("")
-        elif tag == "img" and attrs.get("class") == "chart":
-            png = np.frombuffer(base64.b64decode(attrs["src"].split(",", 1)[1]), np.uint8)
-            self.charts[attrs["data-chart"]] = cv2.imdecode(png, cv2.IMREAD_COLOR)
-
-    def handle_endtag(self, tag):
-        if tag == "tbody":
-            self._body = False
-        elif tag == "table":
-            self._rows = None
-
-    def handle_data(self, data):
-        if self._rows and self._rows[-1] and self._body:
-            self._rows[-1][-1] += data
-
-
 @pytest.fixture(scope="module")
-def page(tmp_path_factory) -> _Page:
+def page(tmp_path_factory) -> ReportPage:
     out = tmp_path_factory.mktemp("report") / "report.html"
-    return _Page(build_report(_records(), out).read_text())
+    return ReportPage(build_report(_records(), out).read_text())
 
 
 def test_the_top_table_gives_every_solutions_kbps_at_matched_intelligibility_with_its_q_bracket(page):
@@ -181,7 +146,7 @@ def test_the_requirement_lines_of_en_301_549_tran_et_al_and_the_source_per_solut
 
 def test_a_solution_without_a_matched_record_is_listed_as_such(tmp_path):
     records = [r for r in _records() if not (r["kind"] == "matched" and r["solution"] == "NSV2O")]
-    page = _Page(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
     row = next(row for row in page.tables["matched"] if row[0] == "NSV2O")
     assert row[3] == "no matched record" and len(row) == len(page.tables["matched"][0])
     assert "NSV2O" not in [row[0] for row in page.tables["guidance"]]
@@ -192,7 +157,7 @@ def test_rows_against_different_references_are_flagged_and_drawn_apart(tmp_path)
     for r in records:
         if r.get("solution") in ("FBA", "BBA") and r["kind"] in ("point", "matched"):
             r["reference"] = "lossless render"
-    page = _Page(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
     assert [row[2] for row in page.tables["matched"]][-2:] == ["lossless render"] * 2
     assert "compare the rates of rows with the same reference only" in page.text
     figure = chart_rate_intelligibility(records)
@@ -212,7 +177,7 @@ def test_letter_top1_gets_a_panel_and_joint_errors_of_hands_and_arms_stay_apart(
     figure = chart_rate_intelligibility(records)
     assert len(figure.axes) == 3 and "top-1" in figure.axes[2].get_ylabel()
     plt.close("all")
-    page = _Page(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
     fba = next(row for row in page.tables["matched"] if row[0] == "FBA")
     # ..., face error, letter top-1, hand joint error mm, arm joint error mm, holds down to, channels
     assert fba[9:13] == ["80", "4.5", "2.0", "10 fps"]
@@ -223,7 +188,7 @@ def test_parameter_points_report_hand_and_arm_joint_errors_in_their_own_columns(
                 "width": 0, "height": 0, "bits": 1000 * q, "duration_s": 1.0, "kbps": float(q), "param_psnr": 40.0 - q,
                 "joint_error_mm_mean": 3.0, "hand_joint_error_mm": 4.0 + q, "arm_joint_error_mm": 1.0 + q}
                for q in (4, 16) for letter in "AB"]
-    page = _Page(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
     summary = page.tables["parameter_summary"]
     assert [row[-2:] for row in summary] == [["8.00", "5.00"], ["20.00", "17.00"]]
     assert "matched" not in page.tables and "guidance" not in page.tables
@@ -235,7 +200,7 @@ def test_the_matched_records_come_back_from_records_jsonl_and_the_report_command
     back = [r for r in read_records(path) if r["kind"] == "matched"]
     assert len(back) == 7 and back[4]["reached"] is False and back[3]["fps_holds"] is None and back[0]["q_low"] == 8
     assert main(["report", str(path), "-o", str(tmp_path / "report.html")]) == 0
-    page = _Page((tmp_path / "report.html").read_text())
+    page = ReportPage((tmp_path / "report.html").read_text())
     assert [row[0] for row in page.tables["matched"]] == list(MATCHED_SOLUTIONS)
 
 
@@ -244,7 +209,7 @@ def test_records_without_matched_or_intelligibility_fields_still_make_the_old_re
                        "right_hand_found", "face_error", "face_error_p90")
     old = [{k: v for k, v in r.items() if k not in intelligibility} for r in _records() if r["kind"] != "matched"]
     path = write_records(tmp_path / "records.jsonl", old)
-    page = _Page(build_report(read_records(path), tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(read_records(path), tmp_path / "report.html").read_text())
     assert "matched" not in page.tables and "guidance" not in page.tables
     assert "rate_vs_intelligibility" not in page.charts and "intelligibility_vs_fps" not in page.charts
     assert "kbps at matched intelligibility" not in page.text
@@ -265,7 +230,7 @@ def test_the_intelligibility_report_renders_in_headless_chromium(tmp_path):
     if browser is None:
         pytest.skip("Chromium is not installed (Debian: apt-get install chromium); .ci/run installs it")
     report = build_report(_records(), tmp_path / "report.html")
-    page = _Page(report.read_text())
+    page = ReportPage(report.read_text())
     dom = subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=5000",
                           "--dump-dom", report.as_uri()], capture_output=True, text=True, timeout=120).stdout
     footer = dom.split('id="render-check">', 1)[1].split("<", 1)[0]

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Callable
 
 from media.errors import SigncastError
+from media.motion import Motion
 
 LEXICON_FPS = 25.0
 
@@ -61,18 +62,25 @@ def pose_motion(pose: Path, fps: float | None, jitter_filter: str | None,
     return motion, result
 
 
+def source_motion(language: str | None, word: str | None, pose: Path | None, fps: float | None,
+                  jitter_filter: str | None, notify: Callable[[str], object] | None = None) -> tuple[Motion, str]:
+    """(the avatar's Motion, a few words naming its source): a .pose retargeted (at its own rate unless fps), or
+    LANGUAGE WORD fingerspelled (at fps, else LEXICON_FPS)."""
+    from media.fingerspelling import fingerspell
+
+    if pose is not None:
+        motion, result = pose_motion(pose, fps, jitter_filter, notify)
+        return motion, f"{pose.name} (hands: {', '.join(result.hands) or 'none'})"
+    return fingerspell(language, word, fps=fps or LEXICON_FPS), f"{language} {word!r}"
+
+
 def run(settings: MotionSettings, *, notify: Callable[[str], object] | None = None) -> str:
     """Build the motion and write the BVH; a one-line summary (frames, rate, duration, bones)."""
     from media.avatar import load_avatar
     from media.bvh import write_bvh
-    from media.fingerspelling import fingerspell
 
-    if settings.pose is not None:
-        motion, result = pose_motion(settings.pose, settings.fps, settings.jitter_filter, notify)
-        source = f"{settings.pose.name} (hands: {', '.join(result.hands) or 'none'})"
-    else:
-        motion = fingerspell(settings.language, settings.word, fps=settings.fps or LEXICON_FPS)
-        source = f"{settings.language} {settings.word!r}"
+    motion, source = source_motion(settings.language, settings.word, settings.pose, settings.fps,
+                                   settings.jitter_filter, notify)
     try:
         write_bvh(settings.output, motion, load_avatar().skeleton)
     except OSError as error:

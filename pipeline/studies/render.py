@@ -59,19 +59,14 @@ def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable
     from tqdm import tqdm
 
     from media.avatar import load_avatar
-    from media.fingerspelling import fingerspell
     from media.render import RenderSettings, render_motion
     from media.video_io import write_video
     from pipeline.checks import check_memory
-    from pipeline.studies.motion import LEXICON_FPS, pose_motion
+    from pipeline.studies.motion import source_motion
 
     width, height = settings.size
-    if settings.pose is not None:
-        motion, result = pose_motion(settings.pose, settings.fps, settings.jitter_filter, notify)
-        source = f"{settings.pose.name} (hands: {', '.join(result.hands) or 'none'})"
-    else:
-        motion = fingerspell(settings.language, settings.word, fps=settings.fps or LEXICON_FPS)
-        source = f"{settings.language} {settings.word!r}"
+    motion, source = source_motion(settings.language, settings.word, settings.pose, settings.fps,
+                                   settings.jitter_filter, notify)
     if settings.preview_frame is not None and not 0 <= settings.preview_frame < motion.n_frames:
         raise SigncastError(f"--preview-frame {settings.preview_frame} outside 0..{motion.n_frames - 1}")
     check_memory(motion.n_frames, width, height, BYTES_PER_PIXEL, "render")
