@@ -148,7 +148,9 @@ def test_compare_video_runs_end_to_end_on_a_rendered_avatar_clip(avatar_video, t
     out = tmp_path / "out"
     assert main(["compare", "--video", str(avatar_video), "--video-q", "12,31", "--frame-rates", "25,12.5",
                  "--param-q", "4,31", "--codecs", "fba-pred,bba-key", "--no-progress", "--out", str(out)]) == 0
-    assert "matched on" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "matched against the source video on: hand PCK@0.2" in printed
+    assert "matched against the lossless render on" in printed
     records = [json.loads(line) for line in (out / "records.jsonl").read_text().splitlines()]
     run = next(r for r in records if r["kind"] == "run")
     assert run["scenario"] == "video" and run["clip_size"] == [176, 144] and run["clip_frames"] == 20

@@ -794,9 +794,11 @@ def format_summary(records: list[dict]) -> str:
     def fmt(value, spec):
         return format(value, spec) if isinstance(value, (int, float)) and np.isfinite(value) else "–"
     rows = summary_rows(records)
-    lines = [f"matched on: {rows[0]['threshold']}" if rows else "no matched point",
-             f"{'solution':9} {'codec':9} {'reference':16} {'kbps':>8} {'Q':>7} {'PCK@.2':>7} {'face':>6} "
-             f"{'top-1':>6} {'skin dB':>7}  holds to"]
+    thresholds = dict.fromkeys((row["reference"], row["threshold"]) for row in rows)
+    lines = [f"matched against the {reference} on: {threshold}" for reference, threshold in thresholds]
+    lines += [] if rows else ["no matched point"]
+    lines.append(f"{'solution':9} {'codec':9} {'reference':16} {'kbps':>8} {'Q':>7} {'PCK@.2':>7} {'face':>6} "
+                 f"{'top-1':>6} {'skin dB':>7}  holds to")
     for row in rows:
         q = f"{row['q_low']}-{row['q_high']}" if row["q_low"] != row["q_high"] else str(row["q_low"])
         holds = f"{row['fps_holds']:g} fps" if row["fps_holds"] is not None else "–"
