@@ -30,7 +30,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from media import rotations  # noqa: E402
-from media.retarget import FINGER_CHAINS, SIDES, TORSO_BONES  # noqa: E402
+from media.retarget import FINGER_CHAINS, TORSO_BONES  # noqa: E402
 
 ARM_JOINTS = ("upperarm01", "lowerarm01", "lowerarm02", "wrist")
 HAND_PREFIX = {"L": "LEFT", "R": "RIGHT"}

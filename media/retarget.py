@@ -269,7 +269,6 @@ def _flexion_direction(skeleton: Skeleton, side: str, finger: str) -> np.ndarray
 
 def _arm_chain(skeleton: Skeleton, side: str) -> list[ik.ChainJoint]:
     """upperarm01 (3 DOF), lowerarm01 (elbow hinge), lowerarm02 (forearm twist), wrist (2 DOF)."""
-    mirror = 1.0 if side == "L" else -1.0
     shoulder = _head(skeleton, f"upperarm01.{side}")
     elbow = _head(skeleton, f"lowerarm01.{side}")
     wrist = _head(skeleton, f"wrist.{side}")
