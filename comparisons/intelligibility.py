@@ -29,6 +29,11 @@ Definitions (per frame, then the mean and the 90th percentile over frames):
   found, else its eyes' outer corners (33 and 263); over frames where both clips show the face. Frames
   where the observed clip loses the face are not in face_error; `face_found` counts them (not a record
   field).
+- mouth error and eyes error (the non-manual features that carry grammar: mouthing, brows, eyelids,
+  gaze) of a frame: the mean distance / interocular distance over the lip points (MOUTH_POINTS, the 40
+  inner and outer lip contour points of the mesh) or the eye, brow and iris points (EYES_POINTS), after
+  removing the frame's mean offset of the whole mesh between the two clips, so a face that is only
+  displaced counts in face_error but not here; same frames as face_error.
 A value is None where it is undefined (e.g. the reference never shows the left hand).
 """
 from __future__ import annotations
@@ -44,10 +49,17 @@ FACE_COMPONENT = "FACE_LANDMARKS"
 MESH_POINTS = 468
 PUPILS = (468, 473)
 EYE_OUTER_CORNERS = (33, 263)
+# MediaPipe face-mesh contours (FACEMESH_LIPS, _LEFT/RIGHT_EYE, _LEFT/RIGHT_EYEBROW; irises 468..477)
+MOUTH_POINTS = (61, 146, 91, 181, 84, 17, 314, 405, 321, 375, 291, 409, 270, 269, 267, 0, 37, 39, 40, 185,
+                78, 95, 88, 178, 87, 14, 317, 402, 318, 324, 308, 415, 310, 311, 312, 13, 82, 81, 80, 191)
+EYES_POINTS = (33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246,
+               263, 249, 390, 373, 374, 380, 381, 382, 362, 398, 384, 385, 386, 387, 388, 466,
+               46, 53, 52, 65, 55, 70, 63, 105, 66, 107, 276, 283, 282, 295, 285, 300, 293, 334, 296, 336)
+IRIS_POINTS = tuple(range(468, 478))
 PALM_LENGTH_PER_WIDTH = 1.3
 PCK_THRESHOLDS = (0.1, 0.2)      # hand sizes
 RECORD_FIELDS = ("hand_error", "hand_error_p90", "hand_pck_10", "hand_pck_20", "left_hand_found",
-                 "right_hand_found", "face_error", "face_error_p90")
+                 "right_hand_found", "face_error", "face_error_p90", "mouth_error", "eyes_error")
 
 
 @dataclass(frozen=True)
@@ -66,6 +78,8 @@ class Intelligibility:
     face_error: float | None = None
     face_error_p90: float | None = None
     face_found: float | None = None
+    mouth_error: float | None = None
+    eyes_error: float | None = None
 
     def fields(self) -> dict[str, float]:
         """The record fields (comparisons.records names) that have a value."""
@@ -136,7 +150,7 @@ def measure(reference: SignClip, observed: SignClip) -> Intelligibility:
     hand_error, hand_error_p90 = _mean_and_p90(hand_errors)
     pck = [None if not pck_counts else _percent(hits / pck_counts) for hits in pck_hits]
 
-    face_error = face_error_p90 = face_found = None
+    face_error = face_error_p90 = face_found = mouth_error = eyes_error = None
     in_reference = shown(reference, FACE_COMPONENT, MESH_POINTS)
     if in_reference.any():
         in_observed = shown(observed, FACE_COMPONENT, MESH_POINTS) & in_reference
@@ -147,7 +161,22 @@ def measure(reference: SignClip, observed: SignClip) -> Intelligibility:
         distances = np.linalg.norm(observed.points[FACE_COMPONENT][both, :MESH_POINTS, :2]
                                    - truth[:, :MESH_POINTS, :2], axis=-1)
         face_error, face_error_p90 = _mean_and_p90([distances.mean(axis=1) / np.maximum(interocular, 1e-9)])
+        if len(both):
+            mouth_error = _feature_error(observed.points[FACE_COMPONENT][both], truth, interocular, MOUTH_POINTS)
+            has_irises = min(observed.points[FACE_COMPONENT].shape[1], truth.shape[1]) > max(IRIS_POINTS)
+            eyes_error = _feature_error(observed.points[FACE_COMPONENT][both], truth, interocular,
+                                        EYES_POINTS + (IRIS_POINTS if has_irises else ()))
     return Intelligibility(hand_error=hand_error, hand_error_p90=hand_error_p90, hand_pck_10=pck[0],
                            hand_pck_20=pck[1], left_hand_found=found["left"], right_hand_found=found["right"],
-                           face_error=face_error, face_error_p90=face_error_p90, face_found=face_found)
+                           face_error=face_error, face_error_p90=face_error_p90, face_found=face_found,
+                           mouth_error=mouth_error, eyes_error=eyes_error)
+
+
+def _feature_error(observed: np.ndarray, truth: np.ndarray, interocular: np.ndarray, indices: tuple[int, ...]) -> float:
+    """Mean over frames and `indices` of |observed - truth| / interocular after removing each frame's mean
+    mesh offset. observed, truth: (N, >=478 or 468, >=2) pixels; interocular: (N,) pixels."""
+    offset = np.mean(observed[:, :MESH_POINTS, :2] - truth[:, :MESH_POINTS, :2], axis=1, keepdims=True)
+    index = list(indices)
+    distances = np.linalg.norm(observed[:, index, :2] - offset - truth[:, index, :2], axis=-1)
+    return float(np.mean(distances.mean(axis=1) / np.maximum(interocular, 1e-9)))
 

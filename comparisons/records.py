@@ -49,7 +49,7 @@ IMAGE_QUALITY_FIELDS = ("image_psnr", "skin_psnr", "object_psnr", "ssim", "skin_
 PARAM_QUALITY_FIELDS = ("param_psnr", "vpsnr", "joint_error_mm_mean", "joint_error_mm_max", "group_errors")
 # what a viewer can read: landmarks extracted from what the viewer sees against the reference's landmarks
 INTELLIGIBILITY_FIELDS = ("hand_error", "hand_error_p90", "hand_pck_10", "hand_pck_20", "left_hand_found",
-                          "right_hand_found", "face_error", "face_error_p90", "letter_top1", "letter_top3",
+                          "right_hand_found", "face_error", "face_error_p90", "mouth_error", "eyes_error", "letter_top1", "letter_top3",
                           "hand_joint_error_mm", "arm_joint_error_mm")
 # legacy name -> schema 2 name; "psnr" depends on the point (see _legacy)
 LEGACY_NAMES = {"psnr_skin": "skin_psnr", "psnr_object": "object_psnr", "ssim_skin": "skin_ssim",
@@ -106,6 +106,8 @@ class Record:
     right_hand_found: float | None = None
     face_error: float | None = None        # face keypoint error in interocular distances
     face_error_p90: float | None = None
+    mouth_error: float | None = None       # lip points' error after removing the face's offset, interocular distances
+    eyes_error: float | None = None        # eye, brow and iris points' error, likewise
     letter_top1: float | None = None       # % of fingerspelled letters recognised first (fingerspelling only)
     letter_top3: float | None = None       # % among the first three
     hand_joint_error_mm: float | None = None   # parameter points: joint position error of the hands, mm

@@ -15,7 +15,7 @@ records have data for.
 
 What a viewer can read (issue 13) comes first. Points may carry intelligibility fields (comparisons.intelligibility:
 hand_pck_20 and hand_pck_10 in percent, hand_error / hand_error_p90 in hand sizes, left_hand_found /
-right_hand_found in percent of frames, face_error / face_error_p90 in interocular distances, letter_top1 /
+right_hand_found in percent of frames, face_error / face_error_p90 / mouth_error / eyes_error in interocular distances, letter_top1 /
 letter_top3 in percent, hand_joint_error_mm / arm_joint_error_mm in mm) against their `reference` ("source video"
 or "lossless render"). A record with kind == "matched" is one solution's (and codec's) operating point at matched
 intelligibility: solution, codec, reference, kbps (interpolated between the swept Q values q_low and q_high),
@@ -515,13 +515,19 @@ def _criteria(records: list[dict]) -> str:
 
 
 INTELLIGIBILITY_COLUMNS = ["measured against", "hand PCK@0.2 %", "hand error (hand sizes)", "hands found % (L / R)",
-                           "face error (interocular distances)"]
+                           "face error (interocular distances)", "mouth / eyes error (interocular distances)"]
 
 
 def _intelligibility_cells(record: dict) -> list[str]:
     """A point's intelligibility cells, in INTELLIGIBILITY_COLUMNS order."""
     return [_fmt(record.get("reference")), _fmt(record.get("hand_pck_20"), 1), _fmt(record.get("hand_error"), 3),
-            _hands_found(record), _fmt(record.get("face_error"), 3)]
+            _hands_found(record), _fmt(record.get("face_error"), 3), _mouth_eyes(record)]
+
+
+def _mouth_eyes(record: dict) -> str:
+    """The non-manual features' errors, "mouth / eyes", or "–" where neither was measured."""
+    mouth, eyes = record.get("mouth_error"), record.get("eyes_error")
+    return "–" if mouth is None and eyes is None else f"{_fmt(mouth, 3)} / {_fmt(eyes, 3)}"
 
 
 def _every_point(records: list[dict]) -> str:
@@ -767,18 +773,18 @@ def _matched_table(records: list[dict]) -> str:
     for solution in dict.fromkeys([*MATCHED_SOLUTIONS, *(m["solution"] for m in matched)]):
         mine = [m for m in matched if m["solution"] == solution]
         if not mine:
-            rows.append([_fmt(solution), "–", "–", "no matched record", *["–"] * (9 + 2 * joints - bool(shared))])
+            rows.append([_fmt(solution), "–", "–", "no matched record", *["–"] * (10 + 2 * joints - bool(shared))])
             continue
         for m in mine:
             cells = [_fmt(solution), _fmt(m.get("codec")), _fmt(m.get("reference")), _bracket(m),
                      *([_fmt(m.get("threshold"))] if not shared else []), _reached(m), _fmt(m.get("hand_pck_20"), 1), _fmt(m.get("hand_error"), 3), _hands_found(m),
-                     _fmt(m.get("face_error"), 3), _fmt(m.get("letter_top1"), 0)]
+                     _fmt(m.get("face_error"), 3), _mouth_eyes(m), _fmt(m.get("letter_top1"), 0)]
             if joints:
                 cells += [_fmt(m.get("hand_joint_error_mm"), 1), _fmt(m.get("arm_joint_error_mm"), 1)]
             rows.append(cells + [_holds(m), _channel_marks(m.get("kbps"))])
     header = ["solution", "codec", "measured against", "kbps at matched intelligibility (Q bracket)",
               *(["threshold"] if not shared else []), "reached", "hand PCK@0.2 %", "hand error (hand sizes)", "hands found % (left / right)",
-              "face error (interocular distances)", "letter top-1 %",
+              "face error (interocular distances)", "mouth / eyes error (interocular distances)", "letter top-1 %",
               *(["hand joint error mm", "arm joint error mm"] if joints else []), "holds down to",
               "delivery channels it fits"]
     return _table("matched", header, rows)

@@ -85,3 +85,22 @@ def test_frame_counts_must_match(clip):
     shorter.confidence = {name: confidence[:-1] for name, confidence in clip.confidence.items()}
     with pytest.raises(SigncastError, match="frames"):
         measure(clip, shorter)
+
+
+def test_mouth_and_eyes_errors_see_expression_not_displacement(clip):
+    from comparisons.intelligibility import EYES_POINTS, MOUTH_POINTS
+    interocular = interocular_distances(clip.points[FACE], clip.confidence[FACE])
+    shifted = _copy(clip)
+    shifted.points[FACE] = clip.points[FACE] + np.array([5.0, -2.0, 0.0])
+    result = measure(clip, shifted)
+    assert result.face_error > 0.05
+    assert result.mouth_error == pytest.approx(0.0, abs=1e-9) and result.eyes_error == pytest.approx(0.0, abs=1e-9)
+    opened = _copy(clip)
+    lower_lip = [i for i in MOUTH_POINTS if i in (84, 17, 314, 405, 321, 181, 91, 87, 14, 317, 402, 178)]
+    opened.points[FACE][:, lower_lip, 1] += 4.0              # the lower lip 4 px down: a mouth opening
+    result = measure(clip, opened)
+    # the offset removed is the mean over all 468 mesh points, so nearly all of the 4 px stays
+    expected = np.mean(len(lower_lip) * 4.0 / len(MOUTH_POINTS) / interocular)
+    assert result.mouth_error == pytest.approx(expected, rel=0.05)
+    assert result.eyes_error < 0.1 * result.mouth_error
+    assert set(EYES_POINTS).isdisjoint(MOUTH_POINTS)

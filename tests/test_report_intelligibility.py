@@ -77,14 +77,16 @@ def test_the_top_table_gives_every_solutions_kbps_at_matched_intelligibility_wit
     rows = page.tables["matched"]
     assert [row[0] for row in rows] == list(MATCHED_SOLUTIONS) == ["NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "FBA", "BBA"]
     # solution, codec, measured against, kbps (Q bracket), reached, hand PCK@0.2, hand error, hands found,
-    # face error, letter top-1, holds down to, delivery channels; the threshold every row shares is said once above
+    # face error, mouth / eyes error, letter top-1, holds down to, delivery channels; the threshold every row
+    # shares is said once above
     kbps = {row[0]: row[3] for row in rows}
     assert kbps["NSV"] == "180.0 (Q 8–16)" and kbps["SSV"] == "90.0 (Q 4–8)" and kbps["FBA"] == "9.0 (Q 16–31)"
     assert all(row[2] == "source video" for row in rows)
     assert "(every row): hand PCK@0.2 &gt;= 95.0 %" in page.text
     assert [row[4].startswith("✔") for row in rows] == [True, True, True, True, False, True, True]
-    assert rows[0][5] == "95.0" and rows[0][7] == "L 99 / R 98" and rows[0][9] == "–"     # no fingerspelling here
-    assert {row[0]: row[10] for row in rows} == {"NSV": "12 fps", "NSV2O": "15 fps", "NSV3O": "12 fps",
+    assert rows[0][5] == "95.0" and rows[0][7] == "L 99 / R 98" and rows[0][10] == "–"     # no fingerspelling here
+    assert rows[0][9] == "–"        # no mouth or eyes error in these records
+    assert {row[0]: row[11] for row in rows} == {"NSV": "12 fps", "NSV2O": "15 fps", "NSV3O": "12 fps",
                                                  "NSV3O+C": "–", "SSV": "–", "FBA": "10 fps", "BBA": "10 fps"}
     # the top of the page: before the summary at the operating points and every other table
     assert page.text.index('data-table="matched"') < min(page.text.index(f'data-table="{name}"')
@@ -179,8 +181,8 @@ def test_letter_top1_gets_a_panel_and_joint_errors_of_hands_and_arms_stay_apart(
     plt.close("all")
     page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
     fba = next(row for row in page.tables["matched"] if row[0] == "FBA")
-    # ..., face error, letter top-1, hand joint error mm, arm joint error mm, holds down to, channels
-    assert fba[9:13] == ["80", "4.5", "2.0", "10 fps"]
+    # ..., face error, mouth / eyes error, letter top-1, hand joint error mm, arm joint error mm, holds down to, channels
+    assert fba[10:14] == ["80", "4.5", "2.0", "10 fps"]
 
 
 def test_parameter_points_report_hand_and_arm_joint_errors_in_their_own_columns(tmp_path):
