@@ -1,26 +1,42 @@
-"""MPEG-4 FBA body stream (BAPs only): predictive and DCT coders, with their decoders.
+"""MPEG-4 FBA stream of FAPs (face) and BAPs (body): predictive and DCT coders, with their decoders.
 
 Syntax (mpeg4-facts.md §2.1-2.4, after the visage FBA encoder that follows ISO/IEC 14496-2
 Amd.1; seed 000 §2.1; seed 004 "BAP Grouping"):
 
     fba_object_start_code 0x000001BA
     repeat: [fba_object_plane_start_code 0x000001BB before every intra plane]
-        is_intra u1, fba_object_mask u2 (= 2, BAPs)
+        is_intra u1, fba_object_mask u2 (1 FAPs, 2 BAPs, 3 both)
         intra: is_frame_rate u1 (1), frame_rate u8, seconds u4, frequency_offset u1, is_time_code u1 (0)
         skip_frames u1 (0)
-        intra: bap_quant u5 (= Q), per group 1..24: marker u1, bap_mask_type u2 (0 none, 3 all,
-               1 + one bit per BAP in group order), gender u1, coding_type u1 (0 predictive, 1 DCT)
-        predictive intra: is_i_new_max, is_i_new_min, is_p_new_max, is_p_new_min u1 each;
-               range fields (param_coding); then the arithmetic-coded levels of every masked BAP
-        predictive P plane: the arithmetic-coded residual levels
-        DCT plane (a 16-frame segment): is_last u1 [+ frames-1 u4], per masked BAP a DCT block
+        the face block (mask 1 or 3), then the body block (mask 2 or 3); a block is
+          intra: quant u5 (fap_quant / bap_quant), per group (10 FAP / 24 BAP groups): marker u1,
+                 mask_type u2 (0 none, 3 all, 1 + one bit per parameter in group order), gender u1,
+                 coding_type u1 (0 predictive, 1 DCT)
+          predictive intra: is_i_new_max, is_i_new_min, is_p_new_max, is_p_new_min u1 each;
+                 range fields (param_coding); then the arithmetic-coded levels of every masked parameter
+          predictive P plane: the arithmetic-coded residual levels
+          DCT plane (a segment of up to 16 frames): is_short u1 [+ frames-1 u4], per masked parameter a DCT block
     visual_object_sequence_end_code 0x000001B1
     CRC-32 (zlib) of all the bytes before it, 4 bytes (signcast's container check, not in the standard:
     the FBA syntax itself has no check, so bit errors in Huffman-coded DCT data would decode silently)
 
-Masks (which BAPs are sent) are set at each intra plane and hold until the next; BAPs outside
-the mask keep their last value (0 at the start). The encoder masks in exactly the BAPs whose
-quantised value changes during the intra period, so unchanged groups cost 3 bits.
+The face and body blocks are one implementation, parameterised by a ParameterSet (FAPS, BAPS): the
+count, the groups in coding order, the base steps (effective step = base x quant, linear for both:
+mpeg4-facts.md §1.7 for FAPs; signcast's BAPs use the same linear scale) and the mask-type rules.
+FAP group 1 (viseme, expression: high-level FAPs) always has mask type 0: signcast codes only the
+low-level FAPs 3..68; FAP mask type 2 (interpolated FAPs) is refused, as is BAP mask type 2.
+Chosen here (the standard's face block carries gender and coding type; visage reuses them for the
+body): each block carries its own coding_type, as in the standard, and the encoder writes the same
+in both; the decoder refuses a plane whose blocks differ (their planes would span different frames).
+A DCT plane's blocks each carry is_short and must agree. FAP DCT blocks use the VLC tables trained
+on BAPs (comparisons/tables/param_vlc.json: size categories, so any level up to 2^20 has a code).
+
+Masks (which parameters are sent) are set at each intra plane and hold until the next; parameters
+outside the mask keep their last value (0 at the start). The encoder masks in exactly the
+parameters whose quantised value changes during the intra period, so unchanged groups cost 3 bits.
+A change of parameter set (the face appearing or disappearing, `face_frames`) forces an intra plane;
+a plane without the face resets it to neutral (every FAP 0), so frames without the face decode to
+FAPs 0 and the face's next intra plane is coded against 0. The body is in every plane or in none.
 
 Chosen here (no source): intra period 32 frames (predictive) and 4 segments (DCT); the 7-bit
 range fields (param_coding); the encoder sends tight ranges for an intra period unless the default
@@ -32,19 +48,24 @@ a step. No ASL letter crosses +-pi (their streams are byte-identical to before).
 residuals modulo 2 pi would be cheaper only for motion that keeps crossing it (a root twist
 jittering about pi: 2.3x the bytes with intra escapes, ~1.03x with DCT), but 2 pi is not a whole
 number of 1e-5 rad units and a standard decoder does not wrap. A value whose intra level is too
-large (|root translation| > ~15 m) is refused with SigncastError.
+large (|root translation| > ~15 m) is refused with SigncastError; FAP values beyond
+fap_table.limits() are refused before coding (within them every level fits). A DCT segment shorter
+than 16 frames (the stream's last, or one before a parameter-set change) sets is_short; the
+stream's last segment always does.
 
 Streams hold at most MAX_FRAMES frames; the encoder refuses longer input and the decoder stops
-with SigncastError at frame MAX_FRAMES + 1 (a 15.6 kB DCT stream can hold 400,000 still
-frames, 0.95 GB once decoded).
+with SigncastError before storing frame MAX_FRAMES + 1 (a 15.6 kB DCT stream can hold 400,000
+still frames, 0.95 GB once decoded).
 """
 from __future__ import annotations
 
 import zlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from comparisons import bap_table
+from comparisons import bap_table, fap_table
 from comparisons import param_coding as pc
 from comparisons.bitstream import BitReader, BitWriter
 from media.errors import SigncastError
@@ -52,7 +73,7 @@ from media.errors import SigncastError
 OBJECT_START_CODE = 0xBA
 PLANE_START_CODE = 0xBB
 END_CODE = 0xB1
-PARAMSET_BAP = 2
+PARAMSET_FAP, PARAMSET_BAP, PARAMSET_BOTH = 1, 2, 3
 PREDICTIVE, DCT = 0, 1
 DEFAULT_INTRA_PERIOD = 32
 DEFAULT_INTRA_SEGMENTS = 4
@@ -61,14 +82,65 @@ DECODE_BLOCK = 1024         # the decoder stores frames in blocks of this many
 MAX_ABS_VALUE = 2 ** 31 - 1  # input guard, far beyond any BAP's range
 
 
-def coded_order(mask: np.ndarray) -> np.ndarray:
-    """0-based indices of the masked BAPs, in coding order (group by group)."""
-    return np.array([i - 1 for group in bap_table.GROUP_MEMBERS for i in group if mask[i - 1]], dtype=np.int64)
+@dataclass(frozen=True, eq=False)
+class ParameterSet:
+    """What the coder needs to know of one parameter set (FAPs or BAPs).
+
+    name: "FAP" or "BAP" (messages, and `<name>_quant`); paramset_bit: its bit in fba_object_mask;
+    count: parameters (ids 1..count, index = id - 1); group_members: ids of each group in coding
+    order; base_steps: (count,) int64 quantisation step per parameter, its units (the effective step
+    is base x quant); quant_label: how encoder messages name the quant; mask_type_2: why mask type 2
+    is refused (decoder message); empty_groups: 1-based groups whose mask type must be 0;
+    describe: (id, value) -> "BAP 181 (name) value 16000 mm" for messages."""
+    name: str
+    paramset_bit: int
+    count: int
+    group_members: tuple[tuple[int, ...], ...]
+    base_steps: np.ndarray
+    quant_label: str
+    mask_type_2: str
+    empty_groups: tuple[int, ...]
+    describe: Callable[[int, int], str]
+    group_order: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        order = np.array([i - 1 for group in self.group_members for i in group], dtype=np.int64)
+        object.__setattr__(self, "group_order", order)
+
+    def steps(self, quant: int) -> np.ndarray:
+        """(count,) int64 effective quantisation steps at this quant (1..31)."""
+        return self.base_steps * quant
+
+    def coded_order(self, mask: np.ndarray) -> np.ndarray:
+        """0-based indices of the masked parameters, in coding order (group by group)."""
+        return self.group_order[np.asarray(mask, dtype=bool)[self.group_order]]
 
 
-def write_plane_header(writer: BitWriter, intra: bool, fps: float) -> None:
+def _describe_bap(bap_id: int, value: int) -> str:
+    bap = bap_table.bap(bap_id)
+    return f"BAP {bap.id} ({bap.name}) value {value} {'mm' if bap.is_translation else 'x 1e-5 rad'}"
+
+
+def _describe_fap(fap_id: int, value: int) -> str:
+    fap = fap_table.fap(fap_id)
+    return f"FAP {fap.id} ({fap.name}) value {value} {'x 1e-5 rad' if fap.unit == 'AU' else fap.unit + '/1024'}"
+
+
+BAPS = ParameterSet("BAP", PARAMSET_BAP, bap_table.N_BAPS, bap_table.GROUP_MEMBERS, bap_table.steps(), "Q",
+                    "BAP mask type 2 is not defined", (), _describe_bap)
+FAPS = ParameterSet("FAP", PARAMSET_FAP, fap_table.N_FAPS, fap_table.GROUP_MEMBERS, fap_table.steps(), "fap_quant",
+                    "FAP mask type 2 (interpolated FAPs) is not supported", (1,), _describe_fap)
+PARAMETER_SETS = (FAPS, BAPS)          # the order of the blocks in a plane: face, then body
+
+
+def coded_order(mask: np.ndarray, parameter_set: ParameterSet = BAPS) -> np.ndarray:
+    """0-based indices of the masked parameters (default: BAPs), in coding order (group by group)."""
+    return parameter_set.coded_order(mask)
+
+
+def write_plane_header(writer: BitWriter, intra: bool, fps: float, paramset: int = PARAMSET_BAP) -> None:
     writer.write_bit(int(intra))
-    writer.write(PARAMSET_BAP, 2)
+    writer.write(paramset, 2)
     if intra:
         rate, seconds, offset = pc.frame_rate_fields(fps)
         writer.write_bit(1)
@@ -79,10 +151,12 @@ def write_plane_header(writer: BitWriter, intra: bool, fps: float) -> None:
     writer.write_bit(0)                      # skip_frames
 
 
-def read_plane_header(reader: BitReader) -> tuple[bool, float | None]:
+def read_plane_header(reader: BitReader) -> tuple[bool, int, float | None]:
+    """(is_intra, fba_object_mask 1..3, frame rate or None)."""
     intra = bool(reader.read_bit())
-    if reader.read(2) != PARAMSET_BAP:
-        raise SigncastError("corrupt FBA stream: object plane carries no BAPs (only BAP streams are supported)")
+    paramset = reader.read(2)
+    if paramset == 0:
+        raise SigncastError("corrupt FBA stream: object plane carries neither FAPs nor BAPs")
     fps = None
     if intra:
         if reader.read_bit():
@@ -92,11 +166,11 @@ def read_plane_header(reader: BitReader) -> tuple[bool, float | None]:
             raise SigncastError("corrupt FBA stream: time codes are not supported")
     if reader.read_bit():
         raise SigncastError("corrupt FBA stream: frame skipping is not supported")
-    return intra, fps
+    return intra, paramset, fps
 
 
-def write_group_masks(writer: BitWriter, mask: np.ndarray) -> None:
-    for group in bap_table.GROUP_MEMBERS:
+def write_group_masks(writer: BitWriter, mask: np.ndarray, parameter_set: ParameterSet = BAPS) -> None:
+    for group in parameter_set.group_members:
         writer.write_bit(1)
         flags = [bool(mask[i - 1]) for i in group]
         if not any(flags):
@@ -109,124 +183,90 @@ def write_group_masks(writer: BitWriter, mask: np.ndarray) -> None:
                 writer.write_bit(int(flag))
 
 
-def read_group_masks(reader: BitReader) -> np.ndarray:
-    mask = np.zeros(bap_table.N_BAPS, dtype=bool)
-    for group in bap_table.GROUP_MEMBERS:
+def read_group_masks(reader: BitReader, parameter_set: ParameterSet = BAPS) -> np.ndarray:
+    """(count,) bool mask of the parameters an intra plane sends."""
+    mask = np.zeros(parameter_set.count, dtype=bool)
+    for number, group in enumerate(parameter_set.group_members, start=1):
         if reader.read_bit() != 1:
             raise SigncastError("corrupt FBA stream: missing marker bit in the group masks")
         kind = reader.read(2)
+        if kind == 2:
+            raise SigncastError(f"corrupt FBA stream: {parameter_set.mask_type_2}")
+        if kind and number in parameter_set.empty_groups:
+            raise SigncastError(f"corrupt FBA stream: {parameter_set.name} group {number} is never sent "
+                                "(high-level FAPs, viseme and expression, are not supported)")
         if kind == 3:
             mask[np.array(group) - 1] = True
         elif kind == 1:
             for i in group:
                 mask[i - 1] = bool(reader.read_bit())
-        elif kind == 2:
-            raise SigncastError("corrupt FBA stream: BAP mask type 2 is not defined")
     return mask
 
 
-SETTLING_BAPS = 8          # BAPs that jump once and hold before a one-frame intra plane pays for itself
+SETTLING_PARAMETERS = 8    # parameters that jump once and hold before a one-frame intra plane pays for itself
 SETTLING_MIN_FRAMES = 8
+
+
+@dataclass
+class _Track:
+    """One parameter set being coded: its values (T, count) int64, quant, and the decoder's values (count,)."""
+    parameter_set: ParameterSet
+    values: np.ndarray
+    quant: int
+    held: np.ndarray
 
 
 def _changed_mask(block: np.ndarray, held: np.ndarray, steps: np.ndarray) -> np.ndarray:
     return np.any(pc.quantize(block - held, steps) != 0, axis=0)
 
 
-def _predictive_period(block: np.ndarray, held: np.ndarray, q: int):
-    """The predictive coder's decisions for the longest prefix of `block` (T, 296) that one intra
-    period can carry: (frames, mask (296,) bool, coded order, intra levels (P,), P levels
-    (frames - 1, P), decoder values (frames, P)). SigncastError if an intra value cannot be sent."""
-    steps_all = bap_table.steps() * q
-    mask = _changed_mask(block, held, steps_all)
-    order = coded_order(mask)
-    intra, p_levels, recon = pc.predictive_levels(block[:, order], held[order], steps_all[order], q)
+def _predictive_decisions(track: _Track, block: np.ndarray):
+    """The predictive coder's decisions for `block` (T, count) of one track: (frames it can carry,
+    mask (count,) bool, coded order, intra levels (P,), P levels (T - 1, P), decoder values (T, P)).
+    SigncastError if an intra value cannot be sent."""
+    pset, q = track.parameter_set, track.quant
+    steps_all = pset.steps(q)
+    mask = _changed_mask(block, track.held, steps_all)
+    order = pset.coded_order(mask)
+    intra, p_levels, recon = pc.predictive_levels(block[:, order], track.held[order], steps_all[order], q)
     too_large = np.flatnonzero(np.abs(intra) > pc.level_limit(q))
     if len(too_large):
-        bap = bap_table.bap(int(order[too_large[0]]) + 1)
-        unit = "mm" if bap.is_translation else "x 1e-5 rad"
-        raise SigncastError(f"BAP {bap.id} ({bap.name}) value {int(block[0, bap.id - 1])} {unit} cannot be sent at "
-                            f"Q={q}: an FBA intra plane carries at most +-{pc.level_limit(q) * bap.step * q}")
-    frames = pc.fitting_frames(p_levels, q)
-    if frames < len(block):              # a residual too large for the range fields: new intra plane there
-        return _predictive_period(block[:frames], held, q)
-    return frames, mask, order, intra, p_levels, recon
+        index = int(order[too_large[0]])
+        raise SigncastError(f"{pset.describe(index + 1, int(block[0, index]))} cannot be sent at "
+                            f"{pset.quant_label}={q}: an FBA intra plane carries at most "
+                            f"+-{pc.level_limit(q) * int(pset.base_steps[index]) * q}")
+    return pc.fitting_frames(p_levels, q), mask, order, intra, p_levels, recon
 
 
-def _settles_at_once(block: np.ndarray, held: np.ndarray, q: int) -> bool:
-    """Whether SETTLING_BAPS or more BAPs of block (T, 296) change from the held values (296,) at its first frame
-    and then hold (a rest pose set at the start of a stream): in one intra period they would be masked in and
-    cost a zero residual in every P frame, so a one-frame intra plane that sets them is cheaper."""
-    if len(block) < SETTLING_MIN_FRAMES:
+def _predictive_period(tracks: list[_Track], start: int, stop: int) -> list[tuple]:
+    """Each track's decisions for the longest prefix of frames start..stop that one intra period can
+    carry for all of them (a residual too large for the range fields ends it early)."""
+    while True:
+        decisions = [_predictive_decisions(track, track.values[start:stop]) for track in tracks]
+        frames = min(d[0] for d in decisions)
+        if start + frames == stop:
+            return decisions
+        stop = start + frames
+
+
+def _settles_at_once(tracks: list[_Track], start: int, stop: int) -> bool:
+    """Whether SETTLING_PARAMETERS or more parameters of the plane (all its tracks) change from the
+    held values at frame `start` and then hold until `stop` (a rest pose set at the start of a
+    stream): in one intra period they would be masked in and cost a zero residual in every P frame,
+    so a one-frame intra plane that sets them is cheaper."""
+    if stop - start < SETTLING_MIN_FRAMES:
         return False
-    steps = bap_table.steps() * q
-    levels = pc.quantize(block - held, steps)
-    settled = (levels[0] != 0) & np.all(levels == levels[0], axis=0)
-    return int(settled.sum()) >= SETTLING_BAPS
-
-
-def _write_predictive_period(writer: BitWriter, period: tuple, held: np.ndarray, q: int, fps: float) -> np.ndarray:
-    """Codes one intra period (from _predictive_period); returns the decoder's values after it."""
-    _, mask, order, intra, p_levels, recon = period
-    fields = np.stack([*pc.range_fields(intra[None], q), *pc.range_fields(p_levels, q)])
-    tight = _prefer_tight_ranges(fields, len(p_levels), q)
-    if not tight:
-        fields = np.full((4, len(order)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64)
-    i_low, i_high = pc.alphabet(fields[0], fields[1], q)
-    p_low, p_high = pc.alphabet(fields[2], fields[3], q)
-    writer.start_code(PLANE_START_CODE)
-    write_plane_header(writer, True, fps)
-    writer.write(q, 5)
-    write_group_masks(writer, mask)
-    writer.write_bit(0)                      # gender
-    writer.write_bit(PREDICTIVE)
-    for _ in range(4):
-        writer.write_bit(int(tight))
-    if tight:
-        pc.write_range_fields(writer, fields)
-    pc.write_levels(writer, intra, pc.make_models(i_low, i_high), i_low)
-    p_models = pc.make_models(p_low, p_high)
-    for levels in p_levels:
-        write_plane_header(writer, False, fps)
-        pc.write_levels(writer, levels, p_models, p_low)
-    after = held.copy()
-    after[order] = recon[-1]
-    return after
-
-
-def dct_period(block: np.ndarray, held: np.ndarray, q: int):
-    """The DCT coder's decisions for one intra period: (mask (296,) bool, coded order, DC step,
-    AC step, segments [(n_frames, DC levels (P,), AC levels (15, P))])."""
-    steps_all = bap_table.steps()
-    mask = _changed_mask(block, held, steps_all * q)
-    order = coded_order(mask)
-    dc_step, ac_step = pc.dct_steps(steps_all[order], q)
-    segments = []
-    for start in range(0, len(block), pc.SEGMENT):
-        segment = block[start:start + pc.SEGMENT, order]
-        segments.append((len(segment), *pc.dct_levels(segment, dc_step, ac_step)))
-    return mask, order, dc_step, ac_step, segments
-
-
-def dct_training_symbols(values: np.ndarray, q: int, intra_segments: int = DEFAULT_INTRA_SEGMENTS) -> list:
-    """(DC values as coded, AC levels, intra) of every segment the DCT coder would code (VLC design)."""
-    held = np.zeros(bap_table.N_BAPS, dtype=np.int64)
-    out = []
-    period = intra_segments * pc.SEGMENT
-    for start in range(0, len(values), period):
-        mask, order, dc_step, ac_step, segments = dct_period(values[start:start + period], held, q)
-        previous = None
-        for k, (n, dc, ac) in enumerate(segments):
-            out.append((dc if k == 0 else dc - previous, ac, k == 0))
-            previous = dc
-            held[order] = pc.dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
-    return out
+    settled = 0
+    for track in tracks:
+        levels = pc.quantize(track.values[start:stop] - track.held, track.parameter_set.steps(track.quant))
+        settled += int(((levels[0] != 0) & np.all(levels == levels[0], axis=0)).sum())
+    return settled >= SETTLING_PARAMETERS
 
 
 def _prefer_tight_ranges(fields: np.ndarray, n_p_frames: int, q: int) -> bool:
-    """Send the per-BAP ranges `fields` (4, P) when their 28 bits per masked BAP cost less than
-    coding every level in the default alphabets (estimated as log2 of the alphabet sizes), or when
-    the defaults are too small."""
+    """Send the per-parameter ranges `fields` (4, P) when their 28 bits per masked parameter cost
+    less than coding every level in the default alphabets (estimated as log2 of the alphabet
+    sizes), or when the defaults are too small."""
     if np.any(fields > pc.DEFAULT_RANGE_FIELD):
         return True
     def bits(f: np.ndarray) -> float:
@@ -237,95 +277,257 @@ def _prefer_tight_ranges(fields: np.ndarray, n_p_frames: int, q: int) -> bool:
     return bits(fields) + 4 * pc.RANGE_BITS * fields.shape[1] < bits(default)
 
 
-def _write_dct_period(writer: BitWriter, block: np.ndarray, held: np.ndarray, q: int, fps: float,
-                      is_last_period: bool) -> np.ndarray:
+def _write_block_intra_header(writer: BitWriter, track: _Track, mask: np.ndarray, coding: int) -> None:
+    writer.write(track.quant, 5)
+    write_group_masks(writer, mask, track.parameter_set)
+    writer.write_bit(0)                      # gender
+    writer.write_bit(coding)
+
+
+def _write_predictive_intra_block(writer: BitWriter, track: _Track, decisions: tuple) -> tuple[list, np.ndarray]:
+    """One track's block of an intra plane; returns its P models and P alphabet bottoms."""
+    _, mask, order, intra, p_levels, _ = decisions
+    q = track.quant
+    fields = np.stack([*pc.range_fields(intra[None], q), *pc.range_fields(p_levels, q)])
+    tight = _prefer_tight_ranges(fields, len(p_levels), q)
+    if not tight:
+        fields = np.full((4, len(order)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64)
+    i_low, i_high = pc.alphabet(fields[0], fields[1], q)
+    p_low, p_high = pc.alphabet(fields[2], fields[3], q)
+    _write_block_intra_header(writer, track, mask, PREDICTIVE)
+    for _ in range(4):
+        writer.write_bit(int(tight))
+    if tight:
+        pc.write_range_fields(writer, fields)
+    pc.write_levels(writer, intra, pc.make_models(i_low, i_high), i_low)
+    return pc.make_models(p_low, p_high), p_low
+
+
+def _paramset(tracks: list[_Track]) -> int:
+    return sum(track.parameter_set.paramset_bit for track in tracks)
+
+
+def _write_predictive_period(writer: BitWriter, tracks: list[_Track], start: int, stop: int, fps: float) -> int:
+    """Codes one intra period of frames start..(at most) stop; returns the frames it holds."""
+    if _settles_at_once(tracks, start, stop):      # values that jump once and hold: an intra plane of one frame
+        stop = start + 1
+    decisions = _predictive_period(tracks, start, stop)
+    paramset = _paramset(tracks)
+    writer.start_code(PLANE_START_CODE)
+    write_plane_header(writer, True, fps, paramset)
+    p_coding = [_write_predictive_intra_block(writer, track, d) for track, d in zip(tracks, decisions)]
+    n_frames = len(decisions[0][5])
+    for t in range(n_frames - 1):
+        write_plane_header(writer, False, fps, paramset)
+        for d, (p_models, p_low) in zip(decisions, p_coding):
+            pc.write_levels(writer, d[4][t], p_models, p_low)
+    for track, d in zip(tracks, decisions):
+        track.held[d[2]] = d[5][-1]
+    return n_frames
+
+
+def dct_period(block: np.ndarray, held: np.ndarray, q: int, parameter_set: ParameterSet = BAPS):
+    """The DCT coder's decisions for one intra period of `block` (T, count): (mask (count,) bool,
+    coded order, DC step, AC step, segments [(n_frames, DC levels (P,), AC levels (n_frames - 1, P))])."""
+    steps_all = parameter_set.base_steps
+    mask = _changed_mask(block, held, steps_all * q)
+    order = parameter_set.coded_order(mask)
+    dc_step, ac_step = pc.dct_steps(steps_all[order], q)
+    segments = []
+    for start in range(0, len(block), pc.SEGMENT):
+        segment = block[start:start + pc.SEGMENT, order]
+        segments.append((len(segment), *pc.dct_levels(segment, dc_step, ac_step)))
+    return mask, order, dc_step, ac_step, segments
+
+
+def dct_training_symbols(values: np.ndarray, q: int, intra_segments: int = DEFAULT_INTRA_SEGMENTS) -> list:
+    """(DC values as coded, AC levels, intra) of every segment the DCT coder would code of BAP
+    values (T, 296) (VLC design)."""
+    held = np.zeros(bap_table.N_BAPS, dtype=np.int64)
+    out = []
+    period = intra_segments * pc.SEGMENT
+    for start in range(0, len(values), period):
+        _, order, dc_step, ac_step, segments = dct_period(values[start:start + period], held, q)
+        previous = None
+        for k, (n, dc, ac) in enumerate(segments):
+            out.append((dc if k == 0 else dc - previous, ac, k == 0))
+            previous = dc
+            held[order] = pc.dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
+    return out
+
+
+def _write_dct_period(writer: BitWriter, tracks: list[_Track], start: int, stop: int, fps: float,
+                      is_last_period: bool) -> int:
+    """Codes frames start..stop as one intra period of DCT segments; returns the frames it holds."""
     tables = pc.vlc_tables()
-    mask, order, dc_step, ac_step, segments = dct_period(block, held, q)
-    previous_dc = None
-    after = held.copy()
-    for k, (n, dc, ac) in enumerate(segments):
+    periods = [dct_period(track.values[start:stop], track.held, track.quant, track.parameter_set)
+               for track in tracks]
+    paramset = _paramset(tracks)
+    n_segments = len(periods[0][4])
+    previous_dc = [None] * len(tracks)
+    for k in range(n_segments):
         intra = k == 0
         if intra:
             writer.start_code(PLANE_START_CODE)
-        write_plane_header(writer, intra, fps)
-        if intra:
-            writer.write(q, 5)
-            write_group_masks(writer, mask)
-            writer.write_bit(0)
-            writer.write_bit(DCT)
-        last = is_last_period and k == len(segments) - 1
-        writer.write_bit(int(last))
-        if last:
-            writer.write(n - 1, 4)
-        dc_values = dc if intra else dc - previous_dc
-        for p in range(len(order)):
-            pc.write_dct_block(writer, tables, int(dc_values[p]), intra, ac[:, p])
-        previous_dc = dc
-        after[order] = pc.dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
-    return after
+        write_plane_header(writer, intra, fps, paramset)
+        n = periods[0][4][k][0]
+        short = is_last_period and k == n_segments - 1 or n < pc.SEGMENT
+        for j, (track, (mask, order, dc_step, ac_step, segments)) in enumerate(zip(tracks, periods)):
+            _, dc, ac = segments[k]
+            if intra:
+                _write_block_intra_header(writer, track, mask, DCT)
+            writer.write_bit(int(short))
+            if short:
+                writer.write(n - 1, 4)
+            dc_values = dc if intra else dc - previous_dc[j]
+            for p in range(len(order)):
+                pc.write_dct_block(writer, tables, int(dc_values[p]), intra, ac[:, p])
+            previous_dc[j] = dc
+            track.held[order] = pc.dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
+    return stop - start
 
 
-def encode_fba(values: np.ndarray, fps: float, q: int, coding: str = "pred", *,
+def _checked_tracks(values, faps, face_frames, q: int,
+                    fap_quant: int) -> tuple[_Track | None, _Track | None, np.ndarray]:
+    """(face track or None, body track or None, face_frames (T,) bool) of encode_fba's input."""
+    if values is None and faps is None:
+        raise SigncastError("an FBA stream needs BAP values, FAP values or both")
+    body = face = None
+    n_frames = None
+    if values is not None:
+        values = np.asarray(values, dtype=np.int64)
+        if values.ndim != 2 or values.shape[1] != bap_table.N_BAPS or len(values) == 0:
+            raise SigncastError(f"BAP values must be (T >= 1, {bap_table.N_BAPS}), got {values.shape}")
+        n_frames = len(values)
+        if n_frames > MAX_FRAMES:
+            raise SigncastError(f"an FBA stream holds at most {MAX_FRAMES} frames, got {n_frames}: split the motion")
+        if values.min() < -MAX_ABS_VALUE or values.max() > MAX_ABS_VALUE:    # keeps the int64 level arithmetic exact
+            raise SigncastError(f"BAP values beyond +-{MAX_ABS_VALUE} cannot be coded (rotations are within +-314159)")
+        body = _Track(BAPS, values, q, np.zeros(BAPS.count, dtype=np.int64))
+    if faps is not None:
+        faps = np.asarray(faps)
+        if faps.ndim != 2 or faps.shape[1] != fap_table.N_FAPS or len(faps) == 0 or (
+                n_frames is not None and len(faps) != n_frames):
+            expected = "T >= 1" if n_frames is None else f"T = {n_frames}, as the BAPs"
+            raise SigncastError(f"FAP values must be ({expected}, {fap_table.N_FAPS}), got {faps.shape}")
+        if not np.issubdtype(faps.dtype, np.integer):
+            raise SigncastError(f"FAP values must be integers (FAP units), got {faps.dtype}")
+        n_frames = len(faps)
+        if n_frames > MAX_FRAMES:
+            raise SigncastError(f"an FBA stream holds at most {MAX_FRAMES} frames, got {n_frames}: split the motion")
+        faps = faps.astype(np.int64)
+        if np.any(faps[:, :2]):
+            raise SigncastError("FAPs 1 (viseme) and 2 (expression) are not sent: they must be 0")
+        outside = np.abs(faps) > fap_table.limits()
+        if outside.any():
+            t, index = np.argwhere(outside)[0]
+            raise SigncastError(f"{_describe_fap(int(index) + 1, int(faps[t, index]))} at frame {t} is outside "
+                                f"its range +-{int(fap_table.limits()[index])}")
+        face = _Track(FAPS, faps, fap_quant, np.zeros(FAPS.count, dtype=np.int64))
+    if face_frames is None:
+        face_frames = np.full(n_frames, face is not None)
+    else:
+        face_frames = np.asarray(face_frames)
+        if face is None:
+            raise SigncastError("face_frames needs FAP values")
+        if face_frames.shape != (n_frames,) or face_frames.dtype != bool:
+            raise SigncastError(f"face_frames must be ({n_frames},) bool, got {face_frames.shape} {face_frames.dtype}")
+        if body is None and not face_frames.all():
+            raise SigncastError("a face-only FBA stream must carry the face in every frame")
+    return face, body, face_frames
+
+
+def encode_fba(values: np.ndarray | None, fps: float, q: int, coding: str = "pred", *,
+               faps: np.ndarray | None = None, fap_quant: int | None = None, face_frames: np.ndarray | None = None,
                intra_period: int = DEFAULT_INTRA_PERIOD, intra_segments: int = DEFAULT_INTRA_SEGMENTS) -> bytes:
-    """FBA stream of BAP values (T, 296) int64 at `fps`, global quantisation Q in 1..31.
+    """FBA stream of BAP values (T, 296) int64 and/or FAP values (T, 68) int64 at `fps`.
 
+    q: global quantisation Q (bap_quant) in 1..31; fap_quant: the FAPs' (1..31, default q).
+    values None: a face-only stream (fba_object_mask 1); faps None: body only (2); both: 3.
+    face_frames: (T,) bool, the frames whose planes carry the face (default all); the face appears
+    and disappears through intra planes, and frames without it decode to FAPs 0.
     coding: "pred" (frame-predictive + arithmetic coding) or "dct" (16-frame DCT + VLC).
-    SigncastError for more than MAX_FRAMES frames, or a value the stream cannot carry."""
+    SigncastError for more than MAX_FRAMES frames, FAPs 1-2 not 0 or FAPs outside fap_table.limits(),
+    or a value the stream cannot carry."""
     q = pc.check_q(q)
-    values = np.asarray(values, dtype=np.int64)
-    if values.ndim != 2 or values.shape[1] != bap_table.N_BAPS or len(values) == 0:
-        raise SigncastError(f"BAP values must be (T >= 1, {bap_table.N_BAPS}), got {values.shape}")
-    if len(values) > MAX_FRAMES:
-        raise SigncastError(f"an FBA stream holds at most {MAX_FRAMES} frames, got {len(values)}: split the motion")
-    if values.min() < -MAX_ABS_VALUE or values.max() > MAX_ABS_VALUE:    # keeps the int64 level arithmetic exact
-        raise SigncastError(f"BAP values beyond +-{MAX_ABS_VALUE} cannot be coded (rotations are within +-314159)")
+    fap_quant = q if fap_quant is None else pc.check_q(fap_quant, "fap_quant")
+    face, body, face_frames = _checked_tracks(values, faps, face_frames, q, fap_quant)
     if coding not in ("pred", "dct"):
         raise SigncastError(f"unknown FBA coding {coding!r}: choose 'pred' or 'dct'")
     period = intra_period if coding == "pred" else intra_segments * pc.SEGMENT
     if period < 1:
         raise SigncastError("the intra period must be at least one frame (segment)")
+    n_frames = len(face_frames)
+    switches = np.append(np.flatnonzero(np.diff(face_frames.astype(np.int8))) + 1, n_frames)
     writer = BitWriter()
     writer.start_code(OBJECT_START_CODE)
-    held = np.zeros(bap_table.N_BAPS, dtype=np.int64)
     start = 0
-    while start < len(values):
-        block = values[start:start + period]
+    while start < n_frames:
+        face_on = bool(face_frames[start])
+        if face is not None and not face_on:
+            face.held[:] = 0                          # a plane without the face leaves it neutral
+        tracks = [track for track in (face if face_on else None, body) if track is not None]
+        stop = min(start + period, int(switches[np.searchsorted(switches, start, side="right")]))
         if coding == "dct":
-            held = _write_dct_period(writer, block, held, q, fps, start + period >= len(values))
+            start += _write_dct_period(writer, tracks, start, stop, fps, stop >= n_frames)
         else:
-            if _settles_at_once(block, held, q):      # values that jump once and hold: an intra plane of one frame
-                block = block[:1]
-            decisions = _predictive_period(block, held, q)
-            block = block[:decisions[0]]
-            held = _write_predictive_period(writer, decisions, held, q, fps)
-        start += len(block)
+            start += _write_predictive_period(writer, tracks, start, stop, fps)
     writer.start_code(END_CODE)
     data = writer.getvalue()
     return data + zlib.crc32(data).to_bytes(4, "big")
 
 
-class _DecodedFrames:
-    """Decoded BAP frames, stored in blocks of DECODE_BLOCK frames so that memory grows with the
-    frames decoded; refuses frame max_frames + 1 before storing it."""
+@dataclass(frozen=True, eq=False)
+class DecodedFba:
+    """A decoded FBA stream. baps: (T, 296) int64 BAP units, None for a face-only stream;
+    faps: (T, 68) int64 FAP units, None when no plane carries the face; fps: frames per second;
+    face_frames: (T,) bool, the frames whose planes carry the face (the others hold FAPs 0), None
+    when faps is None."""
+    baps: np.ndarray | None
+    faps: np.ndarray | None
+    fps: float
+    face_frames: np.ndarray | None = None
 
-    def __init__(self, max_frames: int) -> None:
-        self.max_frames = max_frames
+    @property
+    def n_frames(self) -> int:
+        return len(self.baps if self.baps is not None else self.faps)
+
+    def baps_or_rest(self) -> np.ndarray:
+        """(T, 296) int64: the BAPs, or the body at rest (all 0) for a face-only stream."""
+        return self.baps if self.baps is not None else np.zeros((self.n_frames, BAPS.count), dtype=np.int64)
+
+
+class _DecodedFrames:
+    """Decoded frames of `width` values, stored in blocks of DECODE_BLOCK frames so that memory grows
+    with the frames decoded (the decoder checks the frame limit before extending)."""
+
+    def __init__(self, width: int) -> None:
+        self.width = width
         self.blocks: list[np.ndarray | None] = []
         self.count = 0
 
-    def append(self, values: np.ndarray) -> None:
-        """values: (296,) int64, one frame."""
-        if self.count >= self.max_frames:
-            raise SigncastError(f"FBA stream holds more than {self.max_frames} frames, the decoder's limit")
-        row = self.count % DECODE_BLOCK
-        if row == 0:
-            self.blocks.append(np.empty((DECODE_BLOCK, bap_table.N_BAPS), dtype=np.int64))
-        self.blocks[-1][row] = values
-        self.count += 1
+    def extend(self, rows: np.ndarray) -> None:
+        """rows: (n, width) int64 frames, or a (width,) frame."""
+        for row_values in np.atleast_2d(rows):
+            row = self.count % DECODE_BLOCK
+            if row == 0:
+                self.blocks.append(np.zeros((DECODE_BLOCK, self.width), dtype=np.int64))
+            self.blocks[-1][row] = row_values
+            self.count += 1
+
+    def skip(self, n: int) -> None:
+        """n frames of zeros (the blocks are allocated zeroed)."""
+        while n > 0:
+            row = self.count % DECODE_BLOCK
+            if row == 0:
+                self.blocks.append(np.zeros((DECODE_BLOCK, self.width), dtype=np.int64))
+            taken = min(n, DECODE_BLOCK - row)
+            self.count += taken
+            n -= taken
 
     def array(self) -> np.ndarray:
-        """(count, 296) int64; releases each block once copied, so the peak is the output plus one block."""
-        out = np.empty((self.count, bap_table.N_BAPS), dtype=np.int64)
+        """(count, width) int64; releases each block once copied, so the peak is the output plus one block."""
+        out = np.empty((self.count, self.width), dtype=np.int64)
         for k in range(len(self.blocks)):
             rows = out[k * DECODE_BLOCK:(k + 1) * DECODE_BLOCK]
             rows[:] = self.blocks[k][:len(rows)]
@@ -333,9 +535,76 @@ class _DecodedFrames:
         return out
 
 
-def decode_fba(data: bytes, *, max_frames: int = MAX_FRAMES) -> tuple[np.ndarray, float]:
-    """(values (T, 296) int64, fps) of an FBA stream; SigncastError if it is corrupt or truncated,
-    or holds more than `max_frames` frames (checked while decoding: memory stays within the limit)."""
+class _BlockDecoder:
+    """Decodes one parameter set's blocks; `held` (count,) int64 is the decoder's current values."""
+
+    def __init__(self, parameter_set: ParameterSet) -> None:
+        self.parameter_set = parameter_set
+        self.held = np.zeros(parameter_set.count, dtype=np.int64)
+        self.coding: int | None = None
+
+    def read_plane(self, reader: BitReader, intra: bool) -> np.ndarray:
+        """This block of one plane: the frames it holds, (n, count) int64."""
+        if intra:
+            self._read_intra_header(reader)
+        if self.coding == DCT:
+            return self._read_dct_segment(reader, intra)
+        if intra:
+            levels = pc.read_levels(reader, self.i_models, self.i_low)
+            self.held[self.order] = levels * self.steps
+        else:
+            self.held[self.order] += pc.read_levels(reader, self.p_models, self.p_low) * self.steps
+        return self.held[None].copy()
+
+    def _read_intra_header(self, reader: BitReader) -> None:
+        pset = self.parameter_set
+        q = reader.read(5)
+        if q == 0:
+            raise SigncastError(f"corrupt FBA stream: {pset.name.lower()}_quant 0")
+        mask = read_group_masks(reader, pset)
+        reader.read_bit()                    # gender
+        self.coding = reader.read_bit()
+        self.order = pset.coded_order(mask)
+        if self.coding == PREDICTIVE:
+            flags = [reader.read_bit() for _ in range(4)]
+            if len(set(flags)) != 1:
+                raise SigncastError("corrupt FBA stream: mixed range flags are not supported")
+            fields = (pc.read_range_fields(reader, len(self.order)) if flags[0]
+                      else np.full((4, len(self.order)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64))
+            i_low, i_high = pc.alphabet(fields[0], fields[1], q)
+            p_low, p_high = pc.alphabet(fields[2], fields[3], q)
+            if np.any(i_high - i_low >= 32768) or np.any(p_high - p_low >= 32768):
+                raise SigncastError("corrupt FBA stream: impossible value ranges")
+            self.steps = pset.steps(q)[self.order]
+            self.i_models, self.i_low = pc.make_models(i_low, i_high), i_low
+            self.p_models, self.p_low = pc.make_models(p_low, p_high), p_low
+        else:
+            self.dc_step, self.ac_step = pc.dct_steps(pset.base_steps[self.order], q)
+            self.previous_dc = None
+
+    def _read_dct_segment(self, reader: BitReader, intra: bool) -> np.ndarray:
+        tables = pc.vlc_tables()
+        n = pc.SEGMENT
+        if reader.read_bit():
+            n = reader.read(4) + 1
+        dc = np.zeros(len(self.order), dtype=np.int64)
+        ac = np.zeros((n - 1, len(self.order)), dtype=np.int64)
+        for p in range(len(self.order)):
+            dc[p], ac[:, p] = pc.read_dct_block(reader, tables, intra, n)
+        if not intra:
+            dc += self.previous_dc
+        self.previous_dc = dc
+        segment = pc.dct_reconstruct(dc, ac, self.dc_step, self.ac_step)
+        rows = np.repeat(self.held[None], n, axis=0)
+        rows[:, self.order] = segment
+        self.held = rows[-1].copy()
+        return rows
+
+
+def decode_fba(data: bytes, *, max_frames: int = MAX_FRAMES) -> DecodedFba:
+    """The FAPs and/or BAPs of an FBA stream (DecodedFba); SigncastError if it is corrupt or
+    truncated, or holds more than `max_frames` frames (checked while decoding: memory stays within
+    the limit)."""
     data = bytes(data)
     if len(data) < 12 or zlib.crc32(data[:-4]).to_bytes(4, "big") != data[-4:]:
         raise SigncastError("corrupt or truncated FBA stream: checksum mismatch")
@@ -343,10 +612,13 @@ def decode_fba(data: bytes, *, max_frames: int = MAX_FRAMES) -> tuple[np.ndarray
     reader = BitReader(data)
     if reader.read_start_code() != OBJECT_START_CODE:
         raise SigncastError("not an FBA stream: it does not start with fba_object_start_code")
-    held = np.zeros(bap_table.N_BAPS, dtype=np.int64)
-    frames = _DecodedFrames(max_frames)
+    face, body = _BlockDecoder(FAPS), _BlockDecoder(BAPS)
+    body_frames = _DecodedFrames(BAPS.count)
+    face_frames: _DecodedFrames | None = None         # created at the first plane with the face
+    face_flags = bytearray()
+    n_frames = 0
     fps = None
-    state = None
+    paramset = has_body = None
     while True:
         if reader.at_start_code():
             code = reader.read_start_code()
@@ -354,65 +626,44 @@ def decode_fba(data: bytes, *, max_frames: int = MAX_FRAMES) -> tuple[np.ndarray
                 break
             if code != PLANE_START_CODE:
                 raise SigncastError(f"corrupt FBA stream: unexpected start code 0x{code:02X}")
-        intra, plane_fps = read_plane_header(reader)
+        intra, plane_paramset, plane_fps = read_plane_header(reader)
         if intra:
             fps = plane_fps or fps
-            q = reader.read(5)
-            if q == 0:
-                raise SigncastError("corrupt FBA stream: bap_quant 0")
-            mask = read_group_masks(reader)
-            reader.read_bit()                # gender
-            coding = reader.read_bit()
-            order = coded_order(mask)
-            if coding == PREDICTIVE:
-                flags = [reader.read_bit() for _ in range(4)]
-                if len(set(flags)) != 1:
-                    raise SigncastError("corrupt FBA stream: mixed range flags are not supported")
-                fields = (pc.read_range_fields(reader, len(order)) if flags[0]
-                          else np.full((4, len(order)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64))
-                i_low, i_high = pc.alphabet(fields[0], fields[1], q)
-                p_low, p_high = pc.alphabet(fields[2], fields[3], q)
-                if np.any(i_high - i_low >= 32768) or np.any(p_high - p_low >= 32768):
-                    raise SigncastError("corrupt FBA stream: impossible value ranges")
-                steps = bap_table.steps()[order] * q
-                levels = pc.read_levels(reader, pc.make_models(i_low, i_high), i_low)
-                held[order] = levels * steps
-                state = ("pred", order, steps, pc.make_models(p_low, p_high), p_low)
-                frames.append(held)
-            else:
-                dc_step, ac_step = pc.dct_steps(bap_table.steps()[order], q)
-                state = ["dct", order, dc_step, ac_step, None]
-                _read_dct_segment(reader, state, True, held, frames)
-        else:
-            if state is None:
-                raise SigncastError("corrupt FBA stream: a predicted plane comes before any intra plane")
-            if state[0] == "pred":
-                _, order, steps, p_models, p_low = state
-                held[order] += pc.read_levels(reader, p_models, p_low) * steps
-                frames.append(held)
-            else:
-                _read_dct_segment(reader, state, False, held, frames)
+            if has_body is None:
+                has_body = bool(plane_paramset & PARAMSET_BAP)
+            elif has_body != bool(plane_paramset & PARAMSET_BAP):
+                raise SigncastError("corrupt FBA stream: the body (BAPs) must be in every plane or in none")
+            paramset = plane_paramset
+            if not paramset & PARAMSET_FAP:
+                face.held[:] = 0
+        elif paramset is None:
+            raise SigncastError("corrupt FBA stream: a predicted plane comes before any intra plane")
+        elif plane_paramset != paramset:
+            raise SigncastError("corrupt FBA stream: the parameter set changes in a predicted plane")
+        blocks = [decoder for decoder in (face, body) if paramset & decoder.parameter_set.paramset_bit]
+        rows = [decoder.read_plane(reader, intra) for decoder in blocks]
+        if len({decoder.coding for decoder in blocks}) != 1:
+            raise SigncastError("corrupt FBA stream: the face and body blocks of a plane use different coding types")
+        n = len(rows[0])
+        if any(len(r) != n for r in rows):
+            raise SigncastError("corrupt FBA stream: the face and body blocks of a plane hold different frame counts")
+        if n_frames + n > max_frames:
+            raise SigncastError(f"FBA stream holds more than {max_frames} frames, the decoder's limit")
+        if paramset & PARAMSET_FAP:
+            if face_frames is None:
+                face_frames = _DecodedFrames(FAPS.count)
+                face_frames.skip(n_frames)
+            face_frames.extend(rows[0])
+        elif face_frames is not None:
+            face_frames.skip(n)
+        if paramset & PARAMSET_BAP:
+            body_frames.extend(rows[-1])
+        face_flags.extend([bool(paramset & PARAMSET_FAP)] * n)
+        n_frames += n
     if reader.pos != 8 * len(data):
         raise SigncastError("corrupt FBA stream: data after the end code")
-    if not frames.count or fps is None:
+    if not n_frames or fps is None:
         raise SigncastError("corrupt FBA stream: no frames")
-    return frames.array(), fps
-
-
-def _read_dct_segment(reader: BitReader, state: list, intra: bool, held: np.ndarray, frames: _DecodedFrames) -> None:
-    _, order, dc_step, ac_step, previous_dc = state
-    tables = pc.vlc_tables()
-    n = pc.SEGMENT
-    if reader.read_bit():
-        n = reader.read(4) + 1
-    dc = np.zeros(len(order), dtype=np.int64)
-    ac = np.zeros((n - 1, len(order)), dtype=np.int64)
-    for p in range(len(order)):
-        dc[p], ac[:, p] = pc.read_dct_block(reader, tables, intra, n)
-    if not intra:
-        dc += previous_dc
-    state[4] = dc
-    segment = pc.dct_reconstruct(dc, ac, dc_step, ac_step)
-    for t in range(n):
-        held[order] = segment[t]
-        frames.append(held)
+    faps = None if face_frames is None else face_frames.array()
+    return DecodedFba(body_frames.array() if has_body else None, faps, fps,
+                      None if faps is None else np.frombuffer(bytes(face_flags), dtype=bool).copy())

@@ -36,7 +36,8 @@ class ParamCodec(Protocol):
 
 
 class FbaCodec:
-    """MPEG-4 FBA BAP stream (comparisons/fba_codec.py) of the avatar's BAPs (fba_mapping)."""
+    """MPEG-4 FBA stream (comparisons/fba_codec.py) of the avatar's BAPs (fba_mapping), and of the
+    motion's FAPs when it carries a face (fba_object_mask 3)."""
 
     def __init__(self, coding: str) -> None:
         self.coding = coding
@@ -45,11 +46,12 @@ class FbaCodec:
                             else "FBA, 16-frame DCT + Huffman VLC")
 
     def encode(self, motion: Motion, q: int) -> bytes:
-        return fba_codec.encode_fba(motion_to_baps(motion), motion.fps, q, self.coding)
+        return fba_codec.encode_fba(motion_to_baps(motion), motion.fps, q, self.coding, faps=motion.faps)
 
     def decode(self, data: bytes) -> Motion:
-        values, fps = fba_codec.decode_fba(data)
-        return baps_to_motion(values, fps)
+        decoded = fba_codec.decode_fba(data)
+        body = baps_to_motion(decoded.baps_or_rest(), decoded.fps)
+        return Motion(body.fps, body.bone_names, body.rotations, body.root_translation, decoded.faps)
 
 
 class BbaCodec:

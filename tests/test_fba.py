@@ -68,7 +68,9 @@ def test_motion_rotating_a_face_bone_is_rejected():
 @pytest.mark.parametrize("q", [1, 8, 31])
 def test_predictive_fba_decodes_within_half_a_step(q):
     values = motion_to_baps(smooth_motion())
-    decoded, fps = decode_fba(encode_fba(values, 10, q, "pred"))
+    result = decode_fba(encode_fba(values, 10, q, "pred"))
+    decoded, fps = result.baps, result.fps
+    assert result.faps is None and result.face_frames is None
     assert fps == 10 and decoded.shape == values.shape
     bound = bap_table.steps() * q // 2
     assert np.all(np.abs(decoded - values) <= bound)
@@ -81,7 +83,7 @@ def test_predictive_fba_sends_intra_planes_periodically_and_masks_static_baps():
     static = np.zeros_like(values)
     static[:, 37] = 5000                                           # one BAP, held still
     assert len(encode_fba(static, 10, 4, "pred")) < 80          # 2 intra planes + 48 still P planes of 4 bits
-    decoded, _ = decode_fba(encode_fba(static, 10, 4, "pred"))
+    decoded = decode_fba(encode_fba(static, 10, 4, "pred")).baps
     assert np.array_equal(decoded[:, 37], np.full(len(values), 5120)) and not decoded[:, :37].any()
 
 
@@ -90,7 +92,7 @@ def test_dct_fba_round_trip_error_is_bounded_and_rate_falls_with_q():
     sizes = []
     for q in (1, 4, 16, 31):
         data = encode_fba(values, 10, q, "dct")
-        decoded, _ = decode_fba(data)
+        decoded = decode_fba(data).baps
         sizes.append(len(data))
         assert decoded.shape == values.shape
         dc_step, ac_step = pc.dct_steps(bap_table.steps(), q)
@@ -152,7 +154,7 @@ def test_predictive_fba_codes_angles_crossing_pi_and_large_translation_jumps_wit
     values[:, 186 - 1] = [314000, 314100, -314100, -314000, -313000, 313000, 314159, -314159]   # root tilt, step 64
     values[:, 32 - 1] = [0, 300000, -300000, 0, 0, 0, 0, 0]                                    # shoulder, step 64
     values[:, 181 - 1] = [0, 15000, -15000, 0, 0, 0, 0, 0]                                     # root, mm, step 2
-    decoded, _ = decode_fba(encode_fba(values, 10, q, "pred"))
+    decoded = decode_fba(encode_fba(values, 10, q, "pred")).baps
     assert np.all(np.abs(decoded - values) <= bap_table.steps() * q // 2)
 
 
@@ -204,7 +206,7 @@ def test_fba_frame_limit_allows_hours_of_signing_in_under_a_gigabyte_and_the_enc
     assert fba_codec.MAX_FRAMES * 296 * 8 < 2 ** 29                  # decoded int64 values < 512 MiB
     limit = 50
     values = motion_to_baps(smooth_motion(n_frames=limit))
-    decoded, _ = decode_fba(encode_fba(values, 10, 4, "dct"), max_frames=limit)
+    decoded = decode_fba(encode_fba(values, 10, 4, "dct"), max_frames=limit).baps
     assert decoded.shape == (limit, 296)
     with pytest.raises(SigncastError, match=f"more than {limit - 1} frames"):
         decode_fba(encode_fba(values, 10, 4, "pred"), max_frames=limit - 1)
@@ -220,10 +222,10 @@ def test_values_that_jump_once_and_hold_get_a_one_frame_intra_plane_and_cost_les
     values[:, 0:3] = np.cumsum(rng.integers(-300, 300, size=(40, 3)), axis=0)     # moving BAPs
     values[:, 40:60] = rng.integers(-20000, 20000, size=20)                        # a pose set once, then held
     settled = encode_fba(values, 25.0, 2)
-    monkeypatch.setattr(fba_codec, "SETTLING_BAPS", 10**6)                          # the rule off
+    monkeypatch.setattr(fba_codec, "SETTLING_PARAMETERS", 10**6)                          # the rule off
     one_period = encode_fba(values, 25.0, 2)
     assert len(settled) < len(one_period)
     for data in (settled, one_period):
-        decoded, _ = decode_fba(data)
+        decoded = decode_fba(data).baps
         steps = bap_table.steps() * 2
         assert np.all(np.abs(decoded - values) <= steps // 2 + 1)

@@ -146,7 +146,8 @@ def motions(draw, max_frames: int = 24) -> Motion:
 @example(values=_crossing_pi(), q=1)
 @example(values=_crossing_pi(), q=31)
 def test_fba_decodes_any_bap_series_within_its_quantisation_bound(coding, values, q):
-    decoded, fps = decode_fba(encode_fba(values, 25, q, coding))
+    result = decode_fba(encode_fba(values, 25, q, coding))
+    decoded, fps = result.baps, result.fps
     assert fps == 25 and decoded.shape == values.shape
     assert np.all(np.abs(decoded - values) <= fba_error_bound(coding, q, len(values)) + 1e-9)
 

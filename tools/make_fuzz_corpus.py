@@ -2,8 +2,9 @@
 
 Every seed is a small valid input written by signcast's own encoders (so it must decode cleanly;
 tests/test_fuzz_short.py checks that): the ASL letter "A" (and "AB") fingerspelled by the avatar
-through the FBA, BBA (binary and XML), .bap and the twelve seed-002 motion coders; the carphone
-clip's signer masks (first frames, subsampled) through the shape coder; an arm chain of the avatar's
+through the FBA, BBA (binary and XML), .bap and the twelve seed-002 motion coders (FBA and .fap
+seeds add a synthetic face track, comparisons/fap_rates.synthetic_faps, until real FAPs exist); the
+carphone clip's signer masks (first frames, subsampled) through the shape coder; an arm chain of the avatar's
 skeleton as BVH; lexicon clips trimmed to a frame or two as .pose; records of a real FBA measurement.
 Re-run it whenever a stream format changes; it replaces each target's folder.
 
@@ -41,14 +42,34 @@ def _baps(motion) -> np.ndarray:
     return motion_to_baps(motion)
 
 
+def _face(motion, seed: int = 0) -> np.ndarray:
+    """A synthetic signer's face track (FAPs) as long as the motion (comparisons/fap_rates.py)."""
+    from comparisons.fap_rates import synthetic_faps
+    return synthetic_faps(motion.n_frames, motion.fps, seed)
+
+
 def fba_seeds() -> dict[str, bytes]:
     from comparisons.fba_codec import encode_fba
     a, ab = _letter("A"), _letter("AB")
+    first_half = np.arange(ab.n_frames) < ab.n_frames // 2
     return {"A-pred-q1.fba": encode_fba(_baps(a), a.fps, 1, "pred"),
             "A-pred-q8.fba": encode_fba(_baps(a), a.fps, 8, "pred"),
             "A-dct-q8.fba": encode_fba(_baps(a), a.fps, 8, "dct"),
             "AB-pred-q4-intra4.fba": encode_fba(_baps(ab), ab.fps, 4, "pred", intra_period=4),
-            "AB-dct-q4-intra1.fba": encode_fba(_baps(ab), ab.fps, 4, "dct", intra_segments=1)}
+            "AB-dct-q4-intra1.fba": encode_fba(_baps(ab), ab.fps, 4, "dct", intra_segments=1),
+            "A-face-pred-q8.fba": encode_fba(_baps(a), a.fps, 8, "pred", faps=_face(a)),
+            "A-face-dct-q8-fq2.fba": encode_fba(_baps(a), a.fps, 8, "dct", faps=_face(a), fap_quant=2),
+            "A-face-only-pred-q4.fba": encode_fba(None, a.fps, 4, "pred", faps=_face(a, 1)),
+            "AB-face-first-half-pred-q4.fba": encode_fba(_baps(ab), ab.fps, 4, "pred", faps=_face(ab),
+                                                         face_frames=first_half),
+            "AB-face-first-half-dct-q4.fba": encode_fba(_baps(ab), ab.fps, 4, "dct", faps=_face(ab),
+                                                        face_frames=first_half)}
+
+
+def fap_seeds() -> dict[str, bytes]:
+    from comparisons.fap_file import format_fap
+    a = _letter("A")
+    return {"A-face.fap": format_fap(_face(a)[:6], a.fps, "face-A").encode()}
 
 
 def _right_index_motion(frames: int = 4):
@@ -185,7 +206,8 @@ def seeds(target: str) -> dict[str, bytes]:
     if target.startswith("motion-"):
         return motion_seeds(target.removeprefix("motion-"))
     makers = {"fba": fba_seeds, "bba": bba_seeds, "bba-resilient": bba_seeds, "bba-xml": bba_xml_seeds,
-              "bap": bap_seeds, "shape": shape_seeds, "bvh": bvh_seeds, "pose": pose_seeds, "records": records_seeds}
+              "bap": bap_seeds, "fap": fap_seeds, "shape": shape_seeds, "bvh": bvh_seeds, "pose": pose_seeds,
+              "records": records_seeds}
     return makers[target]()
 
 

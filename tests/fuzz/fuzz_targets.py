@@ -117,22 +117,39 @@ def seal_fba(data: bytes) -> bytes:
 
 
 def fba(data: bytes) -> None:
-    from comparisons import bap_table
+    from comparisons import bap_table, fap_table
     from comparisons.fba_codec import decode_fba, encode_fba
 
-    values, fps = decode_fba(data)
-    _check_array(values, (None, bap_table.N_BAPS), np.int64)
-    _check_fps(fps)
-    again, fps_again = decode_fba(data)
-    _same(values, again, "two decodes of the same FBA stream")
-    _expect(fps_again == fps, "two decodes of the same FBA stream differ in frame rate")
+    decoded = decode_fba(data)
+    _expect(decoded.baps is not None or decoded.faps is not None, "FBA stream decoded to neither BAPs nor FAPs")
+    n_frames = decoded.n_frames
+    if decoded.baps is not None:
+        _check_array(decoded.baps, (n_frames, bap_table.N_BAPS), np.int64)
+    if decoded.faps is not None:
+        _check_array(decoded.faps, (n_frames, fap_table.N_FAPS), np.int64)
+        _check_array(decoded.face_frames, (n_frames,), bool)
+        _expect(not decoded.faps[~decoded.face_frames].any(), "FBA frames without the face hold FAPs other than 0")
+    _check_fps(decoded.fps)
+    again = decode_fba(data)
+    for name in ("baps", "faps", "face_frames"):
+        first, second = getattr(decoded, name), getattr(again, name)
+        _expect((first is None) == (second is None), f"two decodes of the same FBA stream differ in {name}")
+        if first is not None:
+            _same(first, second, f"{name} of two decodes of the same FBA stream")
+    _expect(again.fps == decoded.fps, "two decodes of the same FBA stream differ in frame rate")
     # Values on the Q = 1 grid (every predictive stream's are) come back exactly from the predictive coder.
-    if len(values) <= ROUND_TRIP_LIMIT and np.all(values % bap_table.steps() == 0) and _encoder_oracle_due(data):
+    on_grid = ((decoded.baps is None or np.all(decoded.baps % bap_table.steps() == 0))
+               and (decoded.faps is None or np.all(decoded.faps % fap_table.steps() == 0)))
+    if n_frames <= ROUND_TRIP_LIMIT and on_grid and _encoder_oracle_due(data):
         try:
-            stream = encode_fba(values, fps, 1, "pred")
+            stream = encode_fba(decoded.baps, decoded.fps, 1, "pred", faps=decoded.faps,
+                                face_frames=decoded.face_frames)
         except SigncastError:
             return  # values the encoder cannot represent: not the decoder's business
-        _same(decode_fba(stream)[0], values, "FBA values re-encoded at Q=1 and decoded again")
+        coded = decode_fba(stream)
+        for name in ("baps", "faps"):
+            if getattr(decoded, name) is not None:
+                _same(getattr(coded, name), getattr(decoded, name), f"FBA {name} re-encoded at Q=1 and decoded again")
 
 
 # ------------------------------------------------------------------------------------------ BBA
@@ -203,6 +220,19 @@ def bap(data: bytes) -> None:
     _same(back, values, ".bap values written and read again")
     _same(name_back, name, ".bap names written and read again")
     _expect(abs(fps_back - fps) <= 1e-5 * fps, f".bap frame rate {fps} comes back as {fps_back}")
+
+
+def fap(data: bytes) -> None:
+    from comparisons import fap_table
+    from comparisons.fap_file import format_fap, parse_fap, read_fap
+
+    faps, fps, name = read_fap(_as_file(data, ".fap"))
+    _check_array(faps, (len(faps), fap_table.N_FAPS), np.int64)      # a .fap may hold 0 frames
+    _check_fps(fps)
+    back, fps_back, name_back = parse_fap(format_fap(faps, fps, name))
+    _same(back, faps, ".fap values written and read again")
+    _same(name_back, name, ".fap names written and read again")
+    _expect(abs(fps_back - fps) <= 1e-5 * fps, f".fap frame rate {fps} comes back as {fps_back}")
 
 
 # --------------------------------------------------------------------------------------- shape
@@ -330,6 +360,7 @@ TARGETS: dict[str, Target] = {t.name: t for t in [
     Target("bba-resilient", bba_resilient, "comparisons.bba_codec.read_stream(resilient=True)"),
     Target("bba-xml", bba_xml, "comparisons.bba_xml.from_xml"),
     Target("bap", bap, "comparisons.bap_file.read_bap"),
+    Target("fap", fap, "comparisons.fap_file.read_fap"),
     Target("shape", shape, "comparisons.shape_coding.decode_shape (length and CRC-32 repaired)", seal_shape),
     *[Target(f"motion-{name}", _motion_target(name), f"comparisons.lab_codecs.LabCodec({name!r}).decode_dofs "
              "(CRC-32s repaired)", seal_motion) for name in MOTION_CODERS],
