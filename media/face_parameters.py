@@ -57,7 +57,8 @@ Method, per clip:
    displacement that "does not affect mouth opening", so the lip FAPs carry the lips' own positions.
    Eyeballs (23-26): the iris centre's displacement from its eye's corners' midpoint, relative to the
    neutral face's, as arcsin(displacement / eyeball radius), the radius taken as EYEBALL_RADIUS_ES eye
-   separations (an adult eyeball's 12 mm radius over a 63 mm interpupillary distance). Head (48-50): the
+   separations (an adult eyeball's 12 mm radius over a 63 mm interpupillary distance); only on faces whose eye
+   separation is at least MIN_GAZE_ES pixels (a resolved iris), else 0. Head (48-50): the
    rotation from the neutral face to the frame (pitch about the face's x axis, yaw about y, roll about
    the view axis). Unidirectional FAPs (open_jaw, lift cheeks) are clipped at 0.
 
@@ -170,6 +171,11 @@ NOT_MEASURED = tuple(i for i in range(1, N_FAPS + 1) if i not in FAP_UNITS)
 UNIDIRECTIONAL = (3, 41, 42)
 
 EYEBALL_RADIUS_ES = 12.0 / 63.0
+# Gaze needs a resolved iris: the eyeball's radius is EYEBALL_RADIUS_ES eye separations, so one pixel of iris
+# displacement is 1 / (0.19 ES) radians of gaze: 7 degrees on the lexicon's faces (ES ~42 px, irises ~4 px
+# wide), where the eyeball FAPs of ASL A-J span 2.4-3.1 degrees in a clip (at most 10), less than a pixel,
+# and cost 9 % of the face-only stream at Q 8 (0.39 of 4.42 kbit/s). At 80 px a pixel is 3.8 degrees.
+MIN_GAZE_ES = 80.0
 NOSE_PARALLAX_ES = 0.935               # nose tip's shift per sine of yaw or pitch, eye separations (2D only)
 DEPTH_RELIEF_MIN = 0.1                 # z spread (std) of the stable points, eye separations, to use depth
 JITTER_FILTER = "binomial"
@@ -200,19 +206,21 @@ class Fapu:
 
 
 def faps_from_face(points: np.ndarray, seen: np.ndarray, fps: float = 25.0, *, iris_seen: np.ndarray | None = None,
-                   jitter_filter: str = JITTER_FILTER) -> np.ndarray:
+                   jitter_filter: str = JITTER_FILTER, min_gaze_es: float = MIN_GAZE_ES) -> np.ndarray:
     """(T, 68) int64 FAPs (index = id - 1; ids in NOT_MEASURED are 0) of face landmarks (module docstring).
 
     points: (T, 478, 3) MediaPipe face mesh with irises, frame pixels (x right, y down, z depth).
     seen: (T,) bool, frames where the face was found (other frames hold the nearest seen frame's FAPs).
     fps: frames per second (the One-Euro filter's time step). iris_seen: (T, 2) bool, whether the irises
     468-472 and 473-477 were found (None: wherever the face was); an eye's yaw and pitch hold over the frames
-    its iris was not found. jitter_filter: "binomial", "one-euro" or "off".
+    its iris was not found. jitter_filter: "binomial", "one-euro" or "off". min_gaze_es: the eye separation
+    (landmark units, pixels) below which the eyeballs' FAPs 23-26 are not measured but left 0 (MIN_GAZE_ES).
     """
-    return _measure(points, seen, fps, iris_seen, jitter_filter)[0]
+    return _measure(points, seen, fps, iris_seen, jitter_filter, min_gaze_es)[0]
 
 
-def face_track(clip: SignClip, *, jitter_filter: str = JITTER_FILTER) -> tuple[np.ndarray, Fapu]:
+def face_track(clip: SignClip, *, jitter_filter: str = JITTER_FILTER,
+               min_gaze_es: float = MIN_GAZE_ES) -> tuple[np.ndarray, Fapu]:
     """FAPs (T, 68) int64 and the FAPU of a clip's FACE_LANDMARKS (a lexicon clip or a `.pose` file's)."""
     if FACE_COMPONENT not in clip.points:
         raise SigncastError(f"clip has no {FACE_COMPONENT}; a MediaPipe Holistic .pose file is needed")
@@ -222,7 +230,7 @@ def face_track(clip: SignClip, *, jitter_filter: str = JITTER_FILTER) -> tuple[n
                             f"{N_FACE_POINTS}")
     seen = np.all(confidence[:, :N_MESH_POINTS] > 0, axis=1)
     iris_seen = np.stack([np.all(confidence[:, eye] > 0, axis=1) for eye in IRIS_POINTS], axis=1)
-    return _measure(points, seen, clip.fps, iris_seen, jitter_filter)
+    return _measure(points, seen, clip.fps, iris_seen, jitter_filter, min_gaze_es)
 
 
 def measure_fapu(neutral: np.ndarray) -> Fapu:
@@ -243,7 +251,7 @@ def measure_fapu(neutral: np.ndarray) -> Fapu:
 
 # --------------------------------------------------------------------------- measurement
 
-def _measure(points, seen, fps, iris_seen, jitter_filter) -> tuple[np.ndarray, Fapu]:
+def _measure(points, seen, fps, iris_seen, jitter_filter, min_gaze_es=MIN_GAZE_ES) -> tuple[np.ndarray, Fapu]:
     """(FAPs (T, 68) int64, FAPU) of `faps_from_face`'s arguments (module docstring, steps 1-7)."""
     points = np.asarray(points, dtype=np.float64)
     seen = np.asarray(seen, dtype=bool)
@@ -280,6 +288,8 @@ def _measure(points, seen, fps, iris_seen, jitter_filter) -> tuple[np.ndarray, F
         rotations, displacement[:, FEATURE_POINTS["9.3"][0]], fapu, use_depth) / ANGLE_UNIT_RAD
     faps[:, [i - 1 for i in UNIDIRECTIONAL]] = np.maximum(faps[:, [i - 1 for i in UNIDIRECTIONAL]], 0)
     faps = np.rint(faps).astype(np.int64)
+    if fapu.es0 < min_gaze_es:
+        faps[:, [i - 1 for i in EYEBALL_FAPS]] = 0
     for eye, fap_ids in ((1, (23, 25)), (0, (24, 26))):               # iris 473.. is 3.5 (left), 468.. is 3.6
         columns = [i - 1 for i in fap_ids]
         faps[:, columns] = faps[_nearest_seen(iris_seen[:, eye])][:, columns] if iris_seen[:, eye].any() else 0

@@ -75,9 +75,9 @@ def test_feature_points_sit_where_their_names_say_on_a_real_face(letter_a):
 def test_fapu_doubles_and_faps_stay_when_the_face_is_scaled_by_two(letter_a):
     points = letter_a[0]
     clip = lexicon.read_clip(lexicon.lookup("ase", "A"))
-    faps, fapu = fp.face_track(clip)
+    faps, fapu = fp.face_track(clip, min_gaze_es=0)
     clip.points[fp.FACE_COMPONENT] = points * 2
-    doubled, doubled_fapu = fp.face_track(clip)
+    doubled, doubled_fapu = fp.face_track(clip, min_gaze_es=0)
     for name in ("IRISD", "ES", "ENS", "MNS", "MW"):
         assert doubled_fapu.unit(name) == pytest.approx(2 * fapu.unit(name))
     assert fapu.unit("AU") == doubled_fapu.unit("AU") == 1e-5
@@ -161,7 +161,7 @@ def test_mirrored_face_swaps_the_left_and_right_faps(letter_a):
         order[a], order[b] = b, a
     mirrored = points[:, order].copy()     # a mirror image, numbered by MediaPipe as a face again
     mirrored[..., 0] = 500.0 - mirrored[..., 0]
-    faps, mirror_faps = fp.faps_from_face(points, seen), fp.faps_from_face(mirrored, seen)
+    faps, mirror_faps = fp.faps_from_face(points, seen, min_gaze_es=0), fp.faps_from_face(mirrored, seen, min_gaze_es=0)
     for left, right in FAP_PAIRS:
         assert np.abs(mirror_faps[:, left - 1] - faps[:, right - 1]).max() <= 1, left
         assert np.abs(mirror_faps[:, right - 1] - faps[:, left - 1]).max() <= 1, right
@@ -190,8 +190,8 @@ def test_an_iris_not_found_holds_its_eyeball_faps_only(letter_a):
     iris_seen = np.ones((len(points), 2), bool)
     lost = points.copy()
     lost[5:9, 473:478], iris_seen[5:9, 1] = 0.0, False              # the face's left iris (3.5)
-    faps = fp.faps_from_face(lost, seen, iris_seen=iris_seen, jitter_filter="off")
-    untouched = fp.faps_from_face(points, seen, jitter_filter="off")
+    faps = fp.faps_from_face(lost, seen, iris_seen=iris_seen, jitter_filter="off", min_gaze_es=0)
+    untouched = fp.faps_from_face(points, seen, jitter_filter="off", min_gaze_es=0)
     left_eyeball = [22, 24]                                         # yaw_l_eyeball, pitch_l_eyeball
     assert np.array_equal(faps[5:7, left_eyeball], faps[[4, 4], :][:, left_eyeball])
     assert np.array_equal(faps[7:9, left_eyeball], faps[[9, 9], :][:, left_eyeball])
@@ -253,3 +253,14 @@ def test_carphone_head_motion_reads_alike_from_the_3d_mesh_and_from_its_flattene
     assert 15 < fapu.es0 < 30                                                 # pixels of the 176 x 144 frame
     lips = [i - 1 for i in (*range(3, 14), *range(51, 61))]
     assert 0 < np.abs(faps[:, lips]).max() < fp.FAPU_DIVISOR                  # he talks, within an MNS or an MW
+
+
+def test_gaze_is_measured_only_where_the_iris_is_resolved(letter_a):
+    points, seen = letter_a
+    eyeballs = [i - 1 for i in fp.EYEBALL_FAPS]
+    small = fp.faps_from_face(points, seen)                          # eye separation ~42 px < MIN_GAZE_ES
+    assert not small[:, eyeballs].any()
+    large = fp.faps_from_face(points * 2, seen)                      # ~84 px: measured
+    assert large[:, eyeballs].any()
+    others = [i for i in range(fp.N_FAPS) if i not in eyeballs]
+    assert np.abs(large[:, others] - small[:, others]).max() <= 1
