@@ -26,7 +26,7 @@ ROTATION_COLUMNS = np.array([b.id - 1 for b in bap_table.BAPS if not b.is_transl
 
 
 def measure_point(motion: Motion, codec_name: str, q: int) -> dict:
-    """Code and decode one motion; rate, distortion and timing fields."""
+    """Code and decode one motion; rate, distortion and timing fields (and the face's, when it has FAPs)."""
     codec = get_codec(codec_name)
     start = time.perf_counter()
     data = codec.encode(motion, q)
@@ -34,7 +34,7 @@ def measure_point(motion: Motion, codec_name: str, q: int) -> dict:
     start = time.perf_counter()
     decoded = codec.decode(data)
     decode_s = time.perf_counter() - start
-    original_all, decoded_all = motion_to_baps(motion), motion_to_baps(decoded)
+    original_all, decoded_all = motion_to_baps(motion), motion_to_baps(decoded, strict=False)   # BBA: + face bones
     original_baps = original_all[:, ROTATION_COLUMNS] * bap_table.ROTATION_UNIT_RAD
     decoded_baps = decoded_all[:, ROTATION_COLUMNS] * bap_table.ROTATION_UNIT_RAD
     moving = metrics.value_range(original_baps) > 0
@@ -45,7 +45,21 @@ def measure_point(motion: Motion, codec_name: str, q: int) -> dict:
             "joint_error_mm_mean": float(joint_mm.mean()), "joint_error_mm_max": float(joint_mm.max()),
             "group_errors": metrics.bap_group_errors(original_all, decoded_all),
             "encode_fps": motion.n_frames / encode_s, "decode_fps": motion.n_frames / decode_s,
-            "frames": motion.n_frames}
+            "frames": motion.n_frames, **_face_fields(motion, decoded, codec, q, 8 * len(data))}
+
+
+def _face_fields(motion: Motion, decoded: Motion, codec, q: int, bits: int) -> dict:
+    """For a motion with a face: face_kbps, the bits the face adds over the same body coded alone (kbit/s);
+    fap_error, the mean |decoded - original| FAP value over the FAPs that move, FAP units (only for codecs
+    that carry FAPs: BBA carries the face bones instead)."""
+    if motion.faps is None:
+        return {}
+    body_bits = 8 * len(codec.encode(motion.without_face(), q))
+    fields = {"face_kbps": (bits - body_bits) / motion.duration_s / 1000.0}
+    moving = np.ptp(motion.faps, axis=0) > 0
+    if decoded.faps is not None and moving.any():
+        fields["fap_error"] = float(np.abs(decoded.faps[:, moving] - motion.faps[:, moving]).mean())
+    return fields
 
 
 def write_table(path: Path, records: list[dict], codecs: list[str], qs: list[int]) -> Path:

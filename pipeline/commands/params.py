@@ -27,6 +27,9 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--param-q", default=None,
                         help=f"global quantisation values 1..31, comma-separated (default {options.PARAM_Q})")
     parser.add_argument("--fps", type=float, default=10.0, help="coding frame rate (default 10, as seed 000 §2.4.2)")
+    parser.add_argument("--face", action="store_true",
+                        help="code the signer's face too (MPEG-4 FAPs; BBA: the face bones) and report what it adds; "
+                             "default: the body alone, as the source's Tables 2.1 and 3.1")
     options.add_out(parser)
     parser.set_defaults(func=run)
 
@@ -41,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
 
     from pipeline.studies import params
     settings = params.ParamsSettings(args.language, args.letters, options.names(args.codecs or options.PARAM_CODECS),
-                                     options.parse_qs(args.param_q or options.PARAM_Q, "--param-q"), args.fps)
+                                     options.parse_qs(args.param_q or options.PARAM_Q, "--param-q"), args.fps,
+                                     args.face)
     params.check(settings)
     with output_folder(args.out, force=args.force), \
             tqdm(total=params.count_points(settings), desc="params", unit="point", file=sys.stderr) as bar:

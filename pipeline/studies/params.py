@@ -2,7 +2,10 @@
 avatar, coded with each parameter codec at each Q, decoded, and measured (comparisons.param_study.measure_point).
 
 Writes records.jsonl, params_table.csv and params_rate.png in the output folder, and each letter's
-full-precision BAPs as a version 3.2 .bap file in bap/ (for other MPEG-4 body animation tools).
+full-precision BAPs as a version 3.2 .bap file in bap/ (for other MPEG-4 body animation tools). The body alone
+by default, as the source's tables; with `face`, the letters' FAPs too (media.face_parameters): FBA streams carry
+them (paramset 3), BBA streams the face bones, each record says what the face adds (face_kbps), and each letter's
+FAPs are written as a .fap file in fap/.
 """
 from __future__ import annotations
 
@@ -11,6 +14,7 @@ from pathlib import Path
 from typing import Callable
 
 from comparisons.bap_file import write_bap
+from comparisons.fap_file import write_fap
 from comparisons.fba_mapping import motion_to_baps
 from comparisons.param_codecs import codec_names, get_codec
 from comparisons.param_study import measure_point, write_plots, write_table
@@ -27,13 +31,15 @@ DEFAULT_Q = (1, 2, 4, 8, 16, 31)
 @dataclass(frozen=True)
 class ParamsSettings:
     """language: sign language code; letters: the letters coded, each separately (e.g. "ABCDEFGHIJ"); codecs:
-    parameter codecs; qs: global quantisation values; fps: coding frame rate, frames per second."""
+    parameter codecs; qs: global quantisation values; fps: coding frame rate, frames per second; face: code the
+    face's FAPs with the body (else the body alone)."""
 
     language: str
     letters: str
     codecs: tuple[str, ...] = DEFAULT_CODECS
     qs: tuple[int, ...] = DEFAULT_Q
     fps: float = 10.0
+    face: bool = False
 
     def units(self) -> list[str]:
         return [u for u in lexicon.split_word(self.language, self.letters) if u != " "]
@@ -70,6 +76,11 @@ def run(settings: ParamsSettings, out: str | Path, *, progress: Callable[[int], 
     records = []
     for unit in settings.units():
         motion = letter_motion(language, unit, fps)
+        if not settings.face or motion.faps is None:
+            motion = motion.without_face()
+        else:
+            (out / "fap").mkdir(exist_ok=True)
+            write_fap(out / "fap" / f"{language}_{unit}.fap", motion.faps, fps, f"{language}_{unit}")
         pose_kbps = pose_file_kbps(language, unit)
         (out / "bap").mkdir(exist_ok=True)
         write_bap(out / "bap" / f"{language}_{unit}.bap", motion_to_baps(motion), fps, f"{language}_{unit}")
@@ -88,7 +99,7 @@ def run(settings: ParamsSettings, out: str | Path, *, progress: Callable[[int], 
 
 
 def main_table(settings: ParamsSettings, records: list[dict]) -> str:
-    """kbps (and distortion) per letter and codec at each Q."""
+    """kbps (and distortion) per letter and codec at each Q; with the face, what it adds below each row."""
     qs = settings.qs
     lines = [f"{'sign':>5} {'codec':>9} " + " ".join(f"{'Q=' + str(q):>8}" for q in qs) + "   kbps (distortion rad^2)"]
     for unit in settings.units():
@@ -96,4 +107,7 @@ def main_table(settings: ParamsSettings, records: list[dict]) -> str:
             mine = {r["q"]: r for r in records if r["clip"].endswith(":" + unit) and r["codec"] == name}
             lines.append(f"{unit:>5} {name:>9} " + " ".join(f"{mine[q]['kbps']:8.2f}" for q in qs)
                          + "   (" + " ".join(f"{mine[q]['distortion']:.1e}" for q in qs) + ")")
+            if any(mine[q].get("face_kbps") is not None for q in qs):
+                lines.append(f"{'':>5} {'of which':>9} " + " ".join(f"{mine[q].get('face_kbps', 0.0):8.2f}" for q in qs)
+                             + "   kbps the face adds")
     return "\n".join(lines)
