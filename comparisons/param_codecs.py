@@ -23,6 +23,7 @@ from typing import Protocol
 from comparisons import bba_codec, fba_codec
 from comparisons.fba_mapping import baps_to_motion, motion_to_baps
 from media.errors import SigncastError
+from media.face_rig import with_face_bones
 from media.motion import Motion
 
 
@@ -55,7 +56,9 @@ class FbaCodec:
 
 
 class BbaCodec:
-    """MPEG-4 BBA stream (comparisons/bba_codec.py) of the avatar's bones."""
+    """MPEG-4 BBA stream (comparisons/bba_codec.py) of the avatar's bones; a motion's face travels as the
+    face bones' rotations (media.face_rig: the FAPs played on the avatar), so the decoded Motion has those
+    bones and no FAPs."""
 
     def __init__(self, coding: str, keyframes: bool = False) -> None:
         self.coding = coding
@@ -66,7 +69,8 @@ class BbaCodec:
             ", key frames + interpolation" if keyframes else "")
 
     def encode(self, motion: Motion, q: int) -> bytes:
-        stream = bba_codec.motion_to_stream(motion, q, self.coding, keyframes=self.keyframes)
+        stream = bba_codec.motion_to_stream(with_face_bones(motion).without_face(), q, self.coding,
+                                            keyframes=self.keyframes)
         return bba_codec.write_stream(stream)
 
     def decode(self, data: bytes) -> Motion:

@@ -17,6 +17,7 @@ from kernels.errors import KernelError
 from media.avatar import Avatar
 from media.domain import BODY, CLOTHES, DEFAULT_SIZE, EYE_WHITE, IRIS, SKIN_TONE
 from media.errors import SigncastError
+from media.face_rig import with_face_bones
 from media.kinematics import bone_matrices, joint_positions
 from media.motion import Motion
 from media.muscles import activations, muscle_influence, stacked_control_points
@@ -130,6 +131,7 @@ class AvatarRenderer:
     def frames(self, motion: Motion) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """Yield (rgb (H, W, 3) uint8, labels (H, W) uint8) for each frame of the motion."""
         skeleton = self.avatar.skeleton
+        motion = with_face_bones(motion, self.avatar)       # FAPs -> face bone rotations
         matrices = bone_matrices(skeleton, motion).astype(np.float32)
         contraction = (activations(skeleton, self.avatar.muscles, joint_positions(skeleton, motion))
                        if self.use_muscles else np.zeros((motion.n_frames, 0)))
