@@ -29,7 +29,7 @@ from media.avatar import Skeleton, load_avatar
 from media.domain import check_fps
 from media.errors import SigncastError
 from media.kinematics import joint_positions
-from media.motion import Motion, resample
+from media.motion import N_FAPS, Motion, concatenate, resample
 from media.retarget import retarget_clip
 
 TRANSITION_S = 0.12     # cross-fade between letters (3 frames at 25 fps)
@@ -123,20 +123,34 @@ def letter_motion(language: str, unit: str, fps: float = 25.0, *, keep_rise: boo
 
 
 def _cross_fade(first: Motion, second: Motion, frames: int) -> Motion:
-    """first then second, the last `frames` of first blended into the first `frames` of second."""
+    """first then second, the last `frames` of first blended into the first `frames` of second (the faces' FAPs
+    too, linearly; a letter without a face counts as a neutral face when the other has one)."""
     frames = min(frames, first.n_frames - 1, second.n_frames - 1)
+    with_face = first.faps is not None or second.faps is not None
+    first_faps, second_faps = _faps_or_neutral(first), _faps_or_neutral(second)
     if frames <= 0:
         return Motion(first.fps, first.bone_names, np.concatenate([first.rotations, second.rotations]),
-                      np.concatenate([first.root_translation, second.root_translation]))
+                      np.concatenate([first.root_translation, second.root_translation]),
+                      np.concatenate([first_faps, second_faps]) if with_face else None)
     x = np.arange(1, frames + 1) / (frames + 1)
     weight = x * x * (3 - 2 * x)                                     # smoothstep
     tail, head = first.rotations[-frames:], second.rotations[:frames]
     blended = rotations.slerp(tail, head, np.broadcast_to(weight[:, None], tail.shape[:2]))
     translation = ((1 - weight)[:, None] * first.root_translation[-frames:]
                    + weight[:, None] * second.root_translation[:frames])
+    faps = None
+    if with_face:
+        blended_faps = np.rint((1 - weight)[:, None] * first_faps[-frames:] + weight[:, None] * second_faps[:frames])
+        faps = np.concatenate([first_faps[:-frames], blended_faps.astype(np.int64), second_faps[frames:]])
     return Motion(first.fps, first.bone_names,
                   np.concatenate([first.rotations[:-frames], blended, second.rotations[frames:]]),
-                  np.concatenate([first.root_translation[:-frames], translation, second.root_translation[frames:]]))
+                  np.concatenate([first.root_translation[:-frames], translation, second.root_translation[frames:]]),
+                  faps)
+
+
+def _faps_or_neutral(motion: Motion) -> np.ndarray:
+    """(T, 68) the motion's FAPs, or a neutral face's (all 0) when it has none."""
+    return motion.faps if motion.faps is not None else np.zeros((motion.n_frames, N_FAPS), np.int64)
 
 
 def fingerspell(language: str, word: str, fps: float = 25.0) -> Motion:
@@ -162,9 +176,8 @@ def fingerspell(language: str, word: str, fps: float = 25.0) -> Motion:
             continue
         if pending_pause:
             hold = max(1, int(round(PAUSE_S * fps)))
-            motion = Motion(fps, motion.bone_names,
-                            np.concatenate([motion.rotations, np.repeat(motion.rotations[-1:], hold, axis=0)]),
-                            np.concatenate([motion.root_translation, np.repeat(motion.root_translation[-1:], hold, axis=0)]))
+            last = motion.frames(motion.n_frames - 1, motion.n_frames)
+            motion = concatenate([motion] + [last] * hold)
             pending_pause = False
         motion = _cross_fade(motion, letter, transition)
     if motion is None:

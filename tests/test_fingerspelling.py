@@ -99,3 +99,13 @@ def test_letter_cache_returns_independent_copies():
 def test_bad_requests_raise_one_clear_error(language, word, fps, message):
     with pytest.raises(SigncastError, match=message):
         fingerspelling.fingerspell(language, word, fps=fps)
+
+
+def test_a_word_carries_its_letters_faces():
+    from media.fingerspelling import fingerspell, letter_motion
+    word = fingerspell("ase", "AB", 25.0)
+    first = letter_motion("ase", "A", 25.0, keep_rise=True, keep_drop=False)
+    assert word.faps is not None and word.faps.shape == (word.n_frames, 68)
+    assert np.array_equal(word.faps[:5], first.faps[:5])
+    spaced = fingerspell("ase", "A B", 25.0)
+    assert spaced.faps.shape == (spaced.n_frames, 68)
