@@ -27,6 +27,7 @@ COMMAND_MODULES = [
     "pipeline.commands.lab",
     "pipeline.commands.analyze",
     "pipeline.commands.pose",
+    "pipeline.commands.sweep",
 ]
 
 

@@ -1,0 +1,257 @@
+"""The report of a lexicon sweep (`signcast sweep`), made from its records alone: per language x solution x codec,
+the median kbps at the matched operating point over the items, with the interquartile range; one figure; the
+failed points with their reasons.
+
+The matched operating point of one item (a clip, or a fingerspelled word) coded with one codec at one frame rate is
+found by comparisons.matching.cheapest_rate, the rule of `signcast compare`, over the item's swept Q: the cheapest
+rate above which every swept point meets the threshold, interpolated in log-rate between the bracketing Q. The
+sweep has no rendering, so its threshold is on parameter quality: mean joint position error (forward kinematics
+of the avatar, comparisons.param_study) at most JOINT_ERROR_MM against the uncoded, retargeted motion. An item
+whose finest Q misses it does not count in the median (the cell says how many reached it).
+
+Point records (kind "point") carry language, item, solution, codec, q, fps, kbps and joint_error_mm_mean; failed
+ones (kind "failed") their reason.
+"""
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import io
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from comparisons import matching
+from media.domain import SOLUTION_ORDER
+
+JOINT_ERROR_MM = 2.0        # the FBA root-translation step, and the key-frame analyser's translation bound
+CRITERION = matching.Criterion("joint_error_mm_mean", JOINT_ERROR_MM, higher_is_better=False,
+                               label="mean joint position error (mm)")
+MEASURED_AGAINST = "the uncoded motion retargeted to the avatar"
+OPERATING_RULE = (f"cheapest rate at which every dearer swept Q keeps the {CRITERION.text()} against "
+                  f"{MEASURED_AGAINST}; interpolated in log-rate between the bracketing Q (comparisons.matching)")
+ALL_LANGUAGES = "all"
+BEST = "cheapest codec"
+
+
+def _language_item(record: dict) -> tuple[str, str]:
+    if record.get("language") is not None and record.get("item") is not None:
+        return record["language"], record["item"]
+    language, _, item = str(record.get("clip", "")).partition(":")
+    return language, item
+
+
+def matched_points(records: list[dict]) -> list[dict]:
+    """One dict per (language, item, codec, fps): solution, kbps at the matched operating point, reached (the
+    threshold is met at some swept Q), q_met (the cheapest swept Q of the run that meets it) and q_missed (the next
+    cheaper swept Q, which misses it; None when there is none)."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for record in records:
+        if record.get("kind", "point") == "point" and record.get("kbps") is not None:
+            groups[(*_language_item(record), record["codec"], float(record["fps"]))].append(record)
+    matched = []
+    for (language, item, codec, fps), points in groups.items():
+        match = matching.cheapest_rate(points, [CRITERION])
+        matched.append({"language": language, "item": item, "codec": codec, "fps": fps,
+                        "solution": points[0]["solution"], "kbps": match.kbps, "reached": match.reached,
+                        "q_met": match.upper["q"], "q_missed": match.lower["q"] if match.lower else None})
+    return matched
+
+
+def _spread(values: list[float]) -> dict:
+    if not values:
+        return {"median": None, "q1": None, "q3": None}
+    q1, median, q3 = np.percentile(np.asarray(values, dtype=float), [25, 50, 75])
+    return {"median": float(median), "q1": float(q1), "q3": float(q3)}
+
+
+def _solution_order(solution: str) -> int:
+    return SOLUTION_ORDER.index(solution) if solution in SOLUTION_ORDER else len(SOLUTION_ORDER)
+
+
+def cells(matched: list[dict]) -> list[dict]:
+    """One dict per (fps, language, solution, codec), languages also pooled as ALL_LANGUAGES, and per solution the
+    column BEST (each item's cheapest codec of the solution): n items, n_reached, and median, q1, q3 of the
+    matched kbps over the items that reached the threshold."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for point in matched:
+        for language in (point["language"], ALL_LANGUAGES):
+            groups[(point["fps"], language, point["solution"], point["codec"])].append(point)
+    best: dict[tuple, dict] = {}
+    for point in matched:
+        for language in (point["language"], ALL_LANGUAGES):
+            key = (point["fps"], language, point["solution"], BEST, point["language"], point["item"])
+            held = best.get(key)
+            if held is None or (point["reached"], -point["kbps"]) > (held["reached"], -held["kbps"]):
+                best[key] = point
+    for key, point in best.items():
+        groups[key[:4]].append(point)
+    rows = []
+    for (fps, language, solution, codec), points in groups.items():
+        reached = [p["kbps"] for p in points if p["reached"]]
+        rows.append({"fps": fps, "language": language, "solution": solution, "codec": codec, "n": len(points),
+                     "n_reached": len(reached), **_spread(reached)})
+    rows.sort(key=lambda r: (r["fps"], r["language"] == ALL_LANGUAGES, r["language"], _solution_order(r["solution"]),
+                             r["codec"] == BEST, r["codec"]))
+    return rows
+
+
+def columns(table: list[dict]) -> list[tuple[str, str]]:
+    """The (solution, codec) columns of the table, solutions in SOLUTION_ORDER, each solution's BEST last."""
+    found = {(r["solution"], r["codec"]) for r in table}
+    return sorted(found, key=lambda c: (_solution_order(c[0]), c[1] == BEST, c[1]))
+
+
+def cell_text(cell: dict | None) -> str:
+    """'12.3 [10.1-14.2]' (median [q1-q3] kbps), with '(k/n)' when only k of n items reached the threshold."""
+    if cell is None:
+        return ""
+    if cell["median"] is None:
+        return f"not reached (0/{cell['n']})"
+    text = f"{cell['median']:.1f} [{cell['q1']:.1f}-{cell['q3']:.1f}]"
+    return text + (f" ({cell['n_reached']}/{cell['n']})" if cell["n_reached"] < cell["n"] else "")
+
+
+def _grid(table: list[dict]):
+    """{fps: {language: {(solution, codec): cell}}} in the table's order."""
+    grid: dict = {}
+    for cell in table:
+        grid.setdefault(cell["fps"], {}).setdefault(cell["language"], {})[(cell["solution"], cell["codec"])] = cell
+    return grid
+
+
+def summary_text(table: list[dict]) -> str:
+    """The terminal table: per frame rate, languages x (solution, codec), median [IQR] kbps at the matched point."""
+    wanted = columns(table)
+    names = [f"{solution} {codec}" if codec == BEST else codec for solution, codec in wanted]
+    lines = [(f"kbps at the matched operating point, median [IQR] over items ({CRITERION.text()} against "
+              f"{MEASURED_AGAINST})")]
+    for fps, languages in _grid(table).items():
+        width = max(len(n) for n in names + ["x" * 16])
+        lines.append(f"{fps:g} fps".ljust(9) + " ".join(n.rjust(width) for n in names))
+        for language, row in languages.items():
+            lines.append(language.ljust(9) + " ".join(cell_text(row.get(c)).rjust(width) for c in wanted))
+    return "\n".join(lines)
+
+
+def write_table(path: Path, table: list[dict]) -> Path:
+    """The cells as CSV: fps, language, solution, codec, n, n_reached, median_kbps, q1_kbps, q3_kbps."""
+    with Path(path).open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["fps", "language", "solution", "codec", "items", "items_reached", "median_kbps", "q1_kbps",
+                         "q3_kbps"])
+        for c in table:
+            writer.writerow([f"{c['fps']:g}", c["language"], c["solution"], c["codec"], c["n"], c["n_reached"],
+                             *("" if c[k] is None else f"{c[k]:.3f}" for k in ("median", "q1", "q3"))])
+    return Path(path)
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def chart(table: list[dict]):
+    """One panel per frame rate: per language, each codec's median matched kbps with its IQR as a bar."""
+    plt = _pyplot()
+    grid = _grid(table)
+    codecs = [c for c in columns(table) if c[1] != BEST]
+    figure, panels = plt.subplots(len(grid), 1, figsize=(max(7.0, 0.55 * max(len(v) for v in grid.values()) + 3),
+                                                          3.6 * len(grid)), squeeze=False)
+    for axes, (fps, languages) in zip(panels[:, 0], grid.items()):
+        names = list(languages)
+        x = np.arange(len(names))
+        for k, column in enumerate(codecs):
+            offset = (k - (len(codecs) - 1) / 2) * 0.8 / max(len(codecs), 1)
+            found = [(i, languages[n].get(column)) for i, n in enumerate(names)]
+            found = [(i, c) for i, c in found if c is not None and c["median"] is not None]
+            if not found:
+                continue
+            xs = np.array([i for i, _ in found]) + offset
+            median = np.array([c["median"] for _, c in found])
+            errors = np.array([[c["median"] - c["q1"] for _, c in found], [c["q3"] - c["median"] for _, c in found]])
+            axes.errorbar(xs, median, yerr=errors, fmt="o", capsize=2, markersize=4, label=f"{column[1]} ({column[0]})")
+        axes.set_xticks(x, names, rotation=45 if len(names) > 8 else 0)
+        axes.set(ylabel="kbit/s at matched point", title=f"{fps:g} fps: median over items, bars: interquartile range")
+        axes.set_ylim(bottom=0)
+        axes.grid(True, axis="y", alpha=0.3)
+        axes.legend(fontsize=7, ncol=min(len(codecs), 5))
+    figure.suptitle(f"Rate at the matched operating point\n{CRITERION.text()}, against {MEASURED_AGAINST}",
+                    fontsize=9)
+    figure.tight_layout()
+    return figure
+
+
+def _html_table(header: list[str], rows: list[list[str]]) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in row) + "</tr>" for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _failed_section(records: list[dict]) -> str:
+    failed = [r for r in records if r.get("kind") == "failed"]
+    if not failed:
+        return "<h2>Failed points</h2><p>None.</p>"
+    reasons: dict[str, int] = defaultdict(int)
+    for record in failed:
+        reasons[record.get("reason", "")] += 1
+    rows = [[r["clip"], r["codec"], r["q"], f"{r['fps']:g}", r.get("reason", "")] for r in failed[:100]]
+    more = f"<p>First 100 of {len(failed)}.</p>" if len(failed) > 100 else ""
+    return ("<h2>Failed points</h2>" + _html_table(["points", "reason"], [[n, reason] for reason, n in
+                                                                           sorted(reasons.items(), key=lambda x: -x[1])])
+            + _html_table(["clip", "codec", "Q", "fps", "reason"], rows) + more)
+
+
+def report_html(records: list[dict], table: list[dict], figure_png: bytes) -> str:
+    """The page: what was swept, the table per frame rate, the figure, the failed points."""
+    points = [r for r in records if r.get("kind", "point") == "point"]
+    failed = sum(1 for r in records if r.get("kind") == "failed")
+    languages = sorted({_language_item(r)[0] for r in points})
+    items = {_language_item(r) for r in points}
+    wanted = columns(table)
+    swept = (f"<h1>signcast sweep</h1><p>{len(points)} points measured, {failed} failed; {len(languages)} "
+             f"languages ({html.escape(', '.join(languages))}), {len(items)} items, codecs "
+             f"{html.escape(', '.join(sorted({r['codec'] for r in points})))}, Q "
+             f"{', '.join(str(q) for q in sorted({r['q'] for r in points}))}.</p>")
+    legend = (f"<p>Each cell: median kbps at the matched operating point over the language's items, [first "
+              f"quartile-third quartile]; (k/n) when only k of n items reached the threshold. Matched operating "
+              f"point: {html.escape(OPERATING_RULE)}. &ldquo;{BEST}&rdquo;: each item's cheapest codec of the "
+              f"solution.</p>")
+    sections = [swept, legend]
+    for fps, languages_rows in _grid(table).items():
+        header = ["language", *(f"{s}: {c}" for s, c in wanted)]
+        rows = [[language, *(cell_text(row.get(c)) for c in wanted)] for language, row in languages_rows.items()]
+        sections.append(f"<h2>{fps:g} fps</h2>" + _html_table(header, rows))
+    encoded = base64.b64encode(figure_png).decode("ascii")
+    sections.append(f"<h2>Figure</h2><p>Measured against {MEASURED_AGAINST}; threshold {html.escape(CRITERION.text())}."
+                    f"</p><img alt=\"median kbps at the matched operating point per language and codec\" "
+                    f"src=\"data:image/png;base64,{encoded}\">")
+    sections.append(_failed_section(records))
+    style = ("body{font-family:sans-serif;max-width:1200px;margin:auto}table{border-collapse:collapse;margin:1em 0}"
+             "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px;text-align:right}img{max-width:100%}")
+    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>signcast sweep</title><style>{style}</style>"
+            f"</head><body>{''.join(sections)}</body></html>\n")
+
+
+def write_report(out_dir: str | Path, records: list[dict]) -> Path:
+    """Write report.html, sweep_table.csv and sweep_kbps.png in out_dir from the records; returns report.html."""
+    plt = _pyplot()
+    out_dir = Path(out_dir)
+    table = cells(matched_points(records))
+    write_table(out_dir / "sweep_table.csv", table)
+    if table:
+        figure = chart(table)
+    else:
+        figure = plt.figure(figsize=(6, 1))
+        figure.text(0.5, 0.5, "no measured point yet", ha="center")
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    plt.close(figure)
+    (out_dir / "sweep_kbps.png").write_bytes(buffer.getvalue())
+    path = out_dir / "report.html"
+    path.write_text(report_html(records, table, buffer.getvalue()), encoding="utf-8")
+    return path

@@ -1,0 +1,156 @@
+"""`signcast sweep` on real lexicon clips: the local pool and Ray write the same records, an interrupted sweep
+resumes without measuring a point twice, a failing point is recorded with its reason while the others complete,
+the report is built from the records, and bad input is one line before any work."""
+import json
+from pathlib import Path
+
+import pytest
+
+from comparisons import sweep_report
+from comparisons.records import make_record, read_records, write_records
+from pipeline.cli import main
+from pipeline.outputs import MANIFEST
+from pipeline.studies import sweep
+
+SMALL = ["sweep", "--languages", "ase", "--items", "A,B", "--codecs", "fba-pred,bba-pred", "--q", "4,16", "--fps", "10",
+         "--no-progress"]
+
+
+def _measured(folder: Path) -> list[dict]:
+    """The point and failed records of a sweep folder."""
+    return [r for r in read_records(folder / sweep.RECORDS) if r["kind"] in ("point", "failed")]
+
+
+def _without_timing(records: list[dict]) -> dict[str, dict]:
+    return {r["task"]: {k: v for k, v in r.items() if k not in sweep.TIMING_FIELDS} for r in records}
+
+
+@pytest.mark.slow
+def test_local_and_ray_executors_write_the_same_records(tmp_path, capsys):
+    import ray
+    assert main([*SMALL, "--executor", "local", "--workers", "2", "--out", str(tmp_path / "local")]) == 0
+    assert main([*SMALL, "--executor", "ray", "--workers", "2", "--out", str(tmp_path / "ray")]) == 0
+    assert not ray.is_initialized()                                   # shut down, no Ray left running
+    local, on_ray = _measured(tmp_path / "local"), _measured(tmp_path / "ray")
+    assert len(local) == 2 * 2 * 2 and all(r["kind"] == "point" for r in local)
+    assert len({r["task"] for r in local}) == len(local)
+    assert _without_timing(local) == _without_timing(on_ray)
+    assert {r["solution"] for r in local} == {"FBA", "BBA"}
+    runs = [r for r in read_records(tmp_path / "ray" / sweep.RECORDS) if r["kind"] == "run"]
+    assert [r["executor"] for r in runs] == ["ray"] and runs[0]["workers"] == 2
+    # the matched point of each item and codec lies between the kbps of the Q that brackets it
+    for matched in sweep_report.matched_points(local):
+        rates = {r["q"]: r["kbps"] for r in local if r["item"] == matched["item"] and r["codec"] == matched["codec"]}
+        assert min(rates.values()) <= matched["kbps"] <= max(rates.values())
+    page = (tmp_path / "local" / "report.html").read_text()
+    assert "median kbps at the matched operating point" in page and "joint position error" in page
+    assert "data:image/png;base64," in page and (tmp_path / "local" / "sweep_kbps.png").stat().st_size > 5000
+    assert "fba-pred" in capsys.readouterr().out
+
+
+def test_an_interrupted_sweep_resumes_and_measures_each_point_once(tmp_path, capsys):
+    out = tmp_path / "out"
+    argv = ["sweep", "--languages", "ase", "--items", "A,B", "--codecs", "fba-pred", "--q", "4,16", "--fps", "10",
+            "--workers", "1", "--no-progress", "--out", str(out)]
+    assert main([*argv, "--max-units", "1"]) == 0
+    first = _measured(out)
+    assert len(first) == 2 and "2 left" in capsys.readouterr().out
+    with (out / sweep.RECORDS).open("a") as records:                   # killed in the middle of a write
+        records.write('{"schema": 2, "kind": "point", "solution": "FBA", "clip": "ase:')
+    assert main(argv) == 0
+    assert "2 points measured, 0 failed, 2 finished earlier" in capsys.readouterr().out
+    resumed = _measured(out)
+    assert len(resumed) == 4 and len({r["task"] for r in resumed}) == 4
+    assert resumed[:2] == first                                          # kept as written, not measured again
+    assert {(r["item"], r["q"]) for r in resumed} == {("A", 4), ("A", 16), ("B", 4), ("B", 16)}
+    assert main(argv) == 0
+    assert "0 points measured, 0 failed, 4 finished earlier" in capsys.readouterr().out
+    assert _measured(out) == resumed
+    assert main([*argv, "--force"]) == 0                                   # starts over
+    assert "4 points measured, 0 failed, 0 finished earlier" in capsys.readouterr().out
+    assert len(_measured(out)) == 4
+
+
+def test_a_failing_point_is_recorded_with_its_reason_and_the_others_complete(tmp_path, capsys):
+    out = tmp_path / "out"
+    argv = ["sweep", "--languages", "ase", "--items", "A", "--codecs", "fba-pred", "--q", "4", "--fps", "0.5,10",
+            "--workers", "2", "--no-progress", "--out", str(out)]
+    assert main(argv) == 0                       # FBA streams cannot signal 0.5 frames/s; 10 frames/s is measured
+    records = _measured(out)
+    failed = [r for r in records if r["kind"] == "failed"]
+    assert [r["fps"] for r in failed] == [0.5] and "cannot be signalled" in failed[0]["reason"]
+    assert [(r["kind"], r["fps"]) for r in records if r["kind"] == "point"] == [("point", 10.0)]
+    assert "cannot be signalled" in (out / "report.html").read_text()
+    assert main(argv) == 0                                                 # failed points are retried
+    retried = _measured(out)
+    assert sorted(r["kind"] for r in retried) == ["failed", "point"] and len({r["task"] for r in retried}) == 2
+    capsys.readouterr()
+    assert main([*argv, "--skip-failed"]) == 0
+    assert "0 points measured, 0 failed, 2 finished earlier" in capsys.readouterr().out
+
+
+def test_task_keys_are_stable_and_name_every_parameter():
+    settings = sweep.SweepSettings(("ase", "gsg"), ("A", "B", "ab"), ("fba-pred", "bba-dct"), (4, 16), (10.0, 25.0))
+    units = sweep.plan(settings, version="v1")
+    keys = [p.task for u in units for p in u.points]
+    assert len(units) == 2 * 3 and len(keys) == len(set(keys)) == 2 * 3 * 2 * 2 * 2
+    assert keys == [p.task for u in sweep.plan(settings, version="v1") for p in u.points]
+    assert set(keys).isdisjoint(p.task for u in sweep.plan(settings, version="v2") for p in u.points)
+    assert [u.word for u in units[:3]] == [False, False, True]                          # "ab" is spelled
+    assert [(p.fps, p.codec, p.q) for p in units[0].points][:3] == [(10.0, "fba-pred", 4), (10.0, "fba-pred", 16),
+                                                                   (10.0, "bba-dct", 4)]
+    assert sweep.task_key("ase", "A", "fba-pred", 4, 10, "FBA", "v1") == sweep.task_key("ase", "A", "fba-pred", 4,
+                                                                                         10.0, "FBA", "v1")
+
+
+@pytest.mark.parametrize("extra, fragment", [
+    (["--languages", "xxx"], "unknown sign language 'xxx'"),
+    (["--items", "A,Ω"], "cannot fingerspell 'Ω' in ase"),
+    (["--codecs", "fba-zip"], "unknown parameter codec 'fba-zip'"),
+    (["--q", "0"], "bad --q 0"),
+    (["--q", "4,x"], "bad --q '4,x'"),
+    (["--fps", "0"], "bad --fps 0"),
+    (["--fps", "fast"], "bad --fps 'fast'"),
+    (["--executor", "dask"], "unknown --executor 'dask'"),
+    (["--address", "10.0.0.1:6379"], "--address joins a Ray cluster: use it with --executor ray"),
+    (["--workers", "0"], "bad --workers '0'"),
+    (["--max-units", "-1"], "bad --max-units '-1'"),
+])
+def test_bad_input_is_one_line_before_any_work(tmp_path, capsys, extra, fragment):
+    out = tmp_path / "out"
+    argv = ["sweep", "--languages", "ase", "--items", "A", "--out", str(out), *extra]
+    assert main(argv) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and error.startswith("signcast sweep: error: ") and fragment in error
+    assert not out.exists()
+
+
+def test_an_unwritable_or_foreign_out_is_refused_before_any_work(tmp_path, capsys):
+    (tmp_path / "a-file").write_text("mine")
+    cases = [(tmp_path / "a-file" / "out", "cannot create folder"), (tmp_path / "a-file", "is a file, not a folder"),
+             (tmp_path, "is not empty")]
+    signcast_folder = tmp_path / "params-run"                  # another command's records, listed in its manifest
+    write_records(signcast_folder / sweep.RECORDS, [make_record("FBA", "ase:A", "fba-pred", 4, 10, 0, 0, 800, 1.0)])
+    (signcast_folder / MANIFEST).write_text(f"{sweep.RECORDS}\n")
+    cases.append((signcast_folder, "signcast sweep did not write"))
+    for out, fragment in cases:
+        assert main(["sweep", "--languages", "ase", "--items", "A", "--out", str(out)]) == 2
+        error = capsys.readouterr().err.strip()
+        assert len(error.splitlines()) == 1 and fragment in error, error
+    assert json.loads((signcast_folder / sweep.RECORDS).read_text())["clip"] == "ase:A"
+
+
+def test_an_unreachable_ray_cluster_is_one_line(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["sweep", "--languages", "ase", "--items", "A", "--executor", "ray", "--address", "127.0.0.1:9",
+                 "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error == "signcast sweep: error: cannot reach the Ray cluster at 127.0.0.1:9: Connection refused"
+    assert not out.exists()
+
+
+def test_a_sweep_larger_than_one_records_file_is_refused_before_any_work(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["sweep", "--languages", "all", "--q", "1,2,4,8,16,31", "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert "a sweep of 37560 points is more than one records file holds" in error and not out.exists()
