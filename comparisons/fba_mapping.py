@@ -1,30 +1,50 @@
 """Motion <-> MPEG-4 BAP values for the signcast avatar.
 
 Each avatar bone that can carry body motion is assigned an H-Anim joint and its BAPs
-(comparisons/bap_table.py). A joint's local rotation is split into the standard's three
-anatomical angles, flexion (flexion/tilt), abduction (abduct/roll/pivot) and twisting
-(twisting/torsion/rotate/turn), composed "twisting o abduction o flexion" (seed 000 §2.1, seed
-004 "Body Animation Parameters"): flexion first, then abduction about the moved abduction axis,
-then twist about the segment's own long axis, i.e. q = R_F(f) R_A(a) R_L(t) in moving axes.
+(comparisons/bap_table.py). A joint's rotation is split into the standard's three anatomical
+angles, flexion (flexion/tilt), abduction (abduct/roll/pivot) and twisting (twisting/torsion/
+rotate/turn), composed "twisting o abduction o flexion" (seed 000 §2.1, seed 004 "Body Animation
+Parameters"): flexion first, then abduction about the moved abduction axis, then twist about the
+segment's own long axis, i.e. r = R_F(f) R_A(a) R_L(t) in moving axes.
 
-Anatomical axes come from the avatar's rest skeleton (the standard defines them by anatomical
-planes; Greta and visage disagree on literal X/Y/Z, mpeg4-facts.md §1.5):
-- long axis L: the bone's head -> tail direction (for the wrist: wrist -> middle-finger knuckle);
-- flexion axis F: the lateral direction (world +X for body and limbs, the knuckle line of the hand
-  for hand bones), made orthogonal to L;
-- abduction axis A = F x L.
-Bones whose long axis is itself lateral (clavicles, shoulder blades, pelvis bones) use the world
-axes (F = X, L = Y, A = Z), matching Greta's clavicle BAPs (abduct Z, rotate Y). Right-side
-angles about L and A are negated so mirror-symmetric poses give equal BAPs on both sides.
+BAP value 0 is the MPEG-4 neutral body posture (seed 000 Fig. 2.10a, H-Anim's default pose):
+standing, arms hanging at the sides, elbows straight, palms facing the thighs, wrists and fingers
+straight (media.retarget.neutral_pose; on this body the hanging arm is turned
+NEUTRAL_ARM_ABDUCTION out of the vertical so the hand clears the hip). The rig's rest is an A-pose;
+each bone's map entry holds its neutral local rotation n (identity where the rig's rest already is
+neutral: spine, neck, head, legs, clavicles), and the BAPs describe the rotation relative to it:
+a motion's local rotation q gives r = n^-1 q, and the BAPs turn back into q = n r. An arm hanging
+in the neutral (the natural rest of an unseen arm) therefore costs no BAP at all.
 
-Chosen here (no source): BAP value 0 is the avatar's rest pose (an A-pose), not the standard's
-neutral pose (arms hanging, seed 000 Fig. 2.10); a rotation the standard has no BAP for (e.g. the
-avatar's elbow abduction, its forearm twist bone, finger twist) is carried by an extension BAP
-(187..296), allocated in the order of AVATAR_JOINTS. Root translation is in mm (BAPs 181..183).
+Anatomical axes (F flexion, L long, A = F x L abduction, as columns of the bone's `frame`, in the
+rig's rest coordinates and carried into the neutral by n; the standard defines them by anatomical
+planes, Greta and visage disagree on literal X/Y/Z, mpeg4-facts.md §1.5):
+- arm and hand bones (upper arm, elbow, forearm twist, wrist, metacarpals, fingers, thumb): the
+  axes the retargeting turns the joints about (media.retarget.joint_axes): a finger's F is its
+  hinge axis, A the direction it flexes towards, L the bone; the elbow's F is its hinge, shared by
+  the upper arm's and forearm's bones; the wrist's F and A are its flexion and deviation axes. So a
+  hinge turn in the retargeting is exactly one flexion BAP (the other two round to 0), a knuckle
+  turns flexion then abduction (its twisting BAP stays 0), and the forearm twist bone only twists.
+  In the neutral the arm's F is horizontal and lateral: positive shoulder and elbow flexion raise
+  forward, positive finger and wrist flexion bend towards the palm.
+- other bones: L the bone's head -> tail direction, F the world lateral axis (+X) made orthogonal
+  to L; bones whose long axis is itself lateral (clavicles, shoulder blades, pelvis bones) use the
+  world axes (F = X, L = Y, A = Z), matching Greta's clavicle BAPs (abduct Z, rotate Y).
+Right-side angles about L and A are negated so mirror-symmetric poses give equal BAPs on both sides.
+
+Standard BAPs first: every axis the standard has a BAP for carries that BAP, also across bones:
+the avatar splits the forearm into an elbow bone (lowerarm01, hinge: elbow_flexion) and a twist
+bone (lowerarm02, where the retargeting puts the forearm's twist: elbow_twisting); the foot's third
+axis is the subtalar joint's (BAPs 18/19). Every remaining axis of a mapped bone (one the standard
+has no BAP for: a PIP joint's twist, the avatar's second upper-arm bone, ...) is carried by an
+extension BAP (187..296), allocated in the order of AVATAR_JOINTS, so that any motion of the avatar
+round-trips; `extension_report` lists them with the reason and, for given motions, only those
+that move. Retargeted signing moves none of them. Root translation is in mm (BAPs 181..183).
 """
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,10 +54,12 @@ from media import rotations
 from media.avatar import Skeleton, load_avatar
 from media.errors import SigncastError
 from media.motion import Motion
+from media.retarget import joint_axes, neutral_pose
 
 EULER_ORDER = "XZYr"     # in anatomical coordinates (x = F, y = L, z = A): flexion, abduction, twist
+AXIS_NAMES = ("flexion", "abduction", "twist")
 
-# avatar bone (without side suffix) -> H-Anim joint (without l_/r_), or None for extension-only bones.
+# avatar bone (without side suffix) -> H-Anim joint (without l_/r_), or None for bones H-Anim lacks.
 AVATAR_JOINTS: tuple[tuple[str, str | None], ...] = (
     ("root", "HumanoidRoot"),
     ("spine05", "vl5"), ("spine04", "vl3"), ("spine03", "vt10"), ("spine02", "vt6"), ("spine01", "vt1"),
@@ -53,34 +75,56 @@ AVATAR_JOINTS: tuple[tuple[str, str | None], ...] = (
     ("pelvis", None), ("upperleg01", "hip"), ("upperleg02", None), ("lowerleg01", "knee"),
     ("lowerleg02", None), ("foot", "ankle"), ("toe1-1", "metatarsal"),
 )
-# Extra standard BAPs borrowed by a bone for an axis its own joint lacks: the foot's third axis
-# is the subtalar joint's (BAPs 18/19).
-_BORROWED = {("foot", "A"): "subtalar_flexion"}
+# Axes whose standard BAP is not their own joint's (name without side prefix), or None: the joint's own
+# BAP for that axis goes to another bone. The forearm's twist is its twist bone's (the retargeting turns
+# lowerarm02 about its long axis, never lowerarm01); the foot's third axis is the subtalar joint's.
+_AXIS_BAPS: dict[tuple[str, str], str | None] = {
+    ("lowerarm02", "L"): "elbow_twisting",
+    ("lowerarm01", "L"): None,
+    ("foot", "A"): "subtalar_flexion",
+}
 _FLEXION = ("flexion", "tilt")
 _ABDUCTION = ("abduct", "roll", "pivot")
 _TWIST = ("twisting", "torsion", "rotate", "turn")
 _WORLD_FRAME = {"clavicle", "shoulder01", "pelvis"}
-_HAND = {"wrist", "metacarpal1", "metacarpal2", "metacarpal3", "metacarpal4"} | {
-    f"finger{f}-{s}" for f in range(1, 6) for s in range(1, 4)}
+_ANATOMICAL_AXES = {"upperarm01", "upperarm02", "lowerarm01", "lowerarm02", "wrist"} | {
+    f"metacarpal{m}" for m in range(1, 5)} | {f"finger{f}-{s}" for f in range(1, 6) for s in range(1, 4)}
 
 
 @dataclass(frozen=True)
 class BoneBaps:
     """BAP ids carrying one avatar bone's rotation: (flexion, abduction, twist), 1-based ids;
-    `frame`: (4,) quaternion of the anatomical frame (columns F, L, A) in rest/world axes;
-    `mirror`: True for right-side bones (abduction and twist negated)."""
+    `frame`: (4,) quaternion of the anatomical frame (columns F, L, A) in the rig's rest axes;
+    `neutral`: (4,) local rotation of the bone in the MPEG-4 neutral posture (BAP 0), relative to the
+    rig's rest; `mirror`: True for right-side bones (abduction and twist negated)."""
     bone: str
     joint: str
     baps: tuple[int, int, int]
     frame: np.ndarray
+    neutral: np.ndarray
     mirror: bool
 
 
 @dataclass(frozen=True)
+class ExtensionAxis:
+    """One bone axis an extension BAP carries. bap: its id (187..296); bone; axis: 'flexion',
+    'abduction' or 'twist'; reason: why no standard BAP carries it; max_abs, spread: largest |value|
+    and max - min over the motions reported on (BAP units, 1e-5 rad; 0 without motions)."""
+    bap: int
+    bone: str
+    axis: str
+    reason: str
+    max_abs: int = 0
+    spread: int = 0
+
+
+@dataclass(frozen=True)
 class AvatarBapMap:
-    """The avatar's BAP assignment. bones: BoneBaps per mapped bone, in AVATAR_JOINTS order."""
+    """The avatar's BAP assignment. bones: BoneBaps per mapped bone, in AVATAR_JOINTS order;
+    extension_reasons: extension BAP id -> why the standard has no BAP for that bone axis."""
     skeleton: Skeleton
     bones: tuple[BoneBaps, ...]
+    extension_reasons: dict[int, str]
 
     @functools.cached_property
     def used_baps(self) -> np.ndarray:
@@ -103,6 +147,21 @@ class AvatarBapMap:
         """BAP id -> (bone name, angle index 0 flexion / 1 abduction / 2 twist)."""
         return {i: (b.bone, k) for b in self.bones for k, i in enumerate(b.baps)}
 
+    @functools.cached_property
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per mapped bone, stacked: frames (B, 4), neutrals (B, 4), BAP columns (B, 3) (id - 1) and
+        angle signs (B, 3) (-1 for a right-side bone's abduction and twist)."""
+        frames = np.stack([b.frame for b in self.bones])
+        neutrals = np.stack([b.neutral for b in self.bones])
+        columns = np.array([b.baps for b in self.bones], dtype=np.int64) - 1
+        signs = np.where(np.array([b.mirror for b in self.bones])[:, None], np.array([1.0, -1.0, -1.0]), 1.0)
+        return frames, neutrals, columns, signs
+
+    @functools.cached_property
+    def extension_baps(self) -> np.ndarray:
+        """Sorted ids (187..296) of the extension BAPs the map allocates."""
+        return np.array(sorted(self.extension_reasons), dtype=np.int64)
+
 
 def _joint_bap(joint: str, kinds: tuple[str, ...]) -> int | None:
     for bap in bap_table.BAPS[:bap_table.N_STANDARD_BAPS]:
@@ -113,27 +172,39 @@ def _joint_bap(joint: str, kinds: tuple[str, ...]) -> int | None:
     return None
 
 
-def _frame(skeleton: Skeleton, bone: str, base: str, side: str) -> np.ndarray:
-    """Rotation matrix whose columns are the anatomical axes F, L, A in world coordinates."""
-    i = skeleton.index(bone)
+def _frame(skeleton: Skeleton, bone: str, base: str) -> np.ndarray:
+    """Rotation matrix whose columns are the anatomical axes F, L, A in the rig's rest coordinates."""
+    if base in _ANATOMICAL_AXES:
+        return joint_axes(skeleton, bone).T
     if base in _WORLD_FRAME:
         return np.eye(3)
-    if base == "wrist":
-        long_axis = skeleton.heads[skeleton.index(f"finger3-1{side}")] - skeleton.heads[i]
-    else:
-        long_axis = skeleton.tails[i] - skeleton.heads[i]
+    i = skeleton.index(bone)
+    long_axis = skeleton.tails[i] - skeleton.heads[i]
     long_axis = long_axis / np.linalg.norm(long_axis)
-    if base in _HAND:
-        lateral = skeleton.heads[skeleton.index(f"finger5-1{side}")] - skeleton.heads[skeleton.index(f"finger2-1{side}")]
-        lateral = lateral if lateral[0] >= 0 else -lateral
-    else:
-        lateral = np.array([1.0, 0.0, 0.0])
+    lateral = np.array([1.0, 0.0, 0.0])
     flexion = lateral - np.dot(lateral, long_axis) * long_axis
     if np.linalg.norm(flexion) < 0.3:
         return np.eye(3)
     flexion /= np.linalg.norm(flexion)
-    abduction = np.cross(flexion, long_axis)
-    return np.stack([flexion, long_axis, abduction], axis=1)
+    return np.stack([flexion, long_axis, np.cross(flexion, long_axis)], axis=1)
+
+
+_EXTRA_BONES = {
+    "upperarm02": "the upper arm's second bone",
+    "lowerarm02": "the forearm's twist bone, which carries elbow_twisting",
+    "pelvis": "the hip bone between the root and the thigh",
+    "upperleg02": "the thigh's second bone",
+    "lowerleg02": "the shin's second bone",
+}
+
+
+def _extension_reason(base: str, hanim: str | None, axis: str) -> str:
+    """Why no standard BAP carries this bone axis ('F', 'A' or 'L'), in one line."""
+    if hanim is None:
+        return f"{base} ({_EXTRA_BONES.get(base, 'an extra bone')}) is no H-Anim joint: the standard has no BAP for its {AXIS_NAMES['FAL'.index(axis)]}"
+    if _AXIS_BAPS.get((base, axis), "") is None:
+        return f"{hanim}_twisting carries the forearm's twist bone (lowerarm02), where the retargeting twists the forearm"
+    return f"the standard's {hanim} has no {AXIS_NAMES['FAL'.index(axis)]} BAP"
 
 
 _MAPS: dict[int, AvatarBapMap] = {}
@@ -150,7 +221,11 @@ def avatar_bap_map(skeleton: Skeleton | None = None) -> AvatarBapMap:
 
 def _build_map(skeleton: Skeleton) -> AvatarBapMap:
     next_extension = bap_table.N_STANDARD_BAPS + 1
-    bones = []
+    neutral = {}
+    for side in ("L", "R"):
+        if all(f"{bone}.{side}" in skeleton.names for bone in ("upperarm01", "lowerarm01", "lowerarm02", "wrist")):
+            neutral.update(neutral_pose(skeleton, side))
+    bones, reasons = [], {}
     for base, joint in AVATAR_JOINTS:
         sides = [("", "")] if base == "root" or base.startswith(("spine", "neck", "head")) else [(".L", "l_"), (".R", "r_")]
         for suffix, prefix in sides:
@@ -160,22 +235,40 @@ def _build_map(skeleton: Skeleton) -> AvatarBapMap:
             hanim = (prefix + joint) if joint else None
             ids = []
             for axis, kinds in (("F", _FLEXION), ("A", _ABDUCTION), ("L", _TWIST)):
-                found = _joint_bap(hanim, kinds) if hanim else None
-                if found is None and (base, axis) in _BORROWED:
-                    found = bap_table.BY_NAME[prefix + _BORROWED[(base, axis)]].id
+                if (base, axis) in _AXIS_BAPS:
+                    other = _AXIS_BAPS[(base, axis)]
+                    found = bap_table.BY_NAME[prefix + other].id if other else None
+                else:
+                    found = _joint_bap(hanim, kinds) if hanim else None
                 if found is None:
                     if next_extension > bap_table.N_BAPS:
                         raise SigncastError("the avatar needs more extension BAPs than the 110 the standard has")
                     found = next_extension
+                    reasons[found] = _extension_reason(base, hanim, axis)
                     next_extension += 1
                 ids.append(found)
-            frame = _frame(skeleton, name, base, suffix)
-            bones.append(BoneBaps(name, hanim or "-", tuple(ids), rotations.from_matrix(frame), suffix == ".R"))
-    return AvatarBapMap(skeleton, tuple(bones))
+            frame = rotations.from_matrix(_frame(skeleton, name, base))
+            bones.append(BoneBaps(name, hanim or "-", tuple(ids), frame,
+                                  neutral.get(name, rotations.IDENTITY.copy()), suffix == ".R"))
+    return AvatarBapMap(skeleton, tuple(bones), reasons)
+
+
+def _bone_rotations(motion: Motion, bap_map: AvatarBapMap) -> np.ndarray:
+    """(T, B, 4) local rotation of every mapped bone (B = len(bap_map.bones)); bones the motion lacks
+    are at the rig's rest (identity)."""
+    names = {n: k for k, n in enumerate(motion.bone_names)}
+    q = np.zeros((motion.n_frames, len(bap_map.bones), 4))
+    q[..., 0] = 1.0
+    for k, bone in enumerate(bap_map.bones):
+        if bone.bone in names:
+            q[:, k] = motion.rotations[:, names[bone.bone]]
+    return q
 
 
 def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, strict: bool = True) -> np.ndarray:
-    """(T, 296) int64 BAP values (index = id - 1; 1e-5 rad, mm) of a Motion on the avatar.
+    """(T, 296) int64 BAP values (index = id - 1; 1e-5 rad, mm) of a Motion on the avatar, relative to
+    the MPEG-4 neutral posture (bones the motion lacks are at the rig's rest, which is not neutral for
+    the arms and hands).
 
     strict: raise SigncastError when the motion rotates a bone that no BAP carries (more than
     1e-4 rad), since that motion would be lost.
@@ -187,16 +280,12 @@ def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, stric
                 np.max(rotations.angle_between(motion.rotations[:, names[n]], rotations.IDENTITY)) > 1e-4]
         if lost:
             raise SigncastError(f"motion rotates bones that no BAP carries: {', '.join(lost[:6])}")
+    frames, neutrals, columns, signs = bap_map.arrays
+    relative = rotations.multiply(rotations.conjugate(neutrals), _bone_rotations(motion, bap_map))
+    anatomical = rotations.multiply(rotations.multiply(rotations.conjugate(frames), relative), frames)
+    angles = rotations.to_euler(anatomical, EULER_ORDER) * signs       # (T, B, 3): F, A, L
     values = np.zeros((motion.n_frames, bap_table.N_BAPS), dtype=np.int64)
-    for bone in bap_map.bones:
-        if bone.bone not in names:
-            continue
-        q = motion.rotations[:, names[bone.bone]]
-        anatomical = rotations.multiply(rotations.multiply(rotations.conjugate(bone.frame), q), bone.frame)
-        angles = rotations.to_euler(anatomical, EULER_ORDER)      # (T, 3): F, A, L
-        if bone.mirror:
-            angles[:, 1:] *= -1
-        values[:, np.array(bone.baps) - 1] = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
+    values[:, columns] = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
     translation_mm = np.round(motion.root_translation / bap_table.TRANSLATION_UNIT_M).astype(np.int64)
     values[:, 181 - 1] = translation_mm[:, 1]   # vertical
     values[:, 182 - 1] = translation_mm[:, 0]   # lateral
@@ -205,18 +294,46 @@ def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, stric
 
 
 def baps_to_motion(values: np.ndarray, fps: float, bap_map: AvatarBapMap | None = None) -> Motion:
-    """Motion of all mapped avatar bones from (T, 296) BAP values (inverse of motion_to_baps)."""
+    """Motion of all mapped avatar bones from (T, 296) BAP values (inverse of motion_to_baps): all
+    zero is the MPEG-4 neutral posture."""
     bap_map = bap_map or avatar_bap_map()
     values = np.asarray(values)
     if values.ndim != 2 or values.shape[1] != bap_table.N_BAPS:
         raise SigncastError(f"BAP values must be (T, {bap_table.N_BAPS}), got {values.shape}")
+    frames, neutrals, columns, signs = bap_map.arrays
+    angles = values[:, columns].astype(np.float64) * bap_table.ROTATION_UNIT_RAD * signs
+    anatomical = rotations.from_euler(angles, EULER_ORDER)
+    relative = rotations.multiply(rotations.multiply(frames, anatomical), rotations.conjugate(frames))
+    q = rotations.multiply(neutrals, relative)
     names = tuple(b.bone for b in bap_map.bones)
-    q = np.empty((len(values), len(names), 4))
-    for k, bone in enumerate(bap_map.bones):
-        angles = values[:, np.array(bone.baps) - 1].astype(np.float64) * bap_table.ROTATION_UNIT_RAD
-        if bone.mirror:
-            angles[:, 1:] *= -1
-        anatomical = rotations.from_euler(angles, EULER_ORDER)
-        q[:, k] = rotations.multiply(rotations.multiply(bone.frame, anatomical), rotations.conjugate(bone.frame))
     translation = np.stack([values[:, 182 - 1], values[:, 181 - 1], values[:, 183 - 1]], axis=1) * bap_table.TRANSLATION_UNIT_M
-    return Motion(fps, names, rotations.canonical(q), translation.astype(np.float64))
+    return Motion(fps, names, rotations.canonical(rotations.normalize(q)), translation.astype(np.float64))
+
+
+def extension_report(motions: Iterable[Motion | np.ndarray] | None = None,
+                     bap_map: AvatarBapMap | None = None) -> list[ExtensionAxis]:
+    """The avatar bone axes that extension BAPs carry, and why the standard cannot.
+
+    motions: None lists every allocated extension BAP (what the standard cannot express on this
+    avatar); otherwise Motions or (T, 296) BAP value arrays, and only the extension BAPs they move
+    are listed: those whose largest |value| exceeds half the BAP's quantisation step (a smaller value
+    is 0 at every Q), with that largest value and the spread (max - min) over all the motions.
+    """
+    bap_map = bap_map or avatar_bap_map()
+    ids = bap_map.extension_baps
+    if motions is None:
+        return [ExtensionAxis(int(i), *_bone_axis(bap_map, int(i)), bap_map.extension_reasons[int(i)]) for i in ids]
+    arrays = [motion_to_baps(m, bap_map) if isinstance(m, Motion) else np.asarray(m) for m in motions]
+    if not arrays:
+        return []
+    values = np.concatenate(arrays)[:, ids - 1]
+    steps = bap_table.steps()[ids - 1]
+    largest = np.abs(values).max(axis=0)
+    spread = values.max(axis=0) - values.min(axis=0)
+    return [ExtensionAxis(int(i), *_bone_axis(bap_map, int(i)), bap_map.extension_reasons[int(i)], int(m), int(s))
+            for i, m, s, step in zip(ids, largest, spread, steps) if m > step // 2]
+
+
+def _bone_axis(bap_map: AvatarBapMap, bap_id: int) -> tuple[str, str]:
+    bone, k = bap_map.bone_of_bap[bap_id]
+    return bone, AXIS_NAMES[k]

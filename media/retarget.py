@@ -8,11 +8,17 @@ set) differs only in its defaults (see `retarget`) and in where the phalanx leng
   samples before filling, in shoulder widths so its beta does not depend on the video's size, or
   "off"), and a point missing in some frames takes the nearest frame that has it.
 - Torso and head (all angles small and clamped, from the pose landmarks; the avatar faces +Z,
-  Y up): spine roll follows the shoulder line (clamped to 20 deg, shared 0.2/0.4/0.4 by
-  spine03/02/01). Torso yaw and lean are not driven: in 2D keypoints they show only as the
-  shoulder line's or the shoulders-to-hips distance's foreshortening, and over 40 lexicon clips of
-  signers facing the camera those alone read as 9-26 deg of yaw and 8-25 deg of lean (the shoulder
-  landmarks shift as the arms rise), so they are not measurable here. neck01..03 and head share
+  Y up): each clavicle shrugs (or drops) by its shoulder landmark's height above the clip's own
+  median, in shoulder widths (clavicle_elevations: clamped to 8 deg, turned about the sternal end;
+  shoulder01 turns back, so the arm below moves up and down without swinging); spine roll follows
+  the shoulder line less what the clavicles raise (clamped to 20 deg, shared 0.2/0.4/0.4 by
+  spine03/02/01). Torso yaw and lean and clavicle protraction are not driven: in 2D keypoints they
+  show only as the shoulder line's or the shoulders-to-hips distance's foreshortening, and over 40
+  lexicon clips of signers facing the camera those alone read as 9-26 deg of yaw and 8-25 deg of
+  lean (the shoulder landmarks shift as the arms rise); MediaPipe's depth (z) is no better: it is
+  not depth at any one scale (a bone's image does not shorten as its z extent grows), and on a
+  rendered avatar whose torso never turns, the shoulders' z reads as -8 to +14 deg of yaw, in step
+  with the hand's z (docs/retargeting.md, "Head and torso"). neck01..03 and head share
   equally: roll from the eyes' line relative to the shoulders' (clamped to 34 deg), yaw from the
   nose between the ears (arcsin of twice its offset from the ears' midpoint in ear spans, clamped
   to 53 deg), and pitch (nod) from the nose's height under the ears' line in ear spans:
@@ -24,11 +30,17 @@ set) differs only in its defaults (see `retarget`) and in where the phalanx leng
   comes from the wrist, index and little-finger knuckles (a weak-perspective triangle fit, its
   depth-mirror chosen closest to the forearm: wrist joint limits). CCD IK with joint limits
   (media.ik) then poses upperarm01 (3 DOF), lowerarm01 (elbow hinge), lowerarm02 (forearm twist)
-  and wrist (flexion, deviation) to reach elbow, wrist and palm orientation together.
-- Fingers: every phalanx from the 21 hand landmarks, in its parent's posed frame: flexion towards
-  the palm and (at the knuckles and the thumb's base) abduction, each clamped to joint limits;
-  the sign of each phalanx's depth is the one that respects the limits best (fingers flex
-  towards the palm). Phalanges are lifted with the lexicon signer's own lengths (measured over
+  and wrist (flexion, deviation) to reach elbow, wrist and palm orientation together; the last
+  three turn about the anatomical axes the MPEG-4 BAP mapping reads (joint_axes), so each is its
+  own BAPs (elbow_flexion, elbow_twisting, wrist flexion and pivot).
+- Fingers: every phalanx from the 21 hand landmarks, in its parent's posed frame, constrained as
+  anatomy does about the shared anatomical axes (joint_axes): a knuckle (MCP) flexes towards the
+  palm and then spreads (abduction), without twisting; PIP and DIP joints and the thumb's MCP and
+  IP joints are hinges (flexion only); the thumb's base (carpometacarpal) flexes, abducts and
+  twists about its own axis (opposition), the twist putting the thumb's MCP hinge in the plane the
+  observed thumb bends in (within THUMB_TWIST_MAX). Each angle is clamped to joint limits; the sign
+  of each phalanx's depth is the one that respects the limits best (fingers flex towards the
+  palm). Phalanges are lifted with the lexicon signer's own lengths (measured over
   all the language's clips: the avatar's proximal phalanges are a third shorter than a real
   hand's). A clip without lexicon entry (any `.pose`) uses its own: the same percentiles of the
   phalanx image lengths over the frames its hand is fully seen (at least OWN_LENGTH_MIN_FRAMES),
@@ -43,10 +55,11 @@ set) differs only in its defaults (see `retarget`) and in where the phalanx leng
   knuckles are assumed misplaced only when that helps; a curled finger's hidden last joint
   flexes at least 2/3 of its middle joint. `Retargeted.overridden` marks what priors set.
 - A hand the clip never shows (seen fully in under MIN_HAND_SHARE of the frames; ASL has no left
-  hand) leaves its arm unposed: "natural" (the default for any `.pose`) hangs it beside the body
-  (REST_ARM: upper arm 8 deg out and 6 deg forward of the vertical, elbow flexed 25 deg, palm
-  turned towards the thigh, fingers slightly curled, the hand beside the thigh); "a-pose" (the
-  default for lexicon clips, which existing figures and tests show) keeps the avatar's rest pose.
+  hand) leaves its arm unposed: "natural" (the default) hangs it beside the body in the MPEG-4
+  neutral posture (neutral_pose: upper arm NEUTRAL_ARM_ABDUCTION out of the vertical, elbow,
+  wrist and fingers straight, palm facing the thigh, the hand beside the thigh) turned by REST_ARM
+  (the palm 20 deg back: one BAP, elbow_twisting, is all it costs an FBA stream); "a-pose" keeps
+  the avatar's rest pose.
   A hand that is seen, but not in some frames (also at the start or end of the clip), holds the
   nearest frame where it was seen: a hand leaving the picture stays where it was last seen
   rather than dropping to rest along a path nobody observed. No output is ever NaN.
@@ -58,7 +71,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from media import ik, lifting, rotations
+from media import face_parameters, ik, lifting, rotations
 from media import jitter_filter as filters
 from media.avatar import Skeleton, load_avatar
 from media.errors import SigncastError
@@ -79,17 +92,27 @@ FINGER_CHAINS = {
     "ring": (("finger4-1", 13, 14), ("finger4-2", 14, 15), ("finger4-3", 15, 16)),
     "little": (("finger5-1", 17, 18), ("finger5-2", 18, 19), ("finger5-3", 19, 20)),
 }
-# Joint limits in degrees: (flexion min, max), (abduction min, max), relative to the rest pose.
+# Joint limits in degrees: (flexion min, max), (abduction min, max), relative to the rest pose, about the
+# joint's anatomical axes (joint_axes). An abduction range (0, 0) makes the joint a hinge: it turns about
+# its flexion axis only, as PIP and DIP joints and the thumb's MCP and IP joints do (MPEG-4 gives them
+# one BAP each, *2_flexion, *3_flexion, thumb2/3_flexion).
 FINGER_LIMITS = {
-    1: ((-20.0, 95.0), (-25.0, 25.0)),     # knuckle (MCP): flexion and spread
+    1: ((-20.0, 95.0), (-25.0, 25.0)),     # knuckle (MCP): flexion and spread, no twist
     2: ((-5.0, 115.0), (0.0, 0.0)),        # PIP: hinge
     3: ((-10.0, 90.0), (0.0, 0.0)),        # DIP: hinge
 }
 THUMB_LIMITS = {
-    1: ((-50.0, 70.0), (-50.0, 60.0)),     # carpometacarpal: the thumb's own two axes
-    2: ((-20.0, 75.0), (-15.0, 15.0)),     # MCP
+    1: ((-50.0, 70.0), (-50.0, 60.0)),     # carpometacarpal: the thumb's own two axes, no twist
+    2: ((-20.0, 75.0), (0.0, 0.0)),        # MCP: hinge
     3: ((-20.0, 90.0), (0.0, 0.0)),        # IP: hinge
 }
+# The thumb's base also twists about its own axis (opposition), at most THUMB_TWIST_MAX degrees either
+# way; each radian of twist costs THUMB_TWIST_WEIGHT (as a radian of limit violation) when choosing it, and
+# when choosing the palm's rotation, twist beyond THUMB_EASY_TWIST counts as violation (as the MCP's
+# sideways bend beyond 15 degrees did before the MCP became a hinge).
+THUMB_TWIST_MAX = 45.0
+THUMB_EASY_TWIST = 15.0
+THUMB_TWIST_WEIGHT = 0.2
 ELBOW_MAX_FLEXION = 150.0    # degrees
 PALM_LANDMARKS = (0, 5, 17)   # wrist, index knuckle, little-finger knuckle
 KNUCKLE_LANDMARKS = (5, 9, 13, 17)
@@ -115,13 +138,13 @@ FIST_WEIGHT = 4.0
 DIP_COUPLING = 2.0 / 3.0      # a curled finger's last joint flexes at least this share of its middle joint
 OWN_LENGTH_MIN_FRAMES = 10    # frames a .pose must show a hand fully for its own phalanx lengths
 
-# Defaults (see `retarget`): lexicon clips keep the binomial filter and the rig's A-pose for an unseen arm, as
-# their parameter figures were measured (FBA's BAP 0 is the rig's rest, so the A-pose costs nothing, while a
-# natural rest costs a letter clip its intra values); any other clip (a .pose from a video) gets the One-Euro
-# filter and the natural rest.
+# Defaults (see `retarget`): lexicon clips keep the binomial filter, as their parameter figures were measured;
+# any other clip (a .pose from a video) gets the One-Euro filter. Both rest an unseen arm naturally: FBA's BAP 0
+# is the MPEG-4 neutral posture, which the natural rest nearly is, so it costs one BAP (the A-pose would now
+# cost every stream 20 more intra values).
 LEXICON_FILTER = "binomial"
 POSE_FILTER = "one-euro"
-LEXICON_UNSEEN_ARM = "a-pose"
+LEXICON_UNSEEN_ARM = "natural"
 POSE_UNSEEN_ARM = "natural"
 UNSEEN_ARMS = ("natural", "a-pose")
 # One-Euro settings for keypoints in shoulder widths at the clip's fps (docs/retargeting.md: measured)
@@ -134,18 +157,30 @@ HEAD_YAW_MAX = 53.0
 HEAD_NEUTRAL_RATIO = 0.14     # nose below the ears' line, in ear spans, of a level head (lexicon median)
 HEAD_PITCH_SPAN = 0.6         # ear-axis-to-nose-tip distance in ear spans: ratio change per sin(pitch)
 HEAD_PITCH_MAX = 15.0
+CLAVICLE_ELEVATION_MAX = 8.0  # shrug (+) or drop (-) of each clavicle from its shoulder's height, about its clip median
 
-# The natural rest of an arm whose hand is never seen (degrees): the upper arm hangs
-# `abduction` out and `flexion` forward of the vertical, the elbow bends `elbow`, the forearm turns
-# the palm towards the thigh (`palm_back` degrees backward of straight inwards), the wrist stays
-# straight and the fingers curl a little at each joint (knuckle, middle, last; thumb: base, MCP, IP).
+# The MPEG-4 neutral body posture (seed 000 Fig. 2.10a; H-Anim's default pose), BAP value 0 in
+# comparisons/fba_mapping.py: standing, arms hanging at the sides with the elbows straight, palms facing the
+# thighs, wrists and fingers straight. The rig's rest is an A-pose instead (upper arms 49 deg out, elbows
+# bent 42 deg, wrists bent back 14 deg, finger joints curled up to 26 deg). On this body an arm hanging
+# straight down puts the hand 6 cm into the hip, so the hanging arm is turned NEUTRAL_ARM_ABDUCTION degrees
+# out of the vertical: the least whole angle at which the resting hand (REST_ARM) clears the hip by 4 cm, as
+# the former bent-elbow rest did (docs/retargeting.md).
+NEUTRAL_ARM_ABDUCTION = 14.0
+# The natural rest of an arm whose hand is never seen: degrees about the joints' anatomical axes
+# (joint_axes) away from the neutral, i.e. the BAP values it costs. The upper arm turns `flexion`
+# forward and `abduction` out, the elbow flexes `elbow`, the forearm twists `twist` (positive turns the
+# palm backward), the fingers flex at each joint (knuckle, middle, last; thumb: base, MCP, IP). Only the
+# twist is not zero, so the idle arm costs an FBA stream one BAP (elbow_twisting): a hand hanging exactly
+# in the neutral, its palm flat to the thigh, is seen edge-on from the front, and MediaPipe's handedness
+# cannot tell which hand it is (median 0.51 on the rendered ASL "AB"; palm turned 20 deg back: 0.28).
 REST_ARM = {
-    "abduction": 8.0,
-    "flexion": 6.0,
-    "elbow": 25.0,
-    "palm_back": 20.0,
-    "finger_curl": (15.0, 20.0, 10.0),
-    "thumb_curl": (5.0, 10.0, 10.0),
+    "flexion": 0.0,
+    "abduction": 0.0,
+    "elbow": 0.0,
+    "twist": 20.0,
+    "finger_curl": (0.0, 0.0, 0.0),
+    "thumb_curl": (0.0, 0.0, 0.0),
 }
 
 
@@ -267,40 +302,132 @@ def _flexion_direction(skeleton: Skeleton, side: str, finger: str) -> np.ndarray
     return _unit(curl)
 
 
+def _elbow_hinge(skeleton: Skeleton, side: str) -> np.ndarray:
+    """Rest-pose unit axis of the elbow of arm `side`: normal to the plane of the upper arm (shoulder ->
+    elbow) and the forearm (elbow -> wrist), oriented so that a positive angle about it flexes the elbow
+    (turns the forearm towards the upper arm). A straight rest arm flexes forward (+Z)."""
+    upper = _unit(_head(skeleton, f"lowerarm01.{side}") - _head(skeleton, f"upperarm01.{side}"))
+    fore = _unit(_head(skeleton, f"wrist.{side}") - _head(skeleton, f"lowerarm01.{side}"))
+    hinge = np.cross(upper, fore)
+    if np.linalg.norm(hinge) < 1e-3:
+        hinge = np.cross(upper, np.array([0.0, 0.0, 1.0]))
+    return _unit(hinge)
+
+
+def joint_axes(skeleton: Skeleton, bone: str) -> np.ndarray:
+    """(3, 3) rows F, L, A: the anatomical axes of an arm or hand bone (side-suffixed name, e.g.
+    'finger2-2.R') in rest-pose world coordinates, right-handed (F x L = A).
+
+    F is the flexion axis (a hinge's axis; a positive angle flexes), L the long axis (twist), A the
+    abduction axis. The retargeting turns each joint about these axes (a finger's PIP and DIP, the
+    thumb's MCP and IP, the elbow: about F only; a knuckle: F then A, never L; the forearm twist bone:
+    about L only; the wrist: F then A) and the MPEG-4 BAP mapping (comparisons/fba_mapping.py) reads
+    its flexion / abduction / twisting BAPs about the same axes, so a hinge turn is exactly one BAP.
+    - fingers, thumb and metacarpals: L the bone's rest direction, A the direction the finger flexes
+      towards (_flexion_direction: the palm's normal, the thumb's own curl) made orthogonal to L;
+    - upperarm01/02, lowerarm01/02: F the elbow's hinge (_elbow_hinge), L the bone's direction made
+      orthogonal to F (so the upper arm flexes forward about the same axis);
+    - wrist: A the palm's normal, F = forearm x A (flexion bends the hand towards the palm), L = A x F
+      (the forearm's direction in the palm's plane).
+    """
+    base, _, side = bone.partition(".")
+    if side not in SIDES.values():
+        raise SigncastError(f"no anatomical axes for bone {bone!r}: a side-suffixed arm or hand bone is needed")
+    if base.startswith(("finger", "metacarpal")):
+        long_axis = _unit(_bone_vector(skeleton, bone))
+        finger = "thumb" if base.startswith("finger1-") else "other"
+        towards = _flexion_direction(skeleton, side, finger)
+        abduction = _unit(towards - np.dot(towards, long_axis) * long_axis)
+        return np.stack([np.cross(long_axis, abduction), long_axis, abduction])
+    if base in ("upperarm01", "upperarm02", "lowerarm01", "lowerarm02"):
+        flexion = _elbow_hinge(skeleton, side)
+        along = _bone_vector(skeleton, bone)
+        long_axis = _unit(along - np.dot(along, flexion) * flexion)
+        return np.stack([flexion, long_axis, np.cross(flexion, long_axis)])
+    if base == "wrist":
+        palmar = _palmar_normal(skeleton, side)
+        fore = _unit(_head(skeleton, f"wrist.{side}") - _head(skeleton, f"lowerarm01.{side}"))
+        flexion = _unit(np.cross(fore, palmar))
+        return np.stack([flexion, np.cross(palmar, flexion), palmar])
+    raise SigncastError(f"no anatomical axes for bone {bone!r}: only arm and hand bones have them here")
+
+
 def _arm_chain(skeleton: Skeleton, side: str) -> list[ik.ChainJoint]:
-    """upperarm01 (3 DOF), lowerarm01 (elbow hinge), lowerarm02 (forearm twist), wrist (2 DOF)."""
+    """upperarm01 (3 DOF), lowerarm01 (elbow hinge), lowerarm02 (forearm twist), wrist (flexion, then
+    deviation); the last three about their joint_axes (F; L; F then A)."""
     shoulder = _head(skeleton, f"upperarm01.{side}")
     elbow = _head(skeleton, f"lowerarm01.{side}")
     wrist = _head(skeleton, f"wrist.{side}")
     upper_dir = _unit(elbow - shoulder)
     fore_dir = _unit(wrist - elbow)
-    hinge = _unit(np.cross(upper_dir, fore_dir)) * -1.0
-    # sign: positive hinge angle flexes (turns the forearm towards the upper arm)
-    if np.dot(rotations.rotate(rotations.from_axis_angle(hinge, 0.1), fore_dir), -upper_dir) < np.dot(fore_dir, -upper_dir):
-        hinge = -hinge
     rest_flexion = np.degrees(np.arccos(np.clip(np.dot(upper_dir, fore_dir), -1, 1)))
-    palmar = _palmar_normal(skeleton, side)
-    lateral = _unit(np.cross(fore_dir, palmar))
+    wrist_axes = joint_axes(skeleton, f"wrist.{side}")
     rad = np.radians
     return [
         ik.ChainJoint(f"upperarm01.{side}", shoulder,
                       np.array([[1.0, 0, 0], [0, 0, 1.0], upper_dir]),
                       rad(np.array([-170.0, -70.0 if side == "L" else -110.0, -90.0])),
                       rad(np.array([50.0, 110.0 if side == "L" else 70.0, 90.0]))),
-        ik.ChainJoint(f"lowerarm01.{side}", elbow, hinge[None],
+        ik.ChainJoint(f"lowerarm01.{side}", elbow, joint_axes(skeleton, f"lowerarm01.{side}")[:1],
                       rad(np.array([-rest_flexion])), rad(np.array([ELBOW_MAX_FLEXION - rest_flexion]))),
-        ik.ChainJoint(f"lowerarm02.{side}", _head(skeleton, f"lowerarm02.{side}"), _bone_vector(skeleton, f"lowerarm02.{side}")[None] / np.linalg.norm(_bone_vector(skeleton, f"lowerarm02.{side}")),
-                      rad(np.array([-90.0])), rad(np.array([90.0]))),
-        ik.ChainJoint(f"wrist.{side}", wrist, np.stack([lateral, palmar]),
+        ik.ChainJoint(f"lowerarm02.{side}", _head(skeleton, f"lowerarm02.{side}"),
+                      joint_axes(skeleton, f"lowerarm02.{side}")[1:2], rad(np.array([-90.0])), rad(np.array([90.0]))),
+        ik.ChainJoint(f"wrist.{side}", wrist, wrist_axes[[0, 2]],
                       rad(np.array([-80.0, -35.0])), rad(np.array([80.0, 35.0]))),
     ]
 
 
 # --------------------------------------------------------------------------- the parts
 
-def _torso_rotations(pose: np.ndarray, pose_valid: np.ndarray) -> dict[str, np.ndarray]:
-    """Local rotations (T, 4) of spine, neck and head bones from pose landmarks (T, 33, 2) pixels
-    (module docstring: roll, yaw and pitch rules)."""
+def _clavicle_lever(skeleton: Skeleton, side: str) -> float:
+    """Metres (horizontal) from the clavicle's sternal end (its head) to its acromial end (its tail, where
+    the shoulder girdle and arm hang: their rise is this times the sine of the clavicle's elevation)."""
+    return float(abs(_bone_vector(skeleton, f"clavicle.{side}")[0]))
+
+
+def clavicle_elevations(pose: np.ndarray, pose_valid: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(T, 2) elevation in radians of the left and right clavicle (+ shrugs the shoulder up, - drops it).
+
+    pose: (T, 33, 2) pose landmarks, pixels (y down); pose_valid: (T, 33) bool. Each shoulder landmark's
+    rise above its own median height (over the frames it is seen: the clip's neutral), in shoulder widths
+    (the median distance between the two shoulder landmarks), raises the avatar's shoulder joint by as many
+    avatar shoulder widths: the clavicle turns about its sternal end by arcsin(rise / lever), lever its
+    horizontal length (_clavicle_lever), clamped to CLAVICLE_ELEVATION_MAX. A shoulder
+    never seen stays at 0; a still signer gives 0.
+    """
+    index = {name: i for i, name in enumerate(POSE_POINTS)}
+    left, right = index["LEFT_SHOULDER"], index["RIGHT_SHOULDER"]
+    elevations = np.zeros((len(pose), 2))
+    both = pose_valid[:, left] & pose_valid[:, right]
+    if not both.any():
+        return elevations
+    width_px = max(float(np.median(np.linalg.norm(pose[both, left, :2] - pose[both, right, :2], axis=-1))), 1e-6)
+    avatar_width = float(np.linalg.norm(_head(skeleton, "upperarm01.L") - _head(skeleton, "upperarm01.R")))
+    limit = np.sin(np.radians(CLAVICLE_ELEVATION_MAX))
+    for column, (point, side) in enumerate(((left, "L"), (right, "R"))):
+        height = -pose[:, point, 1]                                   # image y points down
+        rise = (height - np.median(height[pose_valid[:, point]])) / width_px * avatar_width   # metres
+        elevations[:, column] = np.arcsin(np.clip(rise / _clavicle_lever(skeleton, side), -limit, limit))
+    return elevations
+
+
+def _clavicle_rotations(elevations: np.ndarray) -> dict[str, np.ndarray]:
+    """Local rotations (T, 4) of clavicle.L/R turned by `elevations` (T, 2) radians (left, right) about
+    the forward axis, and of shoulder01.L/R turned back: the shoulder girdle and the arm below it move
+    up or down with the clavicle's tip without turning (a shrug lifts a hanging arm, it does not swing it)."""
+    z_axis = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (len(elevations), 3))
+    result = {}
+    for column, (side, outwards) in enumerate((("L", 1.0), ("R", -1.0))):     # the avatar's left is +X
+        turn = rotations.from_axis_angle(z_axis, outwards * elevations[:, column])
+        result[f"clavicle.{side}"] = turn
+        result[f"shoulder01.{side}"] = rotations.conjugate(turn)
+    return result
+
+
+def _torso_rotations(pose: np.ndarray, pose_valid: np.ndarray, skeleton: Skeleton | None = None) -> dict[str, np.ndarray]:
+    """Local rotations (T, 4) of spine, neck and head bones (and, given the skeleton, of the clavicles and
+    shoulder01 bones: clavicle_elevations) from pose landmarks (T, 33, 2) pixels (module docstring: roll,
+    yaw and pitch rules). The spine's roll follows the shoulder line less what the clavicles explain."""
     n_frames = len(pose)
     index = {name: i for i, name in enumerate(POSE_POINTS)}
     plane = lifting.to_plane(pose, 1.0)
@@ -311,7 +438,18 @@ def _torso_rotations(pose: np.ndarray, pose_valid: np.ndarray) -> dict[str, np.n
         v = plane[:, index[left]] - plane[:, index[right]]
         return np.arctan2(v[:, 1], v[:, 0]) if seen(left, right) else np.zeros(n_frames)
 
-    shoulder_roll = np.clip(roll_of("LEFT_SHOULDER", "RIGHT_SHOULDER"), *np.radians([-SHOULDER_ROLL_MAX, SHOULDER_ROLL_MAX]))
+    shoulder_line = roll_of("LEFT_SHOULDER", "RIGHT_SHOULDER")
+    if skeleton is not None and seen("LEFT_SHOULDER", "RIGHT_SHOULDER"):
+        elevations = clavicle_elevations(pose, pose_valid, skeleton)
+        result.update(_clavicle_rotations(elevations))
+        # what the clavicles raise comes off the shoulder line's tilt: a shrug is not a sideways lean
+        avatar_width = float(np.linalg.norm(_head(skeleton, "upperarm01.L") - _head(skeleton, "upperarm01.R")))
+        levers = np.array([_clavicle_lever(skeleton, "L"), _clavicle_lever(skeleton, "R")])
+        explained = np.sin(elevations) * levers / avatar_width                      # (T, 2) shoulder widths
+        line = plane[:, index["LEFT_SHOULDER"]] - plane[:, index["RIGHT_SHOULDER"]]
+        width = np.median(np.linalg.norm(line, axis=-1))
+        shoulder_line = np.arctan2(line[:, 1] - (explained[:, 0] - explained[:, 1]) * width, line[:, 0])
+    shoulder_roll = np.clip(shoulder_line, *np.radians([-SHOULDER_ROLL_MAX, SHOULDER_ROLL_MAX]))
     head_roll = np.clip(roll_of("LEFT_EYE", "RIGHT_EYE"), *np.radians([-HEAD_ROLL_MAX, HEAD_ROLL_MAX])) - shoulder_roll
     yaw = np.zeros(n_frames)
     pitch = np.zeros(n_frames)
@@ -345,11 +483,13 @@ def _choose_phalanx(candidates: tuple[np.ndarray, np.ndarray], parent_world: np.
     limit violation (T,) radians of the chosen sign, a hinge's sideways bend left out).
 
     candidates: two (T, 3) world directions; parent_world: (T, 4); basis: rows e1 (rest bone
-    direction), e2 (towards the palm), e3 = e1 x e2, in the parent's rest frame.
+    direction), e2 (towards the palm), e3 = e1 x e2, in the parent's rest frame (joint_axes L, A, F).
+    The local rotation is flexion about e3, then abduction about the turned e2 (no twist about the
+    bone): a hinge (abduction limits (0, 0)) turns about e3 only.
     """
     (flex_lo, flex_hi), (abd_lo, abd_hi) = np.radians(limits)
     inverse = rotations.conjugate(parent_world)
-    costs, flexion_costs, directions = [], [], []
+    costs, flexion_costs, directions, angles = [], [], [], []
     hinge = abd_lo == abd_hi
     knuckle = tuple(map(tuple, limits)) == FINGER_LIMITS[1]
     for direction in candidates:
@@ -369,6 +509,7 @@ def _choose_phalanx(candidates: tuple[np.ndarray, np.ndarray], parent_world: np.
         flexion_costs.append(flexion_cost if hinge else flexion_cost + abduction_cost)
         flexion = np.clip(flexion, flex_lo, flex_hi)
         abduction = np.clip(abduction, abd_lo, abd_hi)
+        angles.append(np.stack([flexion, abduction], axis=-1))
         directions.append((np.cos(abduction) * np.cos(flexion))[:, None] * basis[0]
                           + (np.cos(abduction) * np.sin(flexion))[:, None] * basis[1]
                           + np.sin(abduction)[:, None] * basis[2])
@@ -378,7 +519,10 @@ def _choose_phalanx(candidates: tuple[np.ndarray, np.ndarray], parent_world: np.
     choice = smooth_choice(costs, PHALANX_STEP_WEIGHT * steps)
     frames = np.arange(len(choice))
     local_dir = directions[frames, choice]
-    local_q = rotations.between(np.broadcast_to(basis[0], local_dir.shape), local_dir)
+    flexion, abduction = np.moveaxis(np.stack(angles, axis=1)[frames, choice], -1, 0)
+    # basis[0] turned by -abduction about e2, then by flexion about e3 lands on local_dir
+    local_q = rotations.multiply(rotations.from_axis_angle(np.broadcast_to(basis[2], local_dir.shape), flexion),
+                                 rotations.from_axis_angle(np.broadcast_to(basis[1], local_dir.shape), -abduction))
     return local_q, rotations.rotate(parent_world, local_dir), np.stack(flexion_costs, axis=1)[frames, choice]
 
 
@@ -481,63 +625,86 @@ def _hand_template(skeleton: Skeleton, side: str) -> np.ndarray:
 
 # --------------------------------------------------------------------------- the unseen arm
 
-def natural_rest(skeleton: Skeleton, side: str) -> dict[str, np.ndarray]:
-    """Local rotations (bone -> (4,)) of the arm and hand `side` ('L'/'R') hanging at rest (REST_ARM).
+def neutral_pose(skeleton: Skeleton, side: str) -> dict[str, np.ndarray]:
+    """Local rotations (bone -> (4,), relative to the rig's rest) of arm and hand `side` ('L'/'R') in the
+    MPEG-4 neutral body posture (NEUTRAL_ARM_ABDUCTION); bones not named (clavicle, shoulder01,
+    upperarm02, metacarpals, the thumb's base) keep their rest. Mirror-symmetric for the two sides.
 
-    The upper arm's world direction is set first, turned about itself so that the elbow's hinge
-    bends the forearm forward in the arm's plane; the elbow then flexes to REST_ARM["elbow"], the
-    forearm twists (within +-90 deg) to turn the palm towards the thigh, and each phalanx curls
-    towards the palm. Bones not named (clavicle, shoulder, wrist, metacarpals) stay at rest.
+    The upper arm turns so that it hangs NEUTRAL_ARM_ABDUCTION out of the vertical with the elbow's hinge
+    (joint_axes F) horizontal, so the elbow flexes forward; the elbow straightens about that hinge; the
+    wrist straightens about its flexion axis (the forearm then lies in the palm's plane); the forearm twist
+    bone turns the palm's normal towards the body's midline (the palm faces the thigh); each finger joint and
+    the thumb's MCP and IP straighten about their flexion axes onto the parent bone's line (a knuckle keeps
+    its spread). Each is one rotation about one axis of joint_axes, so retargeted hinge angles stay single
+    BAPs relative to it.
     """
     outwards = 1.0 if side == "L" else -1.0             # the avatar's left is +X
-    angles = {key: np.radians(value) for key, value in REST_ARM.items()}
-    shoulder = _head(skeleton, f"upperarm01.{side}")
-    elbow = _head(skeleton, f"lowerarm01.{side}")
-    wrist = _head(skeleton, f"wrist.{side}")
+    tilt = np.radians(NEUTRAL_ARM_ABDUCTION)
+    shoulder, elbow, wrist = (_head(skeleton, f"{bone}.{side}") for bone in ("upperarm01", "lowerarm01", "wrist"))
     upper_rest, fore_rest = _unit(elbow - shoulder), _unit(wrist - elbow)
-    upper = _unit(np.array([outwards * np.tan(angles["abduction"]), -1.0, np.tan(angles["flexion"])]))
-    forward = _unit(np.array([0.0, 0.0, 1.0]) - upper[2] * upper)
-    fore = np.cos(angles["elbow"]) * upper + np.sin(angles["elbow"]) * forward
-    # the upper arm's frame: its direction and its hinge's normal (the arm's plane) both land
-    rest_frame = np.stack([upper_rest, _unit(np.cross(upper_rest, fore_rest))])
-    rest_frame = np.vstack([rest_frame, np.cross(rest_frame[0], rest_frame[1])])
-    posed_frame = np.stack([upper, _unit(np.cross(upper, fore))])
-    posed_frame = np.vstack([posed_frame, np.cross(posed_frame[0], posed_frame[1])])
-    upper_world = rotations.from_matrix(posed_frame.T @ rest_frame)
-    elbow_local = rotations.between(fore_rest, rotations.rotate(rotations.conjugate(upper_world), fore))
-    arm_world = rotations.multiply(upper_world, elbow_local)
-    # forearm twist: about the forearm's own axis, turning the palm's normal towards the thigh
-    twist_axis = _unit(_bone_vector(skeleton, f"lowerarm02.{side}"))
-    axis_world = rotations.rotate(arm_world, twist_axis)
-    palm_now = rotations.rotate(arm_world, _palmar_normal(skeleton, side))
-    wanted = np.array([-outwards * np.cos(angles["palm_back"]), 0.0, -np.sin(angles["palm_back"])])
+    hinge = _elbow_hinge(skeleton, side)
+    hanging = np.array([outwards * np.sin(tilt), -np.cos(tilt), 0.0])
+    level_hinge = _unit(np.cross(hanging, np.array([0.0, 0.0, 1.0])))   # flexes the hanging forearm forward
+    rest_frame = np.stack([upper_rest, hinge, np.cross(upper_rest, hinge)], axis=1)
+    posed_frame = np.stack([hanging, level_hinge, np.cross(hanging, level_hinge)], axis=1)
+    pose = {f"upperarm01.{side}": rotations.from_matrix(posed_frame @ rest_frame.T)}
+    pose[f"lowerarm01.{side}"] = rotations.from_axis_angle(hinge, -np.arccos(np.clip(upper_rest @ fore_rest, -1.0, 1.0)))
+    wrist_axes = joint_axes(skeleton, f"wrist.{side}")
+    pose[f"wrist.{side}"] = rotations.from_axis_angle(
+        wrist_axes[0], np.arctan2(fore_rest @ wrist_axes[2], fore_rest @ wrist_axes[1]))
+    # forearm twist: about the twist bone's long axis, turning the palm's normal towards the midline
+    arm = rotations.multiply(pose[f"upperarm01.{side}"], pose[f"lowerarm01.{side}"])
+    twist_axis = joint_axes(skeleton, f"lowerarm02.{side}")[1]
+    axis_world = rotations.rotate(arm, twist_axis)
+    palm_now = rotations.rotate(rotations.multiply(arm, pose[f"wrist.{side}"]), _palmar_normal(skeleton, side))
     flat = lambda v: _unit(v - np.dot(v, axis_world) * axis_world)
-    now, goal = flat(palm_now), flat(wanted)
-    twist = np.arctan2(np.dot(np.cross(now, goal), axis_world), np.dot(now, goal))
-    result = {
-        f"upperarm01.{side}": upper_world,
-        f"lowerarm01.{side}": elbow_local,
-        f"lowerarm02.{side}": rotations.from_axis_angle(twist_axis, np.clip(twist, -np.pi / 2, np.pi / 2)),
-    }
+    now, goal = flat(palm_now), flat(np.array([-outwards, 0.0, 0.0]))
+    pose[f"lowerarm02.{side}"] = rotations.from_axis_angle(
+        twist_axis, np.arctan2(np.dot(np.cross(now, goal), axis_world), np.dot(now, goal)))
     for finger, chain in FINGER_CHAINS.items():
-        towards = _flexion_direction(skeleton, side, finger)
+        for level, (bone, _, _) in enumerate(chain, start=1):
+            if finger == "thumb" and level == 1:
+                continue                                 # the thumb's base keeps its opposition
+            name = f"{bone}.{side}"
+            flexion_axis, long_axis, _ = joint_axes(skeleton, name)
+            line = _bone_vector(skeleton, skeleton.names[skeleton.parents[skeleton.index(name)]])
+            line = line - np.dot(line, flexion_axis) * flexion_axis
+            curl = np.arctan2(np.dot(np.cross(line, long_axis), flexion_axis), np.dot(line, long_axis))
+            pose[name] = rotations.from_axis_angle(flexion_axis, -curl)
+    return {name: rotations.canonical(rotations.normalize(q)) for name, q in pose.items()}
+
+
+def natural_rest(skeleton: Skeleton, side: str) -> dict[str, np.ndarray]:
+    """Local rotations (bone -> (4,)) of the arm and hand `side` ('L'/'R') hanging at rest: the MPEG-4
+    neutral (neutral_pose) turned by REST_ARM's angles about the joints' anatomical axes (joint_axes;
+    abduction and twist mirrored for the right side, as the BAPs are). With REST_ARM all zero it is the
+    neutral itself. Bones not named keep their rest.
+    """
+    pose = neutral_pose(skeleton, side)
+    mirror = 1.0 if side == "L" else -1.0
+    turns = [("upperarm01", 0, REST_ARM["flexion"]), ("upperarm01", 2, mirror * REST_ARM["abduction"]),
+             ("lowerarm01", 0, REST_ARM["elbow"]), ("lowerarm02", 1, mirror * REST_ARM["twist"])]
+    for finger, chain in FINGER_CHAINS.items():
         curls = REST_ARM["thumb_curl" if finger == "thumb" else "finger_curl"]
-        for (bone, _, _), curl in zip(chain, curls):
-            e1 = _unit(_bone_vector(skeleton, f"{bone}.{side}"))
-            e2 = _unit(towards - np.dot(towards, e1) * e1)
-            result[f"{bone}.{side}"] = rotations.from_axis_angle(np.cross(e1, e2), np.radians(curl))
-    return {name: rotations.canonical(rotations.normalize(q)) for name, q in result.items()}
+        turns += [(bone, 0, curl) for (bone, _, _), curl in zip(chain, curls)]
+    for bone, axis, degrees in turns:
+        if degrees:
+            name = f"{bone}.{side}"
+            turn = rotations.from_axis_angle(joint_axes(skeleton, name)[axis], np.radians(degrees))
+            pose[name] = rotations.multiply(pose.get(name, rotations.IDENTITY), turn)
+    return {name: rotations.canonical(rotations.normalize(q)) for name, q in pose.items()}
 
 
 # --------------------------------------------------------------------------- main entry
 
 def retarget(clip: SignClip, skeleton: Skeleton | None = None, *, jitter_filter: str | None = None,
-             unseen_arm: str | None = None) -> Retargeted:
+             unseen_arm: str | None = None, face: bool = True) -> Retargeted:
     """Retarget one clip of MediaPipe Holistic keypoints to the avatar (Motion at the clip's fps).
 
     jitter_filter: "one-euro", "binomial" or "off" (None: LEXICON_FILTER for a lexicon clip, else
     POSE_FILTER); unseen_arm: "natural" or "a-pose", the pose of an arm whose hand the clip never
-    shows (None: LEXICON_UNSEEN_ARM for a lexicon clip, else POSE_UNSEEN_ARM). Raises
+    shows (None: LEXICON_UNSEEN_ARM for a lexicon clip, else POSE_UNSEEN_ARM); face: measure the face's
+    MPEG-4 FAPs (media.face_parameters) into motion.faps when the clip shows a face. Raises
     SigncastError for a clip without the Holistic components or without shoulders.
     """
     lexicon_clip = clip.entry is not None
@@ -566,7 +733,7 @@ def retarget(clip: SignClip, skeleton: Skeleton | None = None, *, jitter_filter:
     shoulder_px = np.linalg.norm(pose[:, point["LEFT_SHOULDER"]] - pose[:, point["RIGHT_SHOULDER"]], axis=-1)
     body_scale = float(np.percentile(shoulder_px, 75)) / avatar_shoulders      # pixels per metre
 
-    for bone, q in _torso_rotations(pose, pose_valid).items():
+    for bone, q in _torso_rotations(pose, pose_valid, skeleton).items():
         local[:, column[bone]] = q
 
     hands = []
@@ -589,8 +756,23 @@ def retarget(clip: SignClip, skeleton: Skeleton | None = None, *, jitter_filter:
             lengths = own_lengths(hand_points[frames], skeleton, side)
         _retarget_arm_and_hand(skeleton, side, hand.upper(), pose, pose_valid, hand_points, body_scale,
                                local, column, followed, projected, names, lengths, overridden)
-    motion = Motion(clip.fps, names, rotations.canonical(rotations.normalize(local)), np.zeros((n_frames, 3)))
+    motion = Motion(clip.fps, names, rotations.canonical(rotations.normalize(local)), np.zeros((n_frames, 3)),
+                    clip_faps(clip) if face else None)
     return Retargeted(motion, followed, projected, tuple(hands), overridden)
+
+
+def clip_faps(clip: SignClip) -> np.ndarray | None:
+    """(T, 68) int64 FAPs of the clip's face (media.face_parameters), or None when it never shows one.
+
+    The head rotation FAPs 48..50 are left at 0: the neck and head bones carry the head's rotation (BAPs),
+    so it travels once.
+    """
+    confidence = clip.confidence.get(face_parameters.FACE_COMPONENT)
+    if confidence is None or not np.all(confidence[:, :face_parameters.N_MESH_POINTS] > 0, axis=1).any():
+        return None
+    faps, _ = face_parameters.face_track(clip)
+    faps[:, [face_parameters.HEAD_PITCH - 1, face_parameters.HEAD_YAW - 1, face_parameters.HEAD_ROLL - 1]] = 0
+    return faps
 
 
 def own_lengths(hand_points: np.ndarray, skeleton: Skeleton, side: str) -> dict[str, float] | None:
@@ -738,20 +920,24 @@ def _finger_pose(skeleton: Skeleton, side: str, wrist_world: np.ndarray, plane: 
         parent_world = wrist_world
         previous_flexion = None
         limits_table = THUMB_LIMITS if finger == "thumb" else FINGER_LIMITS
-        flexes_towards = _flexion_direction(skeleton, side, finger)
-        for level, (bone, head_lm, tail_lm) in enumerate(chain_bones, start=1):
-            name = f"{bone}.{side}"
-            rest_vector = _bone_vector(skeleton, name)
-            e1 = _unit(rest_vector)
-            e2 = _unit(flexes_towards - np.dot(flexes_towards, e1) * e1)
-            basis = np.stack([e1, e2, np.cross(e1, e2)])
+        lifted = []
+        for bone, head_lm, tail_lm in chain_bones:
             bone_2d = plane[:, tail_lm] - plane[:, head_lm]
             if signer_lengths and bone in signer_lengths:
                 length = signer_lengths[bone]
             else:
-                length = lifting.true_lengths(bone_2d, float(np.linalg.norm(rest_vector)))
-            candidates = lifting.lift_directions(bone_2d, length)
+                length = lifting.true_lengths(bone_2d, float(np.linalg.norm(_bone_vector(skeleton, f"{bone}.{side}"))))
+            lifted.append(lifting.lift_directions(bone_2d, length))
+        for level, (bone, _, _) in enumerate(chain_bones, start=1):
+            name = f"{bone}.{side}"
+            flexion_axis, long_axis, abduction_axis = joint_axes(skeleton, name)
+            basis = np.stack([long_axis, abduction_axis, flexion_axis])     # e1, e2 (towards the palm), e3
+            candidates = lifted[level - 1]
             q_local, direction, violation = _choose_phalanx(candidates, parent_world, basis, limits_table[level])
+            if finger == "thumb" and level == 1:
+                twist, twist_cost = _thumb_base_twist(skeleton, side, rotations.multiply(parent_world, q_local), lifted[1])
+                q_local = rotations.multiply(q_local, twist)
+                violation = violation + twist_cost
             flexion = _hinge_flexion(q_local, basis)
             if level == 3 and finger != "thumb":
                 # a curled finger's tip is hidden behind it (MediaPipe guesses it): its last joint
@@ -767,6 +953,55 @@ def _finger_pose(skeleton: Skeleton, side: str, wrist_world: np.ndarray, plane: 
             cost += violation
             parent_world = rotations.multiply(parent_world, q_local)
     return local, followed, cost, coupled
+
+
+def _thumb_base_twist(skeleton: Skeleton, side: str, base_world: np.ndarray,
+                      mcp_candidates: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(T, 4) twist of the thumb's base (finger1-1, carpometacarpal) about its long axis (joint_axes L,
+    within THUMB_TWIST_MAX; MPEG-4 thumb1_twisting), applied after its flexion and abduction.
+
+    The thumb's MCP joint is a hinge, so the plane it bends in is set by the base's twist (the
+    opposition the thumb's metacarpal turns through): the twist is the one that puts the observed MCP
+    phalanx (mcp_candidates: its two lifted (T, 3) world directions) in that plane. Per frame, of the
+    two depth signs and the two twists that do so, the one whose MCP flexion keeps its limits and
+    twists least is chosen, without flickering (smooth_choice). base_world: (T, 4) world rotation of
+    the base, flexed and abducted but not twisted. Also returns how badly the thumb fits the palm's
+    rotation (T,) radians, as the MCP's sideways bend did when it had one: the phalanx's angle out of
+    the hinge's plane where the twist limit stops short, the twist beyond THUMB_EASY_TWIST, and
+    THUMB_TWIST_WEIGHT per radian of twist.
+    """
+    long_axis = joint_axes(skeleton, f"finger1-1.{side}")[1]
+    hinge, mcp_long, mcp_palmward = joint_axes(skeleton, f"finger1-2.{side}")
+    hinge_along = hinge @ long_axis
+    hinge_across = hinge - hinge_along * long_axis
+    hinge_side = np.cross(long_axis, hinge_across)
+    flex_lo, flex_hi = np.radians(THUMB_LIMITS[2][0])
+    limit, easy = np.radians(THUMB_TWIST_MAX), np.radians(THUMB_EASY_TWIST)
+    inverse = rotations.conjugate(base_world)
+    twists, costs, fits = [], [], []
+    for candidate in mcp_candidates:
+        d = rotations.rotate(inverse, candidate)                      # (T, 3) in the base's rest frame
+        # the hinge turned by t about the long axis is perpendicular to d where
+        # cos t (d . hinge_across) + sin t (d . hinge_side) + hinge_along (d . long_axis) = 0
+        across, beside, along = d @ hinge_across, d @ hinge_side, hinge_along * (d @ long_axis)
+        centre = np.arctan2(beside, across)
+        half = np.arccos(np.clip(-along / np.maximum(np.hypot(across, beside), 1e-12), -1.0, 1.0))
+        for sign in (1.0, -1.0):
+            twist = np.clip(np.angle(np.exp(1j * (centre + sign * half))), -limit, limit)
+            seen = rotations.rotate(rotations.from_axis_angle(np.broadcast_to(long_axis, d.shape), -twist), d)
+            flexion = np.arctan2(seen @ mcp_palmward, seen @ mcp_long)
+            off_plane = np.abs(np.arcsin(np.clip(seen @ hinge, -1.0, 1.0)))
+            twists.append(twist)
+            costs.append(np.maximum(flex_lo - flexion, 0) + np.maximum(flexion - flex_hi, 0) + off_plane
+                         + THUMB_TWIST_WEIGHT * np.abs(twist))
+            fits.append(off_plane + np.maximum(np.abs(twist) - easy, 0) + THUMB_TWIST_WEIGHT * np.abs(twist))
+    twists = np.stack(twists, axis=1)                                  # (T, 4)
+    steps = np.abs(twists[:-1, :, None] - twists[1:, None, :])
+    choice = smooth_choice(np.stack(costs, axis=1), PHALANX_STEP_WEIGHT * steps)
+    frames = np.arange(len(choice))
+    chosen = twists[frames, choice]
+    fit = np.stack(fits, axis=1)[frames, choice]
+    return rotations.from_axis_angle(np.broadcast_to(long_axis, (len(chosen), 3)), chosen), fit
 
 
 def _hinge_flexion(q_local: np.ndarray, basis: np.ndarray) -> np.ndarray:
