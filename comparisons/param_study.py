@@ -20,6 +20,7 @@ from comparisons import bap_table, metrics
 from comparisons.fba_mapping import motion_to_baps
 from comparisons.param_codecs import get_codec
 from media.avatar import load_avatar
+from media.face_rig import with_face_bones
 from media.motion import Motion
 
 ROTATION_COLUMNS = np.array([b.id - 1 for b in bap_table.BAPS if not b.is_translation])
@@ -38,7 +39,8 @@ def measure_point(motion: Motion, codec_name: str, q: int) -> dict:
     original_baps = original_all[:, ROTATION_COLUMNS] * bap_table.ROTATION_UNIT_RAD
     decoded_baps = decoded_all[:, ROTATION_COLUMNS] * bap_table.ROTATION_UNIT_RAD
     moving = metrics.value_range(original_baps) > 0
-    joint_mm = metrics.joint_position_error_mm(load_avatar().skeleton, motion, decoded)
+    # the face is compared as the avatar plays it: FAPs (FBA) through the face rig, face bones (BBA) as sent
+    joint_mm = metrics.joint_position_error_mm(load_avatar().skeleton, with_face_bones(motion), with_face_bones(decoded))
     return {"bits": 8 * len(data), "distortion": metrics.distortion(original_baps, decoded_baps),
             "param_psnr": metrics.mean_db(metrics.psnr(original_baps[:, moving], decoded_baps[:, moving])),
             "vpsnr": metrics.mean_db(metrics.vpsnr(original_baps[:, moving], decoded_baps[:, moving], motion.fps)),
