@@ -9,6 +9,12 @@ comparable between extractions of different renders.
 Definitions (per frame, then the mean and the 90th percentile over frames):
 - a hand is shown in a frame when all 21 of its points have confidence > 0; the face when all 468
   mesh points do;
+- a hand signs in a frame when the reference shows it in the signing space: its wrist (point 0) above the waist,
+  the midpoint between the reference's shoulders' and hips' centres (pose points 11, 12, 23, 24; image y down).
+  A hand hanging at rest by the hip carries no message, and at the sizes a resting hand has in a frame framed for
+  signing (a 176x144 render: a 6 px hand) its landmarks jitter by a large share of its size, so counting it would
+  score the extractor's noise, not the signing; where the reference has no hips or shoulders every shown hand
+  signs;
 - hand size (`hand_sizes`), per frame and hand, from the REFERENCE: the larger of the palm's length
   (wrist -> middle-finger MCP, points 0 -> 9) and PALM_LENGTH_PER_WIDTH times its width (index MCP ->
   pinky MCP, 5 -> 17). It does not depend on the fingers, so it does not shrink for a fist (a landmark
@@ -46,6 +52,8 @@ from media.errors import SigncastError
 from media.lexicon import HAND_COMPONENTS, SignClip
 
 FACE_COMPONENT = "FACE_LANDMARKS"
+POSE_COMPONENT = "POSE_LANDMARKS"
+SHOULDERS, HIPS = (11, 12), (23, 24)
 MESH_POINTS = 468
 PUPILS = (468, 473)
 EYE_OUTER_CORNERS = (33, 263)
@@ -113,6 +121,17 @@ def interocular_distances(face: np.ndarray, confidence: np.ndarray) -> np.ndarra
     return np.where(has_pupils & (pupils > 0), pupils, corners)
 
 
+def waist_heights(clip: SignClip) -> np.ndarray:
+    """(T,) image y (pixels, down) of the waist: halfway between the shoulders' and the hips' centres (pose points
+    11, 12 and 23, 24) where all four are seen, else +inf (every hand counts as signing)."""
+    points, confidence = clip.points.get(POSE_COMPONENT), clip.confidence.get(POSE_COMPONENT)
+    if points is None or confidence is None or points.shape[1] <= max(HIPS):
+        return np.full(clip.n_frames, np.inf)
+    seen = np.all(confidence[:, list(SHOULDERS + HIPS)] > 0, axis=1)
+    waist = 0.5 * (points[:, list(SHOULDERS), 1].mean(axis=1) + points[:, list(HIPS), 1].mean(axis=1))
+    return np.where(seen, waist, np.inf)
+
+
 def _percent(share: float) -> float:
     return 100.0 * float(share)
 
@@ -133,8 +152,9 @@ def measure(reference: SignClip, observed: SignClip) -> Intelligibility:
         raise SigncastError(f"cannot compare landmarks: the reference has {reference.n_frames} frames, "
                             f"the observed clip {observed.n_frames}")
     hand_errors, pck_hits, pck_counts, found = [], np.zeros(len(PCK_THRESHOLDS)), 0, {}
+    waist = waist_heights(reference)
     for hand, component in HAND_COMPONENTS.items():
-        in_reference = shown(reference, component)
+        in_reference = shown(reference, component) & (reference.points[component][:, 0, 1] < waist)
         if not in_reference.any():
             found[hand] = None
             continue

@@ -62,8 +62,10 @@ def test_every_point_is_read_against_the_source_and_avatar_points_also_against_t
 def test_the_uncoded_reference_resampled_by_half_a_pixel_is_the_ceiling(result):
     uncoded = [r for r in result.records if r.get("kind") == "uncoded"]
     source = next(r for r in uncoded if r["reference"] == SOURCE and r["subject"] == UNCODED_SUBJECTS[SOURCE])
-    # an invisible resampling moves the extracted landmarks a little: the extractor's noise floor
-    assert 85.0 < source["hand_pck_20"] <= 100.0 and 0.0 < source["face_error"] < 0.1
+    # an invisible resampling moves the extracted landmarks a little: the extractor's noise floor (at 176x144 the
+    # signing hand is ~15 px: its PCK@0.2 ceiling is 73 %, against 94 % at the demo's 352x288)
+    assert 65.0 < source["hand_pck_20"] <= 100.0 and 0.0 < source["face_error"] < 0.1
+    assert source.get("left_hand_found") is None        # the resting left hand hangs below the waist: not scored
     assert 0 <= source["letter_top1"] <= source["letter_top3"] <= 100
     for matched in (r for r in result.records if r.get("kind") == "matched" and r["reference"] == SOURCE):
         assert f"{source['hand_pck_20'] - 2.0:.4g}" in matched["threshold"]

@@ -104,3 +104,18 @@ def test_mouth_and_eyes_errors_see_expression_not_displacement(clip):
     assert result.mouth_error == pytest.approx(expected, rel=0.05)
     assert result.eyes_error < 0.1 * result.mouth_error
     assert set(EYES_POINTS).isdisjoint(MOUTH_POINTS)
+
+
+def test_a_hand_resting_below_the_waist_is_not_scored(clip):
+    from comparisons.intelligibility import waist_heights
+    waist = waist_heights(clip)
+    assert np.all(np.isfinite(waist))
+    lowered = _copy(clip)
+    drop = waist - clip.points[RIGHT][:, 0, 1] + 5.0                # the wrist 5 px below the waist
+    lowered.points[RIGHT] = clip.points[RIGHT] + np.stack([np.zeros_like(drop), drop, np.zeros_like(drop)], axis=1)[:, None]
+    lost = _copy(lowered)
+    lost.confidence[RIGHT][:] = 0
+    result = measure(lowered, lost)
+    assert result.right_hand_found is None and result.hand_pck_20 is None
+    signing = measure(clip, _copy(clip))
+    assert signing.right_hand_found == 100
