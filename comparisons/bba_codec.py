@@ -57,6 +57,7 @@ before their frames are decoded.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -150,8 +151,9 @@ class BBAStream:
     frames: list[BBAFrame]
 
 
-def _bits(mask: int) -> list[int]:
-    return [k for k in range(16) if mask >> k & 1]
+@functools.lru_cache(maxsize=4096)
+def _bits(mask: int) -> tuple[int, ...]:
+    return tuple(k for k in range(16) if mask >> k & 1)
 
 
 def _keys(frame: BBAFrame) -> list[tuple[int, int]]:
@@ -491,12 +493,11 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
             if intra:
                 models = {"I": pc.make_models(low_i, high_i), "P": pc.make_models(low_p, high_p)}
             chosen, low = (models["I"], low_i) if intra else (models["P"], low_p)
-            pc.write_levels(writer, level, [chosen[j] for j in idx], low[idx] if len(idx) else low[:0])
+            pc.write_levels(writer, level, chosen.subset(idx), low[idx] if len(idx) else low[:0])
         else:
             unit_keys, steps, dc, ac, n = levels[k]
             dc_values = dc if intra else dc - previous_dc
-            for p in range(len(unit_keys)):
-                pc.write_dct_block(writer, tables, int(dc_values[p]), intra, ac[:, p])
+            pc.write_dct_blocks(writer, tables, dc_values, intra, ac)
             previous_dc = dc
         writer.write(len(frame.muscles), 10)
         _write_crc(writer, unit_start)
@@ -632,7 +633,7 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool, disp
         if intra:
             state.models = {"I": pc.make_models(low_i, high_i), "P": pc.make_models(low_p, high_p)}
         chosen, low = (state.models["I"], low_i) if intra else (state.models["P"], low_p)
-        level = pc.read_levels(reader, [chosen[j] for j in idx], low[idx] if len(idx) else low[:0])
+        level = pc.read_levels(reader, chosen.subset(idx), low[idx] if len(idx) else low[:0])
         if intra:
             recon = level * steps * h.q
         else:
@@ -641,10 +642,7 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool, disp
         rows = recon[None]
     else:
         tables = pc.vlc_tables()
-        dc = np.zeros(len(keys), dtype=np.int64)
-        ac = np.zeros((n_frames - 1, len(keys)), dtype=np.int64)
-        for p in range(len(keys)):
-            dc[p], ac[:, p] = pc.read_dct_block(reader, tables, intra, n_frames)
+        dc, ac = pc.read_dct_blocks(reader, tables, intra, n_frames, len(keys))
         if not intra:
             if state.previous_dc is None or len(state.previous_dc) != len(dc):
                 raise SigncastError("corrupt BBA stream: DCT segment without a DC reference")

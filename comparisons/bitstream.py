@@ -5,53 +5,61 @@ visage `FBAEncoder.cpp`). Before a start code the writer emits MPEG `next_start_
 one 0 bit then 1 bits up to the byte boundary, or 0111 1111 when already aligned. Inside coded
 data the writer inserts a 1 bit after 22 consecutive 0 bits (`bit_in_psc_layer`, mpeg4-facts.md
 §2.5) so a start code (23 zeros then a 1) can never be emulated; the reader drops those bits.
+
+Speed: the bit loops are Numba-compiled kernels (kernels/entropy_coding.py). The writer keeps its bytes in a zero-filled uint8 buffer and its state
+(bits written, current zero run) in an int64 array, so the arithmetic coder's kernels
+(comparisons/entropy.py) write into it directly; the reader likewise keeps (bit position, zero run,
+overrun) in an int64 array.
 """
 from __future__ import annotations
 
+import numpy as np
+
+from kernels import entropy_coding as kc
 from media.errors import SigncastError
 
 START_CODE_PREFIX = b"\x00\x00\x01"
-MAX_ZERO_RUN = 22
+MAX_ZERO_RUN = kc.MAX_ZERO_RUN
+_POS, _ZERO_RUN, _OVERRUN = 0, 1, 2        # BitReader state; BitWriter state is (bits written, zero run)
 
 
 class BitWriter:
     """Accumulates bits MSB-first; `getvalue()` returns the bytes (last byte zero-padded)."""
 
     def __init__(self) -> None:
-        self._bytes = bytearray()
-        self._current = 0
-        self._n_current = 0
-        self._zero_run = 0
-        self.n_bits = 0
+        self.buffer = np.zeros(256, dtype=np.uint8)
+        self.state = np.zeros(2, dtype=np.int64)        # bits written, zero run
 
-    def _raw_bit(self, bit: int) -> None:
-        self._current = (self._current << 1) | bit
-        self._n_current += 1
-        self.n_bits += 1
-        if self._n_current == 8:
-            self._bytes.append(self._current)
-            self._current = 0
-            self._n_current = 0
+    @property
+    def n_bits(self) -> int:
+        return int(self.state[0])
+
+    def reserve(self, n_bits: int) -> None:
+        """Room for n_bits more data bits (and their emulation-prevention bits)."""
+        needed = (int(self.state[0]) + n_bits + n_bits // MAX_ZERO_RUN + 16) // 8 + 1
+        if needed > len(self.buffer):
+            grown = np.zeros(max(needed, 2 * len(self.buffer)), dtype=np.uint8)
+            grown[:len(self.buffer)] = self.buffer
+            self.buffer = grown
 
     def write_bit(self, bit: int) -> None:
         """One data bit, with start-code emulation prevention."""
-        self._raw_bit(bit)
-        if bit:
-            self._zero_run = 0
-        else:
-            self._zero_run += 1
-            if self._zero_run == MAX_ZERO_RUN:
-                self._raw_bit(1)
-                self._zero_run = 0
+        self.reserve(1)
+        kc.put_bit(self.buffer, self.state, 1 if bit else 0)
 
     def write(self, value: int, n_bits: int) -> None:
         """Unsigned `value` in `n_bits` bits, MSB first."""
         if n_bits == 0:
             return
+        value = int(value)
         if value < 0 or value >> n_bits:
             raise SigncastError(f"value {value} does not fit in {n_bits} bits")
-        for shift in range(n_bits - 1, -1, -1):
-            self.write_bit((value >> shift) & 1)
+        self.reserve(n_bits)
+        while n_bits > 62:                               # the kernel works on int64
+            n_bits -= 62
+            kc.put_bits(self.buffer, self.state, value >> n_bits, 62)
+            value &= (1 << n_bits) - 1
+        kc.put_bits(self.buffer, self.state, value, n_bits)
 
     def write_signed(self, value: int, n_bits: int) -> None:
         """Two's complement `value` in `n_bits` bits."""
@@ -62,22 +70,20 @@ class BitWriter:
 
     def align_for_start_code(self) -> None:
         """MPEG next_start_code(): a 0 then 1s to the byte boundary (0111 1111 when aligned)."""
-        self._raw_bit(0)
-        while self._n_current:
-            self._raw_bit(1)
+        self.reserve(8)
+        kc.align(self.buffer, self.state)
 
     def start_code(self, code: int) -> None:
         """Stuffing, then the byte-aligned 32-bit start code 0x000001<code>."""
         self.align_for_start_code()
-        for byte in START_CODE_PREFIX + bytes([code]):
-            for shift in range(7, -1, -1):
-                self._raw_bit((byte >> shift) & 1)
-        self._zero_run = 0
+        self.reserve(32)
+        byte = int(self.state[0]) >> 3
+        self.buffer[byte:byte + 4] = np.frombuffer(START_CODE_PREFIX + bytes([code]), dtype=np.uint8)
+        self.state[0] += 32
+        self.state[1] = 0
 
     def getvalue(self) -> bytes:
-        if self._n_current:
-            return bytes(self._bytes) + bytes([self._current << (8 - self._n_current)])
-        return bytes(self._bytes)
+        return self.buffer[:(int(self.state[0]) + 7) >> 3].tobytes()
 
 
 class BitReader:
@@ -86,51 +92,47 @@ class BitReader:
 
     def __init__(self, data: bytes, start_byte: int = 0, end_byte: int | None = None) -> None:
         self.data = bytes(data)
+        self.array = np.frombuffer(self.data, dtype=np.uint8)
         self.end_bit = 8 * (len(self.data) if end_byte is None else end_byte)
-        self.pos = 8 * start_byte
-        self._zero_run = 0
-        self.overrun = 0
+        self.registers = np.array([8 * start_byte, 0, 0], dtype=np.int64)   # position, zero run, overrun
+
+    @property
+    def pos(self) -> int:
+        return int(self.registers[_POS])
+
+    @pos.setter
+    def pos(self, value: int) -> None:
+        self.registers[_POS] = value
+
+    @property
+    def overrun(self) -> int:
+        return int(self.registers[_OVERRUN])
 
     @property
     def state(self) -> tuple[int, int, int]:
-        return self.pos, self._zero_run, self.overrun
+        return tuple(int(v) for v in self.registers)
 
     @state.setter
     def state(self, value: tuple[int, int, int]) -> None:
-        self.pos, self._zero_run, self.overrun = value
-
-    def _raw_bit(self, lookahead: bool = False) -> int:
-        if self.pos >= self.end_bit:
-            if not lookahead:
-                raise SigncastError("truncated stream: it ends inside a field")
-            self.overrun += 1
-            self.pos += 1
-            return 0
-        bit = (self.data[self.pos >> 3] >> (7 - (self.pos & 7))) & 1
-        self.pos += 1
-        return bit
+        self.registers[:] = value
 
     def read_bit(self, lookahead: bool = False) -> int:
-        bit = self._raw_bit(lookahead)
-        if bit:
-            self._zero_run = 0
-            return 1
-        self._zero_run += 1
-        if self._zero_run == MAX_ZERO_RUN:
-            self._zero_run = 0
-            if self.pos < self.end_bit:
-                position = self.pos
-                if not self._raw_bit():
-                    # Not a stuffing bit: this is a start code (or damage); leave it unread.
-                    self.pos = position
-            elif not lookahead:
-                raise SigncastError("truncated stream: it ends inside a field")
-        return 0
+        bit = kc.get_bit(self.array, self.end_bit, self.registers, lookahead)
+        if bit < 0:
+            raise SigncastError("truncated stream: it ends inside a field")
+        return bit
 
     def read(self, n_bits: int) -> int:
         value = 0
-        for _ in range(n_bits):
-            value = (value << 1) | self.read_bit()
+        while n_bits > 62:
+            value = (value << 62) | self._read_bits(62)
+            n_bits -= 62
+        return (value << n_bits) | self._read_bits(n_bits)
+
+    def _read_bits(self, n_bits: int) -> int:
+        value = kc.get_bits(self.array, self.end_bit, self.registers, n_bits)
+        if value < 0:
+            raise SigncastError("truncated stream: it ends inside a field")
         return value
 
     def read_signed(self, n_bits: int) -> int:
@@ -143,10 +145,7 @@ class BitReader:
         if pos >= self.end_bit:
             return False
         n_stuff = 8 - (pos & 7)
-        stuffing = 0
-        for k in range(n_stuff):
-            p = pos + k
-            stuffing = (stuffing << 1) | ((self.data[p >> 3] >> (7 - (p & 7))) & 1)
+        stuffing = self.data[pos >> 3] & ((1 << n_stuff) - 1)
         if stuffing != (1 << (n_stuff - 1)) - 1:
             return False
         byte = (pos + n_stuff) >> 3
@@ -159,8 +158,8 @@ class BitReader:
                 raise SigncastError("truncated stream: a start code is missing at the end")
             raise SigncastError(f"corrupt stream: expected a start code at bit {self.pos}")
         byte = (self.pos >> 3) + 1
-        self.pos = 8 * (byte + 4)
-        self._zero_run = 0
+        self.registers[_POS] = 8 * (byte + 4)
+        self.registers[_ZERO_RUN] = 0
         return self.data[byte + 3]
 
 
@@ -176,11 +175,6 @@ def find_start_codes(data: bytes, start: int = 0) -> list[tuple[int, int]]:
 
 def crc8_bits(data: bytes, start_bit: int, end_bit: int) -> int:
     """CRC-8 (polynomial x^8 + x^2 + x + 1, 0x07, initial 0) of the raw bits [start_bit, end_bit)."""
-    crc = 0
-    for position in range(start_bit, end_bit):
-        bit = (data[position >> 3] >> (7 - (position & 7))) & 1
-        feedback = ((crc >> 7) & 1) ^ bit
-        crc = (crc << 1) & 0xFF
-        if feedback:
-            crc ^= 0x07
-    return crc
+    if start_bit < 0 or end_bit > 8 * len(data):
+        raise SigncastError(f"CRC range [{start_bit}, {end_bit}) outside {len(data)} bytes")
+    return int(kc.crc8(np.frombuffer(bytes(data), dtype=np.uint8), start_bit, end_bit))

@@ -74,33 +74,22 @@ ARITHMETIC_INCREMENT = 16  # count added per coded symbol: faster adaptation tha
 
 def _arithmetic_encode(symbols: np.ndarray, alphabet: int) -> bytes:
     from comparisons.bitstream import BitWriter
-    from comparisons.entropy import ArithmeticEncoder, FrequencyModel
+    from comparisons.entropy import FrequencyModel, encode_symbols
     writer = BitWriter()
-    model = FrequencyModel(alphabet, ARITHMETIC_INCREMENT)
-    encoder = ArithmeticEncoder(writer)
-    for symbol in symbols.tolist():
-        encoder.encode(model, symbol)
-    encoder.finish()
+    encode_symbols(writer, FrequencyModel(alphabet, ARITHMETIC_INCREMENT), symbols)
     return writer.getvalue()
 
 
 def _arithmetic_decode(data: bytes, count: int, alphabet: int) -> np.ndarray:
     from comparisons.bitstream import BitReader
-    from comparisons.entropy import PRECISION, ArithmeticDecoder, FrequencyModel
+    from comparisons.entropy import PRECISION, FrequencyModel, decode_symbols
     reader = BitReader(data)
-    model = FrequencyModel(alphabet, ARITHMETIC_INCREMENT)
-    decoder = ArithmeticDecoder(reader)
-    symbols = []
-    for _ in range(count):
-        symbols.append(decoder.decode(model))
-        # the decoder reads its register ahead by at most PRECISION bits; reading further past the end
-        # means the symbols claimed are not in the data (finish() would fail): stop now, not after `count`
-        if reader.overrun > PRECISION:
-            raise SigncastError("corrupt arithmetic-coded section: the data ends before its symbols do")
-    decoder.finish()
+    # the decoder reads its register ahead by at most PRECISION bits; reading further past the end
+    # means the symbols claimed are not in the data (finish() would fail): stop then, not after `count`
+    symbols = decode_symbols(reader, FrequencyModel(alphabet, ARITHMETIC_INCREMENT), count, max_overrun=PRECISION)
     if (reader.pos + 7) // 8 != len(data):
         raise SigncastError("corrupt arithmetic-coded section: data does not end where the symbols do")
-    return np.asarray(symbols, dtype=np.int64)
+    return symbols
 
 
 def _huffman_encode(symbols: np.ndarray, alphabet: int) -> bytes:

@@ -14,23 +14,30 @@ ends exactly where it should (the check that catches truncated or damaged data).
 
 Huffman coder. Code lengths from symbol frequencies (length-limited by flattening), canonical
 code assignment; the code tables are fixed by their lengths, so formats only store lengths.
+
+Speed: the models' Fenwick trees live in int64 arrays and the coder's loops are Numba-compiled
+kernels (kernels/entropy_coding.py) that write straight into BitWriter's buffer or read BitReader's
+data: one call per symbol (ArithmeticEncoder, ArithmeticDecoder), per frame of a ModelBank
+(encode_frame, decode_frame) or per run of symbols of one model (encode_symbols, decode_symbols). The
+integer arithmetic is unchanged, so the streams are bit-identical to the pure-Python coder's.
 """
 from __future__ import annotations
 
 import heapq
-from collections import deque
 
 import numpy as np
 
 from comparisons.bitstream import BitReader, BitWriter
+from kernels import entropy_coding as kc
 from media.errors import SigncastError
 
-PRECISION = 32
-TOP = (1 << PRECISION) - 1
-HALF = 1 << (PRECISION - 1)
-QUARTER = 1 << (PRECISION - 2)
-THREE_QUARTERS = HALF + QUARTER
+PRECISION = kc.PRECISION
+TOP = kc.TOP
+HALF = kc.HALF
+QUARTER = kc.QUARTER
+THREE_QUARTERS = kc.THREE_QUARTERS
 MAX_TOTAL = 1 << 16          # keeps span * total well inside the coder's precision
+HISTORY = kc.HISTORY      # reader states the decoder remembers, to give back its over-read bits
 
 
 class FrequencyModel:
@@ -38,7 +45,8 @@ class FrequencyModel:
 
     Every symbol starts with count 1 (as the FBA coder's uniform start); each coded symbol adds
     `increment`; when the total exceeds `limit` every count is halved, rounding up.
-    """
+    counts: (n,) int64; tree: (n + 1,) int64 Fenwick tree; scalars: total, top bit, increment,
+    limit, n (int64, what the kernels read)."""
 
     def __init__(self, n_symbols: int, increment: int = 1, limit: int = MAX_TOTAL) -> None:
         if n_symbols < 1:
@@ -48,55 +56,27 @@ class FrequencyModel:
         self.n = n_symbols
         self.increment = increment
         self.limit = limit
-        self.counts = [1] * n_symbols
-        index = np.arange(1, n_symbols + 1)
-        self.tree = [0] + (index & -index).tolist()          # Fenwick tree of all-ones counts
-        self.total = n_symbols
-        self._top_bit = 1 << (n_symbols.bit_length() - 1)
+        self.counts = np.ones(n_symbols, dtype=np.int64)
+        index = np.arange(n_symbols + 1, dtype=np.int64)
+        self.tree = index & -index                          # Fenwick tree of all-ones counts
+        self.scalars = np.array([n_symbols, 1 << (n_symbols.bit_length() - 1), increment, limit, n_symbols],
+                                dtype=np.int64)
 
-    def _rebuild(self) -> None:
-        n = self.n
-        cumulative = np.concatenate([[0], np.cumsum(self.counts, dtype=np.int64)])
-        index = np.arange(1, n + 1)
-        self.tree = [0] + (cumulative[index] - cumulative[index - (index & -index)]).tolist()
-        self.total = int(cumulative[-1])
-        self._top_bit = 1 << (n.bit_length() - 1)
-
-    def _prefix(self, symbol: int) -> int:
-        """Sum of counts of symbols < symbol."""
-        total, i, tree = 0, symbol, self.tree
-        while i > 0:
-            total += tree[i]
-            i -= i & -i
-        return total
+    @property
+    def total(self) -> int:
+        return int(self.scalars[kc.TOTAL])
 
     def interval(self, symbol: int) -> tuple[int, int]:
-        low = self._prefix(symbol)
-        return low, low + self.counts[symbol]
+        low = int(kc.prefix(self.tree, symbol))
+        return low, low + int(self.counts[symbol])
 
     def find(self, target: int) -> tuple[int, int, int]:
         """The symbol whose interval holds cumulative count `target`, and that interval."""
-        position, remaining, step, tree, n = 0, target, self._top_bit, self.tree, self.n
-        while step:
-            nxt = position + step
-            if nxt <= n and tree[nxt] <= remaining:
-                position = nxt
-                remaining -= tree[nxt]
-            step >>= 1
-        low = target - remaining
-        return position, low, low + self.counts[position]
+        symbol, low = kc.find(self.tree, self.scalars, target)
+        return int(symbol), int(low), int(low + self.counts[symbol])
 
     def update(self, symbol: int) -> None:
-        self.counts[symbol] += self.increment
-        self.total += self.increment
-        if self.total > self.limit:
-            self.counts = [(c + 1) // 2 for c in self.counts]
-            self._rebuild()
-            return
-        i, tree, n = symbol + 1, self.tree, self.n
-        while i <= n:
-            tree[i] += self.increment
-            i += i & -i
+        kc.update(self.counts, self.tree, self.scalars, symbol)
 
 
 class ArithmeticEncoder:
@@ -104,46 +84,20 @@ class ArithmeticEncoder:
 
     def __init__(self, writer: BitWriter) -> None:
         self.writer = writer
-        self.low = 0
-        self.high = TOP
-        self.pending = 0
-
-    def _emit(self, bit: int) -> None:
-        self.writer.write_bit(bit)
-        opposite = 1 - bit
-        for _ in range(self.pending):
-            self.writer.write_bit(opposite)
-        self.pending = 0
+        self.registers = np.array([0, TOP, 0], dtype=np.int64)     # low, high, pending
 
     def encode(self, model: FrequencyModel, symbol: int) -> None:
         if not 0 <= symbol < model.n:
             raise SigncastError(f"symbol {symbol} outside the model's alphabet 0..{model.n - 1}")
-        sym_low, sym_high = model.interval(symbol)
-        total = model.total
-        span = self.high - self.low + 1
-        self.high = self.low + span * sym_high // total - 1
-        self.low = self.low + span * sym_low // total
-        while True:
-            if self.high < HALF:
-                self._emit(0)
-            elif self.low >= HALF:
-                self._emit(1)
-                self.low -= HALF
-                self.high -= HALF
-            elif self.low >= QUARTER and self.high < THREE_QUARTERS:
-                self.pending += 1
-                self.low -= QUARTER
-                self.high -= QUARTER
-            else:
-                break
-            self.low <<= 1
-            self.high = (self.high << 1) | 1
-        model.update(symbol)
+        self.writer.reserve(2 * int(self.registers[2]) + 2 * PRECISION + 4)
+        kc.encode_symbol(self.writer.buffer, self.writer.state, self.registers, model.counts, model.tree,
+                      model.scalars, symbol)
 
     def finish(self) -> None:
         """Two bits (plus pending follow bits) pin the final interval; any bits may follow."""
-        self.pending += 1
-        self._emit(0 if self.low < QUARTER else 1)
+        self.registers[2] += 1
+        self.writer.reserve(2 * int(self.registers[2]) + 4)
+        kc.emit(self.writer.buffer, self.writer.state, self.registers, 0 if self.registers[0] < QUARTER else 1)
 
 
 class ArithmeticDecoder:
@@ -151,50 +105,113 @@ class ArithmeticDecoder:
 
     def __init__(self, reader: BitReader) -> None:
         self.reader = reader
-        self.low = 0
-        self.high = TOP
-        self._history: deque = deque(maxlen=PRECISION - 2)
-        self.value = 0
-        for _ in range(PRECISION):
-            self.value = (self.value << 1) | self._next_bit()
-
-    def _next_bit(self) -> int:
-        self._history.append(self.reader.state)
-        return self.reader.read_bit(lookahead=True)
+        self.history = np.zeros((HISTORY, 3), dtype=np.int64)
+        self.history_at = np.zeros(1, dtype=np.int64)
+        value = kc.fill(reader.array, reader.end_bit, reader.registers, self.history, self.history_at)
+        self.registers = np.array([0, TOP, value], dtype=np.int64)      # low, high, value
 
     def decode(self, model: FrequencyModel) -> int:
-        span = self.high - self.low + 1
-        total = model.total
-        target = ((self.value - self.low + 1) * total - 1) // span
-        if not 0 <= target < total:
+        symbol = kc.decode_symbol(self.reader.array, self.reader.end_bit, self.reader.registers, self.history,
+                               self.history_at, self.registers, model.counts, model.tree, model.scalars)
+        if symbol < 0:
             raise SigncastError("corrupt arithmetic-coded data")
-        symbol, sym_low, sym_high = model.find(target)
-        self.high = self.low + span * sym_high // total - 1
-        self.low = self.low + span * sym_low // total
-        while True:
-            if self.high < HALF:
-                pass
-            elif self.low >= HALF:
-                self.low -= HALF
-                self.high -= HALF
-                self.value -= HALF
-            elif self.low >= QUARTER and self.high < THREE_QUARTERS:
-                self.low -= QUARTER
-                self.high -= QUARTER
-                self.value -= QUARTER
-            else:
-                break
-            self.low <<= 1
-            self.high = (self.high << 1) | 1
-            self.value = (self.value << 1) | self._next_bit()
-        model.update(symbol)
-        return symbol
+        return int(symbol)
 
     def finish(self) -> None:
         """Give back the over-read register bits; SigncastError if the data ended too early."""
-        self.reader.state = self._history[0]
+        at = int(self.history_at[0])
+        self.reader.registers[:] = self.history[at % HISTORY if at >= HISTORY else 0]
         if self.reader.pos > self.reader.end_bit:
             raise SigncastError("truncated stream: arithmetic-coded data ends early")
+
+
+class ModelBank:
+    """Adaptive models (as FrequencyModel, increment 1, limit MAX_TOTAL) of several parameters in
+    shared arrays, so one kernel call codes a whole frame of levels, one symbol per member.
+
+    sizes: (M,) alphabet sizes. members: (k,) int64 indices of the models a frame codes, in order
+    (`subset` picks them; the subset shares the counts, so coding through it updates the bank)."""
+
+    def __init__(self, sizes, members: np.ndarray | None = None, _arrays=None) -> None:
+        if _arrays is None:
+            sizes = np.asarray(sizes, dtype=np.int64).reshape(-1)
+            if np.any(sizes < 1):
+                raise SigncastError(f"an alphabet needs at least one symbol, got {int(sizes.min())}")
+            if np.any(sizes > MAX_TOTAL // 2):
+                raise SigncastError(f"alphabet of {int(sizes.max())} symbols is too large for a frequency "
+                                    f"limit of {MAX_TOTAL}")
+            offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+            counts = np.ones(int(offsets[-1]), dtype=np.int64)
+            tree = np.empty(int(offsets[-1]) + len(sizes), dtype=np.int64)
+            scalars = np.empty((len(sizes), 5), dtype=np.int64)
+            kc.init_bank(sizes, offsets, tree, scalars, MAX_TOTAL)
+            _arrays = (sizes, offsets, counts, tree, scalars)
+        self.sizes, self.offsets, self.counts, self.tree, self.scalars = _arrays
+        self.members = np.arange(len(self.sizes), dtype=np.int64) if members is None else members
+
+    def __len__(self) -> int:
+        return len(self.members)
+
+    def subset(self, members) -> "ModelBank":
+        """The models `members` (indices into this bank's members), sharing their counts."""
+        return ModelBank(None, self.members[np.asarray(members, dtype=np.int64)], _arrays=(
+            self.sizes, self.offsets, self.counts, self.tree, self.scalars))
+
+    def member_sizes(self) -> np.ndarray:
+        return self.sizes[self.members]
+
+
+def encode_frame(writer: BitWriter, bank: ModelBank, symbols: np.ndarray) -> None:
+    """symbols (k,) int64, one per member of `bank`, arithmetic-coded from a fresh coder and
+    flushed (the same bits as an ArithmeticEncoder coding them in turn, then finish())."""
+    symbols = np.ascontiguousarray(symbols, dtype=np.int64)
+    sizes = bank.member_sizes()
+    bad = np.flatnonzero((symbols < 0) | (symbols >= sizes))
+    if len(bad):
+        k = int(bad[0])
+        raise SigncastError(f"symbol {int(symbols[k])} outside the model's alphabet 0..{int(sizes[k]) - 1}")
+    writer.reserve(4 * PRECISION * (len(symbols) + 1))
+    kc.encode_frame(writer.buffer, writer.state, bank.counts, bank.tree, bank.scalars, bank.offsets, bank.members,
+                  symbols)
+
+
+def decode_frame(reader: BitReader, bank: ModelBank) -> np.ndarray:
+    """(k,) int64 symbols of what encode_frame wrote; SigncastError on corrupt or truncated data."""
+    out = np.empty(len(bank.members), dtype=np.int64)
+    status = kc.decode_frame(reader.array, reader.end_bit, reader.registers, bank.counts, bank.tree, bank.scalars,
+                           bank.offsets, bank.members, out)
+    if status == -1:
+        raise SigncastError("corrupt arithmetic-coded data")
+    if status == -2:
+        raise SigncastError("truncated stream: arithmetic-coded data ends early")
+    return out
+
+
+def encode_symbols(writer: BitWriter, model: FrequencyModel, symbols) -> None:
+    """symbols (n,) coded in turn with one adaptive model from a fresh coder, then flushed: the same
+    bits as ArithmeticEncoder.encode for each and finish()."""
+    symbols = np.ascontiguousarray(symbols, dtype=np.int64).reshape(-1)
+    bad = np.flatnonzero((symbols < 0) | (symbols >= model.n))
+    if len(bad):
+        raise SigncastError(f"symbol {int(symbols[bad[0]])} outside the model's alphabet 0..{model.n - 1}")
+    writer.reserve(4 * PRECISION * (len(symbols) + 1))
+    kc.encode_run(writer.buffer, writer.state, model.counts, model.tree, model.scalars, symbols)
+
+
+def decode_symbols(reader: BitReader, model: FrequencyModel, count: int, max_overrun: int | None = None) -> np.ndarray:
+    """(count,) int64 symbols of what encode_symbols wrote, the reader left where its bits end.
+    max_overrun: stop with SigncastError as soon as the register fill has read more than this many
+    bits past the end (the symbols claimed are not in the data). SigncastError on corrupt data."""
+    out = np.empty(count, dtype=np.int64)
+    status = kc.decode_run(reader.array, reader.end_bit, reader.registers, model.counts, model.tree, model.scalars,
+                         out, np.iinfo(np.int64).max if max_overrun is None else max_overrun)
+    if status == -1:
+        raise SigncastError("corrupt arithmetic-coded data")
+    if status == -2:
+        raise SigncastError("truncated stream: arithmetic-coded data ends early")
+    if status == -3:
+        raise SigncastError("corrupt arithmetic-coded section: the data ends before its symbols do")
+    return out
 
 
 def encode_sequence(symbols, n_symbols: int, increment: int = 1) -> bytes:
@@ -202,11 +219,7 @@ def encode_sequence(symbols, n_symbols: int, increment: int = 1) -> bytes:
     writer = BitWriter()
     symbols = [int(s) for s in symbols]
     writer.write(len(symbols), 32)
-    model = FrequencyModel(n_symbols, increment)
-    encoder = ArithmeticEncoder(writer)
-    for s in symbols:
-        encoder.encode(model, s)
-    encoder.finish()
+    encode_symbols(writer, FrequencyModel(n_symbols, increment), symbols)
     return writer.getvalue()
 
 
@@ -216,10 +229,7 @@ def decode_sequence(data: bytes, n_symbols: int, increment: int = 1) -> list[int
     count = reader.read(32)
     if count > 8 * len(data) * 64:
         raise SigncastError("corrupt arithmetic-coded sequence: impossible symbol count")
-    model = FrequencyModel(n_symbols, increment)
-    decoder = ArithmeticDecoder(reader)
-    symbols = [decoder.decode(model) for _ in range(count)]
-    decoder.finish()
+    symbols = decode_symbols(reader, FrequencyModel(n_symbols, increment), count).tolist()
     if (reader.pos + 7) // 8 != len(data):
         raise SigncastError(f"corrupt arithmetic-coded sequence: coded data ends at byte "
                             f"{(reader.pos + 7) // 8} of {len(data)}")
@@ -301,6 +311,27 @@ class CanonicalHuffman:
             self.codes[symbol] = (code, length)
             code += 1
         self.max_length = max(self.lengths) if order else 0
+        self._arrays = None
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The kernels' view (int64): codes (S,), lengths (S,), and by code length 0..max_length:
+        first code, number of codes, start in `symbols`; symbols (sorted by length, then symbol)."""
+        if self._arrays is None:
+            codes = np.zeros(len(self.lengths), dtype=np.int64)
+            for symbol, (code, _) in self.codes.items():
+                codes[symbol] = code
+            first = np.zeros(self.max_length + 1, dtype=np.int64)
+            count = np.zeros(self.max_length + 1, dtype=np.int64)
+            start = np.zeros(self.max_length + 1, dtype=np.int64)
+            symbols = []
+            for length in range(1, self.max_length + 1):
+                members = self._symbols_by_length.get(length, [])
+                first[length] = self._first_code.get(length, 0)
+                count[length], start[length] = len(members), len(symbols)
+                symbols += members
+            self._arrays = (codes, np.array(self.lengths, dtype=np.int64), first, count, start,
+                            np.array(symbols, dtype=np.int64))
+        return self._arrays
 
     def encode(self, writer: BitWriter, symbol: int) -> None:
         try:

@@ -380,8 +380,7 @@ def _write_dct_period(writer: BitWriter, tracks: list[_Track], start: int, stop:
             if short:
                 writer.write(n - 1, 4)
             dc_values = dc if intra else dc - previous_dc[j]
-            for p in range(len(order)):
-                pc.write_dct_block(writer, tables, int(dc_values[p]), intra, ac[:, p])
+            pc.write_dct_blocks(writer, tables, dc_values, intra, ac)
             previous_dc[j] = dc
             track.held[order] = pc.dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
     return stop - start
@@ -587,10 +586,7 @@ class _BlockDecoder:
         n = pc.SEGMENT
         if reader.read_bit():
             n = reader.read(4) + 1
-        dc = np.zeros(len(self.order), dtype=np.int64)
-        ac = np.zeros((n - 1, len(self.order)), dtype=np.int64)
-        for p in range(len(self.order)):
-            dc[p], ac[:, p] = pc.read_dct_block(reader, tables, intra, n)
+        dc, ac = pc.read_dct_blocks(reader, tables, intra, n, len(self.order))
         if not intra:
             dc += self.previous_dc
         self.previous_dc = dc

@@ -31,7 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from comparisons.bitstream import BitReader, BitWriter
-from comparisons.entropy import ArithmeticDecoder, ArithmeticEncoder, CanonicalHuffman, FrequencyModel
+from comparisons.entropy import CanonicalHuffman, ModelBank, decode_frame, encode_frame
+from kernels import entropy_coding as kc
 from media.domain import check_q  # noqa: F401  (the FBA/BBA coders call pc.check_q)
 from media.errors import SigncastError
 
@@ -121,28 +122,23 @@ def read_range_fields(reader: BitReader, n: int) -> np.ndarray:
     return fields
 
 
-def make_models(low: np.ndarray, high: np.ndarray) -> list[FrequencyModel]:
-    return [FrequencyModel(int(h - l + 1)) for l, h in zip(low, high)]
+def make_models(low: np.ndarray, high: np.ndarray) -> ModelBank:
+    """One adaptive model per parameter over its alphabet [low, high] (levels)."""
+    return ModelBank(np.asarray(high, dtype=np.int64) - np.asarray(low, dtype=np.int64) + 1)
 
 
-def write_levels(writer: BitWriter, levels: np.ndarray, models: list[FrequencyModel], low: np.ndarray) -> None:
+def write_levels(writer: BitWriter, levels: np.ndarray, models: ModelBank, low: np.ndarray) -> None:
     """One frame's levels, arithmetic-coded and flushed. Nothing is written when every alphabet
     has a single symbol (the decoder knows the levels already)."""
-    if all(model.n == 1 for model in models):
+    if np.all(models.member_sizes() == 1):
         return
-    encoder = ArithmeticEncoder(writer)
-    for level, model, base in zip(levels, models, low):
-        encoder.encode(model, int(level - base))
-    encoder.finish()
+    encode_frame(writer, models, np.asarray(levels, dtype=np.int64) - low)
 
 
-def read_levels(reader: BitReader, models: list[FrequencyModel], low: np.ndarray) -> np.ndarray:
-    if all(model.n == 1 for model in models):
+def read_levels(reader: BitReader, models: ModelBank, low: np.ndarray) -> np.ndarray:
+    if np.all(models.member_sizes() == 1):
         return np.asarray(low, dtype=np.int64).copy()
-    decoder = ArithmeticDecoder(reader)
-    levels = np.array([decoder.decode(model) for model in models], dtype=np.int64) + low
-    decoder.finish()
-    return levels
+    return decode_frame(reader, models) + low
 
 
 # --------------------------------------------------------------------------- DCT segments
@@ -215,51 +211,49 @@ def vlc_tables(path: str = str(TABLE_PATH)) -> dict[str, CanonicalHuffman]:
         raise SigncastError(f"bad VLC table file {path}: {error}") from None
 
 
-def _write_value_bits(writer: BitWriter, value: int, cat: int) -> None:
-    if cat:
-        magnitude = abs(value)
-        if magnitude >> cat:
-            raise SigncastError(f"DCT level {value} exceeds the largest category")
-        writer.write_bit(1 if value < 0 else 0)
-        writer.write(magnitude - (1 << (cat - 1)), cat - 1)
+def write_dct_blocks(writer: BitWriter, tables: dict, dc_values: np.ndarray, intra: bool, ac: np.ndarray) -> None:
+    """Every parameter's block of a segment, in order: dc_values (P,) (DC level, or difference from
+    the previous DC), ac (n - 1, P) AC levels; each block is the DC category and bits, then the AC
+    run/category symbols with their bits."""
+    dc_values = np.ascontiguousarray(dc_values, dtype=np.int64).reshape(-1)
+    ac = np.ascontiguousarray(ac, dtype=np.int64).reshape(np.shape(ac)[0], len(dc_values))
+    dc_codes, dc_lengths = tables["dc_intra" if intra else "dc_inter"].arrays()[:2]
+    ac_codes, ac_lengths = tables["ac"].arrays()[:2]
+    writer.reserve(int(len(dc_values) * (ac.shape[0] + 1) * 72))
+    status, detail = kc.write_dct_blocks(writer.buffer, writer.state, dc_values, ac, dc_codes, dc_lengths,
+                                         ac_codes, ac_lengths, N_CATEGORIES)
+    if status == 1:
+        raise SigncastError(f"DCT level {detail} exceeds the largest category")
+    if status == 2:
+        raise SigncastError(f"symbol {detail} has no code in this Huffman table")
 
 
-def _read_value_bits(reader: BitReader, cat: int) -> int:
-    if not cat:
-        return 0
-    negative = reader.read_bit()
-    magnitude = (1 << (cat - 1)) + reader.read(cat - 1)
-    return -magnitude if negative else magnitude
+def read_dct_blocks(reader: BitReader, tables: dict, intra: bool, size: int, n_params: int) -> tuple[np.ndarray, np.ndarray]:
+    """The blocks of `n_params` parameters of a segment of `size` frames: (DC values as coded (P,),
+    AC levels (size - 1, P)) int64."""
+    dc = np.zeros(n_params, dtype=np.int64)
+    ac = np.zeros((size - 1, n_params), dtype=np.int64)
+    dc_table = tables["dc_intra" if intra else "dc_inter"].arrays()[2:]
+    status = kc.read_dct_blocks(reader.array, reader.end_bit, reader.registers, *dc_table, *tables["ac"].arrays()[2:],
+                                N_CATEGORIES, dc, ac)
+    if status == -1:
+        raise SigncastError("truncated stream: it ends inside a field")
+    if status == -2:
+        raise SigncastError("corrupt stream: bits match no Huffman code")
+    if status == -3:
+        raise SigncastError("corrupt stream: AC run past the end of the segment")
+    return dc, ac
 
 
 def write_dct_block(writer: BitWriter, tables: dict, dc_value: int, intra: bool, ac: np.ndarray) -> None:
     """One parameter's segment: DC (level, or difference from the previous DC) then AC run/levels."""
-    cat = category(dc_value)
-    tables["dc_intra" if intra else "dc_inter"].encode(writer, cat)
-    _write_value_bits(writer, dc_value, cat)
-    for symbol, level in ac_symbols(ac):
-        tables["ac"].encode(writer, symbol)
-        if symbol != AC_EOB:
-            _write_value_bits(writer, level, category(level))
+    write_dct_blocks(writer, tables, np.array([dc_value]), intra, np.asarray(ac).reshape(-1, 1))
 
 
 def read_dct_block(reader: BitReader, tables: dict, intra: bool, size: int = SEGMENT) -> tuple[int, np.ndarray]:
     """One parameter's block of a segment of `size` frames: (DC value as coded, AC levels (size - 1,))."""
-    cat = tables["dc_intra" if intra else "dc_inter"].decode(reader)
-    dc_value = _read_value_bits(reader, cat)
-    ac = np.zeros(size - 1, dtype=np.int64)
-    k = 0
-    while k < size - 1:
-        symbol = tables["ac"].decode(reader)
-        if symbol == AC_EOB:
-            break
-        run, cat = divmod(symbol - 1, N_CATEGORIES - 1)
-        k += run
-        if k >= size - 1:
-            raise SigncastError("corrupt stream: AC run past the end of the segment")
-        ac[k] = _read_value_bits(reader, cat + 1)
-        k += 1
-    return dc_value, ac
+    dc, ac = read_dct_blocks(reader, tables, intra, size, 1)
+    return int(dc[0]), ac[:, 0]
 
 
 def dct_symbol_counts(segments: list[tuple[np.ndarray, np.ndarray, bool]]) -> dict[str, np.ndarray]:

@@ -1,0 +1,471 @@
+"""Numba-compiled kernels of the parameter streams' bit I/O and adaptive arithmetic coder.
+
+They are the inner loops of comparisons/bitstream.py (BitWriter, BitReader: MPEG start-code
+emulation prevention) and comparisons/entropy.py (Witten-Neal-Cleary arithmetic coder with
+Fenwick-tree frequency models), which document the formats; those modules own the state arrays and
+raise SigncastError from the status codes these kernels return. Compiled nopython with cache=True
+(once per machine, then loaded from __pycache__). They live outside `comparisons` so that
+coverage-instrumented imports (benchmarks/fuzz.py instruments comparisons and media with atheris)
+leave their bytecode alone: Numba cannot compile instrumented bytecode.
+
+State arrays (int64): writer (bits written, zero run) over a zero-filled uint8 buffer; reader
+(bit position, zero run, bits read past the end); coder registers (low, high, pending follow
+bits) or (low, high, value); a frequency model is counts (n,), Fenwick tree (n + 1,) and scalars
+(total, top bit, increment, limit, n); a bank of models concatenates them (model m's counts
+at offsets[m], its tree at offsets[m] + m) with scalars (M, 5).
+"""
+import numpy as np
+from numba import njit
+
+MAX_ZERO_RUN = 22
+PRECISION = 32
+TOP = (1 << PRECISION) - 1
+HALF = 1 << (PRECISION - 1)
+QUARTER = 1 << (PRECISION - 2)
+THREE_QUARTERS = HALF + QUARTER
+HISTORY = PRECISION - 2      # reader states the decoder remembers, to give back its over-read bits
+TOTAL, TOP_BIT, INCREMENT, LIMIT, N = range(5)     # a model's scalars
+
+
+@njit(cache=True)
+def put_raw_bit(buffer: np.ndarray, state: np.ndarray, bit: int) -> None:
+    """One bit into a zero-filled buffer at bit state[0], no emulation prevention."""
+    n = state[0]
+    if bit:
+        buffer[n >> 3] |= np.uint8(0x80 >> (n & 7))
+    state[0] = n + 1
+
+
+@njit(cache=True)
+def put_bit(buffer: np.ndarray, state: np.ndarray, bit: int) -> None:
+    """One data bit, with start-code emulation prevention (state[1]: the current zero run)."""
+    put_raw_bit(buffer, state, bit)
+    if bit:
+        state[1] = 0
+    else:
+        state[1] += 1
+        if state[1] == MAX_ZERO_RUN:
+            put_raw_bit(buffer, state, 1)
+            state[1] = 0
+
+
+@njit(cache=True)
+def put_bits(buffer: np.ndarray, state: np.ndarray, value: int, n_bits: int) -> None:
+    for shift in range(n_bits - 1, -1, -1):
+        put_bit(buffer, state, (value >> shift) & 1)
+
+
+@njit(cache=True)
+def align(buffer: np.ndarray, state: np.ndarray) -> None:
+    put_raw_bit(buffer, state, 0)
+    while state[0] & 7:
+        put_raw_bit(buffer, state, 1)
+
+
+@njit(cache=True)
+def get_raw_bit(data: np.ndarray, end_bit: int, state: np.ndarray, lookahead: bool) -> int:
+    """The bit at state[0]; past end_bit a 0 (lookahead) or -1 (truncated)."""
+    pos = state[0]
+    if pos >= end_bit:
+        if not lookahead:
+            return -1
+        state[2] += 1
+        state[0] = pos + 1
+        return 0
+    state[0] = pos + 1
+    return (data[pos >> 3] >> (7 - (pos & 7))) & 1
+
+
+@njit(cache=True)
+def get_bit(data: np.ndarray, end_bit: int, state: np.ndarray, lookahead: bool) -> int:
+    """One data bit, dropping emulation-prevention bits; -1 when the data ends (not lookahead)."""
+    bit = get_raw_bit(data, end_bit, state, lookahead)
+    if bit < 0:
+        return -1
+    if bit:
+        state[1] = 0
+        return 1
+    state[1] += 1
+    if state[1] == MAX_ZERO_RUN:
+        state[1] = 0
+        if state[0] < end_bit:
+            position = state[0]
+            if get_raw_bit(data, end_bit, state, False) == 0:
+                # Not a stuffing bit: this is a start code (or damage); leave it unread.
+                state[0] = position
+        elif not lookahead:
+            return -1
+    return 0
+
+
+@njit(cache=True)
+def get_bits(data: np.ndarray, end_bit: int, state: np.ndarray, n_bits: int) -> int:
+    value = 0
+    for _ in range(n_bits):
+        bit = get_bit(data, end_bit, state, False)
+        if bit < 0:
+            return -1
+        value = (value << 1) | bit
+    return value
+
+
+@njit(cache=True)
+def crc8(data: np.ndarray, start_bit: int, end_bit: int) -> int:
+    crc = 0
+    for position in range(start_bit, end_bit):
+        bit = (data[position >> 3] >> (7 - (position & 7))) & 1
+        feedback = ((crc >> 7) & 1) ^ bit
+        crc = (crc << 1) & 0xFF
+        if feedback:
+            crc ^= 0x07
+    return crc
+
+
+@njit(cache=True)
+def prefix(tree: np.ndarray, symbol: int) -> int:
+    total = 0
+    i = symbol
+    while i > 0:
+        total += tree[i]
+        i -= i & -i
+    return total
+
+
+@njit(cache=True)
+def find(tree: np.ndarray, scalars: np.ndarray, target: int) -> tuple[int, int]:
+    """(symbol, its cumulative low) whose interval holds `target`."""
+    position, remaining, step, n = 0, target, scalars[TOP_BIT], scalars[N]
+    while step:
+        nxt = position + step
+        if nxt <= n and tree[nxt] <= remaining:
+            position = nxt
+            remaining -= tree[nxt]
+        step >>= 1
+    return position, target - remaining
+
+
+@njit(cache=True)
+def update(counts: np.ndarray, tree: np.ndarray, scalars: np.ndarray, symbol: int) -> None:
+    increment, n = scalars[INCREMENT], scalars[N]
+    counts[symbol] += increment
+    scalars[TOTAL] += increment
+    if scalars[TOTAL] > scalars[LIMIT]:
+        total = 0
+        for k in range(n):
+            counts[k] = (counts[k] + 1) // 2
+            total += counts[k]
+            tree[k + 1] = counts[k]
+        for i in range(1, n + 1):                 # O(n) Fenwick build
+            parent = i + (i & -i)
+            if parent <= n:
+                tree[parent] += tree[i]
+        scalars[TOTAL] = total
+        return
+    i = symbol + 1
+    while i <= n:
+        tree[i] += increment
+        i += i & -i
+
+
+@njit(cache=True)
+def emit(buffer: np.ndarray, writer_state: np.ndarray, registers: np.ndarray, bit: int) -> None:
+    put_bit(buffer, writer_state, bit)
+    for _ in range(registers[2]):
+        put_bit(buffer, writer_state, 1 - bit)
+    registers[2] = 0
+
+
+@njit(cache=True)
+def encode_symbol(buffer: np.ndarray, writer_state: np.ndarray, registers: np.ndarray, counts: np.ndarray,
+                  tree: np.ndarray, scalars: np.ndarray, symbol: int) -> None:
+    """One symbol: registers (low, high, pending follow bits) int64; the model is updated."""
+    sym_low = prefix(tree, symbol)
+    sym_high = sym_low + counts[symbol]
+    total = scalars[TOTAL]
+    low, high = registers[0], registers[1]
+    span = high - low + 1
+    high = low + span * sym_high // total - 1
+    low = low + span * sym_low // total
+    while True:
+        if high < HALF:
+            emit(buffer, writer_state, registers, 0)
+        elif low >= HALF:
+            emit(buffer, writer_state, registers, 1)
+            low -= HALF
+            high -= HALF
+        elif low >= QUARTER and high < THREE_QUARTERS:
+            registers[2] += 1
+            low -= QUARTER
+            high -= QUARTER
+        else:
+            break
+        low <<= 1
+        high = (high << 1) | 1
+    registers[0] = low
+    registers[1] = high
+    update(counts, tree, scalars, symbol)
+
+
+@njit(cache=True)
+def next_bit(data: np.ndarray, end_bit: int, reader_state: np.ndarray, history: np.ndarray,
+              history_at: np.ndarray) -> int:
+    """A lookahead bit; the reader state before it goes into the ring `history` (HISTORY, 3)."""
+    k = history_at[0] % HISTORY
+    history[k, 0] = reader_state[0]
+    history[k, 1] = reader_state[1]
+    history[k, 2] = reader_state[2]
+    history_at[0] += 1
+    return get_bit(data, end_bit, reader_state, True)
+
+
+@njit(cache=True)
+def fill(data, end_bit, reader_state, history, history_at) -> int:
+    value = 0
+    for _ in range(PRECISION):
+        value = (value << 1) | next_bit(data, end_bit, reader_state, history, history_at)
+    return value
+
+
+@njit(cache=True)
+def decode_symbol(data: np.ndarray, end_bit: int, reader_state: np.ndarray, history: np.ndarray,
+                  history_at: np.ndarray, registers: np.ndarray, counts: np.ndarray, tree: np.ndarray,
+                  scalars: np.ndarray) -> int:
+    """One symbol (registers: low, high, value), or -1 when the data cannot be arithmetic-coded."""
+    low, high, value = registers[0], registers[1], registers[2]
+    span = high - low + 1
+    total = scalars[TOTAL]
+    target = ((value - low + 1) * total - 1) // span
+    if not 0 <= target < total:
+        return -1
+    symbol, sym_low = find(tree, scalars, target)
+    sym_high = sym_low + counts[symbol]
+    high = low + span * sym_high // total - 1
+    low = low + span * sym_low // total
+    while True:
+        if high < HALF:
+            pass
+        elif low >= HALF:
+            low -= HALF
+            high -= HALF
+            value -= HALF
+        elif low >= QUARTER and high < THREE_QUARTERS:
+            low -= QUARTER
+            high -= QUARTER
+            value -= QUARTER
+        else:
+            break
+        low <<= 1
+        high = (high << 1) | 1
+        value = (value << 1) | next_bit(data, end_bit, reader_state, history, history_at)
+    registers[0] = low
+    registers[1] = high
+    registers[2] = value
+    update(counts, tree, scalars, symbol)
+    return symbol
+
+
+@njit(cache=True)
+def init_bank(sizes, offsets, tree, scalars, limit) -> None:
+    """All-ones Fenwick trees and each model's scalars (total, top bit, increment 1, limit, n)."""
+    for m in range(len(sizes)):
+        n = sizes[m]
+        start = offsets[m] + m
+        for i in range(n + 1):
+            tree[start + i] = i & -i
+        top = 1
+        while top * 2 <= n:
+            top *= 2
+        scalars[m, TOTAL] = n
+        scalars[m, TOP_BIT] = top
+        scalars[m, INCREMENT] = 1
+        scalars[m, LIMIT] = limit
+        scalars[m, N] = n
+
+
+@njit(cache=True)
+def encode_frame(buffer, writer_state, counts, tree, scalars, offsets, members, symbols) -> None:
+    registers = np.array([0, TOP, 0], dtype=np.int64)
+    for k in range(len(members)):
+        m = members[k]
+        start, n = offsets[m], scalars[m, N]
+        encode_symbol(buffer, writer_state, registers, counts[start:start + n], tree[start + m:start + m + n + 1],
+                      scalars[m], symbols[k])
+    registers[2] += 1
+    emit(buffer, writer_state, registers, 0 if registers[0] < QUARTER else 1)
+
+
+@njit(cache=True)
+def decode_frame(data, end_bit, reader_state, counts, tree, scalars, offsets, members, out) -> int:
+    history = np.zeros((HISTORY, 3), dtype=np.int64)
+    history_at = np.zeros(1, dtype=np.int64)
+    registers = np.array([0, TOP, fill(data, end_bit, reader_state, history, history_at)], dtype=np.int64)
+    for k in range(len(members)):
+        m = members[k]
+        start, n = offsets[m], scalars[m, N]
+        symbol = decode_symbol(data, end_bit, reader_state, history, history_at, registers,
+                               counts[start:start + n], tree[start + m:start + m + n + 1], scalars[m])
+        if symbol < 0:
+            return -1
+        out[k] = symbol
+    at = history_at[0]
+    oldest = at % HISTORY if at >= HISTORY else 0
+    reader_state[0] = history[oldest, 0]
+    reader_state[1] = history[oldest, 1]
+    reader_state[2] = history[oldest, 2]
+    return -2 if reader_state[0] > end_bit else 0
+
+
+@njit(cache=True)
+def encode_run(buffer, writer_state, counts, tree, scalars, symbols) -> None:
+    registers = np.array([0, TOP, 0], dtype=np.int64)
+    for k in range(len(symbols)):
+        encode_symbol(buffer, writer_state, registers, counts, tree, scalars, symbols[k])
+    registers[2] += 1
+    emit(buffer, writer_state, registers, 0 if registers[0] < QUARTER else 1)
+
+
+@njit(cache=True)
+def decode_run(data, end_bit, reader_state, counts, tree, scalars, out, max_overrun) -> int:
+    history = np.zeros((HISTORY, 3), dtype=np.int64)
+    history_at = np.zeros(1, dtype=np.int64)
+    registers = np.array([0, TOP, fill(data, end_bit, reader_state, history, history_at)], dtype=np.int64)
+    for k in range(len(out)):
+        symbol = decode_symbol(data, end_bit, reader_state, history, history_at, registers, counts, tree, scalars)
+        if symbol < 0:
+            return -1
+        out[k] = symbol
+        if reader_state[2] > max_overrun:
+            return -3
+    at = history_at[0]
+    oldest = at % HISTORY if at >= HISTORY else 0
+    reader_state[0] = history[oldest, 0]
+    reader_state[1] = history[oldest, 1]
+    reader_state[2] = history[oldest, 2]
+    return -2 if reader_state[0] > end_bit else 0
+
+
+# ------------------------------------------------------------------ DCT blocks with canonical Huffman VLC
+# A table is (codes (S,), lengths (S,)) for writing and (first_code, count, start (L + 1,) by code
+# length, symbols sorted by (length, symbol)) for reading (comparisons/entropy.py CanonicalHuffman).
+
+@njit(cache=True)
+def category(value: int, n_categories: int) -> int:
+    magnitude = abs(value)
+    bits = 0
+    while magnitude:
+        bits += 1
+        magnitude >>= 1
+    return min(bits, n_categories - 1)
+
+
+@njit(cache=True)
+def put_code(buffer, state, codes, lengths, symbol) -> bool:
+    if symbol >= len(lengths) or lengths[symbol] == 0:
+        return False
+    put_bits(buffer, state, codes[symbol], lengths[symbol])
+    return True
+
+
+@njit(cache=True)
+def put_value_bits(buffer, state, value: int, cat: int) -> bool:
+    if cat:
+        magnitude = abs(value)
+        if magnitude >> cat:
+            return False
+        put_bit(buffer, state, 1 if value < 0 else 0)
+        put_bits(buffer, state, magnitude - (1 << (cat - 1)), cat - 1)
+    return True
+
+
+@njit(cache=True)
+def write_dct_blocks(buffer, state, dc_values, ac, dc_codes, dc_lengths, ac_codes, ac_lengths,
+                     n_categories: int) -> tuple[int, int]:
+    """Every parameter's block of a segment (param_coding.write_dct_block). Returns (0, 0), or
+    (1, level) for a level beyond the largest category, or (2, symbol) for a symbol without a code."""
+    n_ac = ac.shape[0]
+    for p in range(len(dc_values)):
+        cat = category(dc_values[p], n_categories)
+        if not put_code(buffer, state, dc_codes, dc_lengths, cat):
+            return 2, cat
+        if not put_value_bits(buffer, state, dc_values[p], cat):
+            return 1, dc_values[p]
+        last = -1
+        for k in range(n_ac):
+            if ac[k, p] != 0:
+                last = k
+        run = 0
+        for k in range(last + 1):
+            level = ac[k, p]
+            if level == 0:
+                run += 1
+                continue
+            cat = category(level, n_categories)
+            symbol = 1 + run * (n_categories - 1) + cat - 1
+            if not put_code(buffer, state, ac_codes, ac_lengths, symbol):
+                return 2, symbol
+            if not put_value_bits(buffer, state, level, cat):
+                return 1, level
+            run = 0
+        if last < n_ac - 1 and not put_code(buffer, state, ac_codes, ac_lengths, 0):
+            return 2, 0
+    return 0, 0
+
+
+@njit(cache=True)
+def get_code(data, end_bit, state, first_code, count, start, symbols) -> int:
+    """A canonical Huffman symbol; -1 truncated, -2 no code matches."""
+    code = 0
+    for length in range(1, len(count)):
+        bit = get_bit(data, end_bit, state, False)
+        if bit < 0:
+            return -1
+        code = (code << 1) | bit
+        if count[length]:
+            index = code - first_code[length]
+            if 0 <= index < count[length]:
+                return symbols[start[length] + index]
+    return -2
+
+
+@njit(cache=True)
+def get_value_bits(data, end_bit, state, cat: int) -> tuple[bool, int]:
+    if not cat:
+        return True, 0
+    negative = get_bit(data, end_bit, state, False)
+    rest = get_bits(data, end_bit, state, cat - 1) if negative >= 0 else -1
+    if rest < 0:
+        return False, 0
+    magnitude = (1 << (cat - 1)) + rest
+    return True, -magnitude if negative else magnitude
+
+
+@njit(cache=True)
+def read_dct_blocks(data, end_bit, state, dc_first, dc_count, dc_start, dc_symbols, ac_first, ac_count, ac_start,
+                    ac_symbols, n_categories: int, dc_out, ac_out) -> int:
+    """Inverse of write_dct_blocks into dc_out (P,), ac_out (size - 1, P) (zero-filled). Returns 0,
+    -1 truncated, -2 bits that match no code, -3 an AC run past the end of the segment."""
+    n_ac = ac_out.shape[0]
+    for p in range(len(dc_out)):
+        cat = get_code(data, end_bit, state, dc_first, dc_count, dc_start, dc_symbols)
+        if cat < 0:
+            return cat
+        ok, dc_out[p] = get_value_bits(data, end_bit, state, cat)
+        if not ok:
+            return -1
+        k = 0
+        while k < n_ac:
+            symbol = get_code(data, end_bit, state, ac_first, ac_count, ac_start, ac_symbols)
+            if symbol < 0:
+                return symbol
+            if symbol == 0:
+                break
+            run = (symbol - 1) // (n_categories - 1)
+            cat = (symbol - 1) % (n_categories - 1)
+            k += run
+            if k >= n_ac:
+                return -3
+            ok, ac_out[k, p] = get_value_bits(data, end_bit, state, cat + 1)
+            if not ok:
+                return -1
+            k += 1
+    return 0
