@@ -12,53 +12,44 @@ number; signcast neither writes nor reads them: they are 0 and always masked out
 masks them in is refused.
 
 The format has no checksum: a damaged digit, or a 0 and a 1 swapped in a mask, can decode to other
-values without any sign. The reader rejects what it can see: values outside each FAP's range
+values without any sign. The reader (comparisons/parameter_text.py, shared with .bap files) rejects what it can
+see: values outside each FAP's range
 (comparisons/fap_table.limits()), frame rates outside media/text_files.py's range, frame numbers
 out of sequence, a frame count that disagrees with the frames present, and more than
 media/text_files.MAX_VALUES values (checked before allocating).
 """
 from __future__ import annotations
 
-import re
-import reprlib
-from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
 
 from comparisons import fap_table
+from comparisons.parameter_text import TextLayout, format_text, parse_text
 from media import text_files
 from media.errors import SigncastError
 
 VERSION = "2.1"
 HIGH_LEVEL = 2                                                          # FAPs 1..2 are never sent
+
+
+def _refuse_high_level(line: int, mask: np.ndarray) -> None:
+    if mask[:HIGH_LEVEL].any():
+        raise SigncastError(f".fap line {line}: FAPs 1 (viseme) and 2 (expression) are not supported")
+
+
 _LIMITS = fap_table.limits()                                            # (68,) FAP units, index = id - 1
-_INTEGER = re.compile(r"[+-]?[0-9]{1,18}")                              # fits int64 before the range check
+LAYOUT = TextLayout(kind=".fap", unit="FAP", versions={VERSION: fap_table.N_FAPS}, written_version=VERSION,
+                    n_values=fap_table.N_FAPS, low=-_LIMITS, high=_LIMITS,
+                    comment="# MPEG-4 face animation parameters written by signcast", check_mask=_refuse_high_level)
 
 
 def format_fap(faps: np.ndarray, fps: float, name: str = "signcast") -> str:
     """Text of a version 2.1 .fap file for (T, 68) integer FAP values (FAPs 1 and 2 must be 0)."""
     faps = np.asarray(faps)
-    if faps.ndim != 2 or faps.shape[1] != fap_table.N_FAPS or not np.issubdtype(faps.dtype, np.integer):
-        raise SigncastError(f"FAP values must be (T, {fap_table.N_FAPS}) integers, got {faps.shape} {faps.dtype}")
-    if not name or any(c.isspace() for c in name):
-        raise SigncastError(f"a .fap animation name must be one word, got {name!r}")
-    if np.any(faps[:, :HIGH_LEVEL]):
+    if faps.ndim == 2 and faps.shape[1] == fap_table.N_FAPS and np.any(faps[:, :HIGH_LEVEL]):
         raise SigncastError("FAPs 1 (viseme) and 2 (expression) are not written: they must be 0")
-    outside = np.abs(faps) > _LIMITS
-    if outside.any():
-        t, index = np.argwhere(outside)[0]
-        raise SigncastError(f"FAP {index + 1} = {faps[t, index]} at frame {t} is outside its range "
-                            f"{-_LIMITS[index]}..{_LIMITS[index]}")
-    fps_text = str(int(fps)) if float(fps).is_integer() else f"{fps:g}"
-    lines = ["# MPEG-4 face animation parameters written by signcast", f"{VERSION} {name} {fps_text} {len(faps)}"]
-    previous = np.zeros(fap_table.N_FAPS, dtype=np.int64)
-    for t, row in enumerate(faps.astype(np.int64)):
-        mask = (row != previous) | (t == 0) & (row != 0)
-        lines.append(" ".join("1" if m else "0" for m in mask))
-        lines.append(" ".join([str(t)] + [str(v) for v in row[mask]]))
-        previous = row
-    return "\n".join(lines) + "\n"
+    return format_text(LAYOUT, faps, fps, name)
 
 
 def write_fap(path: str | Path, faps: np.ndarray, fps: float, name: str = "signcast") -> Path:
@@ -69,61 +60,9 @@ def write_fap(path: str | Path, faps: np.ndarray, fps: float, name: str = "signc
 
 def parse_fap(text: str) -> tuple[np.ndarray, float, str]:
     """(FAP values (T, 68) int64 FAP units, fps, name) from .fap text of version 2.1."""
-    return _parse(text.splitlines())
+    return parse_text(LAYOUT, text.splitlines())
 
 
 def read_fap(path: str | Path) -> tuple[np.ndarray, float, str]:
     """(FAP values (T, 68) int64 FAP units, fps, name) from a .fap file of version 2.1."""
-    return _parse(text_files.read_lines(path, ".fap file"))
-
-
-def _parse(lines: Iterable[str]) -> tuple[np.ndarray, float, str]:
-    numbered = ((n, line.split()) for n, line in enumerate(lines, start=1))
-    content = ((n, tokens) for n, tokens in numbered if tokens and not tokens[0].startswith("#"))
-    n, header = next(content, (0, None))
-    if header is None:
-        raise SigncastError(".fap file is empty")
-    if len(header) != 4 or header[0] != VERSION:
-        raise SigncastError(f".fap line {n}: expected '{VERSION} <name> <fps> <frames>', "
-                            f"got {reprlib.repr(' '.join(header))}")
-    try:
-        fps = float(header[2])
-    except ValueError:
-        raise SigncastError(f".fap line {n}: bad frame rate {reprlib.repr(header[2])}") from None
-    if not header[3].isascii() or not header[3].isdigit() or len(header[3]) > 18:
-        raise SigncastError(f".fap line {n}: bad frame count {reprlib.repr(header[3])}")
-    n_frames = int(header[3])
-    text_files.check_fps(fps, f".fap line {n}")
-    text_files.check_size(n_frames, fap_table.N_FAPS, f".fap line {n}")
-    faps = np.zeros((n_frames, fap_table.N_FAPS), dtype=np.int64)
-    current = np.zeros(fap_table.N_FAPS, dtype=np.int64)
-    first_frame = None
-    for t in range(n_frames):
-        mask_line, mask_tokens = next(content, (0, None))
-        value_line, value_tokens = next(content, (0, None))
-        if value_tokens is None:
-            raise SigncastError(f".fap file announces {n_frames} frames but holds {t} (truncated)")
-        if len(mask_tokens) != fap_table.N_FAPS or any(tok not in ("0", "1") for tok in mask_tokens):
-            raise SigncastError(f".fap line {mask_line}: expected {fap_table.N_FAPS} mask flags 0/1")
-        mask = np.array([tok == "1" for tok in mask_tokens])
-        if mask[:HIGH_LEVEL].any():
-            raise SigncastError(f".fap line {mask_line}: FAPs 1 (viseme) and 2 (expression) are not supported")
-        if not all(_INTEGER.fullmatch(tok) for tok in value_tokens):
-            raise SigncastError(f".fap line {value_line}: values must be integers of at most 18 digits")
-        numbers = np.array([int(tok) for tok in value_tokens], dtype=np.int64)
-        if len(numbers) != 1 + int(mask.sum()):
-            raise SigncastError(f".fap line {value_line}: {int(mask.sum())} masked FAPs but {len(numbers) - 1} values")
-        first_frame = int(numbers[0]) if first_frame is None else first_frame
-        if int(numbers[0]) != first_frame + t:
-            raise SigncastError(f".fap line {value_line}: frame number {numbers[0]}, expected {first_frame + t}")
-        ids = np.flatnonzero(mask)
-        outside = np.abs(numbers[1:]) > _LIMITS[ids]
-        if outside.any():
-            index = int(ids[np.argmax(outside)])
-            raise SigncastError(f".fap line {value_line}: FAP {index + 1} = {numbers[1:][np.argmax(outside)]} is "
-                                f"outside its range {-_LIMITS[index]}..{_LIMITS[index]}")
-        current[ids] = numbers[1:]
-        faps[t] = current
-    if next(content, None) is not None:
-        raise SigncastError(f".fap file announces {n_frames} frames but holds more (padded)")
-    return faps, fps, header[1]
+    return parse_text(LAYOUT, text_files.read_lines(path, ".fap file"))

@@ -372,7 +372,7 @@ def _fap_text(frames: list[tuple[list[int], list[int]]], header: str = "2.1 face
     (_fap_text([([3], [10])]).replace(" 0\n0 10", "\n0 10"), "mask flags"),
     (_fap_text([([3], [10])]).replace("2.1 face 25 1", "2.1 face 25 2"), "truncated"),
     (_fap_text([([3], [10]), ([3], [20])]).replace("25 2", "25 1"), "padded"),
-    (_fap_text([([3], [10])]).replace("2.1", "3.2"), "expected '2.1"),
+    (_fap_text([([3], [10])]).replace("2.1", "3.2"), "expected '<version 2.1>"),
     (_fap_text([([3], [10])]).replace("face 25", "face 0"), "frame rate"),
     (_fap_text([([3], ["1e3"])]), "integers"),
     ("", "empty"),
