@@ -30,7 +30,7 @@ from comparisons.model_coders import (GestureCoder, HybridCoder, PostureCoder, g
 from comparisons.vector_quantization import (TABLES_DIR, SpatialVQ, TemporalVQ, load_vq_tables, spatial_vq,
                                              temporal_vq)
 from comparisons.waveform_coders import WAVEFORM_CODERS, DofCoder
-from media.domain import MODEL_NAMES, MOTION_CODER_NAMES
+from media.domain import MODEL_NAMES, MOTION_CODER_NAMES, WAVEFORM_NAMES  # noqa: F401  (re-exported)
 from media.errors import SigncastError
 from media.motion import Motion
 
