@@ -307,13 +307,20 @@ def decode_frame(data, end_bit, reader_state, counts, tree, scalars, offsets, me
         if symbol < 0:
             return -1
         out[k] = symbol
+    return rewind(reader_state, history, history_at, end_bit)
+
+
+
+@njit(cache=True)
+def rewind(reader_state, history, history_at, end_bit) -> int:
+    """Put the reader back where the arithmetic decoder's look-ahead began (the oldest position in its history);
+    -2 when that lies past the data's end, else 0."""
     at = history_at[0]
     oldest = at % HISTORY if at >= HISTORY else 0
     reader_state[0] = history[oldest, 0]
     reader_state[1] = history[oldest, 1]
     reader_state[2] = history[oldest, 2]
     return -2 if reader_state[0] > end_bit else 0
-
 
 @njit(cache=True)
 def encode_run(buffer, writer_state, counts, tree, scalars, symbols) -> None:
@@ -336,12 +343,7 @@ def decode_run(data, end_bit, reader_state, counts, tree, scalars, out, max_over
         out[k] = symbol
         if reader_state[2] > max_overrun:
             return -3
-    at = history_at[0]
-    oldest = at % HISTORY if at >= HISTORY else 0
-    reader_state[0] = history[oldest, 0]
-    reader_state[1] = history[oldest, 1]
-    reader_state[2] = history[oldest, 2]
-    return -2 if reader_state[0] > end_bit else 0
+    return rewind(reader_state, history, history_at, end_bit)
 
 
 # ------------------------------------------------------------------ DCT blocks with canonical Huffman VLC
