@@ -10,6 +10,8 @@ keep the two kinds of quality apart:
 - parameter quality, for points without a picture (width = height = 0): param_psnr (parameter domain, seed 000
   eq. 2.6), vpsnr, joint_error_mm_mean / joint_error_mm_max and group_errors (per joint group: mean, max); for a
   motion with a face, face_kbps (what the FAPs add over the body alone) and fap_error (mean |error|, FAP units);
+- transport, for points delivered live (TRANSPORT_FIELDS: loss, delivered rate with headers, concealed frames,
+  latency);
 Any other field (areas, sweep labels, flags, ...) is kept as given in Record.extra.
 
 Every written line carries "schema": SCHEMA_VERSION. A line without "schema" is a legacy record (signcast
@@ -53,13 +55,16 @@ PARAM_QUALITY_FIELDS = ("param_psnr", "vpsnr", "joint_error_mm_mean", "joint_err
 INTELLIGIBILITY_FIELDS = ("hand_error", "hand_error_p90", "hand_pck_10", "hand_pck_20", "left_hand_found",
                           "right_hand_found", "face_error", "face_error_p90", "mouth_error", "eyes_error", "letter_top1", "letter_top3",
                           "hand_joint_error_mm", "arm_joint_error_mm")
+# live delivery (pipeline/live): the network's configured loss, what was measured at the receiver, and latency
+TRANSPORT_FIELDS = ("loss_rate", "packet_loss", "delivered_kbps", "overhead_kbps", "frames_lost", "frames_concealed",
+                    "latency_ms_p50", "latency_ms_p95")
 # legacy name -> schema 2 name; "psnr" depends on the point (see _legacy)
 LEGACY_NAMES = {"psnr_skin": "skin_psnr", "psnr_object": "object_psnr", "ssim_skin": "skin_ssim",
                 "ssim_object": "object_ssim"}
 STRING_FIELDS = ("kind", "solution", "clip", "codec", "sweep", "stage", "setting", "operating_rule", "backend",
                  "reference")
 NUMBER_FIELDS = ("q", "fps", "width", "height", "bits", "duration_s", "kbps", *IMAGE_QUALITY_FIELDS,
-                 *PARAM_QUALITY_FIELDS[:-1], *INTELLIGIBILITY_FIELDS, "wall_s", "psnr", *LEGACY_NAMES)
+                 *PARAM_QUALITY_FIELDS[:-1], *INTELLIGIBILITY_FIELDS, *TRANSPORT_FIELDS, "wall_s", "psnr", *LEGACY_NAMES)
 CONTAINER_FIELDS = {"versions": dict, "objects": list, "group_errors": dict}
 NULLABLE = ("group_errors",)                         # the other container fields, where present, are never null
 NEEDED = {"point": ("solution", "fps"), "stage": ("stage", "wall_s")}
@@ -116,6 +121,19 @@ class Record:
     letter_top3: float | None = None       # % among the first three
     hand_joint_error_mm: float | None = None   # parameter points: joint position error of the hands, mm
     arm_joint_error_mm: float | None = None    # and of the arms (shoulder to wrist), mm
+    # transport (live delivery): loss_rate, the network model's configured loss (fraction 0..1); packet_loss, % of
+    # the sent datagrams that never reached the receiver in time; delivered_kbps, whole datagrams (IPv4 + UDP + RTP
+    # headers and payload) over the clip's duration; overhead_kbps, delivered_kbps less the stream's own kbps;
+    # frames_lost, frames whose data did not arrive; frames_concealed, those shown by holding another frame;
+    # latency_ms_p50 / _p95, capture to ready-to-show per received frame, median and 95th percentile, ms
+    loss_rate: float | None = None
+    packet_loss: float | None = None
+    delivered_kbps: float | None = None
+    overhead_kbps: float | None = None
+    frames_lost: int | None = None
+    frames_concealed: int | None = None
+    latency_ms_p50: float | None = None
+    latency_ms_p95: float | None = None
     # stage and run records
     stage: str | None = None
     wall_s: float | None = None
