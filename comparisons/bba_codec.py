@@ -52,12 +52,18 @@ its angle sums the same way, so an angle crossing +-pi costs a small level. Wher
 does not fit the range fields' alphabet the unit is sent intra; where an intra level does not
 fit, the encoder raises SigncastError (nothing is clipped).
 
+Live decoding (signcast's API, not in the thesis): split_units cuts a stream at its start codes
+(header, each unit with its muscle data, header copies, end code) so a packetiser sends whole
+units; LiveDecoder decodes them one by one as they arrive, with read_stream(resilient=True)'s rules,
+in time proportional to each unit, and reports the frames lost so far.
+
 A decoder holds at most MAX_DECODED_VALUES frames x values per frame; larger streams are refused
 before their frames are decoded.
 """
 from __future__ import annotations
 
 import functools
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -772,6 +778,117 @@ def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = Fa
         _conceal(frames, state.n_frames - display_end)
         lost.extend(range(display_end, state.n_frames))
     return BBAStream(state.header, frames), lost
+
+
+# --------------------------------------------------------------------------------- live decoding
+
+def split_units(data: bytes) -> list[bytes]:
+    """The stream cut before each of its start codes except the muscle start code, for a packetiser
+    that sends whole units: the header (with any bytes before it), each unit (its frame start code
+    to the next unit, muscle data included), each header copy, the end code. Each piece ends with
+    the next_start_code() stuffing before the next piece; b"".join(pieces) is the stream."""
+    data = bytes(data)
+    cuts = [position for position, code in find_start_codes(data) if code != MUSCLE_START_CODE]
+    bounds = [0, *cuts[1:], len(data)]
+    return [data[a:b] for a, b in itertools.pairwise(bounds) if b > a]
+
+
+class LiveDecoder:
+    """Resilient decoding of a BBA stream unit by unit, as a live receiver gets them (split_units'
+    pieces, some possibly lost or damaged): each piece is decoded in time proportional to its size,
+    with the decoder state read_stream(resilient=True) keeps between units.
+
+    header: the stream's header piece; None to wait for one (a header copy, or the header fed
+    first). SigncastError if it is given and damaged.
+    feed(piece) -> [(display frame number, BBAFrame)] of the frames the piece decoded (none for a
+    header, a damaged unit, or a predicted unit whose reference was lost). `lost` lists the display
+    frames known lost so far: the frames between the last decoded unit and a later one (held by
+    read_stream), and after finish() (or the end code) those after the last decoded unit; `dropped`
+    counts the pieces that decoded to nothing."""
+
+    def __init__(self, header: bytes | None = None, *, skip_muscles: bool = False) -> None:
+        self.state: _DecoderState | None = None
+        self.skip_muscles = skip_muscles
+        self.display_end = 0
+        self.lost: list[int] = []
+        self.dropped = 0
+        self.finished = False
+        if header is not None:
+            self.state = self._read_header_piece(bytes(header))
+
+    @property
+    def header(self) -> BBAHeader | None:
+        return None if self.state is None else self.state.header
+
+    @property
+    def n_frames(self) -> int | None:
+        """Display frames of the stream (from its header), None before a header arrived."""
+        return None if self.state is None else self.state.n_frames
+
+    @staticmethod
+    def _first_code(piece: bytes, codes: list[tuple[int, int]]) -> tuple[int, int | None]:
+        """(byte offset, code) of the piece's opening start code: at byte 0, or at byte 1 after the
+        whole stuffing byte 0111 1111 (the stream's first piece); code None when it has none."""
+        if codes and (codes[0][0] == 0 or (codes[0][0] == 1 and piece[0] == 0x7F)):
+            return codes[0]
+        return 0, None
+
+    @classmethod
+    def _read_header_piece(cls, piece: bytes) -> _DecoderState:
+        codes = find_start_codes(piece)
+        position, code = cls._first_code(piece, codes)
+        if code != BBA_START_CODE:
+            raise SigncastError("not a BBA stream header: it does not start with the BBA start code")
+        # _read_header checks that a start code follows the header: the piece ends before it.
+        end = codes[1][0] if len(codes) > 1 else len(piece)
+        state = _read_header(piece[:end] + bytes([0, 0, 1, END_CODE]), position)
+        _check_size(state.n_frames, len(state.keys))
+        return state
+
+    def feed(self, piece: bytes) -> list[tuple[int, BBAFrame]]:
+        """Decode one piece of split_units; see the class docstring."""
+        piece = bytes(piece)
+        codes = find_start_codes(piece)
+        position, code = self._first_code(piece, codes)
+        if code == BBA_START_CODE:
+            if self.state is None:
+                try:
+                    self.state = self._read_header_piece(piece)
+                except SigncastError:
+                    self.dropped += 1
+            return []
+        if code == END_CODE:
+            self.finish()
+            return []
+        if code != FRAME_START_CODE or self.state is None or self.finished:
+            self.dropped += 1
+            return []
+        state = self.state
+        has_muscles = len(codes) > 1 and codes[1][1] == MUSCLE_START_CODE
+        end = codes[1][0] if len(codes) > 1 else len(piece)
+        unit_end = (codes[2][0] if len(codes) > 2 else len(piece)) if has_muscles and not self.skip_muscles else end
+        reader = BitReader(piece, start_byte=position + 4, end_byte=unit_end)
+        try:
+            number, frames = _read_unit(reader, state, self.skip_muscles or not has_muscles, self.display_end, False)
+            _check_unit_end(reader, unit_end)
+        except SigncastError:
+            state.synced = False
+            state.previous_dc = None
+            self.dropped += 1
+            return []
+        if number - frames[0].kfi > self.display_end:
+            self.lost.extend(range(self.display_end, number))
+        self.display_end = number + len(frames)
+        return [(number + k, frame) for k, frame in enumerate(frames)]
+
+    def finish(self) -> list[int]:
+        """End of the stream: the frames after the last decoded unit are lost (added to `lost`,
+        which is returned). Once finished, further units are dropped."""
+        if not self.finished and self.state is not None and self.display_end < self.state.n_frames:
+            self.lost.extend(range(self.display_end, self.state.n_frames))
+            self.display_end = self.state.n_frames
+        self.finished = True
+        return self.lost
 
 
 # --------------------------------------------------------------------------------- Motion glue

@@ -47,7 +47,7 @@ from typing import NamedTuple
 import av
 import numpy as np
 
-from comparisons.video_codecs import CODECS
+from comparisons.video_codecs import CODECS, padded_packet
 from media.errors import SigncastError
 
 LIVE_CODECS = ("mpeg4", "libx264")
@@ -256,7 +256,7 @@ class LiveDecoder:
         else:
             if damaged:
                 self._suspect = index
-            av_packet = av.Packet(bytes(packet))
+            av_packet = padded_packet(packet)
             av_packet.pts = av_packet.dts = index
             try:
                 frames = self._context.decode(av_packet)

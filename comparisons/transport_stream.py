@@ -33,6 +33,7 @@ from fractions import Fraction
 import av
 import numpy as np
 
+from comparisons.video_codecs import padded_packet
 from media.errors import SigncastError
 
 TS_PACKET = 188
@@ -275,7 +276,7 @@ def decode_demuxed_video(stream: DemuxedStream) -> np.ndarray:
     frames = []
     try:
         for pts_s, data in stream.packets:
-            packet = av.Packet(data)
+            packet = padded_packet(data)
             packet.pts, packet.time_base = round(pts_s * CLOCK_HZ), Fraction(1, CLOCK_HZ)
             frames.extend(decoder.decode(packet))
         frames.extend(decoder.decode(None))
@@ -322,7 +323,7 @@ def split_elementary_stream(name: str, data: bytes, codec: str, fps: float) -> E
         decoder = av.CodecContext.create(VIDEO_CODECS[codec], "r")
         shown = []
         for index, chunk in enumerate(packets):
-            packet = av.Packet(chunk)
+            packet = padded_packet(chunk)
             packet.pts = packet.dts = index
             shown.extend(decoder.decode(packet))
         shown.extend(decoder.decode(None))

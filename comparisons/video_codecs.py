@@ -37,6 +37,16 @@ _PICTURE_TYPES = {1: "I", 2: "P", 3: "B", 4: "S", 5: "SI", 6: "SP", 7: "BI"}  # 
 os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1 prints its configuration to stderr unless told otherwise
 
 
+def padded_packet(data: bytes) -> av.Packet:
+    """An av.Packet holding a copy of `data` in FFmpeg's own allocation, which ends in the zeroed padding that
+    FFmpeg's bitstream readers may read past the end (AV_INPUT_BUFFER_PADDING_SIZE). av.Packet(bytes) wraps the
+    Python bytes without that padding: the MPEG-4 decoder then reads whatever memory follows, and decoded the
+    same VOP differently from run to run (flagged corrupt, drifting until the next keyframe)."""
+    packet = av.Packet(len(data))
+    memoryview(packet)[:] = data
+    return packet
+
+
 @dataclass
 class CodedVideo:
     """One encoded and decoded sequence."""

@@ -26,7 +26,7 @@ from comparisons.rtp import (
     unwrap_sequences,
     wire_bits,
 )
-from comparisons.video_codecs import encode_video
+from comparisons.video_codecs import encode_video, padded_packet
 from media.errors import SigncastError
 
 FPS = 25.0
@@ -57,7 +57,7 @@ def decode_access_units(units: list[bytes], codec: str) -> tuple[int, int]:
     n_frames = rejected = 0
     for unit in units:
         try:
-            n_frames += len(context.decode(av.Packet(unit)))
+            n_frames += len(context.decode(padded_packet(unit)))
         except av.error.InvalidDataError:
             rejected += 1
     return n_frames + len(context.decode(None)), rejected
