@@ -50,6 +50,7 @@ byte takes with it to save 2 kbit/s.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -69,7 +70,7 @@ MAX_FIRST_FRAME = 0xFFFFFFFF        # first_frame u32
 DEFAULT_REFRESH = 16                # frames; see the table in the module docstring
 UNIT_OVERHEAD_BYTES = (27, 28)      # header + embedded stuffing, start and end codes, CRC-32 (min, max)
 # an FBA stream's first bytes: next_start_code() stuffing (aligned: 0111 1111), fba_object_start_code
-_FBA_PREFIX = b"\x7f" + START_CODE_PREFIX + bytes([fba_codec.OBJECT_START_CODE])
+FBA_PAYLOAD_PREFIX = b"\x7f" + START_CODE_PREFIX + bytes([fba_codec.OBJECT_START_CODE])
 
 
 @dataclass(frozen=True)
@@ -83,10 +84,11 @@ class FbaUnit:
 
 @dataclass(frozen=True, eq=False)
 class DecodedUnit:
-    """A unit that arrived intact: its frames first_frame .. first_frame + n_frames - 1, decoded."""
+    """A unit that arrived intact: its frames first_frame .. first_frame + n_frames - 1, decoded (a DecodedFba,
+    or what the scanner's payload decoder returns)."""
     first_frame: int
     n_frames: int
-    fba: DecodedFba
+    decoded: DecodedFba
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,14 +137,32 @@ def encode_fba_units(values: np.ndarray | None, fps: float, q: int, coding: str 
                              faps=None if face is None else face.values[start:stop], fap_quant=fap_quant,
                              face_frames=None if face is None else face_frames[start:stop],
                              intra_period=n, intra_segments=-(-n // pc.SEGMENT))
-        if len(payload) > MAX_PAYLOAD_BYTES:
-            raise SigncastError(f"an FBA unit of {n} frames takes {len(payload)} bytes, above the unit's "
-                                f"{MAX_PAYLOAD_BYTES}: use a shorter refresh period")
-        units.append(FbaUnit(start, n, _header(start, n, len(payload)) + payload))
+        units.append(FbaUnit(start, n, wrap_unit(start, n, payload)))
     return units
 
 
-def _decode_at(buffer: bytes | bytearray, position: int, final: bool) -> tuple[str, DecodedUnit | None, int]:
+def wrap_unit(first_frame: int, n_frames: int, payload: bytes) -> bytes:
+    """One unit's bytes: the header for frames first_frame .. first_frame + n_frames - 1, then `payload`, a
+    self-contained stream of those frames (an FBA stream here; `signcast live` also carries BBA streams so)."""
+    if not 0 <= first_frame <= MAX_FIRST_FRAME or not 1 <= n_frames <= MAX_UNIT_FRAMES:
+        raise SigncastError(f"a unit covers frames 0..{MAX_FIRST_FRAME}, 1..{MAX_UNIT_FRAMES} at a time; got "
+                            f"{n_frames} from {first_frame}")
+    if len(payload) > MAX_PAYLOAD_BYTES:
+        raise SigncastError(f"a unit of {n_frames} frames takes {len(payload)} bytes, above the unit's "
+                            f"{MAX_PAYLOAD_BYTES}: use a shorter refresh period")
+    return _header(first_frame, n_frames, len(payload)) + bytes(payload)
+
+
+def decode_fba_payload(payload: bytes, n_frames: int) -> DecodedFba:
+    """The FBA stream of a unit of n_frames frames; SigncastError when it is damaged or holds another count."""
+    fba = decode_fba(payload, max_frames=n_frames)
+    if fba.n_frames != n_frames:
+        raise SigncastError(f"an FBA unit announces {n_frames} frames and holds {fba.n_frames}")
+    return fba
+
+
+def _decode_at(buffer: bytes | bytearray, position: int, final: bool, decode_payload: Callable,
+               prefix: bytes) -> tuple[str, DecodedUnit | None, int]:
     """Try the candidate unit whose start code is at `position` of `buffer`: ("ok", unit, end),
     ("wait", None, 0) when its bytes are not all there yet (never when final), or ("bad", None, 0)."""
     if len(buffer) - position < HEADER_BYTES:
@@ -153,22 +173,20 @@ def _decode_at(buffer: bytes | bytearray, position: int, final: bool) -> tuple[s
     first_frame = int.from_bytes(head[4:8], "big")
     n_frames = int.from_bytes(head[8:10], "big")
     length = int.from_bytes(head[10:13], "big")
-    if n_frames == 0 or length < 12:
+    if n_frames == 0 or length < max(len(prefix), 1):
         return "bad", None, 0
     payload_start = position + HEADER_BYTES
-    seen = bytes(buffer[payload_start:payload_start + len(_FBA_PREFIX)])
-    if seen != _FBA_PREFIX[:len(seen)]:
+    seen = bytes(buffer[payload_start:payload_start + len(prefix)])
+    if seen != prefix[:len(seen)]:
         return "bad", None, 0
     end = payload_start + length
     if end > len(buffer):
         return ("bad" if final else "wait"), None, 0
     try:
-        fba = decode_fba(bytes(buffer[payload_start:end]), max_frames=n_frames)
+        decoded = decode_payload(bytes(buffer[payload_start:end]), n_frames)
     except SigncastError:
         return "bad", None, 0
-    if fba.n_frames != n_frames:
-        return "bad", None, 0
-    return "ok", DecodedUnit(first_frame, n_frames, fba), end
+    return "ok", DecodedUnit(first_frame, n_frames, decoded), end
 
 
 class UnitScanner:
@@ -179,9 +197,10 @@ class UnitScanner:
     3 bytes that could start a start code) beyond the chunk fed. finish() ends the stream: a unit
     still incomplete is damage, and what follows it is scanned."""
 
-    def __init__(self) -> None:
+    def __init__(self, decode_payload: Callable = decode_fba_payload, payload_prefix: bytes = FBA_PAYLOAD_PREFIX) -> None:
         self.buffer = bytearray()
         self.skipped = 0
+        self.decode_payload, self.payload_prefix = decode_payload, payload_prefix
 
     def feed(self, chunk: bytes) -> list[DecodedUnit]:
         self.buffer += chunk
@@ -205,7 +224,7 @@ class UnitScanner:
                 position = keep
                 break
             self.skipped += candidate - position
-            status, unit, end = _decode_at(buffer, candidate, final)
+            status, unit, end = _decode_at(buffer, candidate, final, self.decode_payload, self.payload_prefix)
             if status == "wait":
                 position = candidate
                 break
@@ -253,12 +272,12 @@ def assemble(units: list[DecodedUnit], n_frames: int, conceal: str = "hold") -> 
     taken = np.zeros(n_frames, dtype=bool)
     for unit in units:
         start, stop = unit.first_frame, min(unit.first_frame + unit.n_frames, n_frames)
-        if start >= n_frames or (kept and ((unit.fba.baps is None) != (kept[0][2].baps is None)
-                                           or unit.fba.fps != kept[0][2].fps)):
+        if start >= n_frames or (kept and ((unit.decoded.baps is None) != (kept[0][2].baps is None)
+                                           or unit.decoded.fps != kept[0][2].fps)):
             continue
         fresh = ~taken[start:stop]
         if fresh.any():
-            kept.append((start, stop, unit.fba, fresh))
+            kept.append((start, stop, unit.decoded, fresh))
             taken[start:stop] = True
     if not kept:
         raise SigncastError("no unit of the stream arrived")

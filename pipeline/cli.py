@@ -28,6 +28,9 @@ COMMAND_MODULES = [
     "pipeline.commands.analyze",
     "pipeline.commands.pose",
     "pipeline.commands.sweep",
+    "pipeline.commands.live",
+    "pipeline.commands.send",
+    "pipeline.commands.receive",
 ]
 
 

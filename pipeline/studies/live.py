@@ -1,0 +1,421 @@
+"""The loss sweep (`signcast live`): each solution delivered live over RTP/UDP on the loopback interface through a
+lossy relay, at each loss rate, and judged by what the receiver shows.
+
+For every solution at its operating point (codec and Q given by the settings) and every loss rate, one session
+runs on real sockets: the sender captures the signing at its own frame rate (pipeline/live/session.py), encodes
+it live, packetises it (comparisons.rtp) and sends it through a relay that drops, delays and reorders datagrams
+with a seeded model (comparisons.loss_models: Bernoulli, or Gilbert-Elliott bursts); the receiver depacketises,
+decodes, conceals, renders (FBA, BBA), and time-stamps each frame when it is ready to show. Then the frames it
+showed are judged as `signcast compare` judges a point (pipeline.studies.compare.Judge: landmarks re-extracted,
+hand keypoint error and PCK, letters), against the same references.
+
+Per point the record carries the stream's kbps (its own bytes over the clip's duration), delivered_kbps (whole
+datagrams: IPv4 20 + UDP 8 bytes + the RTP packet), the measured packet loss, the frames lost and concealed, the
+latency median and 95th percentile (capture to ready-to-show, per received frame), and the intelligibility
+fields. At loss 0 each solution is also muxed with a programme video into an MPEG-2 transport stream through PyAV
+(comparisons.transport_stream), demuxed back, and its TS overhead measured from the packets (one "transport
+stream" record per solution). The scenario is compare's word or pose scenario (the avatar fingerspelling a word,
+or a .pose retargeted), whose lossless render NSV codes as its natural video.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from tqdm import tqdm
+
+from comparisons import loss_models
+from comparisons.records import make_record, versions, write_records
+from media.avatar import load_avatar
+from media.domain import solution_of
+from media.errors import SigncastError
+from media.render import AvatarRenderer, RenderSettings
+from pipeline.live import endpoints
+from pipeline.live.network import LossyRelay
+from pipeline.live.session import Listener, SessionDescription, receive, send
+from pipeline.stages import StageClock
+from pipeline.studies import compare
+
+LOSS_RATES = (0.0, 0.5, 1.0, 2.0, 5.0, 10.0)        # percent of datagrams
+EN_301_549_PREFERRED_MS = 400.0                      # EN 301 549 guidance: under 0.4 s preferred,
+EN_301_549_HINDERS_MS = 800.0                        # over 0.8 s hinders conversation
+IP_UDP_BYTES = 28
+
+
+@dataclass(frozen=True)
+class LiveSettings:
+    """codecs: what is sent (mpeg4 / libx264: NSV; fba-*, bba-*: FBA, BBA); video_q, param_q: their quantisers;
+    loss_rates: percent of datagrams lost; burst: mean loss burst length in packets (1: Bernoulli, more:
+    Gilbert-Elliott); jitter_ms: the relay's delay spread; reorder: share of datagrams held back past their
+    successor; refresh: frames per FBA/BBA unit; seed: the network model's seed; repeats: sessions per codec and
+    loss rate, each with its own seed (losses of a few packets are chance: the report gives their mean and range);
+    language, word, pose, size,
+    landmark_step, backend: the scenario, as in `signcast compare`."""
+    codecs: tuple[str, ...] = ("mpeg4", "fba-pred", "fba-dct", "bba-pred")
+    video_q: int = 4
+    param_q: int = 4
+    loss_rates: tuple[float, ...] = LOSS_RATES
+    burst: float = 1.0
+    jitter_ms: float = 0.0
+    reorder: float = 0.0
+    refresh: int = 16
+    seed: int = 1
+    repeats: int = 1
+    language: str = "ase"
+    word: str = "HELLO"
+    pose: str | None = None
+    size: tuple[int, int] = (352, 288)
+    landmark_step: int = 3
+    backend: str = "auto"
+
+    def compare_settings(self) -> compare.CompareSettings:
+        return compare.CompareSettings(language=self.language, word=self.word, pose=self.pose, size=self.size,
+                                       backend=self.backend, landmark_step=self.landmark_step)
+
+
+def solution_for(codec: str) -> str:
+    return "NSV" if codec in endpoints.VIDEO_CODECS else solution_of(codec)
+
+
+def check(settings: LiveSettings) -> None:
+    """Refuse bad settings before any work starts."""
+    from comparisons import param_codecs
+    if not settings.codecs:
+        raise SigncastError("give at least one codec")
+    for codec in settings.codecs:
+        if codec not in endpoints.VIDEO_CODECS:
+            param_codecs.get_codec(codec)
+    for rate in settings.loss_rates:
+        if not 0.0 <= rate < 100.0:
+            raise SigncastError(f"loss rate {rate:g} % is outside 0..100 %")
+    if not settings.burst >= 1.0:
+        raise SigncastError(f"the mean loss burst must be at least 1 packet, got {settings.burst:g}")
+    if settings.jitter_ms < 0 or not 0.0 <= settings.reorder <= 1.0:
+        raise SigncastError("jitter must be >= 0 ms and the reorder share within 0..1")
+    if not 1 <= settings.refresh <= 65535:
+        raise SigncastError(f"the refresh period must be 1..65535 frames, got {settings.refresh}")
+    if not 1 <= settings.repeats <= 100:
+        raise SigncastError(f"--repeats must be 1..100, got {settings.repeats}")
+    if not 1 <= settings.param_q <= 31:
+        raise SigncastError(f"--param-q must be 1..31, got {settings.param_q}")
+    compare.check_settings(settings.compare_settings())
+
+
+def network_model(settings: LiveSettings, rate_percent: float, seed: int) -> loss_models.NetworkModel:
+    """The relay's model at one loss rate (percent)."""
+    rate = rate_percent / 100.0
+    if settings.burst > 1.0 and rate > 0:
+        loss = loss_models.GilbertElliott.from_rate(rate, settings.burst, seed=seed)
+    else:
+        loss = loss_models.Bernoulli(rate, seed=seed)
+    return loss_models.NetworkModel(loss, jitter_ms=settings.jitter_ms, reorder_rate=settings.reorder, seed=seed)
+
+
+@dataclass
+class Delivery:
+    """One session's outcome: what was sent and what was shown."""
+    sent: object
+    received: object
+    relay_counts: object
+
+
+def deliver(description: SessionDescription, source, sink_for: Callable, model) -> Delivery:
+    """Runs one session on loopback sockets: a receiver thread, the relay thread, the sender here."""
+    listener = Listener()
+    outcome: dict = {}
+
+    def receiver() -> None:
+        try:
+            outcome["received"] = receive(listener, sink_for)
+        except BaseException as error:          # re-raised in the caller's thread
+            outcome["error"] = error
+
+    try:
+        with LossyRelay(listener.address, model) as relay:
+            thread = threading.Thread(target=receiver, name="live-receiver", daemon=True)
+            thread.start()
+            sent = send(description, source, listener.address, relay_address=relay.address)
+            thread.join()
+    finally:
+        listener.close()
+    if "error" in outcome:
+        raise outcome["error"]
+    return Delivery(sent, outcome["received"], relay.counts)
+
+
+class LiveStudy:
+    def __init__(self, settings: LiveSettings, scenario: compare.Scenario, renderer_for, progress: bool):
+        self.settings, self.scenario, self.renderer_for, self.progress = settings, scenario, renderer_for, progress
+        self.judge = compare.Judge(scenario, progress, settings.landmark_step)
+
+    def description(self, codec: str, payload: str) -> SessionDescription:
+        s, scenario = self.settings, self.scenario
+        solution = solution_for(codec)
+        q = s.video_q if solution == "NSV" else s.param_q
+        width, height = scenario.size
+        return SessionDescription(solution, codec, payload, q, scenario.fps, scenario.n_frames, width, height,
+                                  clip=scenario.name, details={"refresh": s.refresh} if solution != "NSV" else {})
+
+    def source(self, codec: str):
+        solution = solution_for(codec)
+        q = self.settings.video_q if solution == "NSV" else self.settings.param_q
+        return endpoints.source_for(solution, codec, q, frames=self.scenario.render, motion=self.scenario.motion,
+                                    fps=self.scenario.fps, refresh=self.settings.refresh)
+
+    def point(self, codec: str, rate_percent: float, seed: int) -> tuple[list[dict], Delivery]:
+        """Deliver one codec at one loss rate and judge what was shown: one record per reference."""
+        payload, source = self.source(codec)
+        description = self.description(codec, payload)
+        endpoints.warm_up(codec, self.renderer_for(*self.scenario.size), self.scenario.motion)
+        delivery = deliver(description, source, lambda d: endpoints.sink_for(d, self.renderer_for),
+                           network_model(self.settings, rate_percent, seed))
+        got = delivery.received
+        s = self.scenario
+        duration = s.timing.duration_s
+        sent = delivery.sent
+        delivered_bits = 8 * (sent.rtp_bytes + IP_UDP_BYTES * sent.packets)
+        p50, p95 = got.latency_summary()
+        frames_lost = int((~got.received).sum())
+        damaged = int(got.sink_stats.get("damaged", 0))
+        fields = make_record(description.solution, s.name, codec, description.q, s.fps, *s.size,
+                             8 * sent.media_bytes, duration, sweep="loss", loss_rate=rate_percent / 100.0,
+                             packet_loss=100.0 * (1 - got.packets / max(1, sent.packets)),
+                             delivered_kbps=delivered_bits / duration / 1000.0,
+                             overhead_kbps=(delivered_bits - 8 * sent.media_bytes) / duration / 1000.0,
+                             frames_lost=frames_lost, frames_concealed=frames_lost + damaged,
+                             latency_ms_p50=p50, latency_ms_p95=p95, packets=sent.packets,
+                             late_packets=got.late_packets, refresh=description.details.get("refresh"),
+                             burst=self.settings.burst, jitter_ms=self.settings.jitter_ms, seed=seed)
+        observed = compare.extract(got.shown[self.judge.measured], s.fps,
+                                   f"landmarks: {codec} at {rate_percent:g} % loss", self.progress)
+        viewed = compare.Viewed(got.shown, None, fields)
+        return self.judge.records(description.solution, viewed, observed), delivery
+
+
+def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -> list[dict]:
+    """The loss sweep: records.jsonl (streamed as points finish), live_table.csv, live_loss.png, report.html."""
+    from comparisons import live_report
+    check(settings)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    records_path = write_records(out_dir / "records.jsonl", [])
+    clock = StageClock()
+    avatar = load_avatar()
+    renderers: dict[tuple[int, int], AvatarRenderer] = {}
+
+    def renderer_for(width: int, height: int) -> AvatarRenderer:
+        if (width, height) not in renderers:
+            renderers[(width, height)] = AvatarRenderer(avatar, RenderSettings(
+                width=width, height=height, look="shaded", backend=settings.backend))
+        return renderers[(width, height)]
+
+    with clock.stage("scenario: reference, landmarks, lossless render"):
+        scenario = compare.load_scenario(settings.compare_settings(), renderer_for, progress=progress)
+        renderer_for(*scenario.size)
+    study = LiveStudy(settings, scenario, renderer_for, progress)
+    records: list[dict] = []
+    points = [(codec, rate, repeat) for codec in settings.codecs for rate in settings.loss_rates
+              for repeat in range(settings.repeats)]
+    with clock.stage("live sessions and judging"), tqdm(total=len(points), desc="live points", unit="point",
+                                                         disable=not progress) as bar:
+        for k, (codec, rate, repeat) in enumerate(points):
+            bar.set_postfix_str(f"{codec} {rate:g} %")
+            point_records, delivery = study.point(codec, rate, settings.seed + k)
+            for record in point_records:
+                record["repeat"] = repeat
+            records += point_records
+            write_records(records_path, point_records, append=True)
+            if rate == 0 and repeat == 0:
+                ts_record = transport_stream_record(scenario, delivery, out_dir)
+                records.append(ts_record)
+                write_records(records_path, [ts_record], append=True)
+            bar.update(1)
+    run_record = {"kind": "run", "backend": settings.backend, "versions": versions(), "clip": scenario.name,
+                  "clip_fps": scenario.fps, "clip_frames": scenario.n_frames, "burst": settings.burst,
+                  "jitter_ms": settings.jitter_ms, "reorder": settings.reorder, "refresh": settings.refresh,
+                  "seed": settings.seed, "repeats": settings.repeats, "latency_guidance_ms": [EN_301_549_PREFERRED_MS, EN_301_549_HINDERS_MS]}
+    all_records = [run_record] + records + clock.records()
+    write_records(out_dir / "records.jsonl", all_records)
+    live_report.write_report(out_dir, all_records)
+    return all_records
+
+
+def transport_stream_record(scenario: compare.Scenario, delivery: Delivery, out_dir: Path) -> dict:
+    """The session's access units muxed with a programme video (carphone, the bundled natural clip, scaled to the
+    signer's size and looped to the clip's duration, H.264) into an MPEG-2 TS written to out_dir/ts/, demuxed back
+    and checked against what was sent, and the signer stream's TS overhead measured from the TS packets."""
+    import shutil
+    import subprocess
+
+    import cv2
+
+    from comparisons import transport_stream as ts
+    from media.video_io import bundled_clip_path, read_video
+    description = delivery.received.description
+    units = delivery.sent.access_units
+    programme_frames, programme_fps = read_video(bundled_clip_path("carphone"))
+    n_programme = max(1, int(np.ceil(scenario.timing.duration_s * programme_fps)))
+    width, height = scenario.size
+    programme_frames = np.stack([cv2.resize(programme_frames[k % len(programme_frames)], (width, height),
+                                            interpolation=cv2.INTER_AREA) for k in range(n_programme)])
+    programme = ts.encode_programme(programme_frames, programme_fps)
+    signer_video, signer_data = [], None
+    if description.payload == "units":
+        sent = [(unit.frame, part) for unit in units for part in unit.data]
+        signer_data = ts.ParameterTrack(description.solution.lower(), description.fps, sent)
+    else:
+        sent = [(unit.frame, unit.data) for unit in units]
+        signer_video = [ts.ElementaryVideo("signer", description.codec, description.fps, width, height,
+                                           [data for _, data in sent], [frame for frame, _ in sent])]
+    data = ts.mux_transport_stream(programme, signer_video, signer_data)
+    folder = out_dir / "ts"
+    folder.mkdir(exist_ok=True)
+    path = folder / f"{description.solution}-{description.codec}.ts"
+    path.write_bytes(data)
+    demuxed = ts.demux_transport_stream(data)
+    signer = [stream for stream in demuxed.streams if stream.index > 0]
+    if description.payload == "units":
+        back = [unit for stream in signer for _, unit in stream.units]
+        intact = back == [part for _, part in sent]
+    else:
+        intact = len(signer) == 1 and len(signer[0].packets) == len(sent)
+    if not intact:
+        raise SigncastError(f"the transport stream {path.name} did not give back the signer's stream")
+    costs = ts.stream_overheads(ts.ts_overhead(data, scenario.timing.duration_s), demuxed)
+    ours = [row for row in costs["streams"] if row["pid"] in {stream.pid for stream in signer}]
+    programme_row = [row for row in costs["streams"] if row["pid"] == demuxed.streams[0].pid]
+    probed = None
+    if shutil.which("ffprobe"):
+        result = subprocess.run(["ffprobe", "-v", "error", "-show_entries", "stream=codec_type,codec_name",
+                                 "-of", "csv=p=0", str(path)], capture_output=True, text=True, timeout=60)
+        probed = [line.strip() for line in result.stdout.splitlines() if line.strip()] if not result.returncode else None
+    return {"kind": "transport stream", "solution": description.solution, "codec": description.codec,
+            "clip": scenario.name, "fps": description.fps, "duration_s": scenario.timing.duration_s,
+            "file": f"ts/{path.name}", "ts_bytes": len(data),
+            "signer_payload_kbps": sum(row["payload_kbps"] for row in ours),
+            "signer_overhead_kbps": sum(row["overhead_kbps"] for row in ours),
+            "stream_kbps": 8 * delivery.sent.media_bytes / scenario.timing.duration_s / 1000,
+            "programme_payload_kbps": programme_row[0]["payload_kbps"] if programme_row else None,
+            "psi_kbps": costs["psi_kbps"], "pcr_kbps": costs["pcr_kbps"], "total_kbps": costs["total_kbps"],
+            "demuxed_intact": intact, "ffprobe_streams": probed}
+
+
+# ------------------------------------------------------------------------------------------------------------
+# `signcast send` and `signcast receive`: the two ends in separate processes
+
+@dataclass(frozen=True)
+class SendSettings:
+    """One sender: codec and q, the signing (language, word or pose), the rendered size (NSV sends the render),
+    the receiver's address, and the relay's loss (loss_percent, burst, jitter_ms, reorder, seed; no relay when
+    all are 0)."""
+    codec: str
+    q: int
+    destination: tuple[str, int]
+    language: str = "ase"
+    word: str = "HELLO"
+    pose: str | None = None
+    size: tuple[int, int] = (352, 288)
+    refresh: int = 16
+    loss_percent: float = 0.0
+    burst: float = 1.0
+    jitter_ms: float = 0.0
+    reorder: float = 0.0
+    seed: int = 1
+    backend: str = "auto"
+
+    def network(self) -> LiveSettings:
+        return LiveSettings(codecs=(self.codec,), loss_rates=(self.loss_percent,), burst=self.burst,
+                            jitter_ms=self.jitter_ms, reorder=self.reorder, refresh=self.refresh, seed=self.seed,
+                            language=self.language, word=self.word, pose=self.pose, size=self.size,
+                            video_q=self.q, param_q=self.q if solution_for(self.codec) != "NSV" else 4,
+                            backend=self.backend)
+
+
+def check_send(settings: SendSettings) -> None:
+    check(settings.network())
+
+
+def _signing(settings: SendSettings, progress: bool):
+    """(name, motion, rendered frames or None) of what `send` sends."""
+    from media import fingerspelling
+    if settings.pose is not None:
+        from media.retarget import retarget
+        motion = retarget(compare._read_pose(settings.pose), load_avatar().skeleton).motion
+        name = Path(settings.pose).stem
+    else:
+        motion = fingerspelling.fingerspell(settings.language, settings.word, fps=compare.DISPLAY_FPS)
+        name = f"{settings.language}-{settings.word}"
+    frames = None
+    if solution_for(settings.codec) == "NSV":
+        renderer = AvatarRenderer(load_avatar(), RenderSettings(width=settings.size[0], height=settings.size[1],
+                                                                backend=settings.backend))
+        frames, _ = compare.render_frames(renderer, motion, "render", progress)
+    return name, motion, frames
+
+
+def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
+    """Sends one session to settings.destination (through a lossy relay in this process when loss is set);
+    returns a summary of what was sent."""
+    check_send(settings)
+    name, motion, frames = _signing(settings, progress)
+    solution = solution_for(settings.codec)
+    payload, source = endpoints.source_for(solution, settings.codec, settings.q, frames=frames, motion=motion,
+                                           fps=motion.fps, refresh=settings.refresh)
+    description = SessionDescription(solution, settings.codec, payload, settings.q, motion.fps, motion.n_frames,
+                                     *settings.size, clip=name,
+                                     details={"refresh": settings.refresh} if solution != "NSV" else {})
+    network = settings.network()
+    lossy = settings.loss_percent > 0 or settings.jitter_ms > 0 or settings.reorder > 0
+    if lossy:
+        with LossyRelay(settings.destination, network_model(network, settings.loss_percent, settings.seed)) as relay:
+            sent = send(description, source, settings.destination, relay_address=relay.address)
+            relay.close(drain_s=1.0)
+        dropped = relay.counts.dropped
+    else:
+        sent = send(description, source, settings.destination)
+        dropped = 0
+    duration = motion.n_frames / motion.fps
+    return {"clip": name, "solution": solution, "codec": settings.codec, "q": settings.q, "frames": motion.n_frames,
+            "fps": motion.fps, "packets": sent.packets, "dropped_by_relay": dropped,
+            "kbps": 8 * sent.media_bytes / duration / 1000,
+            "delivered_kbps": 8 * (sent.rtp_bytes + IP_UDP_BYTES * sent.packets) / duration / 1000,
+            "late_frames": sent.late_frames}
+
+
+def run_receive(port: int, out_dir: Path, *, timeout_s: float = 60.0, backend: str = "auto",
+                host: str = "127.0.0.1", on_listening: Callable[[int], object] | None = None) -> dict:
+    """Receives one session on port (TCP control and UDP media), writes what was shown to out_dir/shown.mkv
+    (lossless FFV1) and a delivery record to out_dir/records.jsonl; returns the record."""
+    from media.video_io import write_video
+    avatar = None
+
+    def renderer_for(width: int, height: int) -> AvatarRenderer:
+        nonlocal avatar
+        avatar = avatar or load_avatar()
+        return AvatarRenderer(avatar, RenderSettings(width=width, height=height, backend=backend))
+
+    listener = Listener(host, port)
+    try:
+        if on_listening is not None:
+            on_listening(listener.port)
+        got = receive(listener, lambda d: endpoints.sink_for(d, renderer_for), timeout_s=timeout_s)
+    finally:
+        listener.close()
+    d = got.description
+    duration = d.n_frames / d.fps
+    p50, p95 = got.latency_summary()
+    frames_lost = int((~got.received).sum())
+    record = make_record(d.solution, d.clip, d.codec, d.q, d.fps, d.width, d.height, 0, duration, sweep="receive",
+                         frames_lost=frames_lost,
+                         frames_concealed=frames_lost + int(got.sink_stats.get("damaged", 0)),
+                         latency_ms_p50=p50, latency_ms_p95=p95, packets_received=got.packets,
+                         late_packets=got.late_packets,
+                         received_kbps=8 * (got.rtp_bytes + IP_UDP_BYTES * got.packets) / duration / 1000)
+    record["bits"] = None
+    record["kbps"] = None
+    write_video(out_dir / "shown.mkv", got.shown, d.fps)
+    write_records(out_dir / "records.jsonl", [record])
+    return record
