@@ -15,6 +15,7 @@ import io
 from collections import defaultdict
 from pathlib import Path
 
+from comparisons.report import RENDER_CHECK
 from media.domain import SOLUTION_ORDER
 
 REFERENCE = "source video"
@@ -112,18 +113,22 @@ def chart(points: list[dict]):
     axes[-1].set(xlabel="datagrams lost (%)", ylabel="ms", title="latency, capture to ready-to-show\n"
                  "dot: median; bar: to the 95th percentile\n(means over sessions)")
     axes[-1].set_ylim(bottom=0)
+    rates = sorted({100.0 * (r.get("loss_rate") or 0.0) for r in points})
     for ax in axes:
         ax.grid(True, alpha=0.3)
+        ax.set_xscale("symlog", linthresh=0.5, linscale=0.5)     # 0, 0.5, 1, 2, 5, 10 % spread evenly
+        ax.set_xticks(rates, [f"{rate:g}" for rate in rates])
     axes[0].legend(fontsize=7)
     axes[-1].legend(fontsize=6)
     figure.tight_layout()
     return figure
 
 
-def _html_table(header: list[str], rows: list[list[str]]) -> str:
+def _html_table(name: str, header: list[str], rows: list[list[str]]) -> str:
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in row) + "</tr>" for row in rows)
-    return f"<table><tr>{head}</tr>{body}</table>"
+    return f'<table data-table="{name}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
 
 
 def _transport_streams(records: list[dict]) -> str:
@@ -141,7 +146,7 @@ def _transport_streams(records: list[dict]) -> str:
             "Overhead of the signer's stream: its PID's TS headers, adaptation fields and stuffing, and PES headers, "
             "measured from the TS packets; the tables (PAT, PMT, SDT) and the PCR are shared by the programme and "
             "stated apart.</p>" + _html_table(
-                ["solution", "codec", "stream kbps", "signer PID payload kbps", "signer TS+PES overhead kbps",
+                "transport stream", ["solution", "codec", "stream kbps", "signer PID payload kbps", "signer TS+PES overhead kbps",
                  "PSI kbps", "PCR kbps", "whole TS kbps", "file", "demuxed intact", "ffprobe streams"], table))
 
 
@@ -160,16 +165,17 @@ def report_html(records: list[dict], figure_png: bytes) -> str:
             f"the frames that arrived.</p>")
     rows = [[r["solution"], r["codec"], r.get("q"), r.get("sessions", 1),
              *(_cell(r.get(name), scale, digits) for name, _, scale, digits in COLUMNS)] for r in points]
-    table = _html_table(["solution", "codec", "Q", "sessions", *(label for _, label, _, _ in COLUMNS)], rows)
+    table = _html_table("loss sweep", ["solution", "codec", "Q", "sessions", *(label for _, label, _, _ in COLUMNS)], rows)
     encoded = base64.b64encode(figure_png).decode("ascii")
     figure = (f"<h2>Intelligibility and latency against loss</h2><p>Measured against the {REFERENCE}'s landmarks; "
               f"latency against EN 301 549's guidance (under {PREFERRED_MS / 1000:g} s preferred, over "
-              f"{HINDERS_MS / 1000:g} s hinders conversation).</p><img alt=\"hand PCK, letter accuracy and latency "
+              f"{HINDERS_MS / 1000:g} s hinders conversation).</p><img class=\"chart\" data-chart=\"loss\" alt=\"hand PCK, letter accuracy and latency "
               f"against the share of datagrams lost, per solution\" src=\"data:image/png;base64,{encoded}\">")
     style = ("body{font-family:sans-serif;max-width:1300px;margin:auto}table{border-collapse:collapse;margin:1em 0}"
              "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px;text-align:right}img{max-width:100%}")
     return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>signcast live</title><style>{style}</style>"
-            f"</head><body>{head}{figure}<h2>Every point</h2>{table}{_transport_streams(records)}</body></html>\n")
+            f"</head><body>{head}{figure}<h2>Every point</h2>{table}{_transport_streams(records)}{RENDER_CHECK}"
+            f"</body></html>\n")
 
 
 def write_report(out_dir: str | Path, records: list[dict]) -> Path:

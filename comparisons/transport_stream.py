@@ -44,7 +44,7 @@ PAT_PID, SDT_PID, NULL_PID = 0x0000, 0x0011, 0x1FFF
 PCR_FIELD_BYTES = 6                       # program_clock_reference_base (33) + reserved (6) + extension (9)
 
 VIDEO_CODECS = {"mpeg4": "mpeg4", "libx264": "h264"}          # signcast's encoder name -> decoder/stream name
-PARAMETER_KINDS = ("fba", "bba")
+PARAMETER_KINDS = ("fba", "bba", "shape")       # shape: a video object's shape units (comparisons.shape_units)
 _KLV_PREFIX = bytes.fromhex("060E2B34 01010101 0E") + b"SC"   # SMPTE UL prefix, private-use designator, "SC"
 KLV_KEYS = {kind: (_KLV_PREFIX + kind.upper().encode()).ljust(16, b"\0") for kind in PARAMETER_KINDS}
 _KIND_OF_KEY = {key: kind for kind, key in KLV_KEYS.items()}
@@ -79,7 +79,7 @@ class ProgrammeVideo(ElementaryVideo):
 
 @dataclass
 class ParameterTrack:
-    """A parameter stream (kind "fba" or "bba") at fps; units: (frame index, unit bytes), in time order."""
+    """A data stream (kind "fba", "bba" or "shape") at fps; units: (frame index, unit bytes), in time order."""
 
     kind: str
     fps: float
@@ -183,13 +183,16 @@ def klv_unwrap(data: bytes) -> list[tuple[str, bytes]]:
 
 
 def mux_transport_stream(programme: ProgrammeVideo, signer_video: list[ElementaryVideo] = (),
-                         signer_data: ParameterTrack | None = None) -> bytes:
+                         signer_data: ParameterTrack | list[ParameterTrack] | None = None) -> bytes:
     """An MPEG-2 TS (bytes, a whole number of 188-byte packets) holding the programme video (PCR PID),
-    each signer video object as a further video stream, and the parameter track as a KLV data stream."""
+    each signer video object as a further video stream, and each parameter track (one, or a list: e.g. the
+    shape units of each video object) as a KLV data stream of its own."""
     videos = [programme, *signer_video]
     for video in videos:
         _check_video(video)
-    if signer_data is not None:
+    tracks = [] if signer_data is None else [signer_data] if isinstance(signer_data, ParameterTrack) else list(
+        signer_data)
+    for signer_data in tracks:
         if signer_data.kind not in PARAMETER_KINDS:
             raise SigncastError(f"parameter kind must be one of {', '.join(PARAMETER_KINDS)}, got {signer_data.kind!r}")
         if not signer_data.fps > 0:
@@ -214,14 +217,14 @@ def mux_transport_stream(programme: ProgrammeVideo, signer_video: list[Elementar
                     packet.pts, packet.dts, packet.time_base, packet.stream = pts, dts, time_base, stream
                     packet.is_keyframe = bool(key)
                     packets.append((dts, order, packet))
-            if signer_data is not None:
+            for order, signer_data in enumerate(tracks, start=len(videos)):
                 stream = output.add_data_stream("klv")
                 stream.time_base = time_base
                 for index, unit in signer_data.units:
                     packet = av.Packet(klv_wrap(signer_data.kind, unit))
                     packet.pts = packet.dts = round((CLOCK_ORIGIN_S + index / signer_data.fps) * CLOCK_HZ)
                     packet.time_base, packet.stream = time_base, stream
-                    packets.append((packet.dts, len(videos), packet))
+                    packets.append((packet.dts, order, packet))
             for _, _, packet in sorted(packets, key=lambda item: item[:2]):
                 output.mux(packet)
     except av.error.FFmpegError as error:

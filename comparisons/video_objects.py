@@ -111,11 +111,11 @@ def pad_object(frames: np.ndarray, masks: np.ndarray, gop: int = video_codecs.GO
             held = (~masks[t] & ~masks[t - 1]) | transparent
             padded[t][held] = padded[t - 1][held]
         elif transparent.any():
-            padded[t] = _flatten_macroblocks(padded[t], _transparent_macroblocks(masks[t]))
+            padded[t] = flatten_macroblocks(padded[t], transparent_macroblocks(masks[t]))
     return padded
 
 
-def _flatten_macroblocks(image: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+def flatten_macroblocks(image: np.ndarray, blocks: np.ndarray) -> np.ndarray:
     """image (H, W, 3) uint8 with each macroblock marked in blocks (ceil(H/16), ceil(W/16)) bool set to its own
     rounded mean colour."""
     height, width = image.shape[:2]
@@ -126,7 +126,7 @@ def _flatten_macroblocks(image: np.ndarray, blocks: np.ndarray) -> np.ndarray:
     return flat
 
 
-def _transparent_macroblocks(mask: np.ndarray) -> np.ndarray:
+def transparent_macroblocks(mask: np.ndarray) -> np.ndarray:
     """(ceil(H/16), ceil(W/16)) bool: the 16x16 macroblocks of mask (H, W) bool with no opaque pixel."""
     height, width = mask.shape
     grid = np.zeros((-(-height // MB) * MB, -(-width // MB) * MB), bool)
@@ -137,7 +137,7 @@ def _transparent_macroblocks(mask: np.ndarray) -> np.ndarray:
 def transparent_pixels(mask: np.ndarray) -> np.ndarray:
     """(H, W) bool: the pixels of mask (H, W) bool that lie in a fully transparent 16x16 macroblock."""
     height, width = mask.shape
-    blocks = _transparent_macroblocks(mask)
+    blocks = transparent_macroblocks(mask)
     return np.repeat(np.repeat(blocks, MB, axis=0), MB, axis=1)[:height, :width]
 
 

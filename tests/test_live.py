@@ -3,6 +3,7 @@ report every lost frame; the chain encode -> packetise -> lose -> depacketise ->
 random motions and loss patterns; `signcast send` / `signcast receive` run as two processes; `signcast live`
 writes records, a chart and a transport stream; bad input is one line."""
 import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -160,11 +161,22 @@ def test_send_and_receive_commands_run_as_two_processes(tmp_path, capsys):
     assert (out / "shown.mkv").stat().st_size > 0
 
 
-def test_live_command_writes_records_chart_and_transport_streams(tmp_path, capsys):
-    out = tmp_path / "live"
-    assert main(["live", "ase", "A", "--codecs", "fba-pred,mpeg4", "--loss-rates", "0,40", "--refresh", "4",
-                 "--size", "176x144", "--landmark-step", "4", "--seed", "2", "--no-progress", "--out", str(out)]) == 0
-    text = capsys.readouterr().out
+@pytest.fixture(scope="module")
+def live_run(tmp_path_factory):
+    """`signcast live` on one letter, FBA and NSV, at 0 and 40 % loss: (out folder, what it printed)."""
+    import contextlib
+    import io
+    out = tmp_path_factory.mktemp("live") / "out"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        code = main(["live", "ase", "A", "--codecs", "fba-pred,mpeg4", "--loss-rates", "0,40", "--refresh", "4",
+                     "--size", "176x144", "--landmark-step", "4", "--seed", "2", "--no-progress", "--out", str(out)])
+    assert code == 0
+    return out, printed.getvalue()
+
+
+def test_live_command_writes_records_chart_and_transport_streams(live_run):
+    out, text = live_run
     assert "fba-pred" in text and "report:" in text
     records = read_records(out / "records.jsonl")
     points = live_report.loss_points(records)
@@ -180,6 +192,16 @@ def test_live_command_writes_records_chart_and_transport_streams(tmp_path, capsy
     assert all((out / r["file"]).stat().st_size % 188 == 0 for r in streams)
     assert (out / "live_loss.png").stat().st_size > 10_000
     assert "Intelligibility and latency against loss" in (out / "report.html").read_text()
+
+
+def test_live_report_renders_in_headless_chromium(live_run):
+    browser = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+    if browser is None:
+        pytest.skip("Chromium is not installed (Debian: apt-get install chromium); .ci/run installs it")
+    dom = subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=5000",
+                          "--dump-dom", (live_run[0] / "report.html").as_uri()],
+                         capture_output=True, text=True, timeout=120).stdout
+    assert 'id="render-check">rendered 1/1 charts, 2/2 tables; all ok<' in dom
 
 
 @pytest.mark.parametrize("argv, fragment", [

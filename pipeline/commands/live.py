@@ -9,7 +9,7 @@ import argparse
 from media.errors import SigncastError
 from pipeline.commands import options
 
-DEFAULT_CODECS = "mpeg4,fba-pred,fba-dct,bba-pred"
+DEFAULT_CODECS = "NSV,NSV2O,NSV3O,NSV3O+C,SSV,fba-pred,fba-dct,bba-pred,bba-dct"
 DEFAULT_LOSS_RATES = "0,0.5,1,2,5,10"
 
 
@@ -22,6 +22,8 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
                         help="share of datagrams held back past their successor, 0..1 (default 0)")
     parser.add_argument("--refresh", type=int, default=16,
                         help="frames per FBA/BBA unit, the intra refresh period (default 16)")
+    parser.add_argument("--shape-gop", type=int, default=1,
+                        help="frames per shape unit of the video objects (default 1: no look-ahead)")
     parser.add_argument("--seed", type=int, default=1, help="the network model's seed (default 1)")
 
 
@@ -30,16 +32,19 @@ def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "live", help="loss sweep: deliver each solution live over RTP/UDP through a lossy relay and judge it",
         description="Deliver the signing (LANGUAGE WORD fingerspelled by the avatar, default ase HELLO, or a .pose "
-                    "retargeted) live as NSV (mpeg4 or libx264), FBA and BBA over RTP/UDP on the loopback "
+                    "retargeted) live as NSV, NSV2O, NSV3O, NSV3O+C and SSV (video objects with their shape; MPEG-4 "
+                    "Part 2 or H.264), FBA and BBA over RTP/UDP on the loopback "
                     "interface, through a relay losing the given share of datagrams, and measure what the receiver "
                     "shows: delivered kbps with headers, frames lost and concealed, hand keypoint error and letters, "
                     "latency. Also muxes each solution with a programme video into an MPEG-2 TS. Writes "
                     "DIR/records.jsonl, DIR/live_table.csv, DIR/live_loss.png, DIR/report.html and DIR/ts/.")
     add_source_arguments(parser, "fingerspell")
     parser.add_argument("--codecs", default=DEFAULT_CODECS,
-                        help=f"what to send, comma-separated: mpeg4 or libx264 (NSV), fba-pred, fba-dct, bba-pred, "
-                             f"bba-dct (default {DEFAULT_CODECS})")
-    parser.add_argument("--video-q", type=int, default=4, help="NSV quantiser (mpeg4 1..31, libx264 0..51; default 4)")
+                        help=f"what to send, comma-separated: a video solution (NSV, NSV2O, NSV3O, NSV3O+C, SSV: MPEG-4 Part 2), "
+                             f"SOLUTION:libx264 for H.264, or a parameter codec (fba-pred, fba-dct, bba-pred, "
+                             f"bba-dct) (default {DEFAULT_CODECS})")
+    parser.add_argument("--video-q", type=int, default=4,
+                        help="video quantiser (mpeg4 1..31, libx264 0..51; default 4)")
     parser.add_argument("--param-q", type=int, default=4, help="FBA/BBA quantisation 1..31 (default 4)")
     parser.add_argument("--loss-rates", default=DEFAULT_LOSS_RATES,
                         help=f"percent of datagrams lost, comma-separated (default {DEFAULT_LOSS_RATES})")
@@ -69,7 +74,7 @@ def settings_from(args: argparse.Namespace):
         codecs=options.names(args.codecs), video_q=args.video_q, param_q=args.param_q,
         loss_rates=options.parse_floats(args.loss_rates, "--loss-rates"), burst=args.burst,
         jitter_ms=args.jitter_ms, reorder=args.reorder, refresh=args.refresh, seed=args.seed,
-        repeats=args.repeats, language=args.language or "ase", word=args.word or "HELLO",
+        repeats=args.repeats, shape_gop=args.shape_gop, language=args.language or "ase", word=args.word or "HELLO",
         pose=None if args.pose is None else str(args.pose), size=parse_size(args.size, "--size"),
         landmark_step=args.landmark_step, backend=args.backend)
 

@@ -19,8 +19,8 @@ def add_parser(subparsers) -> None:
                     "--jitter-ms, --reorder) the datagrams go through a lossy relay in this process first.")
     add_source_arguments(parser, "send")
     parser.add_argument("--codec", default="fba-pred",
-                        help="mpeg4 or libx264 (NSV: the avatar's render as video), fba-pred, fba-dct, bba-pred, "
-                             "bba-dct (default fba-pred)")
+                        help="fba-pred, fba-dct, bba-pred, bba-dct (FBA, BBA), mpeg4 or libx264 (NSV: the avatar's "
+                             "render as video), SSV or SSV:libx264 (its skin objects with shape) (default fba-pred)")
     parser.add_argument("--q", type=int, default=4, help="quantiser of the codec (default 4)")
     parser.add_argument("--to", required=True, metavar="[HOST:]PORT", help="the receiver's address")
     parser.add_argument("--loss", type=float, default=0.0, help="percent of datagrams the relay drops (default 0)")
@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     settings = live.SendSettings(
         codec=args.codec.strip(), q=args.q, destination=parse_address(args.to), language=args.language or "ase",
         word=args.word or "HELLO", pose=None if args.pose is None else str(args.pose),
-        size=parse_size(args.size, "--size"), refresh=args.refresh, loss_percent=args.loss, burst=args.burst,
+        size=parse_size(args.size, "--size"), refresh=args.refresh, shape_gop=args.shape_gop, loss_percent=args.loss, burst=args.burst,
         jitter_ms=args.jitter_ms, reorder=args.reorder, seed=args.seed, backend=args.backend)
     sent = live.run_send(settings, progress=not args.no_progress)
     print(f"sent {sent['clip']} as {sent['solution']} ({sent['codec']} Q{sent['q']}): {sent['frames']} frames at "

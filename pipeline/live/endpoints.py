@@ -18,6 +18,7 @@ before any arrived).
 - NSV: a live PyAV decoder with FFmpeg's error concealment (comparisons.live_video.LiveDecoder); access units
   lost entirely are announced to it, partial ones are decoded as they are.
 - FBA / BBA: units are found by a resynchronising scanner, decoded, and rendered by the terminal's renderer.
+The video-object solutions (NSV2O, NSV3O, NSV3O+C, SSV) have their own source and sink: pipeline/live/objects.py.
 """
 from __future__ import annotations
 
@@ -179,19 +180,27 @@ def warm_up(codec: str, renderer=None, motion: Motion | None = None) -> None:
 
 
 def source_for(solution: str, codec: str, q: int, *, frames: np.ndarray | None = None, motion: Motion | None = None,
-               fps: float, refresh: int):
-    """(payload format, the sender's source) of one solution."""
+               labels: np.ndarray | None = None, fps: float, refresh: int, shape_gop: int = 1):
+    """(payload format, the sender's source) of one solution: NSV codes frames (T, H, W, 3) uint8; the object
+    solutions (NSV2O, NSV3O, NSV3O+C, SSV: pipeline/live/objects.py) code frames cut by part labels (T, H, W)
+    uint8, with shape units of shape_gop frames; FBA and BBA code the motion in units of refresh frames."""
+    from pipeline.live import objects
+    if solution in objects.OBJECT_SOLUTIONS:
+        return "objects", objects.ObjectSource(solution, frames, labels, fps, codec, q, shape_gop=shape_gop)
     if solution == "NSV":
         if codec not in VIDEO_CODECS:
             raise SigncastError(f"NSV is sent live with {' or '.join(VIDEO_CODECS)}, not {codec!r}")
         return VIDEO_CODECS[codec], VideoSource(codec, frames, fps, q)
     if solution in ("FBA", "BBA"):
         return "units", ParameterSource(codec, motion, q, refresh)
-    raise SigncastError(f"solution {solution!r} is not sent live yet: choose NSV, FBA or BBA")
+    raise SigncastError(f"unknown solution {solution!r}: choose NSV, {', '.join(objects.OBJECT_SOLUTIONS)}, FBA or BBA")
 
 
 def sink_for(description: SessionDescription, renderer_for):
     """The receiver's sink for a session; renderer_for(width, height) gives the terminal's renderer."""
+    from pipeline.live import objects
+    if description.solution in objects.OBJECT_SOLUTIONS:
+        return objects.ObjectSink(description)
     if description.solution == "NSV":
         return VideoSink(description)
     return ParameterSink(description, renderer_for(description.width, description.height))

@@ -75,10 +75,13 @@ class LossyRelay:
         self.close()
 
     def close(self, drain_s: float = 0.0) -> None:
-        """Forwards what is still held (waiting at most drain_s past its release), then stops."""
+        """Forwards what is still held (waiting at most drain_s past its release), then stops; once."""
+        if self._stop.is_set():
+            return
         self._drain_s = drain_s
         self._stop.set()
-        self._thread.join()
+        if self._thread.is_alive():
+            self._thread.join()
         self.sock.close()
 
     def _run(self) -> None:

@@ -35,12 +35,13 @@ import numpy as np
 
 from comparisons import shape_units, video_objects
 from comparisons.live_video import LiveDecoder, LiveEncoder
-from comparisons.video_objects import _flatten_macroblocks, _transparent_macroblocks
+from comparisons.video_objects import flatten_macroblocks, transparent_macroblocks
 from media.errors import SigncastError
+from pipeline.live.endpoints import LIVE_GOP, VIDEO_CODECS
 from pipeline.live.session import AccessUnit, SessionDescription
 
-TEXTURE_PAYLOADS = {"mpeg4": "mp4v", "libx264": "h264"}    # live texture codec -> RTP payload format
-TEXTURE_GOP = 12                                            # frames between texture keyframes (endpoints.LIVE_GOP)
+TEXTURE_PAYLOADS = VIDEO_CODECS                             # live texture codec -> RTP payload format
+TEXTURE_GOP = LIVE_GOP                                      # frames between texture keyframes
 OBJECT_SOLUTIONS = tuple(name for name in video_objects.SOLUTION_OBJECTS if name != "NSV")
 
 
@@ -56,22 +57,44 @@ def object_streams(solution: str, codec: str) -> list[tuple[str, str]]:
     return streams
 
 
+def macroblock_box(mask: np.ndarray) -> tuple[int, int, int, int] | None:
+    """(y0, y1, x0, x1): the 16x16-aligned box of the macroblocks holding an opaque pixel of mask (H, W) bool,
+    clipped to the frame; None for an empty mask."""
+    rows, columns = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not len(rows):
+        return None
+    mb = video_objects.MB
+    return (rows[0] // mb * mb, min(mask.shape[0], (rows[-1] // mb + 1) * mb),
+            columns[0] // mb * mb, min(mask.shape[1], (columns[-1] // mb + 1) * mb))
+
+
 class CausalPadder:
     """pad_object one frame at a time over the whole frame: needs only the previous frame's padded texture and
-    mask. `pad(frame (H, W, 3) uint8, mask (H, W) bool, intra)` returns the padded texture (H, W, 3) uint8."""
+    mask. `pad(frame (H, W, 3) uint8, mask (H, W) bool, intra)` returns the padded texture (H, W, 3) uint8.
+
+    In a predicted frame every pixel outside the macroblocks that hold the object repeats the previous padded
+    frame, so only the object's macroblock box is padded (the same values as padding the whole frame: the box
+    holds every row and column with an opaque pixel); an intra frame pads the whole frame, whose transparent
+    macroblocks take their own mean."""
 
     def __init__(self):
         self.previous: np.ndarray | None = None
         self.previous_mask: np.ndarray | None = None
 
     def pad(self, frame: np.ndarray, mask: np.ndarray, intra: bool) -> np.ndarray:
-        padded = video_objects.repetitive_padding(frame, mask)
         transparent = video_objects.transparent_pixels(mask)
         if not intra and self.previous is not None:
-            held = (~mask & ~self.previous_mask) | transparent
-            padded[held] = self.previous[held]
-        elif transparent.any():
-            padded = _flatten_macroblocks(padded, _transparent_macroblocks(mask))
+            padded = self.previous.copy()
+            box = macroblock_box(mask)
+            if box is not None:
+                y0, y1, x0, x1 = box
+                inside = video_objects.repetitive_padding(frame[y0:y1, x0:x1], mask[y0:y1, x0:x1])
+                fresh = ~((~mask[y0:y1, x0:x1] & ~self.previous_mask[y0:y1, x0:x1]) | transparent[y0:y1, x0:x1])
+                padded[y0:y1, x0:x1][fresh] = inside[fresh]
+        else:
+            padded = video_objects.repetitive_padding(frame, mask)
+            if transparent.any():
+                padded = flatten_macroblocks(padded, transparent_macroblocks(mask))
         self.previous, self.previous_mask = padded, mask
         return padded
 

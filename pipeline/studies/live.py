@@ -47,14 +47,16 @@ IP_UDP_BYTES = 28
 
 @dataclass(frozen=True)
 class LiveSettings:
-    """codecs: what is sent (mpeg4 / libx264: NSV; fba-*, bba-*: FBA, BBA); video_q, param_q: their quantisers;
+    """codecs: what is sent, each a parameter codec (fba-*, bba-*: FBA, BBA), a video solution (NSV, NSV2O, NSV3O,
+    NSV3O+C, SSV: with mpeg4), a live video codec (mpeg4, libx264: NSV) or SOLUTION:codec (e.g. SSV:libx264);
+    video_q, param_q: their quantisers; shape_gop: frames per shape unit of the video objects;
     loss_rates: percent of datagrams lost; burst: mean loss burst length in packets (1: Bernoulli, more:
     Gilbert-Elliott); jitter_ms: the relay's delay spread; reorder: share of datagrams held back past their
     successor; refresh: frames per FBA/BBA unit; seed: the network model's seed; repeats: sessions per codec and
     loss rate, each with its own seed (losses of a few packets are chance: the report gives their mean and range);
     language, word, pose, size,
     landmark_step, backend: the scenario, as in `signcast compare`."""
-    codecs: tuple[str, ...] = ("mpeg4", "fba-pred", "fba-dct", "bba-pred")
+    codecs: tuple[str, ...] = ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "fba-pred", "fba-dct", "bba-pred", "bba-dct")
     video_q: int = 4
     param_q: int = 4
     loss_rates: tuple[float, ...] = LOSS_RATES
@@ -64,6 +66,7 @@ class LiveSettings:
     refresh: int = 16
     seed: int = 1
     repeats: int = 1
+    shape_gop: int = 1
     language: str = "ase"
     word: str = "HELLO"
     pose: str | None = None
@@ -76,18 +79,43 @@ class LiveSettings:
                                        backend=self.backend, landmark_step=self.landmark_step)
 
 
+VIDEO_SOLUTIONS = ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV")
+DEFAULT_VIDEO_CODEC = "mpeg4"
+
+
+def parse_send(item: str) -> tuple[str, str]:
+    """(solution, codec) of one --codecs item: 'fba-pred', 'NSV2O', 'mpeg4' (NSV) or 'SSV:libx264'."""
+    from comparisons import param_codecs
+    text = item.strip()
+    if ":" in text:
+        solution, codec = (part.strip() for part in text.split(":", 1))
+        solution = solution.upper()
+    elif text.upper() in VIDEO_SOLUTIONS:
+        solution, codec = text.upper(), DEFAULT_VIDEO_CODEC
+    elif text in endpoints.VIDEO_CODECS:
+        solution, codec = "NSV", text
+    else:
+        param_codecs.get_codec(text)
+        return solution_of(text), text
+    if solution not in VIDEO_SOLUTIONS or codec not in endpoints.VIDEO_CODECS:
+        raise SigncastError(f"cannot send {item!r} live: give a parameter codec, one of {', '.join(VIDEO_SOLUTIONS)}, "
+                            f"or SOLUTION:CODEC with a video solution and {' or '.join(endpoints.VIDEO_CODECS)}")
+    return solution, codec
+
+
 def solution_for(codec: str) -> str:
-    return "NSV" if codec in endpoints.VIDEO_CODECS else solution_of(codec)
+    return parse_send(codec)[0]
 
 
 def check(settings: LiveSettings) -> None:
     """Refuse bad settings before any work starts."""
-    from comparisons import param_codecs
     if not settings.codecs:
         raise SigncastError("give at least one codec")
-    for codec in settings.codecs:
-        if codec not in endpoints.VIDEO_CODECS:
-            param_codecs.get_codec(codec)
+    sends = [parse_send(item) for item in settings.codecs]
+    if len(set(sends)) != len(sends):
+        raise SigncastError("--codecs names the same solution and codec twice")
+    if not 1 <= settings.shape_gop <= 65535:
+        raise SigncastError(f"the shape unit must be 1..65535 frames, got {settings.shape_gop}")
     for rate in settings.loss_rates:
         if not 0.0 <= rate < 100.0:
             raise SigncastError(f"loss rate {rate:g} % is outside 0..100 %")
@@ -146,29 +174,46 @@ def deliver(description: SessionDescription, source, sink_for: Callable, model) 
     return Delivery(sent, outcome["received"], relay.counts)
 
 
+def _damaged_frames(sink_stats: dict) -> int:
+    """Frames a video decoder showed from damaged data (FFmpeg's concealment inside the picture): NSV's decoder
+    stats, or the most of any object's texture decoder."""
+    if "damaged" in sink_stats:
+        return int(sink_stats["damaged"])
+    textures = [value["texture"] for value in sink_stats.values() if isinstance(value, dict) and "texture" in value]
+    return max((int(texture.get("damaged", 0)) for texture in textures), default=0)
+
+
 class LiveStudy:
     def __init__(self, settings: LiveSettings, scenario: compare.Scenario, renderer_for, progress: bool):
         self.settings, self.scenario, self.renderer_for, self.progress = settings, scenario, renderer_for, progress
         self.judge = compare.Judge(scenario, progress, settings.landmark_step)
 
-    def description(self, codec: str, payload: str) -> SessionDescription:
+    def q_of(self, solution: str) -> int:
+        return self.settings.video_q if solution in VIDEO_SOLUTIONS else self.settings.param_q
+
+    def description(self, solution: str, codec: str, payload: str) -> SessionDescription:
         s, scenario = self.settings, self.scenario
-        solution = solution_for(codec)
-        q = s.video_q if solution == "NSV" else s.param_q
         width, height = scenario.size
-        return SessionDescription(solution, codec, payload, q, scenario.fps, scenario.n_frames, width, height,
-                                  clip=scenario.name, details={"refresh": s.refresh} if solution != "NSV" else {})
+        details = ({"refresh": s.refresh} if solution in ("FBA", "BBA") else
+                   {"shape_gop": s.shape_gop} if solution != "NSV" else {})
+        return SessionDescription(solution, codec, payload, self.q_of(solution), scenario.fps, scenario.n_frames,
+                                  width, height, clip=scenario.name, details=details)
 
-    def source(self, codec: str):
-        solution = solution_for(codec)
-        q = self.settings.video_q if solution == "NSV" else self.settings.param_q
-        return endpoints.source_for(solution, codec, q, frames=self.scenario.render, motion=self.scenario.motion,
-                                    fps=self.scenario.fps, refresh=self.settings.refresh)
+    def source(self, solution: str, codec: str):
+        """(payload format, source): SSV sends the lossless render cut by its label buffer, the NSV family the
+        reference frames cut by their segmentation, FBA and BBA the motion."""
+        scenario = self.scenario
+        frames, labels = ((scenario.render, scenario.render_labels) if solution == "SSV"
+                          else (scenario.frames, scenario.labels))
+        return endpoints.source_for(solution, codec, self.q_of(solution), frames=frames, labels=labels,
+                                    motion=scenario.motion, fps=scenario.fps, refresh=self.settings.refresh,
+                                    shape_gop=self.settings.shape_gop)
 
-    def point(self, codec: str, rate_percent: float, seed: int) -> tuple[list[dict], Delivery]:
-        """Deliver one codec at one loss rate and judge what was shown: one record per reference."""
-        payload, source = self.source(codec)
-        description = self.description(codec, payload)
+    def point(self, send_item: str, rate_percent: float, seed: int) -> tuple[list[dict], Delivery]:
+        """Deliver one solution and codec at one loss rate and judge what was shown: one record per reference."""
+        solution, codec = parse_send(send_item)
+        payload, source = self.source(solution, codec)
+        description = self.description(solution, codec, payload)
         endpoints.warm_up(codec, self.renderer_for(*self.scenario.size), self.scenario.motion)
         delivery = deliver(description, source, lambda d: endpoints.sink_for(d, self.renderer_for),
                            network_model(self.settings, rate_percent, seed))
@@ -179,7 +224,7 @@ class LiveStudy:
         delivered_bits = 8 * (sent.rtp_bytes + IP_UDP_BYTES * sent.packets)
         p50, p95 = got.latency_summary()
         frames_lost = int((~got.received).sum())
-        damaged = int(got.sink_stats.get("damaged", 0))
+        damaged = _damaged_frames(got.sink_stats)
         fields = make_record(description.solution, s.name, codec, description.q, s.fps, *s.size,
                              8 * sent.media_bytes, duration, sweep="loss", loss_rate=rate_percent / 100.0,
                              packet_loss=100.0 * (1 - got.packets / max(1, sent.packets)),
@@ -188,6 +233,7 @@ class LiveStudy:
                              frames_lost=frames_lost, frames_concealed=frames_lost + damaged,
                              latency_ms_p50=p50, latency_ms_p95=p95, packets=sent.packets,
                              late_packets=got.late_packets, refresh=description.details.get("refresh"),
+                             shape_gop=description.details.get("shape_gop"),
                              burst=self.settings.burst, jitter_ms=self.settings.jitter_ms, seed=seed)
         observed = compare.extract(got.shown[self.judge.measured], s.fps,
                                    f"landmarks: {codec} at {rate_percent:g} % loss", self.progress)
@@ -262,14 +308,22 @@ def transport_stream_record(scenario: compare.Scenario, delivery: Delivery, out_
     programme_frames = np.stack([cv2.resize(programme_frames[k % len(programme_frames)], (width, height),
                                             interpolation=cv2.INTER_AREA) for k in range(n_programme)])
     programme = ts.encode_programme(programme_frames, programme_fps)
-    signer_video, signer_data = [], None
-    if description.payload == "units":
-        sent = [(unit.frame, part) for unit in units for part in unit.data]
-        signer_data = ts.ParameterTrack(description.solution.lower(), description.fps, sent)
-    else:
-        sent = [(unit.frame, unit.data) for unit in units]
-        signer_video = [ts.ElementaryVideo("signer", description.codec, description.fps, width, height,
-                                           [data for _, data in sent], [frame for frame, _ in sent])]
+    names = [stream["name"] for stream in description.streams]
+    payloads = [stream["payload"] for stream in description.streams]
+    by_stream: list[list] = [[] for _ in names]
+    for unit in units:
+        by_stream[unit.stream].append(unit)
+    signer_video, signer_data = [], []
+    texture_codec = description.codec if description.codec in endpoints.VIDEO_CODECS else None
+    for name, payload, sent in zip(names, payloads, by_stream):
+        if payload == "units":
+            kind = "shape" if name.endswith("/shape") else description.solution.lower()
+            signer_data.append(ts.ParameterTrack(kind, description.fps,
+                                                 [(unit.frame, part) for unit in sent for part in unit.data]))
+        else:
+            signer_video.append(ts.ElementaryVideo(name, texture_codec, description.fps, width, height,
+                                                   [unit.data for unit in sent], [unit.frame for unit in sent],
+                                                   [unit.frame % endpoints.LIVE_GOP == 0 for unit in sent]))
     data = ts.mux_transport_stream(programme, signer_video, signer_data)
     folder = out_dir / "ts"
     folder.mkdir(exist_ok=True)
@@ -277,13 +331,14 @@ def transport_stream_record(scenario: compare.Scenario, delivery: Delivery, out_
     path.write_bytes(data)
     demuxed = ts.demux_transport_stream(data)
     signer = [stream for stream in demuxed.streams if stream.index > 0]
-    if description.payload == "units":
-        back = [unit for stream in signer for _, unit in stream.units]
-        intact = back == [part for _, part in sent]
-    else:
-        intact = len(signer) == 1 and len(signer[0].packets) == len(sent)
+    videos = [stream for stream in signer if stream.kind == "video"]
+    tracks = [stream for stream in signer if stream.kind != "video"]
+    intact = (len(videos) == len(signer_video) and len(tracks) == len(signer_data)
+              and all(len(got.packets) == len(video.packets) for got, video in zip(videos, signer_video))
+              and all([unit for _, unit in got.units] == [part for _, part in track.units]
+                      for got, track in zip(tracks, signer_data)))
     if not intact:
-        raise SigncastError(f"the transport stream {path.name} did not give back the signer's stream")
+        raise SigncastError(f"the transport stream {path.name} did not give back the signer's streams")
     costs = ts.stream_overheads(ts.ts_overhead(data, scenario.timing.duration_s), demuxed)
     ours = [row for row in costs["streams"] if row["pid"] in {stream.pid for stream in signer}]
     programme_row = [row for row in costs["streams"] if row["pid"] == demuxed.streams[0].pid]
@@ -306,11 +361,14 @@ def transport_stream_record(scenario: compare.Scenario, delivery: Delivery, out_
 # ------------------------------------------------------------------------------------------------------------
 # `signcast send` and `signcast receive`: the two ends in separate processes
 
+SEND_SOLUTIONS = ("NSV", "SSV", "FBA", "BBA")      # `send` renders the avatar: no natural video to segment
+
+
 @dataclass(frozen=True)
 class SendSettings:
-    """One sender: codec and q, the signing (language, word or pose), the rendered size (NSV sends the render),
-    the receiver's address, and the relay's loss (loss_percent, burst, jitter_ms, reorder, seed; no relay when
-    all are 0)."""
+    """One sender: what is sent (a --codecs item of `live`: a parameter codec, NSV's or SSV's video codec) and q,
+    the signing (language, word or pose), the rendered size (NSV and SSV send the render), the receiver's address,
+    and the relay's loss (loss_percent, burst, jitter_ms, reorder, seed; no relay when all are 0)."""
     codec: str
     q: int
     destination: tuple[str, int]
@@ -319,6 +377,7 @@ class SendSettings:
     pose: str | None = None
     size: tuple[int, int] = (352, 288)
     refresh: int = 16
+    shape_gop: int = 1
     loss_percent: float = 0.0
     burst: float = 1.0
     jitter_ms: float = 0.0
@@ -327,19 +386,24 @@ class SendSettings:
     backend: str = "auto"
 
     def network(self) -> LiveSettings:
+        video = parse_send(self.codec)[0] in VIDEO_SOLUTIONS
         return LiveSettings(codecs=(self.codec,), loss_rates=(self.loss_percent,), burst=self.burst,
                             jitter_ms=self.jitter_ms, reorder=self.reorder, refresh=self.refresh, seed=self.seed,
-                            language=self.language, word=self.word, pose=self.pose, size=self.size,
-                            video_q=self.q, param_q=self.q if solution_for(self.codec) != "NSV" else 4,
+                            shape_gop=self.shape_gop, language=self.language, word=self.word, pose=self.pose,
+                            size=self.size, video_q=self.q if video else 4, param_q=4 if video else self.q,
                             backend=self.backend)
 
 
 def check_send(settings: SendSettings) -> None:
+    solution, _ = parse_send(settings.codec)
+    if solution not in SEND_SOLUTIONS:
+        raise SigncastError(f"`send` renders the avatar and has no natural video to cut into objects: send "
+                            f"{', '.join(SEND_SOLUTIONS)} (signcast live measures {solution} on the demo's scenario)")
     check(settings.network())
 
 
-def _signing(settings: SendSettings, progress: bool):
-    """(name, motion, rendered frames or None) of what `send` sends."""
+def _signing(settings: SendSettings, solution: str, progress: bool):
+    """(name, motion, rendered frames and labels, or None and None) of what `send` sends."""
     from media import fingerspelling
     if settings.pose is not None:
         from media.retarget import retarget
@@ -348,29 +412,31 @@ def _signing(settings: SendSettings, progress: bool):
     else:
         motion = fingerspelling.fingerspell(settings.language, settings.word, fps=compare.DISPLAY_FPS)
         name = f"{settings.language}-{settings.word}"
-    frames = None
-    if solution_for(settings.codec) == "NSV":
+    frames = labels = None
+    if solution in VIDEO_SOLUTIONS:
         renderer = AvatarRenderer(load_avatar(), RenderSettings(width=settings.size[0], height=settings.size[1],
                                                                 backend=settings.backend))
-        frames, _ = compare.render_frames(renderer, motion, "render", progress)
-    return name, motion, frames
+        frames, labels = compare.render_frames(renderer, motion, "render", progress)
+    return name, motion, frames, labels
 
 
 def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
     """Sends one session to settings.destination (through a lossy relay in this process when loss is set);
     returns a summary of what was sent."""
     check_send(settings)
-    name, motion, frames = _signing(settings, progress)
-    solution = solution_for(settings.codec)
-    payload, source = endpoints.source_for(solution, settings.codec, settings.q, frames=frames, motion=motion,
-                                           fps=motion.fps, refresh=settings.refresh)
-    description = SessionDescription(solution, settings.codec, payload, settings.q, motion.fps, motion.n_frames,
-                                     *settings.size, clip=name,
-                                     details={"refresh": settings.refresh} if solution != "NSV" else {})
+    solution, codec = parse_send(settings.codec)
+    name, motion, frames, labels = _signing(settings, solution, progress)
+    payload, source = endpoints.source_for(solution, codec, settings.q, frames=frames, labels=labels, motion=motion,
+                                           fps=motion.fps, refresh=settings.refresh, shape_gop=settings.shape_gop)
+    details = ({"refresh": settings.refresh} if solution in ("FBA", "BBA") else
+               {"shape_gop": settings.shape_gop} if solution != "NSV" else {})
+    description = SessionDescription(solution, codec, payload, settings.q, motion.fps, motion.n_frames,
+                                     *settings.size, clip=name, details=details)
     network = settings.network()
     lossy = settings.loss_percent > 0 or settings.jitter_ms > 0 or settings.reorder > 0
     if lossy:
-        with LossyRelay(settings.destination, network_model(network, settings.loss_percent, settings.seed)) as relay:
+        relay = LossyRelay(settings.destination, network_model(network, settings.loss_percent, settings.seed))
+        with relay:
             sent = send(description, source, settings.destination, relay_address=relay.address)
             relay.close(drain_s=1.0)
         dropped = relay.counts.dropped
@@ -378,7 +444,7 @@ def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
         sent = send(description, source, settings.destination)
         dropped = 0
     duration = motion.n_frames / motion.fps
-    return {"clip": name, "solution": solution, "codec": settings.codec, "q": settings.q, "frames": motion.n_frames,
+    return {"clip": name, "solution": solution, "codec": codec, "q": settings.q, "frames": motion.n_frames,
             "fps": motion.fps, "packets": sent.packets, "dropped_by_relay": dropped,
             "kbps": 8 * sent.media_bytes / duration / 1000,
             "delivered_kbps": 8 * (sent.rtp_bytes + IP_UDP_BYTES * sent.packets) / duration / 1000,
