@@ -8,7 +8,9 @@ cores (default 2; os.sched_setaffinity, and the thread pools of NumPy's BLAS and
 - FBA / BBA: a unit of --refresh frames coded by the parameter codec at Q 4 and wrapped (comparisons.fba_units),
   and the receiver's side: the unit scanner, the codec's decoder, then the terminal's render of every frame
   (the avatar drawn by the kernels' default backend);
-- shape units (the video objects' binary shape, comparisons.shape_units), one frame per unit.
+- the video-object solutions (pipeline/live/objects.py: NSV2O, NSV3O, NSV3O+C, SSV at mpeg4 Q 4): the sender's
+  capture (causal padding, every object's texture and shape units of one frame), and the receiver's side (every
+  stream's access units decoded, shapes and textures composed), the packets passing through RTP on the way.
 The real-time factor is the frame interval (40 ms) over the measured time per frame, median over --repeats
 rounds after a warm-up round: above 1 the stage keeps up with 25 fps live. Stages run one at a time, so in a
 session (encoder, relay and decoder sharing the cores) the margin is smaller than the factor says.
@@ -57,9 +59,8 @@ def main() -> None:
 
     import numpy as np
 
-    from comparisons import fba_units, param_codecs, shape_units
+    from comparisons import fba_units, param_codecs
     from comparisons.live_video import LiveDecoder, LiveEncoder
-    from media import segmentation
     from media.avatar import load_avatar
     from media.fingerspelling import fingerspell
     from media.render import AvatarRenderer, RenderSettings
@@ -117,17 +118,38 @@ def main() -> None:
         add(f"{name} decode", timed(decode, args.repeats))
         add(f"{name} terminal render {width}x{height}", timed(render, args.repeats))
 
-    masks = segmentation.object_masks(labels)["right_hand"]
-    shape_data: list[bytes] = []
+    from comparisons import rtp
+    from pipeline.live.jitter_buffer import DEPACKETIZERS
+    from pipeline.live.objects import ObjectSink, ObjectSource
+    from pipeline.live.session import SessionDescription, packetizer_for
+    for solution in ("NSV2O", "NSV3O", "NSV3O+C", "SSV"):
+        received: list = []
 
-    def shape_encode():
-        shape_data[:] = [u.data for u in shape_units.encode_shape_units(masks, gop=1)]
+        def capture():
+            source = ObjectSource(solution, frames, labels, motion.fps, "mpeg4", 4)
+            packetizers = [packetizer_for(payload, seed=k) for k, (_, payload) in enumerate(source.streams)]
+            received[:] = []
+            for i in range(n):
+                for unit in source.capture(i):
+                    payload = source.streams[unit.stream][1]
+                    first = packetizers[unit.stream].sequence
+                    timestamp = rtp.timestamp_of(unit.frame, motion.fps)
+                    packets = (packetizers[unit.stream].packetize_units(unit.data, timestamp) if payload == "units"
+                               else packetizers[unit.stream].packetize(unit.data, timestamp))
+                    received.append((unit.frame, unit.stream, DEPACKETIZERS[payload](packets, first)))
+            received.append(source.streams)
 
-    def shape_decode():
-        shape_units.find_shape_units(b"".join(shape_data))
+        def show():
+            streams = received[-1]
+            description = SessionDescription(solution, "mpeg4", "objects", 4, motion.fps, n, width, height,
+                                             streams=[{"name": name, "payload": payload} for name, payload in streams])
+            sink = ObjectSink(description)
+            for frame, stream, depacketized in received[:-1]:
+                sink.receive(frame, depacketized, stream)
+            sink.finish()
 
-    add("shape units encode (right hand, 1 frame a unit)", timed(shape_encode, args.repeats))
-    add("shape units decode", timed(shape_decode, args.repeats))
+        add(f"{solution} capture: pad, texture and shape encode", timed(capture, args.repeats))
+        add(f"{solution} receive: decode and compose", timed(show, args.repeats))
 
     print(f"ASL HELLO, {n} frames at {motion.fps:g} fps, {width}x{height}, pinned to {args.cores} cores; "
           f"median of {args.repeats} rounds")
