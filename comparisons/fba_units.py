@@ -1,5 +1,10 @@
 """Live FBA: a stream cut into independently decodable units that a receiver resynchronises on.
 
+The unit layer is not tied to FBA: `wrap_unit` puts any self-contained stream of a group of frames behind the
+same header, and a `UnitScanner` takes the payload's decoder and first bytes. `signcast live` sends BBA so too,
+one BBA stream (header, intra unit, predicted units) per unit: the BBA header's ranges come from the frames it
+covers, so a live sender can only write it once those frames are captured.
+
 One FBA stream (comparisons/fba_codec.py) has one CRC-32 at its end and no resynchronisation, so
 one damaged byte loses the whole clip. A live FBA stream is instead a sequence of units, each
 covering `refresh` consecutive frames (the intra refresh period, chosen by the caller):

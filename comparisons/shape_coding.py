@@ -22,6 +22,11 @@ streams (CRC of the payload alone) are rejected. Masks are at most MAX_SIDE pixe
 frames x height x width <= MAX_PIXELS (decoded masks <= 256 MiB); both ends check this before coding or
 allocating. The decoder rejects bad magic, truncation and corruption (length / CRC / impossible values,
 a payload that ends before the last frame) with SigncastError.
+
+Speed: the per-pixel and per-block work (contexts, the arithmetic coder, mode decisions with their bit
+estimate, the shape motion search) runs in Numba kernels, one call per frame (kernels/shape_cae.py); this
+module owns the state and the checks. Streams are byte-identical to the pure-Python coder this replaced
+(tests/test_shape_speed_identity.py); benchmarks/shape_coding.py measures both directions.
 """
 from __future__ import annotations
 
@@ -32,55 +37,47 @@ from functools import lru_cache
 
 import numpy as np
 
+from kernels import shape_cae as kc
+from kernels.shape_cae import (BAB, COPY, COUNT_LIMIT, INTER_CAE, INTRA_CAE, N_CONTEXTS, OPAQUE, SEARCH_RANGE,
+                               TRANSPARENT)
 from media.errors import SigncastError
 
-BAB = 16
+__all__ = ["BAB", "COUNT_LIMIT", "MAX_PIXELS", "MAX_SIDE", "MODE_NAMES", "N_CONTEXTS", "SEARCH_RANGE",
+           "BinaryArithmeticDecoder", "BinaryArithmeticEncoder", "ShapeStats", "decode_shape", "encode_shape"]
+
 MAGIC = b"SCSH"
 VERSION = 2                            # 2: the CRC covers the header too
 _HEADER = struct.Struct(">4sBHHIBII")
 _CRC_OFFSET = _HEADER.size - 4         # the CRC is the header's last field
 MAX_SIDE = 4096                        # pixels, width and height
 MAX_PIXELS = 1 << 28                   # frames x height x width: decoded (T, H, W) bool masks take <= 256 MiB
-SEARCH_RANGE = 8                       # shape motion vectors lie in [-8, 8] pixels per component
-COUNT_LIMIT = 1024                     # adaptive counts are halved past this total
 PRIOR_WEIGHT = 8                       # initial count of the likely symbol in a pixel context
 
-TRANSPARENT, OPAQUE, INTRA_CAE, INTER_CAE, COPY = 0, 1, 2, 3, 4
 MODE_NAMES = {TRANSPARENT: "transparent", OPAQUE: "opaque", INTRA_CAE: "intra_cae", INTER_CAE: "inter_cae",
               COPY: "copy"}
-_INTRA_ORDER = (TRANSPARENT, OPAQUE, INTRA_CAE)
-_INTER_ORDER = (TRANSPARENT, OPAQUE, COPY, INTER_CAE, INTRA_CAE)
-
-# context index ranges of the adaptive model
-_CTX_INTRA = 0                         # 1024 intra pixel contexts
-_CTX_INTER = 1024                      # 512 inter pixel contexts
-_CTX_MODE_I = 1536                     # 81 neighbour contexts x 2 bins
-_CTX_MODE_P = _CTX_MODE_I + 81 * 2     # 25 contexts x 4 bins
-_CTX_MV = _CTX_MODE_P + 25 * 4         # per component: zero, sign, 8 magnitude bins
-_CTX_PRESENT = _CTX_MV + 2 * 10
-N_CONTEXTS = _CTX_PRESENT + 1
+_DECODER_ERRORS = {
+    kc.PAYLOAD_ENDS: "corrupt shape stream: the payload ends before the last frame",
+    kc.BAD_BOX: "corrupt shape stream: impossible bounding box",
+    kc.BAD_MV: "corrupt shape stream: shape motion vector out of range",
+}
 
 
 # ----------------------------------------------------------------------------------------------------
 # binary arithmetic coder (32-bit registers, bits-plus-follow renormalisation) with adaptive contexts
 
-_TOP = (1 << 32) - 1
-_HALF = 1 << 31
-_QUARTER = 1 << 30
-
-
 @lru_cache(maxsize=4)
-def _prior_counts(n_contexts: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
-    """Initial (zeros, ones) counts per context (cached: an intra frame resets the model to them).
+def _prior_counts(n_contexts: int) -> tuple[np.ndarray, np.ndarray]:
+    """Initial (zeros, ones) counts (n_contexts,) int64 per context (cached, read-only: an intra frame resets
+    the model to copies of them).
 
     A prior for the pixel contexts, skewed like the standard's fixed tables: a pixel tends to repeat its
     causal neighbours (intra) or its motion-compensated co-located pixel (inter), the more strongly the
     more of the template agrees; every other context starts at 1:1."""
-    counts = ([1] * n_contexts, [1] * n_contexts)  # zeros, ones
+    counts = np.ones((2, n_contexts), np.int64)  # zeros, ones
 
     def prior(ctx: int, likely: int, weight: int) -> None:
         if ctx < n_contexts:
-            counts[likely][ctx] = weight
+            counts[likely, ctx] = weight
 
     for ctx in range(1024):
         bits = [(ctx >> k) & 1 for k in range(10)]
@@ -92,7 +89,7 @@ def _prior_counts(n_contexts: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
             weight = PRIOR_WEIGHT * 2
         else:
             weight = 2
-        prior(_CTX_INTRA + ctx, likely, weight)
+        prior(kc.CTX_INTRA + ctx, likely, weight)
     for ctx in range(512):
         bits = [(ctx >> k) & 1 for k in range(9)]
         likely = bits[6]
@@ -102,102 +99,63 @@ def _prior_counts(n_contexts: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
             weight = PRIOR_WEIGHT * 2
         else:
             weight = 2
-        prior(_CTX_INTER + ctx, likely, weight)
-    return tuple(counts[0]), tuple(counts[1])
+        prior(kc.CTX_INTER + ctx, likely, weight)
+    counts.flags.writeable = False
+    return counts[0], counts[1]
+
+
+@lru_cache(maxsize=1)
+def _cost_table() -> np.ndarray:
+    """kernels.shape_cae.cost_table(), computed once (8 MiB)."""
+    return kc.cost_table()
 
 
 class _AdaptiveModel:
-    """Counts of zeros and ones per context; P(0) in 1/65536 units."""
+    """Counts of zeros and ones per context (n_contexts,) int64, updated by the kernels; P(0) in 1/65536 units."""
 
     def __init__(self, n_contexts: int):
+        if n_contexts < 1:
+            raise SigncastError(f"an adaptive model needs at least 1 context, not {n_contexts}")
         zeros, ones = _prior_counts(n_contexts)
-        self.zeros, self.ones = list(zeros), list(ones)
-
-    def p0(self, ctx: int) -> int:
-        zeros = self.zeros[ctx]
-        p = (zeros << 16) // (zeros + self.ones[ctx])
-        return 1 if p < 1 else (65535 if p > 65535 else p)
-
-    def update(self, ctx: int, bit: int) -> None:
-        if bit:
-            self.ones[ctx] += 1
-        else:
-            self.zeros[ctx] += 1
-        if self.zeros[ctx] + self.ones[ctx] > COUNT_LIMIT:
-            self.zeros[ctx] = (self.zeros[ctx] + 1) >> 1
-            self.ones[ctx] = (self.ones[ctx] + 1) >> 1
-
-    def bit_costs(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
-        """-log2 P(0) and -log2 P(1) for contexts start..stop-1 (arrays), for mode decisions."""
-        zeros = np.array(self.zeros[start:stop], np.float64)
-        ones = np.array(self.ones[start:stop], np.float64)
-        total = zeros + ones
-        return -np.log2(zeros / total), -np.log2(ones / total)
+        self.zeros, self.ones = zeros.copy(), ones.copy()
 
 
 class BinaryArithmeticEncoder:
     """Codes bits under adaptive context probabilities; `code(ctx, bit)` returns the bit."""
 
     def __init__(self, n_contexts: int = N_CONTEXTS):
+        self.n_contexts = n_contexts
         self.model = _AdaptiveModel(n_contexts)
-        self.low, self.high, self.pending = 0, _TOP, 0
-        self.bits = bytearray()  # one 0/1 byte per coded bit
+        self.registers = np.array([0, kc.TOP, 0, 0], np.int64)   # low, high, pending, bits written
+        self.buffer = np.zeros(4096, np.uint8)                    # the bits, packed
 
     def reset_model(self) -> None:
-        self.model = _AdaptiveModel(len(self.model.zeros))
+        self.model = _AdaptiveModel(self.n_contexts)
 
-    def _code_p0(self, bit: int, p0: int) -> None:
-        low, high = self.low, self.high
-        split = low + (((high - low + 1) * p0) >> 16) - 1
-        if bit:
-            low = split + 1
-        else:
-            high = split
-        bits = self.bits
-        while True:
-            if high < _HALF:
-                bits.append(0)
-                if self.pending:
-                    bits.extend([1] * self.pending)
-                    self.pending = 0
-            elif low >= _HALF:
-                bits.append(1)
-                if self.pending:
-                    bits.extend([0] * self.pending)
-                    self.pending = 0
-                low -= _HALF
-                high -= _HALF
-            elif low >= _QUARTER and high < _HALF + _QUARTER:
-                self.pending += 1
-                low -= _QUARTER
-                high -= _QUARTER
-            else:
-                break
-            low <<= 1
-            high = (high << 1) | 1
-        self.low, self.high = low, high
+    def reserve(self, n_bits: int) -> None:
+        """Room for n_bits more output bits past the pending ones (the kernels do not check)."""
+        need = (int(self.registers[kc.NBITS]) + int(self.registers[kc.PENDING]) + n_bits) // 8 + 8
+        if need > self.buffer.size:
+            grown = np.zeros(max(need, 2 * self.buffer.size), np.uint8)
+            grown[:self.buffer.size] = self.buffer
+            self.buffer = grown
 
     def code(self, ctx: int, bit: int) -> int:
-        self._code_p0(bit, self.model.p0(ctx))
-        self.model.update(ctx, bit)
-        return bit
+        if not 0 <= ctx < self.n_contexts:
+            raise SigncastError(f"context {ctx} outside 0..{self.n_contexts - 1}")
+        self.reserve(kc.BITS_PER_SYMBOL)
+        return kc.encode(self.buffer, self.registers, self.model.zeros, self.model.ones, ctx, int(bit) & 1)
 
     def code_raw(self, value: int, n_bits: int) -> int:
         """An n-bit unsigned integer at probability 1/2 per bit, most significant first."""
-        for shift in range(n_bits - 1, -1, -1):
-            self._code_p0((value >> shift) & 1, 32768)
+        self.reserve(kc.BITS_PER_SYMBOL * n_bits)
+        kc.encode_raw(self.buffer, self.registers, int(value), int(n_bits))
         return value
 
     def finish(self) -> bytes:
-        self.pending += 1
-        if self.low < _QUARTER:
-            self.bits.append(0)
-            self.bits.extend([1] * self.pending)
-        else:
-            self.bits.append(1)
-            self.bits.extend([0] * self.pending)
-        self.pending = 0
-        return np.packbits(np.frombuffer(self.bits, np.uint8)).tobytes()
+        self.reserve(2)
+        kc.finish(self.buffer, self.registers)
+        return self.buffer[:(int(self.registers[kc.NBITS]) + 7) // 8].tobytes()
 
 
 class BinaryArithmeticDecoder:
@@ -205,64 +163,35 @@ class BinaryArithmeticDecoder:
     more bits than the payload and the register's 32-bit read-ahead hold."""
 
     def __init__(self, payload: bytes, n_contexts: int = N_CONTEXTS):
+        self.n_contexts = n_contexts
         self.model = _AdaptiveModel(n_contexts)
-        self.bits = np.unpackbits(np.frombuffer(payload, np.uint8)).tobytes()  # one 0/1 byte per bit
-        self.position = 32
-        value = 0
-        for bit in self.bits[:32].ljust(32, b"\0"):
-            value = (value << 1) | bit
-        self.value, self.low, self.high = value, 0, _TOP
+        self.data = np.frombuffer(bytes(payload), np.uint8)
+        value = int.from_bytes(bytes(payload[:4]).ljust(4, b"\0"), "big")
+        self.registers = np.array([0, kc.TOP, value, 32, kc.OK], np.int64)   # low, high, value, position, status
 
     def reset_model(self) -> None:
-        self.model = _AdaptiveModel(len(self.model.zeros))
+        self.model = _AdaptiveModel(self.n_contexts)
 
-    def _decode_p0(self, p0: int) -> int:
-        low, high, value = self.low, self.high, self.value
-        split = low + (((high - low + 1) * p0) >> 16) - 1
-        if value <= split:
-            bit, high = 0, split
-        else:
-            bit, low = 1, split + 1
-        bits, position, n = self.bits, self.position, len(self.bits)
-        while True:
-            if high < _HALF:
-                pass
-            elif low >= _HALF:
-                low -= _HALF
-                high -= _HALF
-                value -= _HALF
-            elif low >= _QUARTER and high < _HALF + _QUARTER:
-                low -= _QUARTER
-                high -= _QUARTER
-                value -= _QUARTER
-            else:
-                break
-            low <<= 1
-            high = (high << 1) | 1
-            if position < n:
-                value = (value << 1) | bits[position]
-            elif position < n + 32:  # the 32-bit register may read ahead past the payload, no further
-                value <<= 1
-            else:
-                raise SigncastError("corrupt shape stream: the payload ends before the last frame")
-            position += 1
-        self.low, self.high, self.value, self.position = low, high, value, position
-        return bit
+    def check(self, status: int) -> None:
+        """SigncastError for a kernel's error status."""
+        if status != kc.OK:
+            raise SigncastError(_DECODER_ERRORS[status])
 
     def code(self, ctx: int, _bit: int = 0) -> int:
-        bit = self._decode_p0(self.model.p0(ctx))
-        self.model.update(ctx, bit)
+        if not 0 <= ctx < self.n_contexts:
+            raise SigncastError(f"context {ctx} outside 0..{self.n_contexts - 1}")
+        bit = kc.decode(self.data, self.registers, self.model.zeros, self.model.ones, ctx)
+        self.check(int(self.registers[kc.STATUS]))
         return bit
 
     def code_raw(self, _value: int, n_bits: int) -> int:
-        value = 0
-        for _ in range(n_bits):
-            value = (value << 1) | self._decode_p0(32768)
+        value = kc.decode_raw(self.data, self.registers, int(n_bits))
+        self.check(int(self.registers[kc.STATUS]))
         return value
 
 
 # ----------------------------------------------------------------------------------------------------
-# the shape syntax, shared by encoder and decoder (the encoder passes true values, the decoder gets them back)
+# the shape syntax: one kernel call codes (kernels.shape_cae.encode_frame) or decodes (decode_frame) a frame
 
 @dataclass
 class ShapeStats:
@@ -278,246 +207,36 @@ class ShapeStats:
 
 
 class _Canvas:
-    """The current and previous decoded frames as flat bytearrays (one 0/1 byte per pixel, with a border),
-    plus the BAB mode grids. Bytes, not lists: 1 byte a pixel instead of 8, and a zero-copy array view."""
+    """The current and previous decoded frames as flat uint8 arrays (one 0/1 byte per pixel, with a border of
+    SEARCH_RANGE + 2 zero pixels, so that motion-compensated templates never leave the array), plus the BAB
+    mode grids and this frame's motion vectors."""
 
     def __init__(self, blocks_y: int, blocks_x: int):
         self.blocks_y, self.blocks_x = blocks_y, blocks_x
         self.border = SEARCH_RANGE + 2
         self.stride = blocks_x * BAB + 2 * self.border
         self.rows = blocks_y * BAB + 2 * self.border
-        self.current = bytearray(self.stride * self.rows)
-        self.previous = bytearray(self.stride * self.rows)
-        self.modes = [[TRANSPARENT] * blocks_x for _ in range(blocks_y)]
-        self.previous_modes = [[TRANSPARENT] * blocks_x for _ in range(blocks_y)]
-        self.mvs: dict[tuple[int, int], tuple[int, int]] = {}
-
-    def index(self, y: int, x: int) -> int:
-        return (y + self.border) * self.stride + x + self.border
+        self.current = np.zeros(self.stride * self.rows, np.uint8)
+        self.previous = np.zeros(self.stride * self.rows, np.uint8)
+        self.modes = np.zeros((blocks_y, blocks_x), np.int64)            # TRANSPARENT is 0
+        self.previous_modes = np.zeros((blocks_y, blocks_x), np.int64)
+        self.mvs = np.zeros((blocks_y, blocks_x, 2), np.int64)            # (dx, dy) pixels
+        self.has_mv = np.zeros((blocks_y, blocks_x), np.uint8)
+        self.counts = np.zeros(len(MODE_NAMES), np.int64)
 
     def next_frame(self) -> None:
-        self.previous, self.current = self.current, bytearray(len(self.current))
-        self.previous_modes = self.modes
-        self.modes = [[TRANSPARENT] * self.blocks_x for _ in range(self.blocks_y)]
-        self.mvs = {}
-
-    def grid(self, flat: bytearray) -> np.ndarray:
-        """(rows, stride) uint8 view of `current` or `previous`, border included."""
-        return np.frombuffer(flat, np.uint8).reshape(self.rows, self.stride)
+        self.previous, self.current = self.current, self.previous
+        self.current.fill(0)
+        self.previous_modes, self.modes = self.modes, self.previous_modes
+        self.modes.fill(TRANSPARENT)
+        self.has_mv.fill(0)
 
     def to_array(self, height: int, width: int) -> np.ndarray:
         b = self.border
-        return self.grid(self.current)[b:b + height, b:b + width].astype(bool)
+        return self.current.reshape(self.rows, self.stride)[b:b + height, b:b + width].astype(bool)
 
-
-def _bits_for(count: int) -> int:
-    return max(1, (count - 1).bit_length())
-
-
-def _code_mode(coder, canvas: _Canvas, by: int, bx: int, inter: bool, mode: int) -> int:
-    modes = canvas.modes
-    if inter:
-        left = modes[by][bx - 1] if bx > 0 else TRANSPARENT
-        ctx0 = _CTX_MODE_P + (canvas.previous_modes[by][bx] * 5 + left) * 4
-        order = _INTER_ORDER
-    else:
-        def coarse(m: int) -> int:
-            return m if m < INTRA_CAE else INTRA_CAE
-        left = coarse(modes[by][bx - 1]) if bx > 0 else 0
-        top = coarse(modes[by - 1][bx]) if by > 0 else 0
-        top_left = coarse(modes[by - 1][bx - 1]) if by > 0 and bx > 0 else 0
-        top_right = coarse(modes[by - 1][bx + 1]) if by > 0 and bx + 1 < canvas.blocks_x else 0
-        ctx0 = _CTX_MODE_I + (((left * 3 + top) * 3 + top_left) * 3 + top_right) * 2
-        order = _INTRA_ORDER
-    for position, candidate in enumerate(order[:-1]):
-        if coder.code(ctx0 + position, int(mode == candidate)):
-            return candidate
-    return order[-1]
-
-
-def _mv_predictor(canvas: _Canvas, by: int, bx: int) -> tuple[int, int]:
-    for neighbour in ((by, bx - 1), (by - 1, bx), (by - 1, bx + 1)):
-        if neighbour in canvas.mvs:
-            return canvas.mvs[neighbour]
-    return (0, 0)
-
-
-def _code_mv_component(coder, component: int, value: int) -> int:
-    base = _CTX_MV + component * 10
-    if not coder.code(base, int(value != 0)):
-        return 0
-    negative = coder.code(base + 1, int(value < 0))
-    magnitude, limit = 1, 2 * SEARCH_RANGE
-    while magnitude < limit and coder.code(base + 2 + min(magnitude - 1, 7), int(abs(value) > magnitude)):
-        magnitude += 1
-    return -magnitude if negative else magnitude
-
-
-def _code_cae_block(coder, canvas: _Canvas, y0: int, x0: int, block, mv: tuple[int, int] | None) -> None:
-    """Intra (mv None) or inter CAE of one BAB, pixel by pixel in raster order, written into canvas.current.
-
-    block: the 16x16 bits as a flat list for the encoder, or None for the decoder.
-    """
-    cur, stride = canvas.current, canvas.stride
-    s2 = 2 * stride
-    code = coder.code
-    if mv is not None:
-        prev = canvas.previous
-        shift = mv[1] * stride + mv[0]
-    for r in range(BAB):
-        row = canvas.index(y0 + r, x0)
-        for c in range(BAB):
-            i = row + c
-            if mv is None:
-                ctx = (cur[i - 1] | cur[i - 2] << 1 | cur[i - stride + 2] << 2 | cur[i - stride + 1] << 3
-                       | cur[i - stride] << 4 | cur[i - stride - 1] << 5 | cur[i - stride - 2] << 6
-                       | cur[i - s2 + 1] << 7 | cur[i - s2] << 8 | cur[i - s2 - 1] << 9)
-            else:
-                j = i + shift
-                ctx = _CTX_INTER + (cur[i - 1] | cur[i - stride + 1] << 1 | cur[i - stride] << 2
-                                    | cur[i - stride - 1] << 3 | prev[j + stride] << 4 | prev[j + 1] << 5
-                                    | prev[j] << 6 | prev[j - 1] << 7 | prev[j - stride] << 8)
-            cur[i] = code(ctx, block[r * BAB + c] if block is not None else 0)
-        # not-yet-decoded pixels right of the BAB read as its last column (cleared again after the BAB)
-        cur[row + BAB] = cur[row + BAB + 1] = cur[row + BAB - 1]
-    for r in range(BAB):
-        row = canvas.index(y0 + r, x0)
-        cur[row + BAB] = cur[row + BAB + 1] = 0
-
-
-_OPAQUE_ROW, _TRANSPARENT_ROW = b"\x01" * BAB, bytes(BAB)
-
-
-def _fill_block(canvas: _Canvas, y0: int, x0: int, mode: int, mv: tuple[int, int]) -> None:
-    cur, prev, stride = canvas.current, canvas.previous, canvas.stride
-    shift = mv[1] * stride + mv[0]
-    for r in range(BAB):
-        start = canvas.index(y0 + r, x0)
-        if mode == COPY:
-            cur[start:start + BAB] = prev[start + shift:start + shift + BAB]
-        else:
-            cur[start:start + BAB] = _OPAQUE_ROW if mode == OPAQUE else _TRANSPARENT_ROW
-
-
-def _code_frame(coder, canvas: _Canvas, inter: bool, frame: np.ndarray | None, counts: dict[int, int]) -> None:
-    """Code (encoder: frame is the padded (Hb, Wb) bool mask) or decode (frame None) one frame."""
-    by_count, bx_count = canvas.blocks_y, canvas.blocks_x
-    if frame is not None:
-        rows, cols = np.nonzero(frame.reshape(by_count, BAB, bx_count, BAB).any(axis=(1, 3)))
-        present = int(len(rows) > 0)
-    else:
-        present = 0
-    if not coder.code(_CTX_PRESENT, present):
-        return
-    nby, nbx = _bits_for(by_count), _bits_for(bx_count)
-    box = (rows.min(), rows.max(), cols.min(), cols.max()) if frame is not None else (0, 0, 0, 0)
-    by0 = coder.code_raw(int(box[0]), nby)
-    by1 = coder.code_raw(int(box[1]), nby)
-    bx0 = coder.code_raw(int(box[2]), nbx)
-    bx1 = coder.code_raw(int(box[3]), nbx)
-    if not (by0 <= by1 < by_count and bx0 <= bx1 < bx_count):
-        raise SigncastError("corrupt shape stream: impossible bounding box")
-    encoder = frame is not None
-    if encoder:
-        searcher = _MotionSearch(canvas, frame) if inter else None
-    for by in range(by0, by1 + 1):
-        for bx in range(bx0, bx1 + 1):
-            y0, x0 = by * BAB, bx * BAB
-            mode, mv, block = TRANSPARENT, (0, 0), None
-            if encoder:
-                block_array = frame[y0:y0 + BAB, x0:x0 + BAB]
-                mode, mv = _choose_mode(coder, canvas, searcher, by, bx, block_array, inter)
-                block = block_array.astype(np.uint8).ravel().tolist()
-            mode = _code_mode(coder, canvas, by, bx, inter, mode)
-            if mode in (COPY, INTER_CAE):
-                predictor = _mv_predictor(canvas, by, bx)
-                dx = predictor[0] + _code_mv_component(coder, 0, mv[0] - predictor[0])
-                dy = predictor[1] + _code_mv_component(coder, 1, mv[1] - predictor[1])
-                if abs(dx) > SEARCH_RANGE or abs(dy) > SEARCH_RANGE:
-                    raise SigncastError("corrupt shape stream: shape motion vector out of range")
-                mv = (dx, dy)
-                canvas.mvs[(by, bx)] = mv
-            canvas.modes[by][bx] = mode
-            counts[mode] += 1
-            if mode == INTRA_CAE:
-                _code_cae_block(coder, canvas, y0, x0, block, None)
-            elif mode == INTER_CAE:
-                _code_cae_block(coder, canvas, y0, x0, block, mv)
-            else:
-                _fill_block(canvas, y0, x0, mode, mv)
-
-
-# ----------------------------------------------------------------------------------------------------
-# encoder-side decisions: motion search and mode choice by estimated cost under the current probabilities
-
-class _MotionSearch:
-    """Integer-pel block matching of the current mask against the previous decoded shape."""
-
-    def __init__(self, canvas: _Canvas, frame: np.ndarray):
-        b = canvas.border
-        self.previous = canvas.grid(canvas.previous)  # previous frame with a border of `b` zero pixels
-        self.border = b
-        offsets = np.arange(-SEARCH_RANGE, SEARCH_RANGE + 1)
-        self.offsets = [(dx, dy) for dy in offsets for dx in offsets]
-
-    def best(self, y0: int, x0: int, block: np.ndarray, predictor: tuple[int, int]) -> tuple[tuple[int, int], int]:
-        b, r = self.border, SEARCH_RANGE
-        window = self.previous[b + y0 - r:b + y0 + BAB + r, b + x0 - r:b + x0 + BAB + r]
-        views = np.lib.stride_tricks.sliding_window_view(window, (BAB, BAB))  # (2r+1, 2r+1, 16, 16)
-        errors = (views != block.astype(np.uint8)).sum(axis=(2, 3))
-        distance = np.abs(np.arange(-r, r + 1)[None, :] - predictor[0]) + np.abs(np.arange(-r, r + 1)[:, None] - predictor[1])
-        score = errors * 64 + distance  # fewest mismatches, then nearest to the predictor
-        dy, dx = np.unravel_index(int(np.argmin(score)), score.shape)
-        return (int(dx) - r, int(dy) - r), int(errors[dy, dx])
-
-
-def _window(flat: bytearray, canvas: _Canvas, y: int, x: int, height: int, width: int) -> np.ndarray:
-    """A (height, width) int32 copy of a piece of a flat canvas whose top-left pixel is (y, x) in frame coordinates."""
-    b = canvas.border
-    return canvas.grid(flat)[y + b:y + b + height, x + b:x + b + width].astype(np.int32)
-
-
-def _estimate_cae_bits(coder, canvas: _Canvas, y0: int, x0: int, block: np.ndarray, mv) -> float:
-    """Approximate CAE cost of a BAB in bits, from vectorised contexts and the current probabilities."""
-    window = _window(canvas.current, canvas, y0 - 2, x0 - 2, BAB + 2, BAB + 4)
-    window[2:, 2:2 + BAB] = block
-    window[2:, 2 + BAB:] = block[:, -1:]
-
-    def at(dy: int, dx: int) -> np.ndarray:
-        return window[2 + dy:2 + dy + BAB, 2 + dx:2 + dx + BAB]
-    bits = block.astype(np.int32)
-    if mv is None:
-        ctx = (at(0, -1) | at(0, -2) << 1 | at(-1, 2) << 2 | at(-1, 1) << 3 | at(-1, 0) << 4 | at(-1, -1) << 5
-               | at(-1, -2) << 6 | at(-2, 1) << 7 | at(-2, 0) << 8 | at(-2, -1) << 9)
-        cost0, cost1 = coder.model.bit_costs(_CTX_INTRA, _CTX_INTRA + 1024)
-    else:
-        prev = _window(canvas.previous, canvas, y0 + mv[1] - 1, x0 + mv[0] - 1, BAB + 2, BAB + 2)
-
-        def mc(dy: int, dx: int) -> np.ndarray:
-            return prev[1 + dy:1 + dy + BAB, 1 + dx:1 + dx + BAB]
-        ctx = (at(0, -1) | at(-1, 1) << 1 | at(-1, 0) << 2 | at(-1, -1) << 3 | mc(1, 0) << 4 | mc(0, 1) << 5
-               | mc(0, 0) << 6 | mc(0, -1) << 7 | mc(-1, 0) << 8)
-        cost0, cost1 = coder.model.bit_costs(_CTX_INTER, _CTX_INTER + 512)
-    return float(np.where(bits > 0, cost1[ctx], cost0[ctx]).sum())
-
-
-def _choose_mode(coder, canvas: _Canvas, searcher, by: int, bx: int, block: np.ndarray, inter: bool):
-    opaque = int(block.sum())
-    if opaque == 0:
-        return TRANSPARENT, (0, 0)
-    if opaque == BAB * BAB:
-        return OPAQUE, (0, 0)
-    y0, x0 = by * BAB, bx * BAB
-    if not inter:
-        return INTRA_CAE, (0, 0)
-    predictor = _mv_predictor(canvas, by, bx)
-    mv, errors = searcher.best(y0, x0, block, predictor)
-    if errors == 0:
-        return COPY, mv
-    mv_bits = 2.0 + 2.0 * (abs(mv[0] - predictor[0]) + abs(mv[1] - predictor[1]))
-    inter_bits = _estimate_cae_bits(coder, canvas, y0, x0, block, mv) + mv_bits
-    intra_bits = _estimate_cae_bits(coder, canvas, y0, x0, block, None)
-    return (INTER_CAE, mv) if inter_bits < intra_bits else (INTRA_CAE, (0, 0))
+    def mode_counts(self) -> dict[str, int]:
+        return {MODE_NAMES[mode]: int(self.counts[mode]) for mode in MODE_NAMES}
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -554,18 +273,23 @@ def encode_shape(masks: np.ndarray, gop: int = 12) -> tuple[bytes, ShapeStats]:
     padded[:, :height, :width] = masks
     coder = BinaryArithmeticEncoder()
     canvas = _Canvas(blocks_y, blocks_x)
-    counts = {mode: 0 for mode in MODE_NAMES}
+    words = np.zeros(canvas.previous.size, np.int64)           # motion-search scratch
+    costs = _cost_table()
+    frame_bits = kc.BITS_PER_SYMBOL * (kc.SYMBOLS_PER_FRAME + kc.SYMBOLS_PER_BLOCK * blocks_y * blocks_x)
     for t in range(frames):
         if t:
             canvas.next_frame()
         inter = t % gop != 0
         if not inter:
             coder.reset_model()
-        _code_frame(coder, canvas, inter, padded[t], counts)
+        coder.reserve(frame_bits)
+        kc.encode_frame(padded[t].view(np.uint8), canvas.current, canvas.previous, canvas.stride, canvas.border,
+                        canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv, coder.model.zeros,
+                        coder.model.ones, coder.buffer, coder.registers, canvas.counts, int(inter), costs, words)
     payload = coder.finish()
     fields = _HEADER.pack(MAGIC, VERSION, width, height, frames, gop, len(payload), 0)[:_CRC_OFFSET]
     stream = fields + struct.pack(">I", zlib.crc32(payload, zlib.crc32(fields))) + payload
-    return stream, ShapeStats(len(stream), frames, {MODE_NAMES[m]: n for m, n in counts.items()})
+    return stream, ShapeStats(len(stream), frames, canvas.mode_counts())
 
 
 def decode_shape(stream: bytes) -> np.ndarray:
@@ -590,7 +314,6 @@ def decode_shape(stream: bytes) -> np.ndarray:
     blocks_y, blocks_x = -(-height // BAB), -(-width // BAB)
     coder = BinaryArithmeticDecoder(payload)
     canvas = _Canvas(blocks_y, blocks_x)
-    counts = {mode: 0 for mode in MODE_NAMES}
     masks = np.zeros((frames, height, width), bool)
     for t in range(frames):
         if t:
@@ -598,6 +321,8 @@ def decode_shape(stream: bytes) -> np.ndarray:
         inter = t % gop != 0
         if not inter:
             coder.reset_model()
-        _code_frame(coder, canvas, inter, None, counts)
+        coder.check(kc.decode_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
+                                    canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
+                                    coder.model.zeros, coder.model.ones, canvas.counts, int(inter)))
         masks[t] = canvas.to_array(height, width)
     return masks
