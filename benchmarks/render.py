@@ -1,7 +1,9 @@
 """Frames per second of the synthetic signer's kernels against the OpenGL software renderer.
 
 Measures, in one run, on the default avatar (26,756 skin triangles + eyes) posed by real ASL
-fingerspelling, at 352x288 (change with --size):
+fingerspelling, at 352x288 and 640x480 (change with --size, a comma-separated list), and a frame with
+two avatars side by side (two posed copies of the mesh, the second one half the word further on,
+54,072 triangles; at --two-avatars-size, default 352x288, empty to skip):
   * skinning alone (linear blend skinning of the rest mesh with one frame's bone matrices),
   * rasterization alone (pre-skinned positions -> rgb, labels, triangle ids, depth),
   * skinning + rasterization,
@@ -17,7 +19,8 @@ asserted; the table gives ratios. The peer needs Debian's libegl-mesa0 libegl1 l
 libgl1 libgles2 libglx-mesa0 libgbm1 and PyPI's moderngl (`pip install -e .[bench]`); without them it
 is skipped with a message.
 
-    python benchmarks/render.py [--size 352x288] [--frames 60] [--repeats 3] [--word HELLO]
+    python benchmarks/render.py [--size 352x288,640x480] [--two-avatars-size 352x288] [--frames 60]
+                                [--repeats 3] [--word HELLO]
 """
 from __future__ import annotations
 
@@ -40,20 +43,49 @@ sys.path.insert(0, str(ROOT))
 PEER_PACKAGES = "libegl-mesa0 libegl1 libgl1-mesa-dri libgl1 libgles2 libglx-mesa0 libgbm1"
 
 
-def posed_sequence(word: str, width: int, height: int, frames: int):
-    """Avatar, camera, per-frame bone matrices (float32) and pre-skinned positions of a fingerspelled word."""
-    from kernels.skinning import skin
-    from media.avatar import load_avatar
-    from media.fingerspelling import fingerspell
-    from media.kinematics import bone_matrices
-    from media.render import signing_space_camera
-    avatar = load_avatar()
-    motion = fingerspell("ase", word, 25.0)
-    matrices = bone_matrices(avatar.skeleton, motion).astype(np.float32)
-    index = np.arange(frames) % len(matrices)
-    matrices = matrices[index]
-    positions = [skin(avatar.vertices, avatar.weights, m, backend="numpy") for m in matrices]
-    return avatar, signing_space_camera(avatar, width, height), matrices, positions
+class Scene:
+    """What one benchmark frame draws: `copies` posed copies of the avatar side by side.
+
+    triangles (F, 3) int32, triangle_part (F,) uint8, colours (F, 3) uint8 of all copies; camera (4, 4)
+    float32; matrices: per frame, one (B, 4, 4) float32 per copy; positions: per frame, the (V, 3)
+    float32 pre-skinned positions of all copies; offsets: (copies, 3) float32 world shift of each copy.
+    """
+
+    def __init__(self, word: str, width: int, height: int, frames: int, copies: int = 1):
+        from media.avatar import load_avatar
+        from media.fingerspelling import fingerspell
+        from media.kinematics import bone_matrices
+        from media.render import signing_space_camera, triangle_colours
+        avatar = self.avatar = load_avatar()
+        motion = fingerspell("ase", word, 25.0)
+        matrices = bone_matrices(avatar.skeleton, motion).astype(np.float32)
+        n = len(matrices)
+        if copies == 1:
+            self.camera = signing_space_camera(avatar, width, height)
+            self.offsets = np.zeros((1, 3), np.float32)
+        else:
+            # Each copy gets an equal slice of the width: the one-avatar camera for that slice, squeezed
+            # in clip x; the copies stand apart by the slice's width at the avatar's depth (z = 0).
+            single = signing_space_camera(avatar, max(width // copies, 1), height)
+            centre = np.append(avatar.vertices.mean(axis=0), 1.0)
+            half_width = float(single[3] @ centre) / float(single[0, 0])
+            self.camera = (np.diag([1.0 / copies, 1, 1, 1]) @ single).astype(np.float32)
+            self.offsets = np.array([[(2 * c - copies + 1) * half_width, 0, 0] for c in range(copies)], np.float32)
+        V = len(avatar.vertices)
+        self.triangles = np.concatenate([avatar.triangles + c * V for c in range(copies)]).astype(np.int32)
+        self.triangle_part = np.tile(avatar.triangle_part, copies)
+        self.colours = np.tile(triangle_colours(avatar), (copies, 1))
+        self.matrices = [[matrices[(i + c * n // copies) % n] for c in range(copies)] for i in range(frames)]
+        self.positions = [self.pose(m, "numpy") for m in self.matrices]
+
+    def pose(self, matrices, backend: str) -> np.ndarray:
+        """(copies * V, 3) float32 skin of every copy, each skinned with its own bone matrices, then shifted."""
+        from kernels.skinning import skin
+        avatar = self.avatar
+        if len(self.offsets) == 1 and not self.offsets.any():
+            return skin(avatar.vertices, avatar.weights, matrices[0], backend=backend)
+        return np.concatenate([skin(avatar.vertices, avatar.weights, m, backend=backend) + offset
+                               for m, offset in zip(matrices, self.offsets)]).astype(np.float32)
 
 
 def frames_per_second(step, frames: int, repeats: int, warmup: int = 5) -> float:
@@ -68,26 +100,22 @@ def frames_per_second(step, frames: int, repeats: int, warmup: int = 5) -> float
     return statistics.median(rates)
 
 
-def measure_backend(backend: str, avatar, camera, matrices, positions, width, height, frames) -> dict:
+def measure_backend(backend: str, scene: Scene, width, height, frames) -> dict:
     """One round of frames/s for skinning, rasterization, and both, on one backend."""
     from kernels.raster import rasterize
-    from kernels.skinning import skin
-    from media.render import triangle_colours
-    weights = avatar.weights
-    colours = triangle_colours(avatar)
-    n = len(matrices)
+    n = len(scene.matrices)
 
     def skinning(i):
-        skin(avatar.vertices, weights, matrices[i % n], backend=backend)
+        scene.pose(scene.matrices[i % n], backend)
 
     def raster(i):
-        rasterize(positions[i % n], avatar.triangles, avatar.triangle_part, camera, width, height,
-                  triangle_colour=colours, backend=backend)
+        rasterize(scene.positions[i % n], scene.triangles, scene.triangle_part, scene.camera, width, height,
+                  triangle_colour=scene.colours, backend=backend)
 
     def both(i):
-        posed = skin(avatar.vertices, weights, matrices[i % n], backend=backend)
-        rasterize(posed, avatar.triangles, avatar.triangle_part, camera, width, height,
-                  triangle_colour=colours, backend=backend)
+        posed = scene.pose(scene.matrices[i % n], backend)
+        rasterize(posed, scene.triangles, scene.triangle_part, scene.camera, width, height,
+                  triangle_colour=scene.colours, backend=backend)
 
     count = max(frames // 6, 5) if backend == "numpy" else frames
     return {"skin": frames_per_second(skinning, count * 4, 1),
@@ -131,12 +159,13 @@ def peer_worker(arguments) -> None:
         print(json.dumps({"skip": f"no EGL context ({str(error).splitlines()[0]}); apt-get install {PEER_PACKAGES}"}))
         return
     width, height = arguments.width, arguments.height
-    avatar, camera, _, positions = posed_sequence(arguments.word, width, height, arguments.frames)
+    scene = Scene(arguments.word, width, height, arguments.frames, arguments.copies)
+    positions = scene.positions
     program = context.program(vertex_shader=_VERTEX_SHADER, fragment_shader=_FRAGMENT_SHADER)
-    program["camera"].write(np.ascontiguousarray(camera.T, dtype=np.float32).tobytes())
+    program["camera"].write(np.ascontiguousarray(scene.camera.T, dtype=np.float32).tobytes())
     program["light"].value = tuple(float(x) for x in np.array([0.35, 0.45, 1.0]) / np.linalg.norm([0.35, 0.45, 1.0]))
     vertices = context.buffer(reserve=positions[0].nbytes, dynamic=True)
-    indices = context.buffer(avatar.triangles.astype(np.uint32).tobytes())
+    indices = context.buffer(scene.triangles.astype(np.uint32).tobytes())
     vao = context.vertex_array(program, [(vertices, "3f", "position")], index_buffer=indices, index_element_size=4)
     framebuffer = context.framebuffer(color_attachments=[context.renderbuffer((width, height))],
                                       depth_attachment=context.depth_renderbuffer((width, height)))
@@ -159,7 +188,8 @@ def measure_peer(threads: int, arguments) -> dict:
     """One round of the peer in a child process with `threads` llvmpipe threads."""
     environment = dict(os.environ, LP_NUM_THREADS=str(threads), EGL_PLATFORM="surfaceless")
     command = [sys.executable, __file__, "--peer-worker", "--size", f"{arguments.width}x{arguments.height}",
-               "--frames", str(arguments.frames), "--repeats", "1", "--word", arguments.word]
+               "--frames", str(arguments.frames), "--repeats", "1", "--word", arguments.word,
+               "--copies", str(arguments.copies)]
     result = subprocess.run(command, capture_output=True, text=True, env=environment, timeout=900)
     lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
     if result.returncode != 0 or not lines:
@@ -183,26 +213,14 @@ def measure_command(arguments) -> dict:
     return {"frames": frames, "render+encode": with_encoding, "process": frames / wall}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--size", default="352x288")
-    parser.add_argument("--frames", type=int, default=60)
-    parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--word", default="HELLO")
-    parser.add_argument("--backends", default="numpy,warp,opencl")
-    parser.add_argument("--peer-worker", action="store_true", help=argparse.SUPPRESS)
-    arguments = parser.parse_args()
-    arguments.width, arguments.height = (int(x) for x in arguments.size.lower().split("x"))
-    if arguments.peer_worker:
-        peer_worker(arguments)
-        return
-
+def measure_scene(arguments, width: int, height: int, copies: int) -> None:
+    """Interleaved rounds of every renderer on one scene and size; prints its table and the ratios."""
     from kernels import backends
-    avatar, camera, matrices, positions = posed_sequence(arguments.word, arguments.width, arguments.height,
-                                                         arguments.frames)
-    print(f"avatar: {len(avatar.vertices)} vertices, {len(avatar.triangles)} triangles; "
-          f"{arguments.width}x{arguments.height}; {arguments.frames} frames x {arguments.repeats} repeats (median); "
-          f"{os.cpu_count()} CPUs", flush=True)
+    arguments = argparse.Namespace(**{**vars(arguments), "width": width, "height": height, "copies": copies})
+    scene = Scene(arguments.word, width, height, arguments.frames, copies)
+    print(f"\n== {copies} avatar{'s' if copies > 1 else ''}: {len(scene.positions[0])} vertices, "
+          f"{len(scene.triangles)} triangles; {width}x{height}; {arguments.frames} frames x {arguments.repeats} "
+          f"repeats (median); {os.cpu_count()} CPUs", flush=True)
     # Rounds interleave every renderer, so that load from other processes on the machine falls on all
     # of them alike; each figure is the median over the rounds.
     labels, samples, skipped = {}, {}, {}
@@ -223,8 +241,7 @@ def main() -> None:
                     skipped[key] = result["skip"]
                     continue
             else:
-                result = measure_backend(key, avatar, camera, matrices, positions, arguments.width,
-                                         arguments.height, arguments.frames)
+                result = measure_backend(key, scene, width, height, arguments.frames)
             for name, value in result.items():
                 if isinstance(value, float):
                     samples.setdefault(key, {}).setdefault(name, []).append(value)
@@ -233,15 +250,12 @@ def main() -> None:
         print(f"{labels[key]} skipped: {reason}", flush=True)
     rows = {labels[key]: {name: statistics.median(values) for name, values in figures.items()}
             for key, figures in samples.items()}
-    command = measure_command(arguments)
 
-    print()
     print(f"{'renderer':<44} {'skin fps':>10} {'raster fps':>11} {'skin+raster fps':>16}")
     for label, row in rows.items():
         cells = [f"{row[k]:>{w}.1f}" if k in row else f"{'-':>{w}}" for k, w in
                  (("skin", 10), ("raster", 11), ("skin+raster", 16))]
         print(f"{label:<44} {' '.join(cells)}")
-    print()
 
     def find(prefix):
         return next((row for label, row in rows.items() if label.startswith(prefix)), None)
@@ -251,22 +265,55 @@ def main() -> None:
     except OSError:
         load = ""
     print(f"(after the run{load})")
-
     warp, opencl = find("warp"), find("opencl")
     peer1, peer2 = find("llvmpipe 1"), find("llvmpipe 2")
-    ratios = [("Warp skin+raster / llvmpipe 1 thread (target >= 1)", warp, "skin+raster", peer1),
+    ratios = [("Warp skin+raster / llvmpipe 1 thread (target >= 2)", warp, "skin+raster", peer1),
               ("Warp raster / llvmpipe 1 thread", warp, "raster", peer1),
-              ("OpenCL skin+raster / llvmpipe 2 threads (target >= 1)", opencl, "skin+raster", peer2),
+              ("OpenCL skin+raster / llvmpipe 2 threads (target >= 2)", opencl, "skin+raster", peer2),
               ("OpenCL raster / llvmpipe 2 threads", opencl, "raster", peer2)]
     for text, ours, key, peer in ratios:
         if ours and peer:
             print(f"{text:<56} {ours[key] / peer['raster']:.2f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--size", default="352x288,640x480", help="comma-separated WxH list (one avatar)")
+    parser.add_argument("--two-avatars-size", default="352x288", help="WxH of the two-avatar frame ('' skips it)")
+    parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--word", default="HELLO")
+    parser.add_argument("--backends", default="numpy,warp,opencl")
+    parser.add_argument("--no-command", action="store_true", help="skip timing `signcast render`")
+    parser.add_argument("--copies", type=int, default=1, help=argparse.SUPPRESS)
+    parser.add_argument("--peer-worker", action="store_true", help=argparse.SUPPRESS)
+    arguments = parser.parse_args()
+
+    def size(text):
+        width, height = (int(x) for x in text.lower().split("x"))
+        return width, height
+
+    if arguments.peer_worker:
+        arguments.width, arguments.height = size(arguments.size)
+        peer_worker(arguments)
+        return
+    sizes = [size(s) for s in arguments.size.split(",") if s]
+    scenes = [(w, h, 1) for w, h in sizes]
+    if arguments.two_avatars_size:
+        scenes.append((*size(arguments.two_avatars_size), 2))
+    for width, height, copies in scenes:
+        measure_scene(arguments, width, height, copies)
+    if arguments.no_command or not sizes:
+        return
+    arguments.width, arguments.height = sizes[0]
+    command = measure_command(arguments)
+    print()
     if "skip" in command:
         print(f"signcast render: {command['skip']}")
     else:
-        print(f"signcast render ase {arguments.word} ({command['frames']} frames, backend auto): "
-              f"{command['render+encode']:.1f} fps render+encode, {command['process']:.1f} fps whole process "
-              f"(target >= 25)")
+        print(f"signcast render ase {arguments.word} ({command['frames']} frames, backend auto, "
+              f"{arguments.width}x{arguments.height}): {command['render+encode']:.1f} fps render+encode, "
+              f"{command['process']:.1f} fps whole process (target >= 25)")
 
 
 if __name__ == "__main__":

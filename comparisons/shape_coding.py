@@ -38,8 +38,17 @@ from functools import lru_cache
 import numpy as np
 
 from kernels import shape_cae as kc
-from kernels.shape_cae import (BAB, COPY, COUNT_LIMIT, INTER_CAE, INTRA_CAE, N_CONTEXTS, OPAQUE, SEARCH_RANGE,
-                               TRANSPARENT)
+from kernels.shape_cae import (
+    BAB,
+    COPY,
+    COUNT_LIMIT,
+    INTER_CAE,
+    INTRA_CAE,
+    N_CONTEXTS,
+    OPAQUE,
+    SEARCH_RANGE,
+    TRANSPARENT,
+)
 from media.errors import SigncastError
 
 __all__ = ["BAB", "COUNT_LIMIT", "MAX_PIXELS", "MAX_SIDE", "MODE_NAMES", "N_CONTEXTS", "SEARCH_RANGE",
@@ -273,7 +282,7 @@ def encode_shape(masks: np.ndarray, gop: int = 12) -> tuple[bytes, ShapeStats]:
     padded[:, :height, :width] = masks
     coder = BinaryArithmeticEncoder()
     canvas = _Canvas(blocks_y, blocks_x)
-    words = np.zeros(canvas.previous.size, np.int64)           # motion-search scratch
+    words = np.zeros(canvas.previous.size, np.uint16)          # motion-search scratch (row_words)
     costs = _cost_table()
     frame_bits = kc.BITS_PER_SYMBOL * (kc.SYMBOLS_PER_FRAME + kc.SYMBOLS_PER_BLOCK * blocks_y * blocks_x)
     for t in range(frames):

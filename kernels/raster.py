@@ -22,6 +22,7 @@ Looks: "shaded" (Lambert per face on a per-triangle albedo, uniform background) 
 be read back by colour). Labels are always hard (no anti-aliasing).
 """
 
+import types
 from typing import NamedTuple
 
 import numpy as np
@@ -260,54 +261,95 @@ def _resolve(s: _Scene, keys, shade):
 # --- Warp (bodies in kernels/raster_warp.py, imported on first use) ------------------------------
 
 class _WarpRaster:
-    """Device buffers are allocated once per image and mesh size; the mesh topology uploads once.
-    On the CPU device the outputs are fresh NumPy arrays that the kernels write into directly."""
+    """Device buffers and recorded launches are kept per mesh and image size, so a frame packs no kernel
+    arguments again; the mesh topology, parts and colours upload only when they change (UploadCache).
+
+    On the CPU device each thread takes a run of items (kernels/raster_warp.py says why) and the
+    positions and outputs are NumPy views of the device buffers; on CUDA one thread per item.
+    """
+
+    CPU_CHUNK = 256          # vertices or triangles per thread on the CPU device (chosen here)
 
     def __init__(self):
         self._uploads = None
-        self._buffers = {}
+        self._frames = {}
 
-    def _buffer(self, name, n, dtype):
+    def _frame(self, s: _Scene, triangles, part, colour, palette):
+        """The buffers and recorded launches for this mesh and image size (built on first use)."""
+        from kernels import raster_warp
         wp, device = backends.warp(), backends.warp_device()
-        slot = (name, n)
-        if slot not in self._buffers:
-            self._buffers[slot] = wp.empty(n, dtype=dtype, device=device)
-        return self._buffers[slot]
+        V, F, W, H = len(s.positions), len(s.triangles), s.width, s.height
+        slot = (V, F, W, H)
+        frame = self._frames.get(slot)
+        if frame is None:
+            on_cpu = device == "cpu"
+            chunk = self.CPU_CHUNK if on_cpu else 1
+            pixel_chunk = W if on_cpu else 1
+            frame = types.SimpleNamespace(
+                positions=wp.empty(V, dtype=wp.vec3, device=device),
+                fixed_x=wp.empty(V, dtype=wp.int64, device=device), fixed_y=wp.empty(V, dtype=wp.int64, device=device),
+                depth=wp.empty(V, dtype=wp.float32, device=device), valid=wp.empty(V, dtype=wp.int32, device=device),
+                keys=wp.full(W * H, int(EMPTY_KEY), dtype=wp.int64, device=device),
+                shade=wp.zeros(F, dtype=wp.float32, device=device),
+                background=wp.zeros(3, dtype=wp.uint8, device=device),
+                outputs=[wp.empty(n, dtype=dtype, device=device) for n, dtype in
+                         ((3 * W * H, wp.uint8), (W * H, wp.uint8), (W * H, wp.int32), (W * H, wp.float32))],
+                clean=True, on_cpu=on_cpu)
+            frame.project = wp.launch(raster_warp.project, dim=-(-V // chunk), device=device, record_cmd=True,
+                                      inputs=[frame.positions, wp.mat44(), float(W), float(H), chunk, frame.fixed_x,
+                                              frame.fixed_y, frame.depth, frame.valid])
+            frame.raster = wp.launch(raster_warp.raster, dim=-(-F // chunk), device=device, record_cmd=True,
+                                     inputs=[triangles, frame.positions, frame.fixed_x, frame.fixed_y, frame.depth,
+                                             frame.valid, W, H, 0, 0, wp.vec3(), 0.0, 0.0, chunk, frame.keys,
+                                             frame.shade])
+            frame.resolve = wp.launch(raster_warp.resolve, dim=-(-(W * H) // pixel_chunk), device=device,
+                                      record_cmd=True,
+                                      inputs=[frame.keys, part, frame.shade, colour, palette, frame.background, 0,
+                                              pixel_chunk, *frame.outputs])
+            frame.inputs = (triangles, part, colour, palette)
+            if len(self._frames) >= 4:
+                self._frames.pop(next(iter(self._frames)))
+            self._frames[slot] = frame
+        return frame
 
     def render(self, s: _Scene):
-        from kernels import raster_warp
         wp, device = backends.warp(), backends.warp_device()
         if self._uploads is None:
             self._uploads = UploadCache(lambda a: wp.array(a.reshape(-1), device=device))
-        V, F, W, H = len(s.positions), len(s.triangles), s.width, s.height
-        on_cpu = device == "cpu"
-        positions = wp.array(s.positions, dtype=wp.vec3, device=device, copy=not on_cpu)
-        triangles = self._uploads.get("triangles", s.triangles)
-        fixed_x, fixed_y = self._buffer("fixed_x", V, wp.int64), self._buffer("fixed_y", V, wp.int64)
-        depth, valid = self._buffer("depth", V, wp.float32), self._buffer("valid", V, wp.int32)
-        wp.launch(raster_warp.project, dim=V, device=device,
-                  inputs=[positions, wp.mat44(s.camera), float(W), float(H), fixed_x, fixed_y, depth, valid])
-        keys = self._buffer("keys", W * H, wp.int64)
-        keys.fill_(int(EMPTY_KEY))
-        shade = self._buffer("shade", F, wp.float32)
-        wp.launch(raster_warp.raster, dim=F, device=device,
-                  inputs=[triangles, positions, fixed_x, fixed_y, depth, valid, W, H, int(s.cull), int(s.shaded),
-                          wp.vec3(*s.light[:3]), float(s.light[3]), float(s.light[4]), keys, shade])
-        host = (np.empty((H, W, 3), np.uint8), np.empty((H, W), np.uint8), np.empty((H, W), np.int32),
-                np.empty((H, W), np.float32))
-        if on_cpu:
-            outputs = [wp.array(a.reshape(-1), device=device, copy=False) for a in host]
-        else:
-            outputs = [self._buffer(name, a.size, dtype) for name, a, dtype in
-                       zip(("rgb", "labels", "triangle_id", "depth_out"), host, (wp.uint8, wp.uint8, wp.int32, wp.float32))]
+        W, H = s.width, s.height
+        inputs = (self._uploads.get("triangles", s.triangles), self._uploads.get("part", s.triangle_part),
+                  self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette))
+        frame = self._frame(s, *inputs)
+        if any(a is not b for a, b in zip(inputs, frame.inputs)):     # the mesh or its colours changed
+            frame.raster.set_param_at_index(0, inputs[0])
+            for index, array in zip((1, 3, 4), inputs[1:]):
+                frame.resolve.set_param_at_index(index, array)
+            frame.inputs = inputs
+        if not frame.clean:            # an earlier frame stopped between raster and resolve
+            frame.keys.fill_(int(EMPTY_KEY))
         background = s.background if s.shaded else s.palette[0]
-        wp.launch(raster_warp.resolve, dim=W * H, device=device,
-                  inputs=[keys, self._uploads.get("part", s.triangle_part), shade, self._uploads.get("colour", s.colour),
-                          self._uploads.get("palette", s.palette), wp.array(background, device=device),
-                          int(s.shaded), *outputs])
-        if on_cpu:
-            return host
-        return tuple(o.numpy().reshape(a.shape) for o, a in zip(outputs, host))
+        if frame.on_cpu:
+            frame.positions.numpy()[:] = s.positions
+            frame.background.numpy()[:] = background
+        else:
+            frame.positions.assign(s.positions)
+            frame.background.assign(background)
+        frame.project.set_param_at_index(1, wp.mat44(s.camera))
+        frame.raster.set_param_at_index(8, int(s.cull))
+        frame.raster.set_param_at_index(9, int(s.shaded))
+        frame.raster.set_param_at_index(10, wp.vec3(*s.light[:3]))
+        frame.raster.set_param_at_index(11, float(s.light[3]))
+        frame.raster.set_param_at_index(12, float(s.light[4]))
+        frame.resolve.set_param_at_index(6, int(s.shaded))
+        frame.project.launch()
+        frame.clean = False
+        frame.raster.launch()
+        frame.resolve.launch()
+        frame.clean = True
+        shapes = ((H, W, 3), (H, W), (H, W), (H, W))
+        # CPU: copies of the buffers' NumPy views (the next frame overwrites them); CUDA: .numpy() copies already
+        return tuple((o.numpy().copy() if frame.on_cpu else o.numpy()).reshape(shape)
+                     for o, shape in zip(frame.outputs, shapes))
 
 
 # --- OpenCL ---------------------------------------------------------------------------------------
@@ -327,6 +369,12 @@ inline long top_left_bias(long ax, long ay, long bx, long by) {
     return (dy < 0 || (dy == 0 && dx > 0)) ? 0 : 1;
 }
 
+/* first pixel whose centre lies at or after fixed-point coordinate low (clipped to 0) */
+inline long first_centre(long low) { return (max(low, 0L) + HALF_SUBPIXEL - 1) / SUBPIXEL; }
+
+/* last pixel whose centre lies at or before fixed-point coordinate high, -1 if none */
+inline long last_centre(long high) { return high < HALF_SUBPIXEL ? -1L : (high - HALF_SUBPIXEL) / SUBPIXEL; }
+
 inline float face_shade(float3 p0, float3 p1, float3 p2, int flipped, float lx, float ly, float lz,
                         float ambient, float diffuse) {
     float3 e1 = p1 - p0, e2 = p2 - p0;
@@ -339,15 +387,16 @@ inline float face_shade(float3 p0, float3 p1, float3 p2, int flipped, float lx, 
     return ambient + diffuse * fmax(cosine, 0.0f);
 }
 
-__kernel void project(__global const float *positions, __constant float *m, float width, float height,
+/* m: the world -> clip matrix, row-major, as one kernel argument (no upload) */
+__kernel void project(__global const float *positions, float16 m, float width, float height,
                       __global long *fixed_x, __global long *fixed_y, __global float *depth,
                       __global int *valid) {
     int v = get_global_id(0);
     float x = positions[3 * v], y = positions[3 * v + 1], z = positions[3 * v + 2];
-    float cx = m[0] * x + m[1] * y + m[2] * z + m[3];
-    float cy = m[4] * x + m[5] * y + m[6] * z + m[7];
-    float cz = m[8] * x + m[9] * y + m[10] * z + m[11];
-    float cw = m[12] * x + m[13] * y + m[14] * z + m[15];
+    float cx = m.s0 * x + m.s1 * y + m.s2 * z + m.s3;
+    float cy = m.s4 * x + m.s5 * y + m.s6 * z + m.s7;
+    float cz = m.s8 * x + m.s9 * y + m.sa * z + m.sb;
+    float cw = m.sc * x + m.sd * y + m.se * z + m.sf;
     int ok = cw > MIN_CLIP_W;
     float w = ok ? cw : 1.0f;
     float wx = (cx / w * 0.5f + 0.5f) * width;
@@ -369,23 +418,23 @@ __kernel void raster(__global const int *triangles, __global const float *positi
     int i0 = triangles[3 * t], i1 = triangles[3 * t + 1], i2 = triangles[3 * t + 2];
     if (!valid[i0] || !valid[i1] || !valid[i2]) return;
     long x0 = fixed_x[i0], y0 = fixed_y[i0], x1 = fixed_x[i1], y1 = fixed_y[i1], x2 = fixed_x[i2], y2 = fixed_y[i2];
-    float z0 = depth[i0], z1 = depth[i1], z2 = depth[i2];
     long area = edge(x0, y0, x1, y1, x2, y2);
-    if (area == 0) return;
+    if (area == 0 || (area > 0 && cull)) return;
+    /* bounding box of the pixel centres the triangle can cover, clipped to the image: a triangle between
+       pixel centres (sub-pixel) or off the image covers none and stops here */
+    long xmin = first_centre(min(min(x0, x1), x2)), xmax = min(last_centre(max(max(x0, x1), x2)), (long)(width - 1));
+    if (xmax < xmin) return;
+    long ymin = first_centre(min(min(y0, y1), y2)), ymax = min(last_centre(max(max(y0, y1), y2)), (long)(height - 1));
+    if (ymax < ymin) return;
+    float z0 = depth[i0], z1 = depth[i1], z2 = depth[i2];
     int flipped = 0;
     if (area > 0) {             /* window y points down: front faces turn clockwise, area < 0 */
-        if (cull) return;
         /* a back face drawn anyway: orient it clockwise in window space like a front face */
         long tx = x1, ty = y1; float tz = z1;
         x1 = x2; y1 = y2; z1 = z2; x2 = tx; y2 = ty; z2 = tz;
         area = -area;
         flipped = 1;
     }
-    /* bounding box, clipped to the image */
-    if (max(max(x0, x1), x2) < 0 || max(max(y0, y1), y2) < 0) return;
-    long xmin = max(min(min(x0, x1), x2), 0L) / SUBPIXEL, xmax = min(max(max(x0, x1), x2) / SUBPIXEL, (long)(width - 1));
-    long ymin = max(min(min(y0, y1), y2), 0L) / SUBPIXEL, ymax = min(max(max(y0, y1), y2) / SUBPIXEL, (long)(height - 1));
-    if (xmax < xmin || ymax < ymin) return;
     if (shaded)
         shade[t] = face_shade(vload3(i0, positions), vload3(i1, positions), vload3(i2, positions), flipped,
                               lx, ly, lz, ambient, diffuse);
@@ -422,17 +471,23 @@ __kernel void raster(__global const int *triangles, __global const float *positi
 
 __kernel void clear(__global long *keys) { keys[get_global_id(0)] = EMPTY_KEY; }
 
-__kernel void resolve(__global const long *keys, __global const uchar *triangle_part, __global const float *shade,
+/* Pixel i: key -> triangle id, label, depth and colour, all in one output buffer read back in one copy:
+   rgb (3n bytes), labels (n), triangle ids (4n), depth (4n) for n pixels. The key is reset to EMPTY_KEY
+   for the next frame, so no clearing pass is needed. */
+__kernel void resolve(__global long *keys, __global const uchar *triangle_part, __global const float *shade,
                       __global const uchar *colour, __global const uchar *palette, uchar bg_r, uchar bg_g,
-                      uchar bg_b, int shaded, __global uchar *rgb, __global uchar *labels,
-                      __global int *triangle_id, __global float *depth_out) {
-    int i = get_global_id(0);
+                      uchar bg_b, int shaded, __global uchar *out) {
+    int i = get_global_id(0), n = get_global_size(0);
+    __global uchar *rgb = out, *labels = out + 3 * n;
+    __global int *triangle_id = (__global int *)(out + 4 * n);
+    __global float *depth_out = (__global float *)(out + 8 * n);
     long key = keys[i];
     if (key == EMPTY_KEY) {
         labels[i] = 0; triangle_id[i] = -1; depth_out[i] = INFINITY;
         rgb[3 * i] = bg_r; rgb[3 * i + 1] = bg_g; rgb[3 * i + 2] = bg_b;
         return;
     }
+    keys[i] = EMPTY_KEY;
     int t = (int)(key % ID_SCALE);
     uchar label = triangle_part[t];
     labels[i] = label; triangle_id[i] = t;
@@ -448,11 +503,15 @@ __kernel void resolve(__global const long *keys, __global const uchar *triangle_
 
 
 class _OpenCLRaster:
-    """One program, kernels fetched once, device buffers kept per size; topology uploads once."""
+    """One program, kernels fetched once, device buffers kept per size; the mesh topology, parts and
+    colours upload only when they change (UploadCache). A frame is five commands: upload the
+    positions, project, raster, resolve (which also clears the keys for the next frame), and one
+    read-back of all four outputs."""
 
     def __init__(self):
         self._uploads = None
         self._buffer = OpenCLBuffers().get
+        self._clean_keys = None
 
     def render(self, s: _Scene):
         import pyopencl as cl
@@ -464,28 +523,31 @@ class _OpenCLRaster:
         V, F, W, H = len(s.positions), len(s.triangles), s.width, s.height
         positions = self._buffer("positions", s.positions.nbytes)
         cl.enqueue_copy(queue, positions, s.positions, is_blocking=False)
-        camera = self._buffer("camera", 64)
-        cl.enqueue_copy(queue, camera, s.camera, is_blocking=False)
         triangles = self._uploads.get("triangles", s.triangles)
         fixed_x, fixed_y = self._buffer("fixed_x", 8 * V), self._buffer("fixed_y", 8 * V)
         depth, valid = self._buffer("depth", 4 * V), self._buffer("valid", 4 * V)
-        k.project(queue, (V,), None, positions, camera, np.float32(W), np.float32(H), fixed_x, fixed_y, depth, valid)
+        camera = np.zeros(1, cl.cltypes.float16)
+        camera.view(np.float32)[:] = s.camera.reshape(-1)
+        k.project(queue, (V,), None, positions, camera[0], np.float32(W), np.float32(H), fixed_x, fixed_y, depth,
+                  valid)
         keys = self._buffer("keys", 8 * W * H)
-        k.clear(queue, (W * H,), None, keys)
+        if self._clean_keys is not keys:     # new buffer, or an earlier frame stopped before its resolve
+            k.clear(queue, (W * H,), None, keys)
+        self._clean_keys = None
         shade = self._buffer("shade", 4 * F)
         k.raster(queue, (F,), None, triangles, positions, fixed_x, fixed_y, depth, valid, np.int32(W), np.int32(H),
-                    np.int32(s.cull), np.int32(s.shaded), *(np.float32(x) for x in s.light), keys, shade)
-        host = (np.empty((H, W, 3), np.uint8), np.empty((H, W), np.uint8), np.empty((H, W), np.int32),
-                np.empty((H, W), np.float32))
-        outputs = [self._buffer(name, a.nbytes) for name, a in zip(("rgb", "labels", "triangle_id", "depth_out"), host)]
+                 np.int32(s.cull), np.int32(s.shaded), *(np.float32(x) for x in s.light), keys, shade)
+        out = self._buffer("out", 12 * W * H)
         background = s.background if s.shaded else s.palette[0]
         k.resolve(queue, (W * H,), None, keys, self._uploads.get("part", s.triangle_part), shade,
-                     self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette),
-                     *(np.uint8(c) for c in background), np.int32(s.shaded), *outputs)
-        for array, device_buffer in zip(host, outputs):
-            cl.enqueue_copy(queue, array, device_buffer, is_blocking=False)
-        queue.finish()
-        return host
+                  self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette),
+                  *(np.uint8(c) for c in background), np.int32(s.shaded), out)
+        host = np.empty(12 * W * H, np.uint8)
+        cl.enqueue_copy(queue, host, out, is_blocking=True)
+        self._clean_keys = keys
+        n = W * H
+        return (host[:3 * n].reshape(H, W, 3), host[3 * n:4 * n].reshape(H, W),
+                host[4 * n:8 * n].view(np.int32).reshape(H, W), host[8 * n:].view(np.float32).reshape(H, W))
 
 
 _IMPLEMENTATIONS = {"numpy": _NumpyRaster(), "warp": _WarpRaster(), "opencl": _OpenCLRaster()}

@@ -1,6 +1,13 @@
-"""Warp bodies of kernels/raster.py: `project` (one thread per vertex), `raster` (one per triangle),
-`resolve` (one per pixel). The steps and the arithmetic are those of the NumPy oracle and of the
-OpenCL source in kernels/raster.py; the constants come from there too.
+"""Warp bodies of kernels/raster.py: `project` (vertices), `raster` (triangles), `resolve` (image rows).
+
+The steps and the arithmetic are those of the NumPy oracle and of the OpenCL source in
+kernels/raster.py; the constants come from there too.
+
+Each thread takes a run of `chunk` items (vertices, triangles, pixels) rather than one: Warp-CPU runs
+the threads of a launch one after another, and the per-thread cost (argument copy, call) would
+otherwise outweigh the work of the avatar's triangles, which cover a few pixels each. On CUDA the
+host layer passes chunk = 1. `resolve` also writes EMPTY_KEY back into every key it reads, so the
+next frame starts from a cleared key buffer without a separate clearing pass (chosen here).
 
 Imported by the host layer in kernels/raster.py on first use, so that `import kernels` does not
 start Warp; Warp is initialised quietly through kernels.backends.warp().
@@ -37,6 +44,20 @@ def top_left_bias(ax: wp.int64, ay: wp.int64, bx: wp.int64, by: wp.int64):
 
 
 @wp.func
+def first_centre(low: wp.int64):
+    """First pixel whose centre lies at or after fixed-point coordinate `low` (clipped to 0)."""
+    return (wp.max(low, wp.int64(0)) + HALF_SUBPIXEL - wp.int64(1)) / SUBPIXEL
+
+
+@wp.func
+def last_centre(high: wp.int64):
+    """Last pixel whose centre lies at or before fixed-point coordinate `high`, -1 if none (high >= 0)."""
+    if high < HALF_SUBPIXEL:
+        return wp.int64(-1)
+    return (high - HALF_SUBPIXEL) / SUBPIXEL
+
+
+@wp.func
 def face_shade(p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, flipped: wp.int32, light: wp.vec3, ambient: wp.float32,
                diffuse: wp.float32):
     """Lambert factor of the face p0 p1 p2 (metres): ambient + diffuse * max(n . l, 0)."""
@@ -56,153 +77,166 @@ def face_shade(p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, flipped: wp.int32, light: 
 
 @wp.kernel
 def project(positions: wp.array(dtype=wp.vec3), m: wp.mat44, width: wp.float32, height: wp.float32,
-            fixed_x: wp.array(dtype=wp.int64), fixed_y: wp.array(dtype=wp.int64), depth: wp.array(dtype=wp.float32),
-            valid: wp.array(dtype=wp.int32)):
-    """Vertex v to window coordinates in 1/SUBPIXEL pixel, depth in [0, 1], and whether it may be drawn."""
-    v = wp.tid()
-    p = positions[v]
-    cx = m[0, 0] * p[0] + m[0, 1] * p[1] + m[0, 2] * p[2] + m[0, 3]
-    cy = m[1, 0] * p[0] + m[1, 1] * p[1] + m[1, 2] * p[2] + m[1, 3]
-    cz = m[2, 0] * p[0] + m[2, 1] * p[1] + m[2, 2] * p[2] + m[2, 3]
-    cw = m[3, 0] * p[0] + m[3, 1] * p[1] + m[3, 2] * p[2] + m[3, 3]
-    ok = cw > MIN_CLIP_W
-    w = 1.0
-    if ok:
-        w = cw
-    wx = (cx / w * 0.5 + 0.5) * width
-    wy = (0.5 - cy / w * 0.5) * height
-    depth[v] = cz / w * 0.5 + 0.5
-    if wp.abs(wx) >= GUARD_PIXELS or wp.abs(wy) >= GUARD_PIXELS:
-        ok = False
-    if ok:
-        fixed_x[v] = wp.int64(wp.floor(wx * wp.float32(SUBPIXEL) + 0.5))
-        fixed_y[v] = wp.int64(wp.floor(wy * wp.float32(SUBPIXEL) + 0.5))
-        valid[v] = 1
-    else:
-        fixed_x[v] = wp.int64(0)
-        fixed_y[v] = wp.int64(0)
-        valid[v] = 0
+            chunk: wp.int32, fixed_x: wp.array(dtype=wp.int64), fixed_y: wp.array(dtype=wp.int64),
+            depth: wp.array(dtype=wp.float32), valid: wp.array(dtype=wp.int32)):
+    """Vertices [tid * chunk, (tid + 1) * chunk) to window coordinates in 1/SUBPIXEL pixel, depth in [0, 1],
+    and whether each may be drawn."""
+    first = wp.tid() * chunk
+    for v in range(first, wp.min(first + chunk, positions.shape[0])):
+        p = positions[v]
+        cx = m[0, 0] * p[0] + m[0, 1] * p[1] + m[0, 2] * p[2] + m[0, 3]
+        cy = m[1, 0] * p[0] + m[1, 1] * p[1] + m[1, 2] * p[2] + m[1, 3]
+        cz = m[2, 0] * p[0] + m[2, 1] * p[1] + m[2, 2] * p[2] + m[2, 3]
+        cw = m[3, 0] * p[0] + m[3, 1] * p[1] + m[3, 2] * p[2] + m[3, 3]
+        ok = cw > MIN_CLIP_W
+        w = 1.0
+        if ok:
+            w = cw
+        wx = (cx / w * 0.5 + 0.5) * width
+        wy = (0.5 - cy / w * 0.5) * height
+        depth[v] = cz / w * 0.5 + 0.5
+        if wp.abs(wx) >= GUARD_PIXELS or wp.abs(wy) >= GUARD_PIXELS:
+            ok = False
+        if ok:
+            fixed_x[v] = wp.int64(wp.floor(wx * wp.float32(SUBPIXEL) + 0.5))
+            fixed_y[v] = wp.int64(wp.floor(wy * wp.float32(SUBPIXEL) + 0.5))
+            valid[v] = 1
+        else:
+            fixed_x[v] = wp.int64(0)
+            fixed_y[v] = wp.int64(0)
+            valid[v] = 0
 
 
 @wp.kernel
 def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec3),
            fixed_x: wp.array(dtype=wp.int64), fixed_y: wp.array(dtype=wp.int64), depth: wp.array(dtype=wp.float32),
            valid: wp.array(dtype=wp.int32), width: wp.int32, height: wp.int32, cull: wp.int32, shaded: wp.int32,
-           light: wp.vec3, ambient: wp.float32, diffuse: wp.float32, keys: wp.array(dtype=wp.int64),
+           light: wp.vec3, ambient: wp.float32, diffuse: wp.float32, chunk: wp.int32, keys: wp.array(dtype=wp.int64),
            shade: wp.array(dtype=wp.float32)):
-    """Triangle t: per-triangle setup and bounding box, edge functions with the top-left rule, depth test."""
-    t = wp.tid()
-    # per-triangle setup: drop triangles with a vertex off limits, degenerate ones, culled back faces
-    i0 = triangles[3 * t]
-    i1 = triangles[3 * t + 1]
-    i2 = triangles[3 * t + 2]
-    if valid[i0] == 0 or valid[i1] == 0 or valid[i2] == 0:
-        return
-    area = edge(fixed_x[i0], fixed_y[i0], fixed_x[i1], fixed_y[i1], fixed_x[i2], fixed_y[i2])
-    if area == wp.int64(0):
-        return
-    # window y points down: front faces turn clockwise, area < 0; a back face drawn anyway takes its vertices
-    # 1 and 2 swapped, so it turns clockwise like a front face
-    j1 = i1
-    j2 = i2
-    flipped = int(0)
-    if area > wp.int64(0):
-        if cull != 0:
-            return
-        j1 = i2
-        j2 = i1
-        area = -area
-        flipped = 1
-    x0 = fixed_x[i0]
-    y0 = fixed_y[i0]
-    x1 = fixed_x[j1]
-    y1 = fixed_y[j1]
-    x2 = fixed_x[j2]
-    y2 = fixed_y[j2]
-    z0 = depth[i0]
-    z1 = depth[j1]
-    z2 = depth[j2]
-    # bounding box, clipped to the image
-    if wp.max(wp.max(x0, x1), x2) < wp.int64(0) or wp.max(wp.max(y0, y1), y2) < wp.int64(0):
-        return
-    xmin = wp.max(wp.min(wp.min(x0, x1), x2), wp.int64(0)) / SUBPIXEL
-    xmax = wp.min(wp.max(wp.max(x0, x1), x2) / SUBPIXEL, wp.int64(width - 1))
-    ymin = wp.max(wp.min(wp.min(y0, y1), y2), wp.int64(0)) / SUBPIXEL
-    ymax = wp.min(wp.max(wp.max(y0, y1), y2) / SUBPIXEL, wp.int64(height - 1))
-    if xmax < xmin or ymax < ymin:
-        return
-    if shaded != 0:
-        shade[t] = face_shade(positions[i0], positions[i1], positions[i2], flipped, light, ambient, diffuse)
-    # walking order a, b, c = v0, v2, v1 turns counter-clockwise: edge functions are positive inside
-    ax = x0
-    ay = y0
-    bx = x2
-    by = y2
-    cx = x1
-    cy = y1
-    inverse_area = 1.0 / wp.float32(-area)
-    dz1 = z1 - z0
-    dz2 = z2 - z0
-    # edge functions at the pixel centres, with the top-left rule, stepped incrementally across the box
-    b0 = top_left_bias(bx, by, cx, cy)
-    b1 = top_left_bias(cx, cy, ax, ay)
-    b2 = top_left_bias(ax, ay, bx, by)
-    start_x = xmin * SUBPIXEL + HALF_SUBPIXEL
-    start_y = ymin * SUBPIXEL + HALF_SUBPIXEL
-    row0 = edge(bx, by, cx, cy, start_x, start_y)
-    row1 = edge(cx, cy, ax, ay, start_x, start_y)
-    row2 = edge(ax, ay, bx, by, start_x, start_y)
-    step_x0 = -(cy - by) * SUBPIXEL
-    step_x1 = -(ay - cy) * SUBPIXEL
-    step_x2 = -(by - ay) * SUBPIXEL
-    step_y0 = (cx - bx) * SUBPIXEL
-    step_y1 = (ax - cx) * SUBPIXEL
-    step_y2 = (bx - ax) * SUBPIXEL
-    for py in range(wp.int32(ymin), wp.int32(ymax) + 1):
-        e0 = row0
-        e1 = row1
-        e2 = row2
-        for px in range(wp.int32(xmin), wp.int32(xmax) + 1):
-            if e0 >= b0 and e1 >= b1 and e2 >= b2:
-                # depth test: interpolate, keep [0, 1], atomic minimum of the key depth * ID_SCALE + triangle
-                l1 = wp.float32(e2) * inverse_area
-                l2 = wp.float32(e1) * inverse_area
-                z = z0 + l1 * dz1 + l2 * dz2
-                if z >= 0.0 and z <= 1.0:
-                    key = wp.int64(z * DEPTH_SCALE) * ID_SCALE + wp.int64(t)
-                    wp.atomic_min(keys, py * width + px, key)
-            e0 += step_x0
-            e1 += step_x1
-            e2 += step_x2
-        row0 += step_y0
-        row1 += step_y1
-        row2 += step_y2
+    """Triangles [tid * chunk, (tid + 1) * chunk): per-triangle setup, edge functions with the top-left rule
+    over the pixel centres inside the bounding box, depth test."""
+    first = wp.tid() * chunk
+    for t in range(first, wp.min(first + chunk, triangles.shape[0] / 3)):
+        # per-triangle setup: drop triangles with a vertex off limits, degenerate ones, culled back faces
+        i0 = triangles[3 * t]
+        i1 = triangles[3 * t + 1]
+        i2 = triangles[3 * t + 2]
+        if valid[i0] == 0 or valid[i1] == 0 or valid[i2] == 0:
+            continue
+        x0 = fixed_x[i0]
+        y0 = fixed_y[i0]
+        x1 = fixed_x[i1]
+        y1 = fixed_y[i1]
+        x2 = fixed_x[i2]
+        y2 = fixed_y[i2]
+        area = edge(x0, y0, x1, y1, x2, y2)
+        if area == wp.int64(0) or (area > wp.int64(0) and cull != 0):
+            continue
+        # bounding box of the pixel centres the triangle can cover, clipped to the image: a triangle that
+        # lies between pixel centres (sub-pixel) or off the image covers none and stops here
+        xmin = first_centre(wp.min(wp.min(x0, x1), x2))
+        xmax = wp.min(last_centre(wp.max(wp.max(x0, x1), x2)), wp.int64(width - 1))
+        if xmax < xmin:
+            continue
+        ymin = first_centre(wp.min(wp.min(y0, y1), y2))
+        ymax = wp.min(last_centre(wp.max(wp.max(y0, y1), y2)), wp.int64(height - 1))
+        if ymax < ymin:
+            continue
+        # window y points down: front faces turn clockwise, area < 0; a back face drawn anyway takes its
+        # vertices 1 and 2 swapped, so it turns clockwise like a front face
+        j1 = i1
+        j2 = i2
+        flipped = int(0)
+        if area > wp.int64(0):
+            j1 = i2
+            j2 = i1
+            area = -area
+            flipped = 1
+            x1 = fixed_x[j1]
+            y1 = fixed_y[j1]
+            x2 = fixed_x[j2]
+            y2 = fixed_y[j2]
+        z0 = depth[i0]
+        z1 = depth[j1]
+        z2 = depth[j2]
+        if shaded != 0:
+            shade[t] = face_shade(positions[i0], positions[i1], positions[i2], flipped, light, ambient, diffuse)
+        # walking order a, b, c = v0, v2, v1 turns counter-clockwise: edge functions are positive inside
+        ax = x0
+        ay = y0
+        bx = x2
+        by = y2
+        cx = x1
+        cy = y1
+        inverse_area = 1.0 / wp.float32(-area)
+        dz1 = z1 - z0
+        dz2 = z2 - z0
+        # edge functions at the pixel centres, with the top-left rule, stepped incrementally across the box
+        b0 = top_left_bias(bx, by, cx, cy)
+        b1 = top_left_bias(cx, cy, ax, ay)
+        b2 = top_left_bias(ax, ay, bx, by)
+        start_x = xmin * SUBPIXEL + HALF_SUBPIXEL
+        start_y = ymin * SUBPIXEL + HALF_SUBPIXEL
+        row0 = edge(bx, by, cx, cy, start_x, start_y)
+        row1 = edge(cx, cy, ax, ay, start_x, start_y)
+        row2 = edge(ax, ay, bx, by, start_x, start_y)
+        step_x0 = -(cy - by) * SUBPIXEL
+        step_x1 = -(ay - cy) * SUBPIXEL
+        step_x2 = -(by - ay) * SUBPIXEL
+        step_y0 = (cx - bx) * SUBPIXEL
+        step_y1 = (ax - cx) * SUBPIXEL
+        step_y2 = (bx - ax) * SUBPIXEL
+        for py in range(wp.int32(ymin), wp.int32(ymax) + 1):
+            e0 = row0
+            e1 = row1
+            e2 = row2
+            for px in range(wp.int32(xmin), wp.int32(xmax) + 1):
+                if e0 >= b0 and e1 >= b1 and e2 >= b2:
+                    # depth test: interpolate, keep [0, 1], atomic minimum of the key depth * ID_SCALE + triangle
+                    l1 = wp.float32(e2) * inverse_area
+                    l2 = wp.float32(e1) * inverse_area
+                    z = z0 + l1 * dz1 + l2 * dz2
+                    if z >= 0.0 and z <= 1.0:
+                        key = wp.int64(z * DEPTH_SCALE) * ID_SCALE + wp.int64(t)
+                        wp.atomic_min(keys, py * width + px, key)
+                e0 += step_x0
+                e1 += step_x1
+                e2 += step_x2
+            row0 += step_y0
+            row1 += step_y1
+            row2 += step_y2
 
 
 @wp.kernel
 def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uint8), shade: wp.array(dtype=wp.float32),
             colour: wp.array(dtype=wp.uint8), palette: wp.array(dtype=wp.uint8), background: wp.array(dtype=wp.uint8),
-            shaded: wp.int32, rgb: wp.array(dtype=wp.uint8), labels: wp.array(dtype=wp.uint8),
+            shaded: wp.int32, chunk: wp.int32, rgb: wp.array(dtype=wp.uint8), labels: wp.array(dtype=wp.uint8),
             triangle_id: wp.array(dtype=wp.int32), depth_out: wp.array(dtype=wp.float32)):
-    """Pixel i: its key -> triangle id, label, depth and colour."""
-    i = wp.tid()
-    key = keys[i]
-    if key == EMPTY_KEY:
-        labels[i] = wp.uint8(0)
-        triangle_id[i] = -1
-        depth_out[i] = wp.inf
-        for k in range(3):
-            rgb[3 * i + k] = background[k]
-        return
-    t = wp.int32(key % ID_SCALE)
-    label = triangle_part[t]
-    labels[i] = label
-    triangle_id[i] = t
-    depth_out[i] = wp.float32(key / ID_SCALE) / DEPTH_SCALE
-    if shaded == 0:
-        for k in range(3):
-            rgb[3 * i + k] = palette[3 * wp.int32(label) + k]
-    else:
-        s = shade[t]
-        for k in range(3):
-            rgb[3 * i + k] = wp.uint8(wp.min(wp.float32(colour[3 * t + k]) * s + 0.5, 255.0))
+    """Pixels [tid * chunk, (tid + 1) * chunk): each key -> triangle id, label, depth and colour; the key is
+    reset to EMPTY_KEY for the next frame."""
+    first = wp.tid() * chunk
+    for i in range(first, wp.min(first + chunk, keys.shape[0])):
+        key = keys[i]
+        if key == EMPTY_KEY:
+            labels[i] = wp.uint8(0)
+            triangle_id[i] = -1
+            depth_out[i] = wp.inf
+            rgb[3 * i] = background[0]
+            rgb[3 * i + 1] = background[1]
+            rgb[3 * i + 2] = background[2]
+            continue
+        keys[i] = EMPTY_KEY
+        t = wp.int32(key % ID_SCALE)
+        label = triangle_part[t]
+        labels[i] = label
+        triangle_id[i] = t
+        depth_out[i] = wp.float32(key / ID_SCALE) / DEPTH_SCALE
+        if shaded == 0:
+            rgb[3 * i] = palette[3 * wp.int32(label)]
+            rgb[3 * i + 1] = palette[3 * wp.int32(label) + 1]
+            rgb[3 * i + 2] = palette[3 * wp.int32(label) + 2]
+        else:
+            s = shade[t]
+            rgb[3 * i] = wp.uint8(wp.min(wp.float32(colour[3 * t]) * s + 0.5, 255.0))
+            rgb[3 * i + 1] = wp.uint8(wp.min(wp.float32(colour[3 * t + 1]) * s + 0.5, 255.0))
+            rgb[3 * i + 2] = wp.uint8(wp.min(wp.float32(colour[3 * t + 2]) * s + 0.5, 255.0))
