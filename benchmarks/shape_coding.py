@@ -1,0 +1,118 @@
+"""How fast is the binary shape coder (comparisons/shape_coding.py), per frame and object, both ways?
+
+Live delivery (pipeline/live/objects.py, comparisons/shape_units.py) codes every video object's shape every
+frame, so all objects' shapes (and their texture) must fit in 40 ms at 25 fps on 2 cores. This renders the
+first --frames frames of ASL "AB" by the NumPy backend at 176x144 and 352x288, takes the head, right hand,
+signer and clothes masks (media.segmentation.object_masks), codes each sequence at GOP 12 and decodes it, and
+prints milliseconds per frame (best of --repeats rounds after a warm-up round that also pays Numba's
+compilation or cache load) beside the baseline below and the speed-up over it.
+
+Baseline: the pure-Python coder (per-pixel loops in Python), measured on this project's 2-core build machine
+before the loops moved into kernels/shape_cae.py, same masks, same settings; ms per frame:
+
+    size     object       encode  decode
+    176x144  head           5.70    3.54
+    176x144  right_hand     4.82    2.45
+    176x144  signer        20.78    7.72
+    176x144  clothes       15.93    4.98
+    352x288  head          12.62    6.32
+    352x288  right_hand     6.01    2.97
+    352x288  signer        69.03   26.79
+    352x288  clothes       43.10   14.53
+
+    python benchmarks/shape_coding.py [--frames 20] [--repeats 3] [--cores 2]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+SIZES = ((176, 144), (352, 288))
+OBJECTS = ("head", "right_hand", "signer", "clothes")
+GOP = 12
+BASELINE_MS: dict[tuple[str, str], tuple[float, float]] = {   # (size, object) -> (encode, decode) ms per frame
+    ("176x144", "head"): (5.70, 3.54),
+    ("176x144", "right_hand"): (4.82, 2.45),
+    ("176x144", "signer"): (20.78, 7.72),
+    ("176x144", "clothes"): (15.93, 4.98),
+    ("352x288", "head"): (12.62, 6.32),
+    ("352x288", "right_hand"): (6.01, 2.97),
+    ("352x288", "signer"): (69.03, 26.79),
+    ("352x288", "clothes"): (43.10, 14.53),
+}
+
+
+def pin(cores: int) -> None:
+    """Hold this process to `cores` CPUs (the shape coder itself is single-threaded)."""
+    available = sorted(os.sched_getaffinity(0))
+    os.sched_setaffinity(0, set(available[:cores]))
+
+
+def best_time(run, repeats: int) -> float:
+    """Fewest seconds of run() over `repeats` rounds, after one warm-up round."""
+    run()
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - started)
+    return min(times)
+
+
+def render_masks(width: int, height: int, frames: int):
+    """Object name -> (frames, height, width) bool masks of ASL "AB"."""
+    import numpy as np
+
+    from media.avatar import load_avatar
+    from media.fingerspelling import fingerspell
+    from media.render import AvatarRenderer, RenderSettings
+    from media.segmentation import object_masks
+
+    renderer = AvatarRenderer(load_avatar(), RenderSettings(width=width, height=height, backend="numpy"))
+    labels = []
+    for _, frame_labels in renderer.frames(fingerspell("ase", "AB")):
+        labels.append(frame_labels)
+        if len(labels) == frames:
+            break
+    masks = object_masks(np.stack(labels))
+    return {name: masks[name] for name in OBJECTS}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--frames", type=int, default=20)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--cores", type=int, default=2)
+    args = parser.parse_args()
+    pin(args.cores)
+
+    import numpy as np
+
+    from comparisons.shape_coding import decode_shape, encode_shape
+
+    print(f"{'size':8} {'object':11} {'enc ms':>7} {'dec ms':>7} {'bytes':>6}   {'base enc':>8} {'base dec':>8}"
+          f" {'enc x':>6} {'dec x':>6}")
+    for width, height in SIZES:
+        size = f"{width}x{height}"
+        for name, masks in render_masks(width, height, args.frames).items():
+            frames = len(masks)
+            stream, _ = encode_shape(masks, gop=GOP)
+            if not np.array_equal(decode_shape(stream), masks):
+                raise SystemExit(f"{size} {name}: the shape stream does not decode to its masks")
+            encode_ms = 1000 * best_time(lambda masks=masks: encode_shape(masks, gop=GOP), args.repeats) / frames
+            decode_ms = 1000 * best_time(lambda stream=stream: decode_shape(stream), args.repeats) / frames
+            line = f"{size:8} {name:11} {encode_ms:7.2f} {decode_ms:7.2f} {len(stream):6d}"
+            if (size, name) in BASELINE_MS:
+                base_encode, base_decode = BASELINE_MS[(size, name)]
+                line += (f"   {base_encode:8.2f} {base_decode:8.2f} {base_encode / encode_ms:6.1f}"
+                         f" {base_decode / decode_ms:6.1f}")
+            print(line, flush=True)
+
+
+if __name__ == "__main__":
+    main()

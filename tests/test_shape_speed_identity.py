@@ -1,0 +1,172 @@
+"""The compiled shape coder writes byte-identical streams to the pure-Python coder it replaced.
+
+The SHA-256 of every stream below was recorded from comparisons/shape_coding.py before its per-pixel loops
+moved into kernels/shape_cae.py; a changed hash means the stream format or the encoder's decisions changed.
+Inputs: real masks (20 frames of ASL "AB" rendered at 176x144 by the NumPy backend: head, right hand, signer,
+clothes) and synthetic ones (empty, full, noise, a moving disc, a shape that jumps beyond the search range),
+each coded at GOP 1, 4 and 12 and decoded back exactly. The rendered masks' own hashes are checked first, so
+a renderer change is reported as such and not as a shape-coder change.
+"""
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pytest
+
+from comparisons.shape_coding import decode_shape, encode_shape
+
+OBJECTS = ("head", "right_hand", "signer", "clothes")
+GOPS = (1, 4, 12)
+
+MASK_SHA256 = {      # object -> SHA-256 of the packed (20, 144, 176) masks and their shape
+    "head": "896d3cfb6995cad14f40302aa29eb2765682d4557b8598df1a81772f9dcef707",
+    "right_hand": "39057d072516292be399cc4ca96a1ed7adfbc4d1bb6fad83d65172add4be15fb",
+    "signer": "44a38d59122f80566a966669ea0b62341121f99e3742f587f17ea30854dc6fa1",
+    "clothes": "5095f64fcc9305e9cf511f0c5db5bf9fd37e205bf1dc273b1396244d602d46f0",
+}
+STREAM_SHA256 = {    # (input, gop) -> SHA-256 of the stream, recorded from the pure-Python coder
+    ('head', 1): "cfe6ab362bde3f397872c89b4b1a5aaf9179a446bac299962ac271fac094b1a6",
+    ('head', 4): "956930e3015b87f173d53691bacfe998ffa940e0a62efa608693be848f997654",
+    ('head', 12): "eee4bdef9dbc1ec0b1b4339d15356a4784b8ce59b09c47f12bbe29536a44f240",
+    ('right_hand', 1): "86e325d40a8c545a6733aa06153d525d08f4c1cfa6d2cfb427daaf9c132a4e89",
+    ('right_hand', 4): "2f0bb5d19421d6f233f2bf9b2dee2989ad2d381e60223c65a9eedd3c13da9431",
+    ('right_hand', 12): "7f8c6534cc033399016223929a59602ebc70eb2e76f9ff81123667256eccbbb5",
+    ('signer', 1): "db6f0ad9b1d843bb79833675ffee91a14834c14a555dcbb5bf6443e53dfb8667",
+    ('signer', 4): "ee4850341974668df9d59878e11b710afbbd0ebb9c90762bbf97a4d5eb415d70",
+    ('signer', 12): "59ff49981eda500563516824ceea7261856ec8db616d8ac88929756f6ccfcde4",
+    ('clothes', 1): "2ddb9a1ee499c796209c02e738423777852d6aebb3ae0071071ee48ac9ed7ba7",
+    ('clothes', 4): "487b0817d3620c57b0ff3b82f5287d45614f534d9aa5e2e7b845e8930e74e4de",
+    ('clothes', 12): "00a729031407fd9d2d11cdd08a5741143cc3fe5b6dae18d7a201ba5b38a9a18d",
+    ('empty', 1): "0a8dbec6036c4ae3899d20e689e4ce69cbf6cbc6f178c77649f12d7ceb2f11d8",
+    ('empty', 4): "abac19291268776f4134a1222f60bc0eadbe3b96727cd9c17ddc927aaacdbc54",
+    ('empty', 12): "797aa5c04c78b64fc94dd74a575c2f0b967b8819079dc7823d820431d50c8896",
+    ('full', 1): "6ba52f4a79b3108cab988e0ae06642fba91d6e6c6ff7bf9ad6e9d5a50170b70b",
+    ('full', 4): "49f9ffa584fdff77ea74ed65d55debc660accb805e10a0900bc886a3abcf1580",
+    ('full', 12): "7b2accb2be2a57167265e88120f2c0670cff75dc2955c6acab82868ee8620cf2",
+    ('noise', 1): "7b0d03298e7687cc17d0ca6f3d22d7088d568fb9aaaac1aae2b10361d5465592",
+    ('noise', 4): "20a4bcfbfb0889fd27ee9815881c549704b282ae39b1e5ad3beec7d9ce7c9fdd",
+    ('noise', 12): "198405c153ff54b25600cef213bd8a6060c58c4889de44859cf35235d5639db3",
+    ('noise_odd', 1): "292e148827365d966d3724825e85ea65b2a505aaf8bfe7c635460afdc65377fb",
+    ('noise_odd', 4): "0c4f1d2fb01ecc3592aecfc0e674d8b8375d043d1c4e93088f8aaac686e20e81",
+    ('noise_odd', 12): "3184df11029548926fb1645d71e62083bd12f92da9d6801438d57f6b3b1939ac",
+    ('disc', 1): "be6813ada6999ea26e6a5d7d3cbcffcaff817762a935b07a555d235d1a3300e6",
+    ('disc', 4): "f72c39ed47b7fd60dea140157d550bf181e9b227ca3289fa8f0b8adc144a58ee",
+    ('disc', 12): "8441571bcf06d65ab2721e48070d2ddb584cde8326d681587175457e47e6054f",
+    ('jump', 1): "b20fcbf0a1a3e4c7883047ec20522fcf75ad3828532b6c7da5dc9b07016531c0",
+    ('jump', 4): "45451f534ea56e338eacdf72af92d76006f2c2c678ceb67c52ca6304657e716b",
+    ('jump', 12): "3276483d43e04400bc3f38646e02c5be90b6824c07ca7fea8d3007ad9038bb4d",
+}
+
+
+def _sha(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _mask_sha(masks: np.ndarray) -> str:
+    return _sha(np.packbits(masks).tobytes() + str(masks.shape).encode())
+
+
+def render_masks() -> dict[str, np.ndarray]:
+    """(20, 144, 176) bool masks of four objects of ASL "AB", rendered by the NumPy backend."""
+    from media.avatar import load_avatar
+    from media.fingerspelling import fingerspell
+    from media.render import AvatarRenderer, RenderSettings
+    from media.segmentation import object_masks
+
+    renderer = AvatarRenderer(load_avatar(), RenderSettings(width=176, height=144, backend="numpy"))
+    labels = []
+    for _, frame_labels in renderer.frames(fingerspell("ase", "AB")):
+        labels.append(frame_labels)
+        if len(labels) == 20:
+            break
+    masks = object_masks(np.stack(labels))
+    return {name: masks[name] for name in OBJECTS}
+
+
+@pytest.fixture(scope="module")
+def rendered_masks() -> dict[str, np.ndarray]:
+    return render_masks()
+
+
+def synthetic_masks() -> dict[str, np.ndarray]:
+    """Edge cases of the syntax: empty and full frames, incompressible noise at an odd size, smooth motion
+    within the search range, and a jump beyond it (intra CAE in a predicted frame)."""
+    rng = np.random.default_rng(6)
+    yy, xx = np.mgrid[:50, :70]
+    disc = np.stack([(yy - 25 + t) ** 2 + (xx - 15 - 3 * t) ** 2 <= 12 ** 2 for t in range(8)])
+    jump = np.zeros((4, 48, 64), bool)
+    for t in range(4):
+        jump[t, 8 + 6 * t:20 + 6 * t, (t * 23) % 40:(t * 23) % 40 + 19] = True
+        jump[t, 10 + 6 * t, (t * 23) % 40 + 3] = False
+    return {
+        "empty": np.zeros((3, 32, 48), bool),
+        "full": np.ones((3, 40, 40), bool),
+        "noise": rng.random((4, 32, 32)) < 0.5,
+        "noise_odd": rng.random((3, 29, 37)) < 0.3,
+        "disc": disc,
+        "jump": jump,
+    }
+
+
+def _check(name: str, masks: np.ndarray, gop: int) -> None:
+    stream, stats = encode_shape(masks, gop=gop)
+    assert stats.n_bytes == len(stream)
+    assert np.array_equal(decode_shape(stream), masks), f"{name} at GOP {gop} does not decode to itself"
+    assert _sha(stream) == STREAM_SHA256[(name, gop)], f"{name} at GOP {gop}: the stream changed"
+
+
+@pytest.mark.parametrize("name", OBJECTS)
+def test_rendered_object_streams_are_unchanged(rendered_masks, name):
+    masks = rendered_masks[name]
+    assert _mask_sha(masks) == MASK_SHA256[name], f"the renderer's {name} masks changed: re-record the hashes"
+    for gop in GOPS:
+        _check(name, masks, gop)
+
+
+@pytest.mark.parametrize("name", sorted(synthetic_masks()))
+def test_synthetic_streams_are_unchanged(name):
+    masks = synthetic_masks()[name]
+    for gop in GOPS:
+        _check(name, masks, gop)
+
+
+def test_the_kernels_sum_rounds_as_numpy_does():
+    """Mode decisions compare summed float bit estimates: the kernel must round exactly as np.sum of a (16, 16)
+    array (pairwise summation); a plain running sum differs in the last bits for about half of these."""
+    from kernels.shape_cae import numpy_sum_256
+
+    rng = np.random.default_rng(7)
+    for scale in (1e-3, 1.0, 16.0):
+        for _ in range(200):
+            costs = rng.random((16, 16)) * scale
+            assert numpy_sum_256(costs.ravel()) == costs.sum()
+
+
+def test_damaged_payloads_decode_or_raise_signcast_error_only():
+    """The compiled decoder has no bounds checks of its own: payload damage (CRC repaired) must still end in
+    masks of the announced size or a SigncastError."""
+    import struct
+    import zlib
+
+    from comparisons.shape_coding import _HEADER
+    from media.errors import SigncastError
+
+    rng = np.random.default_rng(8)
+    stream, _ = encode_shape(synthetic_masks()["disc"], gop=4)
+    outcomes = set()
+    for _ in range(300):
+        payload = bytearray(stream[_HEADER.size:])
+        for _ in range(int(rng.integers(1, 4))):
+            payload[int(rng.integers(0, len(payload)))] = int(rng.integers(0, 256))
+        payload = bytes(payload[:int(rng.integers(1, len(payload) + 1))])
+        fields = list(_HEADER.unpack(stream[:_HEADER.size]))
+        fields[-2] = len(payload)
+        head = _HEADER.pack(*fields)[:-4]
+        damaged = head + struct.pack(">I", zlib.crc32(payload, zlib.crc32(head))) + payload
+        try:
+            assert decode_shape(damaged).shape == (8, 50, 70)
+            outcomes.add("decoded")
+        except SigncastError as error:
+            outcomes.add(str(error).split(":")[-1].strip())
+    assert "decoded" in outcomes and "the payload ends before the last frame" in outcomes
