@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from comparisons import image_quality, shape_coding, video_codecs
+from kernels import padding as padding_kernel
 from media import segmentation
 from media.errors import SigncastError
 
@@ -83,6 +84,12 @@ def _fill_runs(values: np.ndarray, opaque: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def repetitive_padding(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """MPEG-4 repetitive padding of one image (H, W, 3) uint8 outside mask (H, W) bool; grey 128 if empty
+    (the compiled kernel; repetitive_padding_numpy is its oracle)."""
+    return padding_kernel.repetitive_padding(image, mask)
+
+
+def repetitive_padding_numpy(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """MPEG-4 repetitive padding of one image (H, W, 3) uint8 outside mask (H, W) bool; grey 128 if empty."""
     if not mask.any():
         return np.full_like(image, 128)
