@@ -155,17 +155,27 @@ def face_landmarks(avatar: Avatar | None = None) -> dict[str, np.ndarray]:
     return points
 
 
+_FAPU: dict[int, tuple[Avatar, Fapu]] = {}      # id(avatar) -> (avatar, its FAPU): measured once per avatar
+
+
 def avatar_fapu(avatar: Avatar | None = None) -> Fapu:
     """The avatar's FAPU (metres per unit) measured at its feature points (`face_landmarks`):
     IRISD0 the lid aperture at the pupil (both eyes' mean), ES0 the pupils' x distance, ENS0 the pupils'
-    height above the nose tip, MNS0 the nose tip's height above the mouth middle, MW0 the corners' distance."""
+    height above the nose tip, MNS0 the nose tip's height above the mouth middle, MW0 the corners' distance.
+    Measured once per avatar object (the rest mesh does not change)."""
+    avatar = avatar or load_avatar()
+    cached = _FAPU.get(id(avatar))
+    if cached is not None and cached[0] is avatar:
+        return cached[1]
     p = face_landmarks(avatar)
     irisd = np.mean([p[f"upper_lid.{s}"][1] - p[f"lower_lid.{s}"][1] for s in SIDES])
     es = abs(p["pupil.L"][0] - p["pupil.R"][0])
     ens = (p["pupil.L"][1] + p["pupil.R"][1]) / 2 - p["nose_tip"][1]
     mns = p["nose_tip"][1] - p["mouth_middle"][1]
     mw = np.linalg.norm(p["mouth_corner.L"] - p["mouth_corner.R"])
-    return Fapu(*(float(distance) / FAPU_DIVISOR for distance in (irisd, es, ens, mns, mw)))
+    fapu = Fapu(*(float(distance) / FAPU_DIVISOR for distance in (irisd, es, ens, mns, mw)))
+    _FAPU[id(avatar)] = (avatar, fapu)
+    return fapu
 
 
 def face_bone_rotations(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dict[str, np.ndarray]:
