@@ -42,7 +42,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--codecs", default=DEFAULT_CODECS,
                         help=f"what to send, comma-separated: a video solution (NSV, NSV2O, NSV3O, NSV3O+C, SSV: MPEG-4 Part 2), "
                              f"SOLUTION:libx264 for H.264, or a parameter codec (fba-pred, fba-dct, bba-pred, "
-                             f"bba-dct) (default {DEFAULT_CODECS})")
+                             f"bba-dct, bba-key); a last :Q sets that item's quantiser (NSV2O:mpeg4:8, fba-pred:8) "
+                             f"(default {DEFAULT_CODECS}, at --video-q and --param-q)")
     parser.add_argument("--video-q", type=int, default=4,
                         help="video quantiser (mpeg4 1..31, libx264 0..51; default 4)")
     parser.add_argument("--param-q", type=int, default=4, help="FBA/BBA quantisation 1..31 (default 4)")

@@ -83,24 +83,42 @@ VIDEO_SOLUTIONS = ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV")
 DEFAULT_VIDEO_CODEC = "mpeg4"
 
 
-def parse_send(item: str) -> tuple[str, str]:
-    """(solution, codec) of one --codecs item: 'fba-pred', 'NSV2O', 'mpeg4' (NSV) or 'SSV:libx264'."""
+def parse_send(item: str) -> tuple[str, str, int | None]:
+    """(solution, codec, Q or None for the default) of one --codecs item: 'fba-pred', 'fba-pred:8', 'NSV2O',
+    'NSV2O:mpeg4:8', 'mpeg4' (NSV) or 'SSV:libx264:26'."""
     from comparisons import param_codecs
-    text = item.strip()
-    if ":" in text:
-        solution, codec = (part.strip() for part in text.split(":", 1))
-        solution = solution.upper()
-    elif text.upper() in VIDEO_SOLUTIONS:
-        solution, codec = text.upper(), DEFAULT_VIDEO_CODEC
-    elif text in endpoints.VIDEO_CODECS:
-        solution, codec = "NSV", text
+    parts = [part.strip() for part in item.strip().split(":")]
+    q_text = None
+    if parts[0] in param_codecs.codec_names():
+        solution, codec = solution_of(parts[0]), parts[0]
+        rest = parts[1:]
+        if solution not in ("FBA", "BBA"):
+            raise SigncastError(f"{codec!r} is a {solution}, not an MPEG-4 stream: live delivery sends FBA and BBA")
     else:
-        param_codecs.get_codec(text)
-        return solution_of(text), text
-    if solution not in VIDEO_SOLUTIONS or codec not in endpoints.VIDEO_CODECS:
-        raise SigncastError(f"cannot send {item!r} live: give a parameter codec, one of {', '.join(VIDEO_SOLUTIONS)}, "
-                            f"or SOLUTION:CODEC with a video solution and {' or '.join(endpoints.VIDEO_CODECS)}")
-    return solution, codec
+        solution = "NSV" if parts[0] in endpoints.VIDEO_CODECS else parts[0].upper()
+        codec = parts[0] if parts[0] in endpoints.VIDEO_CODECS else DEFAULT_VIDEO_CODEC
+        rest = parts[1:]
+        if rest and not rest[0].lstrip("-").isdigit():
+            codec, rest = rest[0], rest[1:]
+        if solution not in VIDEO_SOLUTIONS or codec not in endpoints.VIDEO_CODECS:
+            if parts[0].islower() and parts[0] not in endpoints.VIDEO_CODECS:
+                param_codecs.get_codec(parts[0])          # names the known parameter codecs
+            raise SigncastError(f"cannot send {item!r} live: give a parameter codec, one of "
+                                f"{', '.join(VIDEO_SOLUTIONS)}, or SOLUTION:CODEC[:Q] with a video solution and "
+                                f"{' or '.join(endpoints.VIDEO_CODECS)}")
+    if len(rest) > 1:
+        raise SigncastError(f"cannot send {item!r} live: too many ':' parts")
+    if rest:
+        q_text = rest[0]
+        try:
+            q = int(q_text)
+        except ValueError:
+            raise SigncastError(f"bad Q {q_text!r} in {item!r}: give a whole number") from None
+        low, high = (1, 31) if solution in ("FBA", "BBA") or codec == "mpeg4" else (0, 51)
+        if not low <= q <= high:
+            raise SigncastError(f"Q {q} in {item!r} is outside {low}..{high}")
+        return solution, codec, q
+    return solution, codec, None
 
 
 def solution_for(codec: str) -> str:
@@ -111,7 +129,7 @@ def check(settings: LiveSettings) -> None:
     """Refuse bad settings before any work starts."""
     if not settings.codecs:
         raise SigncastError("give at least one codec")
-    sends = [parse_send(item) for item in settings.codecs]
+    sends = [parse_send(item)[:2] for item in settings.codecs]
     if len(set(sends)) != len(sends):
         raise SigncastError("--codecs names the same solution and codec twice")
     if not 1 <= settings.shape_gop <= 65535:
@@ -188,32 +206,36 @@ class LiveStudy:
         self.settings, self.scenario, self.renderer_for, self.progress = settings, scenario, renderer_for, progress
         self.judge = compare.Judge(scenario, progress, settings.landmark_step)
 
-    def q_of(self, solution: str) -> int:
+    def q_of(self, solution: str, q: int | None = None) -> int:
+        """The item's own Q, or the settings' video / parameter Q."""
+        if q is not None:
+            return q
         return self.settings.video_q if solution in VIDEO_SOLUTIONS else self.settings.param_q
 
-    def description(self, solution: str, codec: str, payload: str) -> SessionDescription:
+    def description(self, solution: str, codec: str, payload: str, q: int) -> SessionDescription:
         s, scenario = self.settings, self.scenario
         width, height = scenario.size
         details = ({"refresh": s.refresh} if solution in ("FBA", "BBA") else
                    {"shape_gop": s.shape_gop} if solution != "NSV" else {})
-        return SessionDescription(solution, codec, payload, self.q_of(solution), scenario.fps, scenario.n_frames,
+        return SessionDescription(solution, codec, payload, q, scenario.fps, scenario.n_frames,
                                   width, height, clip=scenario.name, details=details)
 
-    def source(self, solution: str, codec: str):
+    def source(self, solution: str, codec: str, q: int):
         """(payload format, source): SSV sends the lossless render cut by its label buffer, the NSV family the
         reference frames cut by their segmentation, FBA and BBA the motion."""
         scenario = self.scenario
         frames, labels = ((scenario.render, scenario.render_labels) if solution == "SSV"
                           else (scenario.frames, scenario.labels))
-        return endpoints.source_for(solution, codec, self.q_of(solution), frames=frames, labels=labels,
+        return endpoints.source_for(solution, codec, q, frames=frames, labels=labels,
                                     motion=scenario.motion, fps=scenario.fps, refresh=self.settings.refresh,
                                     shape_gop=self.settings.shape_gop)
 
     def point(self, send_item: str, rate_percent: float, seed: int) -> tuple[list[dict], Delivery]:
         """Deliver one solution and codec at one loss rate and judge what was shown: one record per reference."""
-        solution, codec = parse_send(send_item)
-        payload, source = self.source(solution, codec)
-        description = self.description(solution, codec, payload)
+        solution, codec, q = parse_send(send_item)
+        q = self.q_of(solution, q)
+        payload, source = self.source(solution, codec, q)
+        description = self.description(solution, codec, payload, q)
         endpoints.warm_up(codec, self.renderer_for(*self.scenario.size), self.scenario.motion)
         delivery = deliver(description, source, lambda d: endpoints.sink_for(d, self.renderer_for),
                            network_model(self.settings, rate_percent, seed))
@@ -395,7 +417,7 @@ class SendSettings:
 
 
 def check_send(settings: SendSettings) -> None:
-    solution, _ = parse_send(settings.codec)
+    solution = parse_send(settings.codec)[0]
     if solution not in SEND_SOLUTIONS:
         raise SigncastError(f"`send` renders the avatar and has no natural video to cut into objects: send "
                             f"{', '.join(SEND_SOLUTIONS)} (signcast live measures {solution} on the demo's scenario)")
@@ -424,7 +446,7 @@ def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
     """Sends one session to settings.destination (through a lossy relay in this process when loss is set);
     returns a summary of what was sent."""
     check_send(settings)
-    solution, codec = parse_send(settings.codec)
+    solution, codec, _ = parse_send(settings.codec)
     name, motion, frames, labels = _signing(settings, solution, progress)
     payload, source = endpoints.source_for(solution, codec, settings.q, frames=frames, labels=labels, motion=motion,
                                            fps=motion.fps, refresh=settings.refresh, shape_gop=settings.shape_gop)
