@@ -155,7 +155,7 @@ def peer_worker(arguments) -> None:
         return
     try:
         context = moderngl.create_standalone_context(backend="egl")
-    except Exception as error:  # the EGL/Mesa libraries are missing or broken
+    except Exception as error:  # noqa: BLE001 - the EGL/Mesa libraries are missing or broken
         print(json.dumps({"skip": f"no EGL context ({str(error).splitlines()[0]}); apt-get install {PEER_PACKAGES}"}))
         return
     width, height = arguments.width, arguments.height
@@ -190,7 +190,7 @@ def measure_peer(threads: int, arguments) -> dict:
     command = [sys.executable, __file__, "--peer-worker", "--size", f"{arguments.width}x{arguments.height}",
                "--frames", str(arguments.frames), "--repeats", "1", "--word", arguments.word,
                "--copies", str(arguments.copies)]
-    result = subprocess.run(command, capture_output=True, text=True, env=environment, timeout=900)
+    result = subprocess.run(command, check=False, capture_output=True, text=True, env=environment, timeout=900)
     lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
     if result.returncode != 0 or not lines:
         return {"skip": f"peer failed: {(result.stderr.strip().splitlines() or ['no output'])[-1]}"}
@@ -204,7 +204,7 @@ def measure_command(arguments) -> dict:
         command = [sys.executable, "-m", "pipeline.cli", "render", "ase", arguments.word, "-o", str(output),
                    "--labels", str(Path(folder) / "labels.npz"), "--size", f"{arguments.width}x{arguments.height}"]
         started = time.perf_counter()
-        result = subprocess.run(command, capture_output=True, text=True, cwd=ROOT, timeout=900)
+        result = subprocess.run(command, check=False, capture_output=True, text=True, cwd=ROOT, timeout=900)
         wall = time.perf_counter() - started
     if result.returncode != 0:
         return {"skip": f"signcast render failed: {result.stderr.strip().splitlines()[-1:]}"}
@@ -227,7 +227,7 @@ def measure_scene(arguments, width: int, height: int, copies: int) -> None:
     for backend in arguments.backends.split(","):
         try:
             labels[backend] = backends.describe(backend)
-        except Exception as error:  # report and go on with the other backends
+        except Exception as error:  # noqa: BLE001 - report and go on with the other backends
             print(f"{backend}: skipped ({error})", flush=True)
     for threads in (1, 2):
         labels[f"peer{threads}"] = f"llvmpipe {threads} thread{'s' if threads > 1 else ''} (moderngl+EGL)"
@@ -261,7 +261,7 @@ def measure_scene(arguments, width: int, height: int, copies: int) -> None:
         return next((row for label, row in rows.items() if label.startswith(prefix)), None)
 
     try:
-        load = ", load average %.1f %.1f %.1f" % os.getloadavg()
+        load = ", load average {:.1f} {:.1f} {:.1f}".format(*os.getloadavg())
     except OSError:
         load = ""
     print(f"(after the run{load})")

@@ -6,13 +6,25 @@ OpenCL below) that follow the same steps, with the same arithmetic and the same 
 1. project: each vertex to window coordinates, snapped to 1/SUBPIXEL pixel (integers), and depth in [0, 1];
 2. per-triangle setup and bounding box: drop triangles with a vertex behind the eye or far off-screen,
    degenerate ones and (when culling) back faces; light the face (shaded look: Lambert of its
-   normal, ambient + key * max(n . l, 0)); clip its bounding box to the image;
+   normal, ambient + key * max(n . l, 0)); clip its bounding box to the image. The Warp and OpenCL
+   bodies shrink the box to the pixel centres it holds and drop the triangle when it holds none
+   (sub-pixel or off-image triangles, about half of the avatar's front faces at 352x288): coverage is
+   only ever tested at pixel centres, so this skips work without changing a pixel;
 3. edge functions with the top-left rule: coverage is decided with exact integer edge functions at
    pixel centres, so neighbouring triangles never share or miss a pixel and every backend covers
    the same pixels;
 4. depth test: each covered pixel takes an atomic minimum of a 64-bit key `depth * 2^32 + triangle`,
    so depth ties resolve to the lower triangle id whatever the thread order (one pass, deterministic);
-5. resolve: each pixel decodes its key into triangle id, label, depth and colour.
+5. resolve: each pixel decodes its key into triangle id, label, depth and colour (the Warp and OpenCL
+   bodies also reset the key there, so the next frame needs no clearing pass).
+
+Speed, chosen here after measuring on CPU devices (Warp-CPU, PoCL): one work item per triangle (per run
+of triangles on Warp-CPU, whose threads run one after another) with the 64-bit atomic minimum, rather
+than tiles with per-tile triangle lists. The avatar's triangles cover a few pixels each, so binning
+them would add a pass and a second setup per triangle for no saving in the raster loop, and CPU
+atomics on distinct pixels are cheap. What the frames spent time on instead: per-thread launch cost,
+kernel arguments packed again every frame (recorded launches now), bounding-box pixels whose
+centres lie outside the triangle, a clearing pass, and one host copy per output (OpenCL: one).
 
 At the default sizes a triangle of the avatar covers a few pixels, so per-face lighting is as
 smooth as interpolated normals would be, and costs no per-vertex normal pass.

@@ -67,7 +67,7 @@ def face_shade(p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, flipped: wp.int32, light: 
     ny = e1[2] * e2[0] - e1[0] * e2[2]
     nz = e1[0] * e2[1] - e1[1] * e2[0]
     length = wp.sqrt(nx * nx + ny * ny + nz * nz)
-    cosine = float(0.0)
+    cosine = float(0.0)  # noqa: UP018 - Warp: a typed variable that the branch below may change
     if length > 0.0:
         cosine = (nx * light[0] + ny * light[1] + nz * light[2]) / length
     if flipped != 0:
@@ -146,7 +146,7 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
         # vertices 1 and 2 swapped, so it turns clockwise like a front face
         j1 = i1
         j2 = i2
-        flipped = int(0)
+        flipped = int(0)  # noqa: UP018, RUF046 - Warp: a typed variable that the branch below may change
         if area > wp.int64(0):
             j1 = i2
             j2 = i1

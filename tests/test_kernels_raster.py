@@ -31,8 +31,8 @@ def test_backends_agree_with_numpy_oracle_on_labels_and_triangles(avatar, signin
 
 
 def test_labels_are_the_parts_of_the_visible_triangles(avatar, signing_poses):
-    rgb, labels, triangle_id, depth = rasterize(signing_poses[1], avatar.triangles, avatar.triangle_part,
-                                                signing_space_camera(avatar, 176, 144), 176, 144, backend="numpy")
+    _, labels, triangle_id, depth = rasterize(signing_poses[1], avatar.triangles, avatar.triangle_part,
+                                              signing_space_camera(avatar, 176, 144), 176, 144, backend="numpy")
     covered = triangle_id >= 0
     assert np.array_equal(labels[covered], avatar.triangle_part[triangle_id[covered]])
     assert np.all(labels[~covered] == 0) and np.all(np.isinf(depth[~covered]))
@@ -55,8 +55,8 @@ def square(z=0.0, half=0.5):
 
 def test_triangles_sharing_an_edge_cover_each_pixel_exactly_once(any_backend):
     positions, triangles = square()
-    _, labels, triangle_id, _ = rasterize(positions, triangles, np.array([1, 2], np.uint8), IDENTITY_CAMERA, 64, 64,
-                                          look="flat", backend=any_backend)
+    _, _, triangle_id, _ = rasterize(positions, triangles, np.array([1, 2], np.uint8), IDENTITY_CAMERA, 64, 64,
+                                     look="flat", backend=any_backend)
     # the square spans pixels 16..47 in both directions; its diagonal passes through 32 pixel centres
     assert np.count_nonzero(triangle_id >= 0) == 32 * 32
     assert np.all(triangle_id[16:48, 16:48] >= 0)
@@ -132,3 +132,51 @@ def test_opencl_source_receives_the_python_constants_as_defines():
     assert not [literal for literal in ("256", "128", "1e-6", "32768", "2147483648", "4294967296") if literal in body]
     with pytest.raises(KernelError, match="expected a number"):
         backends.opencl_defines({"LOOK": "flat"})
+
+
+def test_triangles_between_pixel_centres_or_off_the_image_cover_nothing_like_the_oracle(any_backend):
+    # pixel centres of a 16x16 image lie at clip x, y = (k + 0.5) / 8 - 1: a sliver between two of them is skipped,
+    # a triangle whose corner sits exactly on a centre covers it by the top-left rule, as in the oracle
+    positions = np.array([[0.01, 0.01, 0], [0.05, 0.01, 0], [0.05, 0.05, 0],           # between centres
+                          [1.5, 1.5, 0], [1.9, 1.5, 0], [1.9, 1.9, 0],                 # off the image
+                          [-0.1875, -0.1875, 0], [0.1875, -0.1875, 0], [-0.1875, 0.1875, 0]], np.float32)
+    triangles = np.arange(9, dtype=np.int32).reshape(3, 3)
+    parts = np.array([1, 2, 3], np.uint8)
+    reference = rasterize(positions, triangles, parts, IDENTITY_CAMERA, 16, 16, backend="numpy")
+    result = rasterize(positions, triangles, parts, IDENTITY_CAMERA, 16, 16, backend=any_backend)
+    assert set(np.unique(reference[2])) == {-1, 2}
+    for ours, oracle in zip(result, reference):
+        assert np.array_equal(ours, oracle)
+
+
+def test_consecutive_frames_each_start_from_an_empty_image(avatar, signing_poses, accelerated_backend):
+    camera = signing_space_camera(avatar, 176, 144)
+    rasterize(signing_poses[0], avatar.triangles, avatar.triangle_part, camera, 176, 144, backend=accelerated_backend)
+    away = signing_poses[1] + np.float32([0, 0, -50])    # beyond the far plane: nothing is drawn
+    _, labels, triangle_id, depth = rasterize(away, avatar.triangles, avatar.triangle_part, camera, 176, 144,
+                                              backend=accelerated_backend)
+    assert not labels.any() and np.all(triangle_id == -1) and np.all(np.isinf(depth))
+    after = rasterize(signing_poses[2], avatar.triangles, avatar.triangle_part, camera, 176, 144,
+                      backend=accelerated_backend)
+    reference = rasterize(signing_poses[2], avatar.triangles, avatar.triangle_part, camera, 176, 144, backend="numpy")
+    assert np.array_equal(after[2], reference[2]) and np.array_equal(after[1], reference[1])
+
+
+def test_two_avatars_in_one_frame_and_a_changed_mesh_match_the_oracle(avatar, signing_poses, accelerated_backend):
+    width, height = 240, 144
+    camera = signing_space_camera(avatar, width, height)
+    two = np.concatenate([signing_poses[0] - np.float32([0.4, 0, 0]), signing_poses[2] + np.float32([0.4, 0, 0])])
+    triangles = np.concatenate([avatar.triangles, avatar.triangles + len(avatar.vertices)]).astype(np.int32)
+    parts = np.tile(avatar.triangle_part, 2)
+    for look in ("shaded", "flat"):
+        reference = rasterize(two, triangles, parts, camera, width, height, look=look, backend="numpy")
+        result = rasterize(two, triangles, parts, camera, width, height, look=look, backend=accelerated_backend)
+        assert np.array_equal(result[2], reference[2]) and np.array_equal(result[1], reference[1])
+        assert np.array_equal(result[0], reference[0])
+        assert {int(t) // len(avatar.triangles) for t in np.unique(reference[2][reference[2] >= 0])} == {0, 1}
+    # the same array changed in place (second copy turned inside out: its inner faces are now the front ones)
+    triangles[len(avatar.triangles):] = triangles[len(avatar.triangles):, ::-1]
+    inside_out = rasterize(two, triangles, parts, camera, width, height, backend="numpy")
+    result = rasterize(two, triangles, parts, camera, width, height, backend=accelerated_backend)
+    assert np.array_equal(result[2], inside_out[2])
+    assert not np.array_equal(inside_out[2], reference[2])
