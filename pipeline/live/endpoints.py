@@ -167,10 +167,18 @@ class ParameterSink:
 
 
 def warm_up(codec: str, renderer=None, motion: Motion | None = None) -> None:
-    """Run a parameter codec (and the renderer) once on a few frames, so that one-time costs (compiling the
-    entropy coder's kernels, the renderer's first frame) do not land on a session's first frames: a terminal is
-    ready before a call starts."""
-    if codec in VIDEO_CODECS or motion is None:
+    """Run what a session will run once, on a little data, so that one-time costs (loading compiled kernels: the
+    entropy coder's, the shape coder's, the padding's; the renderer's first frame) do not land on a session's
+    first frames: a terminal is ready before a call starts."""
+    if codec in VIDEO_CODECS:
+        from comparisons import shape_units, video_objects
+        mask = np.zeros((1, 32, 32), bool)
+        mask[0, 8:20, 10:24] = True
+        units = shape_units.encode_shape_units(mask, gop=1)
+        shape_units.find_shape_units(b"".join(unit.data for unit in units))
+        video_objects.repetitive_padding(np.zeros((32, 32, 3), np.uint8), mask[0])
+        return
+    if motion is None:
         return
     parameter_codec = param_codecs.get_codec(codec)
     decoded = parameter_codec.decode(parameter_codec.encode(motion.frames(0, min(4, motion.n_frames)), 4))
