@@ -108,8 +108,8 @@ def chart(points: list[dict]):
     if letters:
         axes[1].set(xlabel="datagrams lost (%)", ylabel="letters recognised first (%)",
                     title="letter top-1 on what the receiver shows\n(recogniser trained on other signers)")
-    axes[-1].axhline(PREFERRED_MS, color="green", lw=0.8, ls="--", label="EN 301 549: < 0.4 s preferred")
-    axes[-1].axhline(HINDERS_MS, color="red", lw=0.8, ls="--", label="> 0.8 s hinders conversation")
+    guidance = [axes[-1].axhline(PREFERRED_MS, color="green", lw=0.8, ls="--", label="EN 301 549: < 0.4 s preferred"),
+                axes[-1].axhline(HINDERS_MS, color="red", lw=0.8, ls="--", label="> 0.8 s hinders conversation")]
     axes[-1].set(xlabel="datagrams lost (%)", ylabel="ms", title="latency, capture to ready-to-show\n"
                  "dot: median; bar: to the 95th percentile\n(means over sessions)")
     axes[-1].set_ylim(bottom=0)
@@ -119,7 +119,7 @@ def chart(points: list[dict]):
         ax.set_xscale("symlog", linthresh=0.5, linscale=0.5)     # 0, 0.5, 1, 2, 5, 10 % spread evenly
         ax.set_xticks(rates, [f"{rate:g}" for rate in rates])
     axes[0].legend(fontsize=7)
-    axes[-1].legend(fontsize=6)
+    axes[-1].legend(handles=guidance, fontsize=7, loc="center right")     # the series are named in the first panel
     figure.tight_layout()
     return figure
 

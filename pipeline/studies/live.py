@@ -366,9 +366,11 @@ def transport_stream_record(scenario: compare.Scenario, delivery: Delivery, out_
     programme_row = [row for row in costs["streams"] if row["pid"] == demuxed.streams[0].pid]
     probed = None
     if shutil.which("ffprobe"):
-        result = subprocess.run(["ffprobe", "-v", "error", "-show_entries", "stream=codec_type,codec_name",
+        result = subprocess.run(["ffprobe", "-v", "error", "-show_entries", "stream=index,codec_name,codec_type",
                                  "-of", "csv=p=0", str(path)], capture_output=True, text=True, timeout=60)
-        probed = [line.strip() for line in result.stdout.splitlines() if line.strip()] if not result.returncode else None
+        if not result.returncode:                    # ffprobe lists each stream under its program too: once each
+            listed = dict(line.strip().split(",", 1) for line in result.stdout.splitlines() if line.count(",") >= 2)
+            probed = [listed[index] for index in sorted(listed, key=int)]
     return {"kind": "transport stream", "solution": description.solution, "codec": description.codec,
             "clip": scenario.name, "fps": description.fps, "duration_s": scenario.timing.duration_s,
             "file": f"ts/{path.name}", "ts_bytes": len(data),
