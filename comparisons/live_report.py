@@ -11,11 +11,10 @@ from __future__ import annotations
 import base64
 import csv
 import html
-import io
 from collections import defaultdict
 from pathlib import Path
 
-from comparisons.report import RENDER_CHECK
+from comparisons.report import RENDER_CHECK, figure_png
 from media.domain import SOLUTION_ORDER
 
 REFERENCE = "source video"
@@ -180,21 +179,13 @@ def report_html(records: list[dict], figure_png: bytes) -> str:
 
 def write_report(out_dir: str | Path, records: list[dict]) -> Path:
     """Write report.html, live_table.csv and live_loss.png in out_dir from the records; returns report.html."""
-    plt = _pyplot()
     out_dir = Path(out_dir)
     points = aggregate(loss_points(records))
     write_table(out_dir / "live_table.csv", points)
-    if points:
-        figure = chart(points)
-    else:
-        figure = plt.figure(figsize=(6, 1))
-        figure.text(0.5, 0.5, "no measured point", ha="center")
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
-    plt.close(figure)
-    (out_dir / "live_loss.png").write_bytes(buffer.getvalue())
+    png = figure_png(chart(points) if points else None, empty="no measured point")
+    (out_dir / "live_loss.png").write_bytes(png)
     path = out_dir / "report.html"
-    path.write_text(report_html(records, buffer.getvalue()), encoding="utf-8")
+    path.write_text(report_html(records, png), encoding="utf-8")
     return path
 
 

@@ -166,6 +166,21 @@ def series_styles(records: list[dict]) -> dict[str, dict]:
             for i, (_, _, name) in enumerate(names)}
 
 
+def figure_png(figure, *, empty: str | None = None) -> bytes:
+    """The PNG bytes of a matplotlib figure (closed after), or of a one-line placeholder figure saying `empty`
+    when figure is None."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as pyplot
+    if figure is None:
+        figure = pyplot.figure(figsize=(6, 1))
+        figure.text(0.5, 0.5, empty or "nothing to plot", ha="center")
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    pyplot.close(figure)
+    return buffer.getvalue()
+
+
 def _png(figure) -> str:
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=110, bbox_inches="tight")

@@ -17,13 +17,13 @@ from __future__ import annotations
 import base64
 import csv
 import html
-import io
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
 from comparisons import matching
+from comparisons.report import figure_png
 from media.domain import SOLUTION_ORDER
 
 JOINT_ERROR_MM = 2.0        # the FBA root-translation step, and the key-frame analyser's translation bound
@@ -239,19 +239,11 @@ def report_html(records: list[dict], table: list[dict], figure_png: bytes) -> st
 
 def write_report(out_dir: str | Path, records: list[dict]) -> Path:
     """Write report.html, sweep_table.csv and sweep_kbps.png in out_dir from the records; returns report.html."""
-    plt = _pyplot()
     out_dir = Path(out_dir)
     table = cells(matched_points(records))
     write_table(out_dir / "sweep_table.csv", table)
-    if table:
-        figure = chart(table)
-    else:
-        figure = plt.figure(figsize=(6, 1))
-        figure.text(0.5, 0.5, "no measured point yet", ha="center")
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
-    plt.close(figure)
-    (out_dir / "sweep_kbps.png").write_bytes(buffer.getvalue())
+    png = figure_png(chart(table) if table else None, empty="no measured point yet")
+    (out_dir / "sweep_kbps.png").write_bytes(png)
     path = out_dir / "report.html"
-    path.write_text(report_html(records, table, buffer.getvalue()), encoding="utf-8")
+    path.write_text(report_html(records, table, png), encoding="utf-8")
     return path

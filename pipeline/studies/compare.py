@@ -672,6 +672,20 @@ def _mark_operating(points: list[dict], kbps: float, criteria) -> None:
     nearest["operating_rule"] = f"nearest the matched rate: {matching.threshold_text(criteria)}"
 
 
+def renderers(backend: str) -> Callable[[int, int], AvatarRenderer]:
+    """renderer_for(width, height): the vendored avatar's shaded renderer at that size, made once per size."""
+    avatar = load_avatar()
+    made: dict[tuple[int, int], AvatarRenderer] = {}
+
+    def renderer_for(width: int, height: int) -> AvatarRenderer:
+        if (width, height) not in made:
+            made[(width, height)] = AvatarRenderer(avatar, RenderSettings(width=width, height=height, look="shaded",
+                                                                          backend=backend))
+        return made[(width, height)]
+
+    return renderer_for
+
+
 def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True,
         notify: Callable[[str], object] | None = None) -> CompareResult:
     """Run the whole comparison; write records.jsonl, report.html, side_by_side.mp4 and summary.csv to out_dir.
@@ -683,15 +697,7 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
     out_dir.mkdir(parents=True, exist_ok=True)
     records_path = write_records(out_dir / "records.jsonl", [])
     clock = StageClock()
-    avatar = load_avatar()
-    renderers: dict[tuple[int, int], AvatarRenderer] = {}
-
-    def renderer_for(width: int, height: int) -> AvatarRenderer:
-        if (width, height) not in renderers:
-            renderers[(width, height)] = AvatarRenderer(avatar, RenderSettings(
-                width=width, height=height, look="shaded", backend=settings.backend))
-        return renderers[(width, height)]
-
+    renderer_for = renderers(settings.backend)
     with clock.stage("scenario: reference, landmarks, retargeting, lossless render"):
         scenario = load_scenario(settings, renderer_for, progress=progress, notify=notify)
     study = Study(settings, scenario, renderer_for(*scenario.size), records_path, progress)

@@ -271,15 +271,7 @@ def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -
     out_dir.mkdir(parents=True, exist_ok=True)
     records_path = write_records(out_dir / "records.jsonl", [])
     clock = StageClock()
-    avatar = load_avatar()
-    renderers: dict[tuple[int, int], AvatarRenderer] = {}
-
-    def renderer_for(width: int, height: int) -> AvatarRenderer:
-        if (width, height) not in renderers:
-            renderers[(width, height)] = AvatarRenderer(avatar, RenderSettings(
-                width=width, height=height, look="shaded", backend=settings.backend))
-        return renderers[(width, height)]
-
+    renderer_for = compare.renderers(settings.backend)
     with clock.stage("scenario: reference, landmarks, lossless render"):
         scenario = compare.load_scenario(settings.compare_settings(), renderer_for, progress=progress)
         renderer_for(*scenario.size)
@@ -480,13 +472,7 @@ def run_receive(port: int, out_dir: Path, *, timeout_s: float = 60.0, backend: s
     """Receives one session on port (TCP control and UDP media), writes what was shown to out_dir/shown.mkv
     (lossless FFV1) and a delivery record to out_dir/records.jsonl; returns the record."""
     from media.video_io import write_video
-    avatar = None
-
-    def renderer_for(width: int, height: int) -> AvatarRenderer:
-        nonlocal avatar
-        avatar = avatar or load_avatar()
-        return AvatarRenderer(avatar, RenderSettings(width=width, height=height, backend=backend))
-
+    renderer_for = compare.renderers(backend)
     listener = Listener(host, port)
     try:
         if on_listening is not None:
