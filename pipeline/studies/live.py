@@ -63,7 +63,7 @@ class LiveSettings:
     burst: float = 1.0
     jitter_ms: float = 0.0
     reorder: float = 0.0
-    refresh: int = 16
+    refresh: int = 8
     seed: int = 1
     repeats: int = 1
     shape_gop: int = 1
@@ -392,7 +392,7 @@ class SendSettings:
     word: str = "HELLO"
     pose: str | None = None
     size: tuple[int, int] = (352, 288)
-    refresh: int = 16
+    refresh: int = 8
     shape_gop: int = 1
     loss_percent: float = 0.0
     burst: float = 1.0
