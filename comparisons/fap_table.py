@@ -148,6 +148,14 @@ def limits() -> np.ndarray:
     return steps() * MAX_LEVEL
 
 
+def saturated(faps: np.ndarray) -> np.ndarray:
+    """FAP values (T, 68) int64 clipped to limits(): what a measured face sends when a tracking failure puts a
+    FAP beyond its coded range (an eyelid measured 1.85 iris diameters open, say). The FBA encoder itself
+    refuses such values; the difference shows in the decoded motion's FAP error."""
+    bound = limits()
+    return np.clip(np.asarray(faps, dtype=np.int64), -bound, bound)
+
+
 def _check() -> None:
     assert [f.id for f in FAPS] == list(range(1, N_FAPS + 1)), "FAP ids must be 1..68 in order"
     assert sorted(i for g in GROUP_MEMBERS for i in g) == list(range(1, N_FAPS + 1))

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from comparisons import bba_codec, fba_codec
+from comparisons import bba_codec, fap_table, fba_codec
 from comparisons.fba_mapping import baps_to_motion, motion_to_baps
 from media.errors import SigncastError
 from media.face_rig import with_face_bones
@@ -38,7 +38,8 @@ class ParamCodec(Protocol):
 
 class FbaCodec:
     """MPEG-4 FBA stream (comparisons/fba_codec.py) of the avatar's BAPs (fba_mapping), and of the
-    motion's FAPs when it carries a face (fba_object_mask 3)."""
+    motion's FAPs when it carries a face (fba_object_mask 3), saturated at their coded range
+    (fap_table.saturated: a measured face's outliers)."""
 
     def __init__(self, coding: str) -> None:
         self.coding = coding
@@ -47,7 +48,8 @@ class FbaCodec:
                             else "FBA, 16-frame DCT + Huffman VLC")
 
     def encode(self, motion: Motion, q: int) -> bytes:
-        return fba_codec.encode_fba(motion_to_baps(motion), motion.fps, q, self.coding, faps=motion.faps)
+        return fba_codec.encode_fba(motion_to_baps(motion), motion.fps, q, self.coding,
+                                   faps=None if motion.faps is None else fap_table.saturated(motion.faps))
 
     def decode(self, data: bytes) -> Motion:
         decoded = fba_codec.decode_fba(data)

@@ -234,6 +234,26 @@ def test_fba_codec_carries_the_motions_face_when_it_has_one():
         assert len(codec.encode(with_face, 4)) > len(codec.encode(motion, 4))
 
 
+def test_fba_codec_saturates_a_measured_outlier_at_the_faps_range_and_the_encoder_alone_refuses_it():
+    """The lexicon's gss letter O measures its right upper eyelid at -1897 IRISD/1024 (range +-1860)."""
+    motion = smooth_motion(n_frames=20, fps=25.0)
+    faps = synthetic_faps(20, 25.0, seed=3)
+    column = fap_table.BY_NAME["close_t_r_eyelid"].id - 1
+    faps[12, column] = -1897
+    faps[13, column] = 2146
+    with_face = Motion(motion.fps, motion.bone_names, motion.rotations, motion.root_translation, faps)
+    with pytest.raises(SigncastError, match="outside its range"):
+        encode_fba(np.zeros((20, bap_table.N_BAPS), dtype=np.int64), 25.0, 4, faps=faps)
+    expected = fap_table.saturated(faps)
+    assert expected[12, column] == -1860 and expected[13, column] == 1860
+    assert np.array_equal(np.delete(expected, column, axis=1), np.delete(faps, column, axis=1))
+    for name in ("fba-pred", "fba-dct"):
+        codec = get_codec(name)
+        decoded = codec.decode(codec.encode(with_face, 1))
+        tolerance = _half_step(1) if name == "fba-pred" else 3 * fap_table.steps()
+        assert np.all(np.abs(decoded.faps - expected) <= tolerance)
+
+
 # ------------------------------------------------------------------------------- refused input
 
 def test_encoder_refuses_faps_outside_their_range_high_level_faps_and_bad_shapes():
