@@ -23,6 +23,7 @@ COLUMNS = (("loss_rate", "loss %", 100.0, 1), ("kbps", "stream kbps", 1.0, 2),
            ("delivered_kbps", "delivered kbps", 1.0, 2), ("packet_loss", "packets lost %", 1.0, 1),
            ("frames_lost", "frames lost", 1.0, 0), ("frames_concealed", "frames concealed", 1.0, 0),
            ("hand_pck_20", "hand PCK@0.2 %", 1.0, 1), ("hand_error", "hand error", 1.0, 3),
+           ("face_error", "face error (interocular)", 1.0, 3),
            ("letter_top1", "letter top-1 %", 1.0, 0), ("latency_ms_p50", "latency p50 ms", 1.0, 0),
            ("latency_ms_p95", "latency p95 ms", 1.0, 0))
 
@@ -82,31 +83,36 @@ def _pyplot():
 
 
 def chart(points: list[dict]):
-    """Three panels against loss rate (percent of datagrams): hand PCK@0.2, letter top-1 (fingerspelling only),
-    and latency median with the 95th percentile as a bar."""
+    """Panels against loss rate (percent of datagrams): hand PCK@0.2 (clips that show hands), face error (clips
+    that show a face), letter top-1 (fingerspelling only), and latency median with the 95th percentile as a bar."""
     plt = _pyplot()
     groups = series(points)
-    letters = any(r.get("letter_top1") is not None for r in points)
-    panels = 3 if letters else 2
-    figure, axes = plt.subplots(1, panels, figsize=(4.4 * panels, 3.8))
+    measures = [(field, label, title) for field, label, title in (
+        ("hand_pck_20", "hand PCK@0.2 (%)", "hand keypoints within 0.2 hand sizes\nof the source's, on what the receiver shows"),
+        ("face_error", "face error (interocular distances)",
+         "mean face landmark distance from the source's,\non what the receiver shows"),
+        ("letter_top1", "letters recognised first (%)",
+         "letter top-1 on what the receiver shows\n(recogniser trained on other signers)"))
+        if any(r.get(field) is not None for r in points)]
+    panels = len(measures) + 1
+    figure, axes = plt.subplots(1, panels, figsize=(4.4 * panels, 3.8), squeeze=False)
+    axes = axes[0]
     for (solution, codec), rows in groups.items():
         label = f"{solution} ({codec}, Q{rows[0].get('q')})"
         loss = [100.0 * (r.get("loss_rate") or 0.0) for r in rows]
-        line = axes[0].plot(loss, [r.get("hand_pck_20") for r in rows], "o-", label=label)[0]
-        if letters:
-            axes[1].plot(loss, [r.get("letter_top1") for r in rows], "o-", color=line.get_color(), label=label)
+        color = None
+        for ax, (field, _, _) in zip(axes, measures):
+            line = ax.plot(loss, [r.get(field) for r in rows], "o-", color=color, label=label)[0]
+            color = line.get_color()
         p50 = [r.get("latency_ms_p50") for r in rows]
         p95 = [r.get("latency_ms_p95") for r in rows]
         kept = [(x, a, b) for x, a, b in zip(loss, p50, p95) if a is not None]
         if kept:
             xs, a, b = zip(*kept)
             axes[-1].errorbar(xs, a, yerr=[[0] * len(a), [bb - aa for aa, bb in zip(a, b)]], fmt="o-", capsize=3,
-                              color=line.get_color(), label=label)
-    axes[0].set(xlabel="datagrams lost (%)", ylabel="hand PCK@0.2 (%)",
-                title="hand keypoints within 0.2 hand sizes\nof the source's, on what the receiver shows")
-    if letters:
-        axes[1].set(xlabel="datagrams lost (%)", ylabel="letters recognised first (%)",
-                    title="letter top-1 on what the receiver shows\n(recogniser trained on other signers)")
+                              color=color, label=label)
+    for ax, (_, label, title) in zip(axes, measures):
+        ax.set(xlabel="datagrams lost (%)", ylabel=label, title=title)
     guidance = [axes[-1].axhline(PREFERRED_MS, color="green", lw=0.8, ls="--", label="EN 301 549: < 0.4 s preferred"),
                 axes[-1].axhline(HINDERS_MS, color="red", lw=0.8, ls="--", label="> 0.8 s hinders conversation")]
     axes[-1].set(xlabel="datagrams lost (%)", ylabel="ms", title="latency, capture to ready-to-show\n"
@@ -117,7 +123,8 @@ def chart(points: list[dict]):
         ax.grid(True, alpha=0.3)
         ax.set_xscale("symlog", linthresh=0.5, linscale=0.5)     # 0, 0.5, 1, 2, 5, 10 % spread evenly
         ax.set_xticks(rates, [f"{rate:g}" for rate in rates])
-    axes[0].legend(fontsize=7)
+    if measures:
+        axes[0].legend(fontsize=7)
     axes[-1].legend(handles=guidance, fontsize=7, loc="center right")     # the series are named in the first panel
     figure.tight_layout()
     return figure
@@ -193,12 +200,13 @@ def summary_text(records: list[dict]) -> str:
     """The loss sweep's table as text for the terminal (means over repeated sessions)."""
     points = aggregate(loss_points(records))
     header = f"{'solution':9}{'codec':10}{'loss %':>7}{'kbps':>8}{'wire kbps':>10}{'lost fr':>8}{'PCK@0.2':>8}" \
-             f"{'letters':>8}{'p50 ms':>8}{'p95 ms':>8}"
+             f"{'face':>7}{'letters':>8}{'p50 ms':>8}{'p95 ms':>8}"
     lines = [header]
     for r in points:
         lines.append(f"{r['solution']:9}{r['codec']:10}{_cell(r.get('loss_rate'), 100, 1):>7}"
                      f"{_cell(r.get('kbps'), 1, 1):>8}{_cell(r.get('delivered_kbps'), 1, 1):>10}"
                      f"{_cell(r.get('frames_lost'), 1, 0):>8}{_cell(r.get('hand_pck_20'), 1, 1):>8}"
-                     f"{_cell(r.get('letter_top1'), 1, 0):>8}{_cell(r.get('latency_ms_p50'), 1, 0):>8}"
+                     f"{_cell(r.get('face_error'), 1, 3):>7}{_cell(r.get('letter_top1'), 1, 0):>8}"
+                     f"{_cell(r.get('latency_ms_p50'), 1, 0):>8}"
                      f"{_cell(r.get('latency_ms_p95'), 1, 0):>8}")
     return "\n".join(lines)

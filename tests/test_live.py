@@ -223,3 +223,19 @@ def test_bad_input_is_one_line(tmp_path, capsys, argv, fragment):
     error = lines[-1]                                 # receive says where it listens first
     assert code == 2 and "Traceback" not in "\n".join(lines) and len(lines) <= 2
     assert error.startswith(f"signcast {argv[0]}: error: ") and fragment in error
+
+
+def test_live_report_charts_and_prints_face_error_for_a_clip_without_hands():
+    """A head-and-shoulders clip (carphone) has no hand keypoints: the report charts and prints its face error."""
+    records = [{"kind": "point", "sweep": "loss", "solution": solution, "codec": codec, "q": 8, "loss_rate": loss,
+                "kbps": kbps, "delivered_kbps": kbps * 1.1, "frames_lost": lost, "hand_pck_20": None,
+                "face_error": error, "latency_ms_p50": 10.0, "latency_ms_p95": 20.0}
+               for solution, codec, kbps in (("NSV", "mpeg4", 141.6), ("FBA", "fba-pred", 15.9))
+               for loss, lost, error in ((0.0, 0, 0.052), (0.1, 9, 0.074))]
+    points = live_report.loss_points(records)
+    figure = live_report.chart(points)
+    axes = figure.get_axes()
+    assert len(axes) == 2 and "face error" in axes[0].get_ylabel()
+    assert sorted(tuple(line.get_ydata()) for line in axes[0].get_lines()) == [(0.052, 0.074), (0.052, 0.074)]
+    text = live_report.summary_text(records)
+    assert "face" in text.splitlines()[0] and "0.052" in text and "0.074" in text
