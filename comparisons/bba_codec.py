@@ -59,6 +59,12 @@ in time proportional to each unit, and reports the frames lost so far.
 
 A decoder holds at most MAX_DECODED_VALUES frames x values per frame; larger streams are refused
 before their frames are decoded.
+
+Speed (the bits are those of the plain loops; tests/test_stream_identity.py holds their hashes): each
+distinct set of bone masks is laid out once (_layout: keys, steps); the predictive levels of a stream
+whose frames share one mask set run in one compiled loop (kernels/bba_levels.py); header and mask
+fields are gathered into one integer before the BitWriter takes them; the decoder reads the bone
+tables and masks with kernels/bba_masks.py and converts all frames' Euler angles in one call.
 """
 from __future__ import annotations
 
@@ -73,6 +79,8 @@ from comparisons import keyframes as kf
 from comparisons import param_coding as pc
 from comparisons.bitstream import BitReader, BitWriter, crc8_bits, find_start_codes
 from comparisons.fba_mapping import avatar_bap_map
+from kernels import bba_levels as level_kernel
+from kernels import bba_masks as mask_kernel
 from media import rotations
 from media.avatar import Skeleton, load_avatar
 from media.errors import SigncastError
@@ -88,8 +96,10 @@ MASK_FIELDS = ("TranslationOnX", "TranslationOnY", "TranslationOnZ",
 MASK_TYPES = (("isTranslation", (0, 1, 2)), ("isRotation", (3, 4, 5)), ("isScale", (6, 7, 8)),
               ("isScaleOrientation", (9, 10, 11, 12)), ("isCenter", (13, 14, 15)))
 ROTATION_BITS = (3, 4, 5)
+_GROUP_START = np.array([bits[0] for _, bits in MASK_TYPES] + [16], dtype=np.int64)   # kernels/bba_masks.py
 TRANSLATION_BITS = (0, 1, 2)
 MUSCLE_VALUE_BITS = 20
+VALUE_LIMIT = (1 << (MUSCLE_VALUE_BITS - 1)) - 1   # |bone value|: BBA XML's 20-bit signed integers, as muscles'
 DEFAULT_INTRA_PERIOD = 32
 DEFAULT_INTRA_SEGMENTS = 4
 FRAME_NUMBER_BITS = 24                 # intra units' frame number and the header's frame count
@@ -205,7 +215,7 @@ def _rotation_step_exponents(skeleton: Skeleton) -> dict[int, int]:
     bap_map = avatar_bap_map(skeleton)
     for bone in bap_map.bones:
         step = min(bap_table.bap(i).step for i in bone.baps)
-        exponents[skeleton.index(bone.bone)] = int(round(np.log2(step)))
+        exponents[skeleton.index(bone.bone)] = round(np.log2(step))
     _EXPONENTS[id(skeleton)] = (skeleton, exponents)
     return exponents
 
@@ -214,6 +224,39 @@ def step_of(bone_id: int, bit: int, skeleton: Skeleton) -> int:
     if bit in TRANSLATION_BITS:
         return 2
     return 1 << _rotation_step_exponents(skeleton).get(bone_id, 7)
+
+
+def _exponent_items(skeleton: Skeleton) -> tuple[tuple[int, int], ...]:
+    """_rotation_step_exponents as a hashable key for _layout."""
+    return tuple(sorted(_rotation_step_exponents(skeleton).items()))
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """The values of a frame with given bone masks, in stream order: keys (boneID, bit), base steps
+    (P,) int64, which are angles (P,) bool, and the number of values of each bone (sorted boneIDs)."""
+    bones: tuple[int, ...]
+    keys: list[tuple[int, int]]
+    steps: np.ndarray
+    is_angle: np.ndarray
+    counts: list[int]
+
+
+@functools.lru_cache(maxsize=1024)
+def _layout(bones: tuple[tuple[int, int], ...], exponents: tuple[tuple[int, int], ...]) -> _Layout:
+    """bones: sorted (boneID, mask) pairs; exponents: (boneID, rotation step exponent) pairs (default 7).
+    Cached: a stream has few distinct masks. The arrays are read-only."""
+    exponent = dict(exponents)
+    keys = [(b, bit) for b, mask in bones for bit in _bits(mask)]
+    steps = np.array([2 if bit in TRANSLATION_BITS else 1 << exponent.get(b, 7) for b, bit in keys], dtype=np.int64)
+    is_angle = _is_angle(keys)
+    steps.flags.writeable = False
+    is_angle.flags.writeable = False
+    return _Layout(tuple(b for b, _ in bones), keys, steps, is_angle, [len(_bits(mask)) for _, mask in bones])
+
+
+def _frame_layout(bones: dict[int, int], exponents: tuple[tuple[int, int], ...]) -> _Layout:
+    return _layout(tuple(sorted(bones.items())), exponents)
 
 
 # --------------------------------------------------------------------------------- writing
@@ -234,18 +277,6 @@ def _write_animatable(writer: BitWriter, mask: int) -> None:
                 writer.write_bit(mask >> b & 1)
 
 
-def _read_animatable(reader: BitReader) -> int:
-    present = [reader.read_bit() for _ in MASK_TYPES]
-    mask = 0
-    for flag, (_, bits) in zip(present, MASK_TYPES):
-        if flag:
-            for b in bits:
-                mask |= reader.read_bit() << b
-    if present and mask == 0 and any(present):
-        raise SigncastError("corrupt BBA stream: an announced motion type has no elementary motion")
-    return mask
-
-
 def _write_bone_mask(writer: BitWriter, mask: int, animatable: int) -> None:
     for _, bits in MASK_TYPES:
         allowed = [b for b in bits if animatable >> b & 1]
@@ -255,16 +286,6 @@ def _write_bone_mask(writer: BitWriter, mask: int, animatable: int) -> None:
             if used:
                 for b in allowed:
                     writer.write_bit(mask >> b & 1)
-
-
-def _read_bone_mask(reader: BitReader, animatable: int) -> int:
-    mask = 0
-    for _, bits in MASK_TYPES:
-        allowed = [b for b in bits if animatable >> b & 1]
-        if allowed and reader.read_bit():
-            for b in allowed:
-                mask |= reader.read_bit() << b
-    return mask
 
 
 def _units(stream: BBAStream) -> list[list[int]]:
@@ -298,18 +319,27 @@ def _check_stream(stream: BBAStream) -> None:
         raise SigncastError("a BBA stream needs at least one frame")
     if stream.frames[0].kfi:
         raise SigncastError("the first BBA frame has KeyFrameIndex 0: there is no frame before it to interpolate from")
+    previous = None
     for frame in stream.frames:
         if not 0 <= frame.kfi <= kf.MAX_KFI:
             raise SigncastError(f"KeyFrameIndex {frame.kfi} outside 0..31")
         if h.coding == "dct" and (frame.kfi or frame.muscles):
             raise SigncastError("the DCT BBA coder carries neither key frames nor muscles")
-        for bone, mask in frame.bones.items():
-            if not 0 <= bone <= 1023:
-                raise SigncastError(f"boneID {bone} outside 0..1023")
-            if len(frame.values.get(bone, ())) != bin(mask).count("1"):
-                raise SigncastError(f"bone {bone}: {bin(mask).count('1')} mask bits but "
-                                    f"{len(frame.values.get(bone, ()))} values")
+        if frame.bones != previous:                       # most frames repeat their predecessor's masks
+            for bone in frame.bones:
+                if not 0 <= bone <= 1023:
+                    raise SigncastError(f"boneID {bone} outside 0..1023")
+            previous = frame.bones
+        counts = list(map(len, map(frame.values.get, frame.bones, itertools.repeat(()))))
+        if counts != list(map(int.bit_count, frame.bones.values())):
+            for bone, mask in frame.bones.items():
+                if len(frame.values.get(bone, ())) != mask.bit_count():
+                    raise SigncastError(f"bone {bone}: {mask.bit_count()} mask bits but "
+                                        f"{len(frame.values.get(bone, ()))} values")
     _check_size(*_size(stream.frames))
+    largest = max((abs(v) for frame in stream.frames for values in frame.values.values() for v in values), default=0)
+    if largest > VALUE_LIMIT:
+        raise SigncastError(f"a BBA bone value of magnitude {largest} is beyond +-{VALUE_LIMIT}")
 
 
 def _size(frames: list[BBAFrame]) -> tuple[int, int]:
@@ -317,10 +347,13 @@ def _size(frames: list[BBAFrame]) -> tuple[int, int]:
     if not frames:
         return 0, 0
     animatable: dict[int, int] = {}
+    previous = None
     for frame in frames:
-        for bone, mask in frame.bones.items():
-            animatable[bone] = animatable.get(bone, 0) | mask
-    return int(display_numbers(frames)[-1]) + 1, sum(bin(mask).count("1") for mask in animatable.values())
+        if frame.bones != previous:
+            for bone, mask in frame.bones.items():
+                animatable[bone] = animatable.get(bone, 0) | mask
+            previous = frame.bones
+    return int(display_numbers(frames)[-1]) + 1, sum(mask.bit_count() for mask in animatable.values())
 
 
 def _check_size(n_frames: int, n_values: int) -> None:
@@ -356,20 +389,36 @@ def _p_levels(change: np.ndarray, is_angle: np.ndarray, step: np.ndarray) -> np.
     return np.where(is_angle & (np.abs(folded) > ANGLE_PERIOD // 2 - step) & closer, other_level, level)
 
 
-def _levels(stream: BBAStream, units, intra_flags, skeleton):
+def _levels(stream: BBAStream, units, intra_flags, skeleton, key_index: dict[tuple[int, int], int]):
     """First pass: quantised levels of every unit (what the decoder will rebuild). A predicted
-    unit whose levels do not fit the alphabets is sent intra instead (intra_flags is updated)."""
+    unit whose levels do not fit the alphabets is sent intra instead (intra_flags is updated).
+    key_index: (boneID, bit) -> column of the stream's keys. Returns per unit (keys, steps, level,
+    columns) (predictive) or (keys, steps, dc, ac, n) (DCT)."""
+    exponents = _exponent_items(skeleton)
+    if stream.header.coding == "pred" and len(_runs(stream.frames)) == 1:
+        return _uniform_levels(stream, intra_flags, exponents, key_index)
+    return _levels_by_unit(stream, units, intra_flags, exponents, key_index)
+
+
+def _levels_by_unit(stream: BBAStream, units, intra_flags, exponents, key_index: dict[tuple[int, int], int]):
+    """_levels unit by unit in NumPy: any stream (masks changing between units, DCT segments)."""
     q = stream.header.q
-    held: dict[tuple[int, int], int] = {}
+    held = np.zeros(len(key_index), dtype=np.int64)            # the decoder's values, by stream key
+    columns_of: dict[tuple[int, ...], np.ndarray] = {}
     per_unit = []
     for k, unit in enumerate(units):
         frame = stream.frames[unit[0]]
-        keys = _keys(frame)
-        steps = np.array([step_of(b, bit, skeleton) for b, bit in keys], dtype=np.int64)
-        values = np.array([_flat_values(stream.frames[t]) for t in unit], dtype=np.int64).reshape(len(unit), len(keys))
+        masks = tuple(sorted(frame.bones.items()))
+        layout = _layout(masks, exponents)
+        keys, steps = layout.keys, layout.steps
+        values = np.array([[v for b in layout.bones for v in stream.frames[t].values[b]] for t in unit],
+                          dtype=np.int64).reshape(len(unit), len(keys))
         if stream.header.coding == "pred":
-            is_angle = _is_angle(keys)
-            previous = np.array([held.get(key, 0) for key in keys], dtype=np.int64)
+            columns = columns_of.get(masks)
+            if columns is None:
+                columns = columns_of[masks] = np.array([key_index[key] for key in keys], dtype=np.int64)
+            is_angle = layout.is_angle
+            previous = held[columns]
             if not intra_flags[k]:
                 level = _p_levels(values[0] - previous, is_angle, steps * q)
                 intra_flags[k] = bool(np.any(np.abs(level) > pc.level_limit(q)))
@@ -378,8 +427,8 @@ def _levels(stream: BBAStream, units, intra_flags, skeleton):
                 recon = level * steps * q
             else:
                 recon = _fold(previous + level * steps * q, is_angle)
-            per_unit.append((keys, steps, level))
-            held.update(zip(keys, recon.tolist()))
+            per_unit.append((keys, steps, level, columns))
+            held[columns] = recon
         else:
             n = len(unit)
             dc_step, ac_step = pc.dct_steps(steps, q)
@@ -388,37 +437,61 @@ def _levels(stream: BBAStream, units, intra_flags, skeleton):
     return per_unit
 
 
+def _uniform_levels(stream: BBAStream, intra_flags: list[bool], exponents, key_index: dict[tuple[int, int], int]):
+    """_levels of a predictive stream whose frames all carry the same bone masks (one unit per frame), in
+    one compiled loop (kernels/bba_levels.py)."""
+    q = stream.header.q
+    frames = stream.frames
+    masks = tuple(sorted(frames[0].bones.items()))
+    layout = _layout(masks, exponents)
+    values = np.array([list(itertools.chain.from_iterable(map(frame.values.__getitem__, layout.bones)))
+                       for frame in frames], dtype=np.int64).reshape(len(frames), len(layout.keys))
+    intra = np.array(intra_flags, dtype=bool)
+    levels = np.zeros(values.shape, dtype=np.int64)
+    limit = pc.level_limit(q)
+    status = level_kernel.predictive_levels(values, layout.steps, layout.is_angle, q, limit, ANGLE_PERIOD, intra, levels)
+    if status >= 0:
+        unit, p = status % len(frames), status // len(frames)
+        bone, bit = layout.keys[p]
+        raise SigncastError(f"BBA bone {bone} {MASK_FIELDS[bit]} = {int(values[unit, p])} cannot be sent at Q={q}: "
+                            f"its level exceeds the range fields' limit of {limit}")
+    intra_flags[:] = intra.tolist()
+    columns = np.array([key_index[key] for key in layout.keys], dtype=np.int64)
+    return [(layout.keys, layout.steps, level, columns) for level in levels]
+
+
 def write_stream(stream: BBAStream, skeleton: Skeleton | None = None) -> bytes:
     """Binary BBA stream of `stream` (values are quantised here)."""
     skeleton = skeleton or load_avatar().skeleton
     _check_stream(stream)
     units = _units(stream)
     intra_flags = _intra_flags(stream, units)
-    levels = _levels(stream, units, intra_flags, skeleton)
     bones = sorted({b for f in stream.frames for b in f.bones})
     animatable = {b: 0 for b in bones}
     for frame in stream.frames:
         for b, m in frame.bones.items():
             animatable[b] |= m
     keys = [(b, k) for b in bones for k in _bits(animatable[b])]
+    levels = _levels(stream, units, intra_flags, skeleton, {key: j for j, key in enumerate(keys)})
     if stream.header.coding == "pred":
         q = stream.header.q
-        i_levels = {key: [] for key in keys}
-        p_levels = {key: [] for key in keys}
-        for (unit_keys, _, level), intra in zip(levels, intra_flags):
-            for key, value in zip(unit_keys, level.tolist()):
-                (i_levels if intra else p_levels)[key].append(value)
+        # Levels by unit and stream key (0 where a unit does not carry the key: the range fields
+        # cover 0 anyway), intra units and predicted units apart.
+        by_key = np.zeros((len(levels), len(keys)), dtype=np.int64)
+        carried = np.zeros((len(levels), len(keys)), dtype=bool)
+        for u, (_, _, level, columns) in enumerate(levels):
+            by_key[u, columns] = level
+            carried[u, columns] = True
+        intra = np.array(intra_flags, dtype=bool)
         fields = np.zeros((4, len(keys)), dtype=np.int64)
-        for j, key in enumerate(keys):
-            for r, source in ((0, i_levels[key]), (2, p_levels[key])):
-                top, bottom = pc.range_fields(np.array(source or [0], dtype=np.int64)[:, None], q)
-                fields[r, j], fields[r + 1, j] = top[0], bottom[0]
+        fields[0], fields[1] = pc.range_fields(by_key[intra], q)
+        fields[2], fields[3] = pc.range_fields(by_key[~intra], q)
         # Tight ranges unless the default alphabets are estimated (log2 of alphabet sizes per coded
         # level) to cost less than the range fields they save.
         use_default = False
         if np.all(fields <= pc.DEFAULT_RANGE_FIELD):
             default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
-            counts = np.array([[len(i_levels[key]) for key in keys], [len(p_levels[key]) for key in keys]])
+            counts = np.array([carried[intra].sum(axis=0), carried[~intra].sum(axis=0)], dtype=np.int64)
 
             def estimate(f: np.ndarray) -> float:
                 i_low, i_high = pc.alphabet(f[0], f[1], q)
@@ -431,11 +504,39 @@ def write_stream(stream: BBAStream, skeleton: Skeleton | None = None) -> bytes:
     return _write(stream, units, intra_flags, levels, bones, animatable, keys, None, False, skeleton)
 
 
+class _Bits:
+    """Fields gathered MSB first into one integer, then written to a BitWriter in one call: the same
+    bits (emulation prevention is the writer's, bit by bit) with far fewer calls. Has BitWriter's
+    write and write_bit, so the field writers take either."""
+
+    def __init__(self) -> None:
+        self.value = 0
+        self.n_bits = 0
+
+    def write(self, value: int, n_bits: int) -> None:
+        value = int(value)
+        if value < 0 or value >> n_bits:
+            raise SigncastError(f"value {value} does not fit in {n_bits} bits")
+        self.value = (self.value << n_bits) | value
+        self.n_bits += n_bits
+
+    def write_bit(self, bit: int) -> None:
+        self.value = (self.value << 1) | (1 if bit else 0)
+        self.n_bits += 1
+
+    def flush(self, writer: BitWriter) -> BitWriter:
+        """Write the gathered bits to `writer`; returns it."""
+        writer.write(self.value, self.n_bits)
+        self.value = self.n_bits = 0
+        return writer
+
+
 def _write_header(writer: BitWriter, header: BBAHeader, n_frames: int, bones, animatable, fields, tight,
                   skeleton) -> None:
     """The BBA start code and the header (the same bits for the first header and its copies)."""
     writer.start_code(BBA_START_CODE)
     header_start = writer.n_bits - 8               # the CRC covers the start code's last byte
+    data, writer = writer, _Bits()
     writer.write(VERSION, 8)
     _write_fps(writer, header.fps)
     writer.write(0 if header.coding == "pred" else 1, 2)
@@ -447,13 +548,35 @@ def _write_header(writer: BitWriter, header: BBAHeader, n_frames: int, bones, an
     writer.write(header.rotation_order, 5)
     writer.write_bit(int(tight))
     writer.write(len(bones), 10)
-    for b in bones:
-        writer.write(b, 10)
-        _write_animatable(writer, animatable[b])
-        writer.write(_rotation_step_exponents(skeleton).get(b, 7), 4)
+    writer.write(*_bone_table_bits(tuple((b, animatable[b]) for b in bones), _exponent_items(skeleton)))
+    writer.flush(data)
     if tight:
-        pc.write_range_fields(writer, fields)
-    _write_crc(writer, header_start)
+        pc.write_range_fields(data, fields)
+    _write_crc(data, header_start)
+
+
+@functools.lru_cache(maxsize=64)
+def _bone_table_bits(animatable: tuple[tuple[int, int], ...], exponents: tuple[tuple[int, int], ...]) -> tuple[int, int]:
+    """(value, number of bits) of the header's bone table: per bone its ID, animatable mask and
+    rotation step exponent. animatable: (boneID, mask) pairs in stream order."""
+    bits, exponent = _Bits(), dict(exponents)
+    for b, mask in animatable:
+        bits.write(b, 10)
+        _write_animatable(bits, mask)
+        bits.write(exponent.get(b, 7), 4)
+    return bits.value, bits.n_bits
+
+
+@functools.lru_cache(maxsize=256)
+def _bone_list_bits(masks: tuple[tuple[int, int], ...], animatable: tuple[int, ...]) -> tuple[int, int]:
+    """(value, number of bits) of a unit's bone list: NSBB, then per bone its ID and hierarchical mask.
+    masks: sorted (boneID, mask) pairs; animatable: each bone's animatable mask."""
+    bits = _Bits()
+    bits.write(len(masks), 10)
+    for (b, mask), allowed in zip(masks, animatable):
+        bits.write(b, 10)
+        _write_bone_mask(bits, mask, allowed)
+    return bits.value, bits.n_bits
 
 
 def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, tight, skeleton) -> bytes:
@@ -465,7 +588,6 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
     if h.coding == "pred":
         low_i, high_i = pc.alphabet(fields[0], fields[1], h.q)
         low_p, high_p = pc.alphabet(fields[2], fields[3], h.q)
-        key_index = {key: j for j, key in enumerate(keys)}
     tables = pc.vlc_tables() if h.coding == "dct" else None
     previous_dc = None
     n_intra = 0
@@ -477,6 +599,7 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
             n_intra += 1
         writer.start_code(FRAME_START_CODE)
         unit_start = writer.n_bits
+        data, writer = writer, _Bits()
         writer.write_bit(int(intra))
         number = int(numbers[unit[0]])
         if intra:
@@ -489,19 +612,17 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
         if not intra:
             writer.write_bit(int(frame.bones == stream.frames[units[k - 1][0]].bones))
         if intra or frame.bones != stream.frames[units[k - 1][0]].bones:
-            writer.write(len(frame.bones), 10)
-            for b in sorted(frame.bones):
-                writer.write(b, 10)
-                _write_bone_mask(writer, frame.bones[b], animatable[b])
+            masks = tuple(sorted(frame.bones.items()))
+            writer.write(*_bone_list_bits(masks, tuple(animatable[b] for b, _ in masks)))
+        writer = writer.flush(data)
         if h.coding == "pred":
-            unit_keys, _, level = levels[k]
-            idx = np.array([key_index[key] for key in unit_keys], dtype=np.int64)
+            _, _, level, idx = levels[k]
             if intra:
                 models = {"I": pc.make_models(low_i, high_i), "P": pc.make_models(low_p, high_p)}
             chosen, low = (models["I"], low_i) if intra else (models["P"], low_p)
             pc.write_levels(writer, level, chosen.subset(idx), low[idx] if len(idx) else low[:0])
         else:
-            unit_keys, steps, dc, ac, n = levels[k]
+            _, _, dc, ac, _ = levels[k]
             dc_values = dc if intra else dc - previous_dc
             pc.write_dct_blocks(writer, tables, dc_values, intra, ac)
             previous_dc = dc
@@ -547,11 +668,15 @@ class _DecoderState:
     exponents: dict[int, int]
     keys: list[tuple[int, int]]
     fields: np.ndarray | None
-    held: dict = field(default_factory=dict)
+    held: np.ndarray | None = None            # (len(keys),) int64 the decoder's values, by header key
     models: dict | None = None
     previous_bones: dict | None = None
     previous_dc: np.ndarray | None = None
     synced: bool = False
+    columns: dict = field(default_factory=dict)   # sorted (boneID, mask) pairs -> (layout, header columns)
+    animatable: np.ndarray | None = None      # (1024,) int64 animatable mask by boneID, -1: not in the header
+    alphabets: tuple | None = None            # predictive: (I low, I high, P low, P high) levels, (len(keys),) each
+    previous_layout: tuple | None = None      # _unit_layout of previous_bones
 
 
 def _read_header(data: bytes, position: int) -> _DecoderState:
@@ -572,11 +697,15 @@ def _read_header(data: bytes, position: int) -> _DecoderState:
     if q == 0 or intra_period == 0 or n_frames == 0 or order >= 24:
         raise SigncastError("corrupt BBA stream header")
     tight = reader.read_bit()
-    bones, exponents = {}, {}
-    for _ in range(reader.read(10)):
-        b = reader.read(10)
-        bones[b] = _read_animatable(reader)
-        exponents[b] = reader.read(4)
+    n_bones = reader.read(10)
+    ids, masks, steps = (np.zeros(n_bones, dtype=np.int64) for _ in range(3))
+    status = mask_kernel.read_bone_table(reader.array, reader.end_bit, reader.registers, _GROUP_START, ids, masks, steps)
+    if status == mask_kernel.TRUNCATED:
+        raise SigncastError("truncated stream: it ends inside a field")
+    if status == mask_kernel.EMPTY_TYPE:
+        raise SigncastError("corrupt BBA stream: an announced motion type has no elementary motion")
+    ids, masks, steps = ids.tolist(), masks.tolist(), steps.tolist()
+    bones, exponents = dict(zip(ids, masks)), dict(zip(ids, steps))
     keys = [(b, k) for b in sorted(bones) for k in _bits(bones[b])]
     fields = None
     if coding == 0:
@@ -585,11 +714,10 @@ def _read_header(data: bytes, position: int) -> _DecoderState:
     if not reader.at_start_code():
         raise SigncastError("corrupt BBA stream: header does not end at a start code")
     header = BBAHeader("", fps, "pred" if coding == 0 else "dct", q, intra_period, keyframes, order, header_period)
-    return _DecoderState(header, n_frames, bones, exponents, keys, fields)
-
-
-def _step(state: _DecoderState, bone: int, bit: int) -> int:
-    return 2 if bit in TRANSLATION_BITS else 1 << state.exponents[bone]
+    animatable = np.full(1024, -1, dtype=np.int64)
+    animatable[list(bones)] = list(bones.values())
+    alphabets = None if fields is None else (*pc.alphabet(fields[0], fields[1], q), *pc.alphabet(fields[2], fields[3], q))
+    return _DecoderState(header, n_frames, bones, exponents, keys, fields, animatable=animatable, alphabets=alphabets)
 
 
 def _unit_number(field: int, intra: bool, kfi: int, n: int, display_end: int, state: _DecoderState,
@@ -622,20 +750,13 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool, disp
         raise SigncastError("predicted frame without a decoded reference")
     if same:
         bones = dict(state.previous_bones)
+        layout, idx = state.previous_layout
     else:
-        bones = {}
-        for _ in range(reader.read(10)):
-            b = reader.read(10)
-            if b not in state.bones:
-                raise SigncastError(f"corrupt BBA frame: bone {b} is not in the stream header")
-            bones[b] = _read_bone_mask(reader, state.bones[b])
-    keys = [(b, k) for b in sorted(bones) for k in _bits(bones[b])]
-    steps = np.array([_step(state, b, k) for b, k in keys], dtype=np.int64)
+        bones = _read_unit_bones(reader, state)
+        layout, idx = _unit_layout(state, bones)
+    keys, steps = layout.keys, layout.steps
     if h.coding == "pred":
-        index = {key: j for j, key in enumerate(state.keys)}
-        idx = np.array([index[key] for key in keys], dtype=np.int64)
-        low_i, high_i = pc.alphabet(state.fields[0], state.fields[1], h.q)
-        low_p, high_p = pc.alphabet(state.fields[2], state.fields[3], h.q)
+        low_i, high_i, low_p, high_p = state.alphabets
         if intra:
             state.models = {"I": pc.make_models(low_i, high_i), "P": pc.make_models(low_p, high_p)}
         chosen, low = (state.models["I"], low_i) if intra else (state.models["P"], low_p)
@@ -643,8 +764,7 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool, disp
         if intra:
             recon = level * steps * h.q
         else:
-            previous = np.array([state.held.get(key, 0) for key in keys], dtype=np.int64)
-            recon = _fold(previous + level * steps * h.q, _is_angle(keys))
+            recon = _fold(state.held[idx] + level * steps * h.q, layout.is_angle)
         rows = recon[None]
     else:
         tables = pc.vlc_tables()
@@ -655,6 +775,8 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool, disp
             dc += state.previous_dc
         dc_step, ac_step = pc.dct_steps(steps, h.q)
         rows = pc.dct_reconstruct(dc, ac, dc_step, ac_step)
+    if len(rows) and np.abs(rows).max(initial=0) > VALUE_LIMIT:
+        raise SigncastError(f"corrupt BBA stream: a decoded bone value beyond +-{VALUE_LIMIT}")
     n_muscles = reader.read(10)
     _check_crc(reader, unit_start, "a frame")
     number = _unit_number(number_field, intra, kfi, len(rows), display_end, state, strict)
@@ -671,18 +793,44 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool, disp
         _check_crc(reader, muscle_start, "muscle data")
     if h.coding == "dct":
         state.previous_dc = dc
-    state.held.update(zip(keys, rows[-1].tolist()))
+    state.held[idx] = rows[-1]
     state.previous_bones = bones
+    state.previous_layout = (layout, idx)
     state.synced = True
     frames = []
-    for row in rows:
+    for row in rows.tolist():
         values, j = {}, 0
-        for b in sorted(bones):
-            count = bin(bones[b]).count("1")
-            values[b] = row[j:j + count].tolist()
+        for b, count in zip(layout.bones, layout.counts):
+            values[b] = row[j:j + count]
             j += count
         frames.append(BBAFrame(kfi, dict(bones), values, muscles if not frames else []))
     return number, frames
+
+
+def _read_unit_bones(reader: BitReader, state: _DecoderState) -> dict[int, int]:
+    """A unit's bone list: boneID -> mask (bit k = MASK_FIELDS[k]), in stream order."""
+    ids, masks, result = np.zeros(1023, dtype=np.int64), np.zeros(1023, dtype=np.int64), np.zeros(2, dtype=np.int64)
+    status = mask_kernel.read_unit_bones(reader.array, reader.end_bit, reader.registers, _GROUP_START, state.animatable,
+                                         ids, masks, result)
+    if status == mask_kernel.TRUNCATED:
+        raise SigncastError("truncated stream: it ends inside a field")
+    if status == mask_kernel.UNKNOWN_BONE:
+        raise SigncastError(f"corrupt BBA frame: bone {int(result[1])} is not in the stream header")
+    n = int(result[0])
+    return dict(zip(ids[:n].tolist(), masks[:n].tolist()))
+
+
+def _unit_layout(state: _DecoderState, bones: dict[int, int]) -> tuple[_Layout, np.ndarray]:
+    """The layout of a unit's bone masks and the header columns (indices into state.keys) of its keys."""
+    masks = tuple(sorted(bones.items()))
+    cached = state.columns.get(masks)
+    if cached is None:
+        if state.held is None:
+            state.held = np.zeros(len(state.keys), dtype=np.int64)
+        layout = _layout(masks, tuple(sorted(state.exponents.items())))
+        index = {key: j for j, key in enumerate(state.keys)}
+        cached = state.columns[masks] = (layout, np.array([index[key] for key in layout.keys], dtype=np.int64))
+    return cached
 
 
 def _check_unit_end(reader: BitReader, end_byte: int) -> None:
@@ -930,7 +1078,8 @@ def motion_to_stream(motion: Motion, q: int, coding: str = "pred", *, keyframes:
             columns.append((root, bit))
             series.append(trans[:, axis])
     values = np.stack(series, axis=1)[keys_frames]                       # (K, C)
-    steps = np.array([step_of(b, bit, skeleton) for b, bit in columns], dtype=np.int64)
+    exponents = _rotation_step_exponents(skeleton)
+    steps = np.array([2 if bit in TRANSLATION_BITS else 1 << exponents.get(b, 7) for b, bit in columns], dtype=np.int64)
     if intra_period is None:
         intra_period = DEFAULT_INTRA_PERIOD if coding == "pred" else DEFAULT_INTRA_SEGMENTS
     # Every frame carries every value that is ever sent (not only those changing in its intra
@@ -941,40 +1090,70 @@ def motion_to_stream(motion: Motion, q: int, coding: str = "pred", *, keyframes:
     for c in sent:
         b, bit = columns[c]
         mask[b] = mask.get(b, 0) | (1 << bit)
-    order = {b: [columns.index((b, bit)) for bit in _bits(mask[b])] for b in mask}
-    frames = []
-    for index, row in enumerate(values):
-        kfi = int(keys_frames[index] - keys_frames[index - 1] - 1) if index else 0
-        frames.append(BBAFrame(kfi, dict(mask), {b: [int(row[c]) for c in order[b]] for b in mask}))
+    column_of = {key: c for c, key in reversed(list(enumerate(columns)))}      # the first column of each key
+    order = {b: [column_of[(b, bit)] for bit in _bits(mask[b])] for b in mask}
+    spans, start = {}, 0                                # bone -> its values' slice of a sent row
+    for b in mask:
+        spans[b] = (start, start + len(order[b]))
+        start += len(order[b])
+    sent_rows = values[:, [c for b in mask for c in order[b]]].tolist()
+    gaps = np.diff(keys_frames, prepend=keys_frames[0] - 1) - 1           # KeyFrameIndex; 0 for the first
+    frames = [BBAFrame(int(kfi), dict(mask), {b: row[a:e] for b, (a, e) in spans.items()})
+              for kfi, row in zip(gaps.tolist(), sent_rows)]
     header = BBAHeader(name, motion.fps, coding, q, intra_period, keyframes, rotation_order, header_period)
     return BBAStream(header, frames)
+
+
+def _runs(frames: list[BBAFrame]) -> list[tuple[int, int]]:
+    """[start, stop) of the runs of consecutive frames with equal bone masks."""
+    starts = [0] + [t for t in range(1, len(frames)) if frames[t].bones != frames[t - 1].bones]
+    return list(zip(starts, starts[1:] + [len(frames)]))
 
 
 def stream_to_motion(stream: BBAStream, skeleton: Skeleton | None = None) -> Motion:
     """Motion of the decoded stream: held values, Euler -> quaternions, key frames expanded."""
     skeleton = skeleton or load_avatar().skeleton
-    bones = sorted({b for f in stream.frames for b in f.bones})
+    runs = _runs(stream.frames)
+    masks = [stream.frames[start].bones for start, _ in runs]
+    bones = sorted({b for m in masks for b in m})
     root = int(np.flatnonzero(skeleton.parents < 0)[0])
-    rotated = sorted({b for f in stream.frames for b in f.bones if f.bones[b] & 0b111000} | {root})
+    rotated = sorted({b for m in masks for b in m if m[b] & 0b111000} | {root})
     for b in bones:
         if b >= len(skeleton):
             raise SigncastError(f"BBA stream animates bone {b}, the avatar has {len(skeleton)}")
     _check_size(*_size(stream.frames))
     order = ORDER_NAMES[stream.header.rotation_order]
-    held: dict[tuple[int, int], int] = {}
-    quats, trans = [], []
-    for frame in stream.frames:
-        for b in sorted(frame.bones):
-            for bit, value in zip(_bits(frame.bones[b]), frame.values[b]):
-                held[(b, bit)] = value
-        angles = np.array([[held.get((b, bit), 0) for bit in ROTATION_BITS] for b in rotated], dtype=np.float64)
-        q = rotations.from_euler(angles * bap_table.ROTATION_UNIT_RAD, order)
-        t = np.array([held.get((root, bit), 0) for bit in TRANSLATION_BITS], dtype=np.float64) * bap_table.TRANSLATION_UNIT_M
-        if frame.kfi and quats:
-            q_mid, t_mid = kf.expand(quats[-1], trans[-1], q, t, frame.kfi)
-            quats.extend(q_mid)
-            trans.extend(t_mid)
-        quats.append(q)
-        trans.append(t)
+    # Held values of every frame: columns 3 r .. 3 r + 2 the angles of rotated[r], then the root's translation.
+    n_columns = 3 * len(rotated) + 3
+    column = {(b, bit): 3 * r + axis for r, b in enumerate(rotated) for axis, bit in enumerate(ROTATION_BITS)}
+    column |= {(root, bit): 3 * len(rotated) + axis for axis, bit in enumerate(TRANSLATION_BITS)}
+    table = np.zeros((len(stream.frames), n_columns))
+    held = np.zeros(n_columns)
+    for (start, stop), mask in zip(runs, masks):
+        sent = sorted(mask)
+        keys = [(b, bit) for b in sent for bit in _bits(mask[b])]
+        source = [k for k, key in enumerate(keys) if key in column]
+        target = [column[keys[k]] for k in source]
+        flat = np.array([list(itertools.chain.from_iterable(map(frame.values.__getitem__, sent)))
+                         for frame in stream.frames[start:stop]], dtype=np.float64).reshape(stop - start, len(keys))
+        block = table[start:stop]
+        block[:] = held
+        block[:, target] = flat[:, source]
+        held = block[-1]
+    angles = table[:, :3 * len(rotated)].reshape(len(table), len(rotated), 3)
+    key_q = rotations.from_euler(angles * bap_table.ROTATION_UNIT_RAD, order)          # (F, R, 4)
+    key_t = table[:, 3 * len(rotated):] * bap_table.TRANSLATION_UNIT_M                 # (F, 3)
+    if not any(frame.kfi for frame in stream.frames[1:]):
+        quats, trans = key_q, key_t
+    else:
+        q_parts, t_parts = [], []
+        for f, frame in enumerate(stream.frames):
+            if frame.kfi and f:
+                q_mid, t_mid = kf.expand(key_q[f - 1], key_t[f - 1], key_q[f], key_t[f], frame.kfi)
+                q_parts.append(q_mid)
+                t_parts.append(t_mid)
+            q_parts.append(key_q[f:f + 1])
+            t_parts.append(key_t[f:f + 1])
+        quats, trans = np.concatenate(q_parts), np.concatenate(t_parts)
     names = tuple(skeleton.names[b] for b in rotated)
-    return Motion(stream.header.fps, names, np.array(quats), np.array(trans))
+    return Motion(stream.header.fps, names, quats, trans)

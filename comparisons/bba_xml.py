@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
-from comparisons.bba_codec import MASK_FIELDS, MASK_TYPES, BBAFrame, BBAHeader, BBAStream, MuscleUpdate
+from comparisons.bba_codec import MASK_FIELDS, MASK_TYPES, VALUE_LIMIT, BBAFrame, BBAHeader, BBAStream, MuscleUpdate
 from media.errors import SigncastError
 
 NAMESPACE = "urn:mpeg:mpeg4:bba:schema:2002"
@@ -138,7 +138,7 @@ def from_xml(text: str) -> BBAStream:
             if set(bone_value.attrib) != set(names):
                 raise SigncastError(f"BBA XML: bone {bone} values {sorted(bone_value.attrib)} do not match its mask {names}")
             bones[bone] = bits
-            frame_values[bone] = [_int(bone_value, name, -(1 << 19), (1 << 19) - 1) for name in names]
+            frame_values[bone] = [_int(bone_value, name, -VALUE_LIMIT, VALUE_LIMIT) for name in names]
         muscles = []
         muscle_masks = mask.findall(_NS + "MuscleIDMask")
         muscle_values = values.findall(_NS + "MuscleAnimationValue")

@@ -21,6 +21,10 @@ The entropy stage is a parameter (`EntropyStage`): `arithmetic` (default: the ad
 arithmetic coder of comparisons/entropy.py, one adaptive model per section), `huffman` (static canonical
 Huffman of comparisons/entropy.py, code lengths sent in the section) or `fixed` (ceil(log2(alphabet))
 bits per symbol, i.e. no entropy coding).
+
+Speed: arithmetic-coded sections and signed sections are coded by kernels/lab_streams.py (one call for a
+coder's n per-DOF sections: `symbol_rows`), with the same bytes as the entropy stage's own coder; a section
+the compiled reader does not accept is read again by the checking reader here, which names the damage.
 """
 from __future__ import annotations
 
@@ -31,6 +35,7 @@ from typing import Callable
 
 import numpy as np
 
+from kernels import lab_streams
 from media.errors import SigncastError
 
 MAGIC = b"SCM1"
@@ -90,6 +95,23 @@ def _arithmetic_decode(data: bytes, count: int, alphabet: int) -> np.ndarray:
     if (reader.pos + 7) // 8 != len(data):
         raise SigncastError("corrupt arithmetic-coded section: data does not end where the symbols do")
     return symbols
+
+
+_MODEL_LIMIT = 1 << 16  # comparisons.entropy.MAX_TOTAL: the adaptive models' frequency limit
+_MAX_OVERRUN = 32       # comparisons.entropy.PRECISION: bits the decoder's register may read past a payload
+
+
+def _compiled_sections(stage: EntropyStage, alphabet: int) -> bool:
+    """Whether kernels/lab_streams.py codes this stage's sections: the arithmetic stage, for every alphabet
+    FrequencyModel accepts (larger ones take the checking path, which rejects them)."""
+    return stage.stage_id == 1 and 1 <= alphabet <= _MODEL_LIMIT // 2
+
+
+def _encode_sections(rows: np.ndarray, alphabet: int) -> bytes:
+    """Complete arithmetic-coded sections (tag, lengths, payload), one per row of rows (n, count) int64."""
+    out = np.empty(lab_streams.section_capacity(len(rows), rows.shape[1]), dtype=np.uint8)
+    n_bytes = lab_streams.encode_sections(rows, alphabet, ARITHMETIC_INCREMENT, _MODEL_LIMIT, out)
+    return out[:n_bytes].tobytes()
 
 
 def _huffman_encode(symbols: np.ndarray, alphabet: int) -> bytes:
@@ -285,8 +307,25 @@ class StreamWriter:
         symbols = np.asarray(symbols, dtype=np.int64).ravel()
         if alphabet < 1 or (len(symbols) and (symbols.min() < 0 or symbols.max() >= alphabet)):
             raise ValueError(f"symbols outside alphabet of {alphabet}")
+        if len(symbols) and _compiled_sections(self.stage, alphabet):
+            self.parts.append(_encode_sections(symbols[None], alphabet))
+            return
         data = self.stage.encode(symbols, alphabet) if len(symbols) else b""
         self.parts += [b"S", _varint(alphabet), _varint(len(symbols)), _varint(len(data)), data]
+
+    def symbol_rows(self, rows: np.ndarray, alphabet: int) -> None:
+        """Each row of rows (n, count) as its own symbol section (own adaptive model): the bytes of n
+        symbols() calls, in one compiled call for the arithmetic stage."""
+        rows = np.ascontiguousarray(rows, dtype=np.int64)
+        if rows.ndim != 2:
+            raise ValueError("symbol rows must be a 2-D array")
+        if rows.size and (alphabet < 1 or rows.min() < 0 or rows.max() >= alphabet):
+            raise ValueError(f"symbols outside alphabet of {alphabet}")
+        if rows.size and _compiled_sections(self.stage, alphabet):
+            self.parts.append(_encode_sections(rows, alphabet))
+            return
+        for row in rows:
+            self.symbols(row, alphabet)
 
     def raw(self, values: np.ndarray, widths: np.ndarray) -> None:
         values = np.asarray(values, dtype=np.int64).ravel()
@@ -294,10 +333,16 @@ class StreamWriter:
         self.parts += [b"R", _varint(len(values)), _varint(len(data)), data]
 
     def signed(self, values: np.ndarray) -> None:
-        """Signed integers as entropy-coded magnitude classes plus raw mantissas."""
-        classes, mantissa, widths = magnitude_classes(np.asarray(values).ravel())
+        """Signed integers as entropy-coded magnitude classes plus raw mantissas (magnitude_classes, pack_bits,
+        in one compiled pass)."""
+        values = np.ascontiguousarray(np.asarray(values).ravel(), dtype=np.int64)
+        classes = np.empty(len(values), dtype=np.int64)
+        packed = np.zeros((len(values) * _MAX_MAGNITUDE_CLASS + 7) // 8, dtype=np.uint8)
+        n_bytes = lab_streams.signed_to_bytes(values, _MAX_MAGNITUDE_CLASS, classes, packed)
+        if n_bytes < 0:
+            raise ValueError("integer too large for the magnitude-class code")
         self.symbols(classes, _MAX_MAGNITUDE_CLASS + 1)
-        self.raw(mantissa, widths)
+        self.parts += [b"R", _varint(len(values)), _varint(n_bytes), packed[:n_bytes].tobytes()]
 
     def finish(self) -> bytes:
         body = b"".join(self.parts)
@@ -326,6 +371,7 @@ class StreamReader:
         check_size(n_frames, n_dofs, f"corrupt {coder_name} stream: impossible header")
         self.info = StreamInfo(cid, q, n_frames, n_dofs, fps_milli / 1000.0)
         self.body = body
+        self.array = np.frombuffer(body, dtype=np.uint8)
         self.pos = _HEADER.size
 
     def _fail(self, what: str) -> SigncastError:
@@ -370,6 +416,13 @@ class StreamReader:
         data = self._take(self._varint())
         if got_count == 0:
             return np.zeros(0, dtype=np.int64)
+        if _compiled_sections(self.stage, alphabet):
+            symbols = np.empty(got_count, dtype=np.int64)
+            payload = np.frombuffer(data, dtype=np.uint8)
+            if lab_streams.decode_payload(payload, alphabet, ARITHMETIC_INCREMENT, _MODEL_LIMIT, _MAX_OVERRUN,
+                                          symbols) == 0:
+                return symbols
+            # not accepted: the checking decoder below says what is wrong
         try:
             symbols = np.asarray(self.stage.decode(data, got_count, alphabet), dtype=np.int64)
         except SigncastError:
@@ -379,6 +432,18 @@ class StreamReader:
         if len(symbols) != got_count or symbols.min() < 0 or symbols.max() >= alphabet:
             raise self._fail("symbols out of range")
         return symbols
+
+    def symbol_rows(self, alphabet: int, n_rows: int, count: int) -> np.ndarray:
+        """n_rows sections of exactly `count` symbols each, as StreamWriter.symbol_rows wrote them: (n_rows, count)."""
+        if n_rows and count and _compiled_sections(self.stage, alphabet):
+            rows = np.empty((n_rows, count), dtype=np.int64)
+            end = lab_streams.decode_sections(self.array, self.pos, alphabet, ARITHMETIC_INCREMENT, _MODEL_LIMIT,
+                                              _MAX_OVERRUN, rows)
+            if end >= 0:
+                self.pos = end
+                return rows
+            # not accepted: re-read section by section, which says what is wrong
+        return np.array([self.symbols(alphabet, count) for _ in range(n_rows)], dtype=np.int64).reshape(n_rows, count)
 
     def raw(self, widths: np.ndarray) -> np.ndarray:
         self._tag(b"R")
@@ -391,6 +456,14 @@ class StreamReader:
     def signed(self, count: int, *, at_most: bool = False) -> np.ndarray:
         """Signed integers written by StreamWriter.signed: (count,) int64, or up to `count` with `at_most`."""
         classes = self.symbols(_MAX_MAGNITUDE_CLASS + 1, count, at_most=at_most)
+        start = self.pos
+        self._tag(b"R")
+        if self._varint() == len(classes):
+            packed = np.frombuffer(self._take(self._varint()), dtype=np.uint8)
+            values = np.empty(len(classes), dtype=np.int64)
+            if lab_streams.signed_from_bytes(classes, packed, values) == 0:
+                return values
+        self.pos = start  # not accepted: the checking reader says what is wrong
         mantissa = self.raw(classes)
         return from_magnitude_classes(classes, mantissa)
 

@@ -152,7 +152,7 @@ class ModelBank:
     def __len__(self) -> int:
         return len(self.members)
 
-    def subset(self, members) -> "ModelBank":
+    def subset(self, members) -> ModelBank:
         """The models `members` (indices into this bank's members), sharing their counts."""
         return ModelBank(None, self.members[np.asarray(members, dtype=np.int64)], _arrays=(
             self.sizes, self.offsets, self.counts, self.tree, self.scalars))

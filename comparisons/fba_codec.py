@@ -53,12 +53,18 @@ fap_table.limits() are refused before coding (within them every level fits). A D
 than 16 frames (the stream's last, or one before a parameter-set change) sets is_short; the
 stream's last segment always does.
 
+Speed (kernels/param_frames.py): the encoder's decisions (changed mask, closed-loop levels, range
+fields) and all P planes of an intra period are one kernel call each; the decoder reads the P planes
+after an intra plane in one call (`_read_predicted_planes`), and falls back to reading field by field
+at anything else (another header, damage), so its checks and messages are those of the plain loop.
+
 Streams hold at most MAX_FRAMES frames; the encoder refuses longer input and the decoder stops
 with SigncastError before storing frame MAX_FRAMES + 1 (a 15.6 kB DCT stream can hold 400,000
 still frames, 0.95 GB once decoded).
 """
 from __future__ import annotations
 
+import functools
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -68,6 +74,7 @@ import numpy as np
 from comparisons import bap_table, fap_table
 from comparisons import param_coding as pc
 from comparisons.bitstream import BitReader, BitWriter
+from kernels import param_frames as pf
 from media.errors import SigncastError
 
 OBJECT_START_CODE = 0xBA
@@ -102,10 +109,16 @@ class ParameterSet:
     empty_groups: tuple[int, ...]
     describe: Callable[[int, int], str]
     group_order: np.ndarray = field(init=False)
+    group_starts: np.ndarray = field(init=False)
+    empty_group_flags: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
         order = np.array([i - 1 for group in self.group_members for i in group], dtype=np.int64)
         object.__setattr__(self, "group_order", order)
+        starts = np.concatenate([[0], np.cumsum([len(group) for group in self.group_members])]).astype(np.int64)
+        object.__setattr__(self, "group_starts", starts)
+        flags = np.array([g in self.empty_groups for g in range(1, len(self.group_members) + 1)], dtype=bool)
+        object.__setattr__(self, "empty_group_flags", flags)
 
     def steps(self, quant: int) -> np.ndarray:
         """(count,) int64 effective quantisation steps at this quant (1..31)."""
@@ -138,17 +151,20 @@ def coded_order(mask: np.ndarray, parameter_set: ParameterSet = BAPS) -> np.ndar
     return parameter_set.coded_order(mask)
 
 
+def plane_header_bits(intra: bool, fps: float, paramset: int = PARAMSET_BAP) -> tuple[int, int]:
+    """(value, bit count) of a plane header: is_intra, fba_object_mask, [is_frame_rate 1, frame_rate,
+    seconds, frequency_offset, is_time_code 0], skip_frames 0."""
+    if paramset < 0 or paramset >> 2:
+        raise SigncastError(f"value {paramset} does not fit in 2 bits")
+    if not intra:
+        return paramset << 1, 4
+    rate, seconds, offset = pc.frame_rate_fields(fps)
+    value = (((((1 << 2 | paramset) << 1 | 1) << 8 | rate) << 4 | seconds) << 1 | offset) << 2
+    return value, 19
+
+
 def write_plane_header(writer: BitWriter, intra: bool, fps: float, paramset: int = PARAMSET_BAP) -> None:
-    writer.write_bit(int(intra))
-    writer.write(paramset, 2)
-    if intra:
-        rate, seconds, offset = pc.frame_rate_fields(fps)
-        writer.write_bit(1)
-        writer.write(rate, 8)
-        writer.write(seconds, 4)
-        writer.write_bit(offset)
-        writer.write_bit(0)                  # is_time_code
-    writer.write_bit(0)                      # skip_frames
+    writer.write(*plane_header_bits(intra, fps, paramset))
 
 
 def read_plane_header(reader: BitReader) -> tuple[bool, int, float | None]:
@@ -170,36 +186,26 @@ def read_plane_header(reader: BitReader) -> tuple[bool, int, float | None]:
 
 
 def write_group_masks(writer: BitWriter, mask: np.ndarray, parameter_set: ParameterSet = BAPS) -> None:
-    for group in parameter_set.group_members:
-        writer.write_bit(1)
-        flags = [bool(mask[i - 1]) for i in group]
-        if not any(flags):
-            writer.write(0, 2)
-        elif all(flags):
-            writer.write(3, 2)
-        else:
-            writer.write(1, 2)
-            for flag in flags:
-                writer.write_bit(int(flag))
+    """Per group: marker 1, mask type u2 (0 none, 3 all, 1 then one bit per parameter). mask: (count,) bool."""
+    mask = np.ascontiguousarray(mask, dtype=bool)
+    writer.reserve(parameter_set.count + 3 * len(parameter_set.group_members))
+    pf.write_group_masks(writer.buffer, writer.state, mask, parameter_set.group_starts, parameter_set.group_order)
 
 
 def read_group_masks(reader: BitReader, parameter_set: ParameterSet = BAPS) -> np.ndarray:
     """(count,) bool mask of the parameters an intra plane sends."""
     mask = np.zeros(parameter_set.count, dtype=bool)
-    for number, group in enumerate(parameter_set.group_members, start=1):
-        if reader.read_bit() != 1:
-            raise SigncastError("corrupt FBA stream: missing marker bit in the group masks")
-        kind = reader.read(2)
-        if kind == 2:
-            raise SigncastError(f"corrupt FBA stream: {parameter_set.mask_type_2}")
-        if kind and number in parameter_set.empty_groups:
-            raise SigncastError(f"corrupt FBA stream: {parameter_set.name} group {number} is never sent "
-                                "(high-level FAPs, viseme and expression, are not supported)")
-        if kind == 3:
-            mask[np.array(group) - 1] = True
-        elif kind == 1:
-            for i in group:
-                mask[i - 1] = bool(reader.read_bit())
+    status, number = pf.read_group_masks(reader.array, reader.end_bit, reader.registers, parameter_set.group_starts,
+                                         parameter_set.group_order, parameter_set.empty_group_flags, mask)
+    if status == pf.END_OF_DATA:
+        raise SigncastError("truncated stream: it ends inside a field")
+    if status == pf.MISSING_MARKER:
+        raise SigncastError("corrupt FBA stream: missing marker bit in the group masks")
+    if status == pf.MASK_TYPE_2:
+        raise SigncastError(f"corrupt FBA stream: {parameter_set.mask_type_2}")
+    if status == pf.EMPTY_GROUP:
+        raise SigncastError(f"corrupt FBA stream: {parameter_set.name} group {number} is never sent "
+                            "(high-level FAPs, viseme and expression, are not supported)")
     return mask
 
 
@@ -217,7 +223,9 @@ class _Track:
 
 
 def _changed_mask(block: np.ndarray, held: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    return np.any(pc.quantize(block - held, steps) != 0, axis=0)
+    """(count,) bool: the parameters of block (T, count) whose quantised difference from held is ever nonzero."""
+    return pf.changed_mask(np.asarray(block, dtype=np.int64), np.asarray(held, dtype=np.int64),
+                           np.ascontiguousarray(np.broadcast_to(steps, np.shape(block)[1:]), dtype=np.int64))
 
 
 def _predictive_decisions(track: _Track, block: np.ndarray):
@@ -225,17 +233,13 @@ def _predictive_decisions(track: _Track, block: np.ndarray):
     mask (count,) bool, coded order, intra levels (P,), P levels (T - 1, P), decoder values (T, P)).
     SigncastError if an intra value cannot be sent."""
     pset, q = track.parameter_set, track.quant
-    steps_all = pset.steps(q)
-    mask = _changed_mask(block, track.held, steps_all)
-    order = pset.coded_order(mask)
-    intra, p_levels, recon = pc.predictive_levels(block[:, order], track.held[order], steps_all[order], q)
-    too_large = np.flatnonzero(np.abs(intra) > pc.level_limit(q))
-    if len(too_large):
-        index = int(order[too_large[0]])
+    mask, order, intra, p_levels, recon = pf.masked_levels(block, track.held, pset.steps(q), pset.group_order)
+    if pf.first_beyond(intra[None], pc.level_limit(q)) == 0:
+        index = int(order[np.flatnonzero(np.abs(intra) > pc.level_limit(q))[0]])
         raise SigncastError(f"{pset.describe(index + 1, int(block[0, index]))} cannot be sent at "
                             f"{pset.quant_label}={q}: an FBA intra plane carries at most "
                             f"+-{pc.level_limit(q) * int(pset.base_steps[index]) * q}")
-    return pc.fitting_frames(p_levels, q), mask, order, intra, p_levels, recon
+    return 1 + pf.first_beyond(p_levels, pc.level_limit(q)), mask, order, intra, p_levels, recon
 
 
 def _predictive_period(tracks: list[_Track], start: int, stop: int) -> list[tuple]:
@@ -256,10 +260,8 @@ def _settles_at_once(tracks: list[_Track], start: int, stop: int) -> bool:
     so a one-frame intra plane that sets them is cheaper."""
     if stop - start < SETTLING_MIN_FRAMES:
         return False
-    settled = 0
-    for track in tracks:
-        levels = pc.quantize(track.values[start:stop] - track.held, track.parameter_set.steps(track.quant))
-        settled += int(((levels[0] != 0) & np.all(levels == levels[0], axis=0)).sum())
+    settled = sum(pf.settled_count(track.values[start:stop], track.held, track.parameter_set.steps(track.quant))
+                  for track in tracks)
     return settled >= SETTLING_PARAMETERS
 
 
@@ -267,40 +269,45 @@ def _prefer_tight_ranges(fields: np.ndarray, n_p_frames: int, q: int) -> bool:
     """Send the per-parameter ranges `fields` (4, P) when their 28 bits per masked parameter cost
     less than coding every level in the default alphabets (estimated as log2 of the alphabet
     sizes), or when the defaults are too small."""
-    if np.any(fields > pc.DEFAULT_RANGE_FIELD):
+    if fields.max(initial=0) > pc.DEFAULT_RANGE_FIELD:
         return True
-    def bits(f: np.ndarray) -> float:
-        i_low, i_high = pc.alphabet(f[0], f[1], q)
-        p_low, p_high = pc.alphabet(f[2], f[3], q)
-        return float(np.log2(i_high - i_low + 1).sum() + n_p_frames * np.log2(p_high - p_low + 1).sum())
-    default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
-    return bits(fields) + 4 * pc.RANGE_BITS * fields.shape[1] < bits(default)
+    return _alphabet_bits(fields, n_p_frames, q) + 4 * pc.RANGE_BITS * fields.shape[1] < _default_bits(
+        fields.shape[1], n_p_frames, q)
 
 
-def _write_block_intra_header(writer: BitWriter, track: _Track, mask: np.ndarray, coding: int) -> None:
+def _alphabet_bits(fields: np.ndarray, n_p_frames: int, q: int) -> float:
+    """log2 of the alphabet sizes that range fields (4, P) announce: one intra frame and n_p_frames P frames."""
+    i_low, i_high, p_low, p_high = pf.alphabets(fields, q, pc.RANGE_DELTA)
+    return float(np.log2(i_high - i_low + 1).sum() + n_p_frames * np.log2(p_high - p_low + 1).sum())
+
+
+@functools.lru_cache(maxsize=4096)
+def _default_bits(n_params: int, n_p_frames: int, q: int) -> float:
+    return _alphabet_bits(np.full((4, n_params), pc.DEFAULT_RANGE_FIELD, dtype=np.int64), n_p_frames, q)
+
+
+def _write_block_intra_header(writer: BitWriter, track: _Track, mask: np.ndarray, coding: int,
+                              tail: int = 0, tail_bits: int = 0) -> None:
+    """quant, group masks, gender 0, coding_type, then `tail` in `tail_bits` bits."""
     writer.write(track.quant, 5)
     write_group_masks(writer, mask, track.parameter_set)
-    writer.write_bit(0)                      # gender
-    writer.write_bit(coding)
+    writer.write(coding << tail_bits | tail, 2 + tail_bits)     # gender 0, coding_type, the tail
 
 
-def _write_predictive_intra_block(writer: BitWriter, track: _Track, decisions: tuple) -> tuple[list, np.ndarray]:
-    """One track's block of an intra plane; returns its P models and P alphabet bottoms."""
+def _write_predictive_intra_block(writer: BitWriter, track: _Track, decisions: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """One track's block of an intra plane; returns its P alphabets (low (P,), high (P,))."""
     _, mask, order, intra, p_levels, _ = decisions
     q = track.quant
-    fields = np.stack([*pc.range_fields(intra[None], q), *pc.range_fields(p_levels, q)])
+    fields = pf.range_fields(intra, p_levels, q, pc.RANGE_DELTA)
     tight = _prefer_tight_ranges(fields, len(p_levels), q)
     if not tight:
         fields = np.full((4, len(order)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64)
-    i_low, i_high = pc.alphabet(fields[0], fields[1], q)
-    p_low, p_high = pc.alphabet(fields[2], fields[3], q)
-    _write_block_intra_header(writer, track, mask, PREDICTIVE)
-    for _ in range(4):
-        writer.write_bit(int(tight))
+    i_low, i_high, p_low, p_high = pf.alphabets(fields, q, pc.RANGE_DELTA)
+    _write_block_intra_header(writer, track, mask, PREDICTIVE, 15 if tight else 0, 4)    # is_i/p_new_max/min
     if tight:
         pc.write_range_fields(writer, fields)
-    pc.write_levels(writer, intra, pc.make_models(i_low, i_high), i_low)
-    return pc.make_models(p_low, p_high), p_low
+    pc.LevelFrames(i_low, i_high, [0, len(i_low)], once=True).write(writer, intra[None])
+    return p_low, p_high
 
 
 def _paramset(tracks: list[_Track]) -> int:
@@ -315,12 +322,14 @@ def _write_predictive_period(writer: BitWriter, tracks: list[_Track], start: int
     paramset = _paramset(tracks)
     writer.start_code(PLANE_START_CODE)
     write_plane_header(writer, True, fps, paramset)
-    p_coding = [_write_predictive_intra_block(writer, track, d) for track, d in zip(tracks, decisions)]
+    alphabets = [_write_predictive_intra_block(writer, track, d) for track, d in zip(tracks, decisions)]
     n_frames = len(decisions[0][5])
-    for t in range(n_frames - 1):
-        write_plane_header(writer, False, fps, paramset)
-        for d, (p_models, p_low) in zip(decisions, p_coding):
-            pc.write_levels(writer, d[4][t], p_models, p_low)
+    if n_frames > 1:
+        starts = np.cumsum([0] + [len(low) for low, _ in alphabets])
+        frames = pc.LevelFrames(np.concatenate([low for low, _ in alphabets]),
+                                np.concatenate([high for _, high in alphabets]), starts)
+        levels = decisions[0][4] if len(decisions) == 1 else np.concatenate([d[4] for d in decisions], axis=1)
+        frames.write(writer, levels, *plane_header_bits(False, fps, paramset))
     for track, d in zip(tracks, decisions):
         track.held[d[2]] = d[5][-1]
     return n_frames
@@ -363,22 +372,21 @@ def _write_dct_period(writer: BitWriter, tracks: list[_Track], start: int, stop:
     periods = [dct_period(track.values[start:stop], track.held, track.quant, track.parameter_set)
                for track in tracks]
     paramset = _paramset(tracks)
+    intra_header, p_header = plane_header_bits(True, fps, paramset), plane_header_bits(False, fps, paramset)
     n_segments = len(periods[0][4])
     previous_dc = [None] * len(tracks)
     for k in range(n_segments):
         intra = k == 0
         if intra:
             writer.start_code(PLANE_START_CODE)
-        write_plane_header(writer, intra, fps, paramset)
+        writer.write(*(intra_header if intra else p_header))
         n = periods[0][4][k][0]
         short = is_last_period and k == n_segments - 1 or n < pc.SEGMENT
         for j, (track, (mask, order, dc_step, ac_step, segments)) in enumerate(zip(tracks, periods)):
             _, dc, ac = segments[k]
             if intra:
                 _write_block_intra_header(writer, track, mask, DCT)
-            writer.write_bit(int(short))
-            if short:
-                writer.write(n - 1, 4)
+            writer.write(*((16 | n - 1, 5) if short else (0, 1)))       # is_short [+ frames - 1]
             dc_values = dc if intra else dc - previous_dc[j]
             pc.write_dct_blocks(writer, tables, dc_values, intra, ac)
             previous_dc[j] = dc
@@ -497,39 +505,53 @@ class DecodedFba:
 
 
 class _DecodedFrames:
-    """Decoded frames of `width` values, stored in blocks of DECODE_BLOCK frames so that memory grows
-    with the frames decoded (the decoder checks the frame limit before extending)."""
+    """Decoded frames of `width` values, stored in blocks of 64, 128, ... up to DECODE_BLOCK frames so
+    that memory grows with the frames decoded (the decoder checks the frame limit before extending)."""
 
     def __init__(self, width: int) -> None:
         self.width = width
         self.blocks: list[np.ndarray | None] = []
         self.count = 0
+        self.room = 0                       # free rows in the last block
+
+    def _grow(self) -> None:
+        size = min(DECODE_BLOCK, 64 << len(self.blocks))
+        self.blocks.append(np.zeros((size, self.width), dtype=np.int64))
+        self.room = size
 
     def extend(self, rows: np.ndarray) -> None:
         """rows: (n, width) int64 frames, or a (width,) frame."""
-        for row_values in np.atleast_2d(rows):
-            row = self.count % DECODE_BLOCK
-            if row == 0:
-                self.blocks.append(np.zeros((DECODE_BLOCK, self.width), dtype=np.int64))
-            self.blocks[-1][row] = row_values
-            self.count += 1
+        rows = np.atleast_2d(rows)
+        done = 0
+        while done < len(rows):
+            if not self.room:
+                self._grow()
+            block = self.blocks[-1]
+            row = len(block) - self.room
+            taken = min(len(rows) - done, self.room)
+            block[row:row + taken] = rows[done:done + taken]
+            self.count += taken
+            self.room -= taken
+            done += taken
 
     def skip(self, n: int) -> None:
         """n frames of zeros (the blocks are allocated zeroed)."""
         while n > 0:
-            row = self.count % DECODE_BLOCK
-            if row == 0:
-                self.blocks.append(np.zeros((DECODE_BLOCK, self.width), dtype=np.int64))
-            taken = min(n, DECODE_BLOCK - row)
+            if not self.room:
+                self._grow()
+            taken = min(n, self.room)
             self.count += taken
+            self.room -= taken
             n -= taken
 
     def array(self) -> np.ndarray:
         """(count, width) int64; releases each block once copied, so the peak is the output plus one block."""
         out = np.empty((self.count, self.width), dtype=np.int64)
+        row = 0
         for k in range(len(self.blocks)):
-            rows = out[k * DECODE_BLOCK:(k + 1) * DECODE_BLOCK]
-            rows[:] = self.blocks[k][:len(rows)]
+            taken = min(len(self.blocks[k]), self.count - row)
+            out[row:row + taken] = self.blocks[k][:taken]
+            row += taken
             self.blocks[k] = None
         return out
 
@@ -549,11 +571,22 @@ class _BlockDecoder:
         if self.coding == DCT:
             return self._read_dct_segment(reader, intra)
         if intra:
-            levels = pc.read_levels(reader, self.i_models, self.i_low)
-            self.held[self.order] = levels * self.steps
+            self.held[self.order] = self.i_frames.read(reader) * self.steps
         else:
-            self.held[self.order] += pc.read_levels(reader, self.p_models, self.p_low) * self.steps
+            self.held[self.order] += self.p_frames.read(reader) * self.steps
         return self.held[None].copy()
+
+    @property
+    def p_frames(self) -> pc.LevelFrames:
+        """The P-frame models of this intra period (made at the first predicted plane)."""
+        if self._p_frames is None:
+            low, high = self.p_alphabet
+            self._p_frames = pc.LevelFrames(low, high, [0, len(low)])
+        return self._p_frames
+
+    @p_frames.setter
+    def p_frames(self, frames: pc.LevelFrames) -> None:
+        self._p_frames = frames
 
     def _read_intra_header(self, reader: BitReader) -> None:
         pset = self.parameter_set
@@ -565,7 +598,7 @@ class _BlockDecoder:
         self.coding = reader.read_bit()
         self.order = pset.coded_order(mask)
         if self.coding == PREDICTIVE:
-            flags = [reader.read_bit() for _ in range(4)]
+            flags = [reader.read_bit(), reader.read_bit(), reader.read_bit(), reader.read_bit()]
             if len(set(flags)) != 1:
                 raise SigncastError("corrupt FBA stream: mixed range flags are not supported")
             fields = (pc.read_range_fields(reader, len(self.order)) if flags[0]
@@ -575,8 +608,9 @@ class _BlockDecoder:
             if np.any(i_high - i_low >= 32768) or np.any(p_high - p_low >= 32768):
                 raise SigncastError("corrupt FBA stream: impossible value ranges")
             self.steps = pset.steps(q)[self.order]
-            self.i_models, self.i_low = pc.make_models(i_low, i_high), i_low
-            self.p_models, self.p_low = pc.make_models(p_low, p_high), p_low
+            self.i_frames = pc.LevelFrames(i_low, i_high, [0, len(i_low)], once=True)
+            self.p_alphabet = (p_low, p_high)
+            self._p_frames: pc.LevelFrames | None = None
         else:
             self.dc_step, self.ac_step = pc.dct_steps(pset.base_steps[self.order], q)
             self.previous_dc = None
@@ -595,6 +629,47 @@ class _BlockDecoder:
         rows[:, self.order] = segment
         self.held = rows[-1].copy()
         return rows
+
+
+PREDICTED_CHUNK = 64       # predicted planes the fast path decodes per kernel call
+
+
+def _read_predicted_planes(reader: BitReader, blocks: list[_BlockDecoder], paramset: int, room: int,
+                           face_frames: _DecodedFrames | None, body_frames: _DecodedFrames | None) -> int:
+    """Decodes the predicted planes that follow an intra plane of predictive blocks (all of them with
+    one kernel call per PREDICTED_CHUNK planes), at most `room`, into face_frames / body_frames; returns
+    how many. It stops before anything else (a start code, another plane header, the end, the frame
+    limit), which decode_fba then reads field by field with its checks and messages."""
+    if len(blocks) == 1:
+        frames = blocks[0].p_frames
+    else:
+        starts = np.cumsum([0] + [len(b.order) for b in blocks])
+        frames = pc.LevelFrames(np.concatenate([b.p_alphabet[0] for b in blocks]),
+                                np.concatenate([b.p_alphabet[1] for b in blocks]), starts)
+    offsets = np.cumsum([0] + [b.parameter_set.count for b in blocks])
+    held = np.concatenate([b.held for b in blocks])
+    columns = np.concatenate([b.order + offset for b, offset in zip(blocks, offsets)])
+    steps = np.concatenate([b.steps for b in blocks])
+    if len(blocks) > 1:
+        for k, b in enumerate(blocks):              # the field-by-field path continues with the same models
+            b.p_frames = frames.track(k)
+    total = 0
+    while total < room:
+        out = np.empty((min(PREDICTED_CHUNK, room - total), len(held)), dtype=np.int64)
+        status, n = pf.read_predicted_planes(reader.array, reader.end_bit, reader.registers, paramset, frames.low,
+                                             frames.track_starts, *frames.bank_arrays(), columns, steps, held, out)
+        if n:
+            if face_frames is not None:
+                face_frames.extend(out[:n, :FAPS.count])
+            if body_frames is not None:
+                body_frames.extend(out[:n, offsets[-2]:])
+            total += n
+        pc.check_level_status(status)
+        if n < len(out):
+            break
+    for b, offset in zip(blocks, offsets):
+        b.held = held[offset:offset + b.parameter_set.count].copy()
+    return total
 
 
 def decode_fba(data: bytes, *, max_frames: int = MAX_FRAMES) -> DecodedFba:
@@ -656,6 +731,14 @@ def decode_fba(data: bytes, *, max_frames: int = MAX_FRAMES) -> DecodedFba:
             body_frames.extend(rows[-1])
         face_flags.extend([bool(paramset & PARAMSET_FAP)] * n)
         n_frames += n
+        if intra and blocks[0].coding == PREDICTIVE:
+            n = _read_predicted_planes(reader, blocks, paramset, max_frames - n_frames,
+                                       face_frames if paramset & PARAMSET_FAP else None,
+                                       body_frames if paramset & PARAMSET_BAP else None)
+            if face_frames is not None and not paramset & PARAMSET_FAP:
+                face_frames.skip(n)
+            face_flags.extend([bool(paramset & PARAMSET_FAP)] * n)
+            n_frames += n
     if reader.pos != 8 * len(data):
         raise SigncastError("corrupt FBA stream: data after the end code")
     if not n_frames or fps is None:

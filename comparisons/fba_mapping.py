@@ -50,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from comparisons import bap_table
+from kernels import lab_rotations
 from media import rotations
 from media.avatar import Skeleton, load_avatar
 from media.errors import SigncastError
@@ -139,8 +140,17 @@ class AvatarBapMap:
 
     def unmapped_bones(self) -> list[str]:
         """Avatar bones no BAP drives (face, tongue, most toe bones)."""
+        return list(self._unmapped)
+
+    @functools.cached_property
+    def _unmapped(self) -> tuple[str, ...]:
         mapped = {b.bone for b in self.bones}
-        return [name for name in self.skeleton.names if name not in mapped]
+        return tuple(name for name in self.skeleton.names if name not in mapped)
+
+    @functools.cached_property
+    def bone_names(self) -> tuple[str, ...]:
+        """Names of the mapped bones, in `bones` order."""
+        return tuple(b.bone for b in self.bones)
 
     @functools.cached_property
     def bone_of_bap(self) -> dict[int, tuple[str, int]]:
@@ -256,13 +266,21 @@ def _build_map(skeleton: Skeleton) -> AvatarBapMap:
 def _bone_rotations(motion: Motion, bap_map: AvatarBapMap) -> np.ndarray:
     """(T, B, 4) local rotation of every mapped bone (B = len(bap_map.bones)); bones the motion lacks
     are at the rig's rest (identity)."""
-    names = {n: k for k, n in enumerate(motion.bone_names)}
+    mapped, source = _bone_sources(motion.bone_names, bap_map.bone_names)
     q = np.zeros((motion.n_frames, len(bap_map.bones), 4))
     q[..., 0] = 1.0
-    for k, bone in enumerate(bap_map.bones):
-        if bone.bone in names:
-            q[:, k] = motion.rotations[:, names[bone.bone]]
+    q[:, mapped] = motion.rotations[:, source]
     return q
+
+
+@functools.lru_cache(maxsize=64)
+def _bone_sources(motion_bones: tuple[str, ...], mapped_bones: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """(indices into mapped_bones, indices into motion_bones) of the mapped_bones a motion has, in mapped_bones
+    order."""
+    names = {n: k for k, n in enumerate(motion_bones)}
+    pairs = [(k, names[bone]) for k, bone in enumerate(mapped_bones) if bone in names]
+    mapped, source = (np.array(v, dtype=np.int64) for v in zip(*pairs)) if pairs else (np.zeros(0, np.int64),) * 2
+    return mapped, source
 
 
 def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, strict: bool = True) -> np.ndarray:
@@ -274,15 +292,16 @@ def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, stric
     1e-4 rad), since that motion would be lost.
     """
     bap_map = bap_map or avatar_bap_map()
-    names = {n: k for k, n in enumerate(motion.bone_names)}
     if strict:
-        lost = [n for n in bap_map.unmapped_bones() if n in names and
-                np.max(rotations.angle_between(motion.rotations[:, names[n]], rotations.IDENTITY)) > 1e-4]
+        _, present = _bone_sources(motion.bone_names, bap_map._unmapped)
+        turned = np.max(rotations.angle_between(motion.rotations[:, present], rotations.IDENTITY), axis=0,
+                        initial=0.0) > 1e-4
+        lost = [motion.bone_names[i] for i in present[turned]]
         if lost:
             raise SigncastError(f"motion rotates bones that no BAP carries: {', '.join(lost[:6])}")
     frames, neutrals, columns, signs = bap_map.arrays
-    relative = rotations.multiply(rotations.conjugate(neutrals), _bone_rotations(motion, bap_map))
-    anatomical = rotations.multiply(rotations.multiply(rotations.conjugate(frames), relative), frames)
+    # F^-1 (N^-1 q) F, bitwise what rotations.multiply and rotations.conjugate give (kernels/lab_rotations.py)
+    anatomical = lab_rotations.anatomical_rotations(_bone_rotations(motion, bap_map), frames, neutrals)
     angles = rotations.to_euler(anatomical, EULER_ORDER) * signs       # (T, B, 3): F, A, L
     values = np.zeros((motion.n_frames, bap_table.N_BAPS), dtype=np.int64)
     values[:, columns] = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
@@ -302,12 +321,12 @@ def baps_to_motion(values: np.ndarray, fps: float, bap_map: AvatarBapMap | None 
         raise SigncastError(f"BAP values must be (T, {bap_table.N_BAPS}), got {values.shape}")
     frames, neutrals, columns, signs = bap_map.arrays
     angles = values[:, columns].astype(np.float64) * bap_table.ROTATION_UNIT_RAD * signs
-    anatomical = rotations.from_euler(angles, EULER_ORDER)
-    relative = rotations.multiply(rotations.multiply(frames, anatomical), rotations.conjugate(frames))
-    q = rotations.multiply(neutrals, relative)
-    names = tuple(b.bone for b in bap_map.bones)
+    # N (F E F^-1) with E = rotations.from_euler(angles, EULER_ORDER), normalised, w >= 0, in one compiled pass
+    # (kernels/lab_rotations.py; within 1e-15 of those NumPy/scipy calls)
+    q = lab_rotations.bap_rotations(np.ascontiguousarray(angles), frames, neutrals)
+    names = bap_map.bone_names
     translation = np.stack([values[:, 182 - 1], values[:, 181 - 1], values[:, 183 - 1]], axis=1) * bap_table.TRANSLATION_UNIT_M
-    return Motion(fps, names, rotations.canonical(rotations.normalize(q)), translation.astype(np.float64))
+    return Motion(fps, names, q, translation.astype(np.float64))
 
 
 def extension_report(motions: Iterable[Motion | np.ndarray] | None = None,

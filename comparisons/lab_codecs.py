@@ -115,7 +115,17 @@ def _tables() -> tuple[dict, dict]:
 
 
 def make_coder(name: str, active: np.ndarray, stage: str | None = None) -> DofCoder:
-    """The coder `name` over the active DOFs (bool mask (D,)) of the layout."""
+    """The coder `name` over the active DOFs (bool mask (D,)) of the layout. Coders hold no state between
+    clips, so one is kept per (name, mask, stage): building one cuts its tables to the active DOFs."""
+    return _cached_coder(name, np.asarray(active, dtype=bool).tobytes(), stage)
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_coder(name: str, active_bytes: bytes, stage: str | None) -> DofCoder:
+    return _build_coder(name, np.frombuffer(active_bytes, dtype=bool), stage)
+
+
+def _build_coder(name: str, active: np.ndarray, stage: str | None) -> DofCoder:
     lower, upper = dof_ranges()
     names = [n for n, a in zip(dof_layout().names, active) if a]
     lower, upper = lower[active], upper[active]

@@ -23,14 +23,23 @@ They are scored with VPSNR (motion is re-synthesised, not waveform-matched).
   allocations (4,3,2) ... (7,7,5) = q 0..7; ranges: mean in the DOF range, amplitudes within
   +-1/2 and +-1/4 of it; the first frames of a segment are blended with the previous one.
 Frame counts of the seed (30 Hz) are scaled to `fps`.
+
+Speed without changing a bit: the speed fits are scipy's savgol_filter arithmetic without its per-call
+set-up, for all groups in one pass (`savgol_slope`, `group_speeds`); the time warp is np.interp's
+arithmetic on all columns at once; Hermite fills and the hybrid coder's quantisers work on all frames or
+segments at once with the same element-wise operations.
 """
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import numpy as np
 from scipy.fft import dct
-from scipy.signal import savgol_filter
+from scipy.linalg import get_lapack_funcs
+from scipy.linalg.lapack import _compute_lwork
+from scipy.ndimage import convolve1d
+from scipy.signal import savgol_coeffs
 
 from comparisons.coded_streams import StreamReader, StreamWriter
 from comparisons.vector_quantization import TABLES_DIR, group_layout, load_table_file, nearest
@@ -59,23 +68,91 @@ def posture_keys(group: np.ndarray, distance: float) -> np.ndarray:
 
 def group_speed(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Scalar speed omega (8-2, per frame) and its derivative alpha (8-3), from 7-sample cubic fits."""
-    if len(group) >= 7:
-        velocity = savgol_filter(group, 7, 3, deriv=1, axis=0)
-        omega = np.linalg.norm(velocity, axis=1)
-        alpha = savgol_filter(omega, 7, 3, deriv=1)
-    else:
-        omega = np.linalg.norm(np.gradient(group, axis=0), axis=1) if len(group) > 1 else np.zeros(len(group))
-        alpha = np.gradient(omega) if len(group) > 1 else np.zeros(len(group))
+    return group_speeds(group, [np.arange(group.shape[1])])[0]
+
+
+def group_speeds(dofs: np.ndarray, groups: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """group_speed of dofs[:, group] for each group: (omega, alpha) (T,) each, all groups' fits in one
+    pass (a column's fit does not depend on its neighbours)."""
+    dofs = np.asarray(dofs, dtype=np.float64)
+    if len(dofs) < SAVGOL_WINDOW:
+        return [_short_speed(dofs[:, group]) for group in groups]
+    velocity = savgol_slope(dofs[:, np.concatenate(groups)] if len(groups) > 1 else dofs[:, groups[0]])
+    ends = np.cumsum([len(group) for group in groups])
+    omega = np.stack([np.linalg.norm(velocity[:, end - len(group):end], axis=1)
+                      for group, end in zip(groups, ends)], axis=1)
+    alpha = savgol_slope(omega)
+    return [(omega[:, g], alpha[:, g]) for g in range(len(groups))]
+
+
+def _short_speed(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    omega = np.linalg.norm(np.gradient(group, axis=0), axis=1) if len(group) > 1 else np.zeros(len(group))
+    alpha = np.gradient(omega) if len(group) > 1 else np.zeros(len(group))
     return omega, alpha
 
 
+SAVGOL_WINDOW, SAVGOL_ORDER = 7, 3
+
+
+@functools.lru_cache(maxsize=1)
+def _savgol_tables() -> tuple:
+    """What scipy.signal.savgol_filter(x, 7, 3, deriv=1) computes before it sees x: its convolution
+    coefficients, polyfit's scaled Vandermonde matrix of the 7 edge samples and column scales, and
+    the LAPACK least-squares routine scipy.linalg.lstsq calls."""
+    coeffs = savgol_coeffs(SAVGOL_WINDOW, SAVGOL_ORDER, deriv=1)
+    t = np.arange(0, SAVGOL_WINDOW, dtype=np.float64)
+    powers = np.flip(np.arange(SAVGOL_ORDER + 1, dtype=np.float64))
+    lhs = t[:, None] ** powers[None, :]
+    scale = np.sqrt(np.sum(lhs * lhs, axis=0))
+    lhs /= scale
+    gelsd, gelsd_lwork = get_lapack_funcs(("gelsd", "gelsd_lwork"), (lhs, lhs))
+    return coeffs, lhs, scale, gelsd, gelsd_lwork
+
+
+@functools.lru_cache(maxsize=64)
+def _gelsd_work(n_rhs: int) -> tuple[int, int]:
+    gelsd_lwork = _savgol_tables()[4]
+    return _compute_lwork(gelsd_lwork, SAVGOL_WINDOW, SAVGOL_ORDER + 1, n_rhs, _POLYFIT_RCOND)
+
+
+_POLYFIT_RCOND = SAVGOL_WINDOW * np.finfo(np.float64).eps
+
+
+def savgol_slope(x: np.ndarray) -> np.ndarray:
+    """scipy.signal.savgol_filter(x, 7, 3, deriv=1, axis=0) (mode "interp"), bitwise: x (T >= 7, ...) ->
+    (T, ...) per-frame slopes. The same convolution, and at each end the same polyfit (the same LAPACK
+    gelsd call scipy.linalg.lstsq makes, with its work sizes), derivative and Horner evaluation, without
+    scipy's per-call set-up (coefficients, work-size queries, array-API dispatch), which cost 5-10x
+    the arithmetic on these short clips."""
+    coeffs, lhs, scale, gelsd, _ = _savgol_tables()
+    x = np.asarray(x, dtype=np.float64)
+    n, half = len(x), SAVGOL_WINDOW // 2
+    slopes = convolve1d(x, coeffs, axis=0, mode="constant")
+    powers = np.arange(SAVGOL_ORDER, 0, -1, dtype=np.float64).reshape((SAVGOL_ORDER, 1))
+    for window_start, out_start in ((0, 0), (n - SAVGOL_WINDOW, n - half)):
+        edge = x[window_start:window_start + SAVGOL_WINDOW].reshape(SAVGOL_WINDOW, -1)
+        lwork, iwork = _gelsd_work(edge.shape[1])
+        solution, _, _, info = gelsd(lhs, edge, lwork, iwork, _POLYFIT_RCOND, False, False)
+        if info != 0:
+            raise SigncastError("speed estimate failed: least-squares fit did not converge")
+        polynomial = (solution[:SAVGOL_ORDER + 1].T / scale).T
+        derivative = polynomial[:-1] * powers
+        at = np.arange(out_start - window_start, out_start - window_start + half, dtype=np.float64).reshape(-1, 1)
+        values = np.zeros_like(at)
+        for row in derivative:
+            values = values * at + row
+        slopes[out_start:out_start + half] = values.reshape((half,) + x.shape[1:])
+    return slopes
+
+
 def gesture_boundaries(group: np.ndarray, fps: float, n_min: int, n_max: int, beta: float = 0.75,
-                       window_s: float = 20 / SEED_FPS) -> np.ndarray:
-    """Segment boundaries (frames, first and last included) at speed minima (§8.2.2)."""
+                       window_s: float = 20 / SEED_FPS, speed: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Segment boundaries (frames, first and last included) at speed minima (§8.2.2).
+    speed: group_speed(group) when the caller has it (group_speeds of several groups at once)."""
     n = len(group)
     if n < 2:
         return np.array([0], dtype=np.int64)
-    omega, alpha = group_speed(group)
+    omega, alpha = speed if speed is not None else group_speed(group)
     n_win = max(int(round(window_s * fps)), 1)
     padded = np.concatenate([np.full(n_win - 1, omega[0]), omega])
     average = np.convolve(padded, np.ones(n_win) / n_win, mode="valid")
@@ -117,31 +194,53 @@ def hermite_fill(keys: np.ndarray, values: np.ndarray, n_frames: int) -> np.ndar
     slopes = np.zeros_like(values)
     s = lags[1:] / (lags[:-1] + lags[1:])
     slopes[1:-1] = s[:, None] * secants[:-1] + (1.0 - s)[:, None] * secants[1:]
-    for m in range(len(keys) - 1):
-        a, b = keys[m], keys[m + 1]
-        t = (np.arange(a, b + 1) - a) / (b - a)
-        h00, h10 = 2 * t ** 3 - 3 * t ** 2 + 1, t ** 3 - 2 * t ** 2 + t
-        h01, h11 = -2 * t ** 3 + 3 * t ** 2, t ** 3 - t ** 2
-        r = b - a
-        out[a:b + 1] = (h00[:, None] * values[m] + h10[:, None] * r * slopes[m]
-                        + h01[:, None] * values[m + 1] + h11[:, None] * r * slopes[m + 1])
+    # every frame at once, each in the last key interval [a, b] that holds it (a key frame starts the next one)
+    frames = np.arange(n_frames)
+    m = np.minimum(np.searchsorted(keys, frames, side="right") - 1, len(keys) - 2)
+    a, r = keys[m], keys[m + 1] - keys[m]
+    t = (frames - a) / r
+    h00, h10 = 2 * t ** 3 - 3 * t ** 2 + 1, t ** 3 - 2 * t ** 2 + t
+    h01, h11 = -2 * t ** 3 + 3 * t ** 2, t ** 3 - t ** 2
+    out[:] = (h00[:, None] * values[m] + h10[:, None] * r[:, None] * slopes[m]
+              + h01[:, None] * values[m + 1] + h11[:, None] * r[:, None] * slopes[m + 1])
     return out
 
 
+@functools.lru_cache(maxsize=512)
 def raised_cosine(n: int) -> np.ndarray:
-    """w(t) = (1 + cos(pi t)) / 2 at t = 0, 1/(n-1), ..., 1 (eq. 8-9): 1 -> 0."""
-    if n == 1:
-        return np.ones(1)
-    return (1.0 + np.cos(np.pi * np.arange(n) / (n - 1))) / 2.0
+    """w(t) = (1 + cos(pi t)) / 2 at t = 0, 1/(n-1), ..., 1 (eq. 8-9): 1 -> 0. (n,), read-only (shared)."""
+    w = np.ones(1) if n == 1 else (1.0 + np.cos(np.pi * np.arange(n) / (n - 1))) / 2.0
+    w.setflags(write=False)
+    return w
+
+
+@functools.lru_cache(maxsize=1024)
+def _warp_plan(n_source: int, length: int) -> tuple[np.ndarray, ...]:
+    """For warping n_source >= 2 samples to `length`: the interval j (length,) of each target time t
+    (source[j] <= t < source[j + 1], the last interval for t = 1), t - source[j] and source[j + 1] - source[j]
+    (length, 1), where t is a source sample, and which sample."""
+    source = np.linspace(0.0, 1.0, n_source)
+    target = np.linspace(0.0, 1.0, length)
+    j = np.minimum(np.searchsorted(source, target, side="right") - 1, n_source - 2)
+    last = target == source[-1]
+    exact = (target == source[j]) | last
+    exact_at = np.where(last, n_source - 1, j)[exact]
+    plan = (j, (target - source[j])[:, None], (source[j + 1] - source[j])[:, None], exact, exact_at)
+    for array in plan:
+        array.setflags(write=False)
+    return plan
 
 
 def warp(segment: np.ndarray, length: int) -> np.ndarray:
     """Linear time warp of (L, K) to (length, K)."""
-    source = np.linspace(0.0, 1.0, len(segment))
-    target = np.linspace(0.0, 1.0, length)
     if len(segment) == 1:
         return np.repeat(segment, length, axis=0)
-    return np.stack([np.interp(target, source, segment[:, k]) for k in range(segment.shape[1])], axis=1)
+    # np.interp on a uniform grid of every column at once, with its arithmetic: slope (y[j+1] - y[j]) / (x[j+1] -
+    # x[j]) on the interval x[j] <= t < x[j+1], then slope (t - x[j]) + y[j]; the sample itself where t hits one
+    j, offset, spacing, exact, exact_at = _warp_plan(len(segment), length)
+    out = (segment[j + 1] - segment[j]) / spacing * offset + segment[j]
+    out[exact] = segment[exact_at]
+    return out
 
 
 def gesture_weights(n_norm: int = N_NORM, a: float = 1.0, b: float = 0.5) -> np.ndarray:
@@ -152,7 +251,9 @@ def gesture_weights(n_norm: int = N_NORM, a: float = 1.0, b: float = 0.5) -> np.
 
 def gesture_distance(warped: np.ndarray, table: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """Weighted RMS distance (radians) of warped (N, K) to each table entry (M, N, K), eq. 8-12."""
-    squared = np.einsum("mnk,n->m", (table - warped[None]) ** 2, weights)
+    squared = np.subtract(table, warped[None])
+    np.square(squared, out=squared)
+    squared = np.einsum("mnk,n->m", squared, weights)
     return np.sqrt(squared / (weights.sum() * warped.shape[1]))
 
 
@@ -246,9 +347,10 @@ class GestureCoder(_GroupCoder):
         n_blend = _frames(self.blend_at_30, fps)
         weights = gesture_weights()
         recon = np.empty_like(dofs)
-        for group, postures, table in zip(self.groups, self.postures, self.gestures):
+        speeds = group_speeds(dofs, self.groups)
+        for group, postures, table, speed in zip(self.groups, self.postures, self.gestures, speeds):
             x = dofs[:, group]
-            bounds = gesture_boundaries(x, fps, n_min, n_max, beta=setting[2])
+            bounds = gesture_boundaries(x, fps, n_min, n_max, beta=setting[2], speed=speed)
             start = int(nearest(x[:1], postures)[0])
             flags, indices, fallbacks = [], [], []
             for a, b in zip(bounds[:-1], bounds[1:]):
@@ -300,20 +402,19 @@ class HybridCoder(_GroupCoder):
 
     def _segment_values(self, coefficients: np.ndarray, length: int) -> np.ndarray:
         """(3, K) mean and cosine amplitudes -> (length, K)."""
-        n = np.arange(length)
-        basis = np.stack([np.ones(length)] + [np.cos(np.pi * k * (2 * n + 1) / (2 * length)) for k in (1, 2)])
-        return basis.T @ coefficients
+        return _cosine_basis(length).T @ coefficients
 
     def _synthesise(self, group, bounds, index, quantisers, n_blend):
-        """Receiver: segments [a, b) (the last one includes the final frame) from quantised coefficients."""
+        """Receiver: segments [a, b) (the last one includes the final frame) from quantised coefficients
+        index: 3 arrays (segments, K)."""
         n_frames = bounds[-1] + 1
         ends = list(bounds[1:-1]) + [n_frames]
         out = np.empty((n_frames, len(group)))
         previous = None
+        coefficients = np.stack([uniform_value(index[k], lo[group], width[group], levels)
+                                 for k, (lo, width, levels) in enumerate(quantisers)], axis=1)  # (segments, 3, K)
         for s, (a, b) in enumerate(zip(bounds[:-1], ends)):
-            coefficients = np.stack([uniform_value(index[k][s], lo[group], width[group], levels)
-                                     for k, (lo, width, levels) in enumerate(quantisers)])
-            values = self._segment_values(coefficients, b - a)
+            values = self._segment_values(coefficients[s], b - a)
             if previous is not None:
                 blend = min(n_blend, b - a)
                 w = raised_cosine(blend + 2)[1:-1, None]
@@ -327,19 +428,19 @@ class HybridCoder(_GroupCoder):
         n_min, n_max = (_frames(v, fps) for v in self.segmentation_at_30)
         n_blend = _frames(self.blend_at_30, fps)
         recon = np.empty_like(dofs)
-        for group in self.groups:
+        for group, speed in zip(self.groups, group_speeds(dofs, self.groups)):
             x = dofs[:, group]
-            bounds = gesture_boundaries(x, fps, n_min, n_max)
-            ends = list(bounds[1:-1]) + [len(dofs)]
-            index = [[], [], []]
-            for a, b in zip(bounds[:-1], ends):
-                length = b - a
-                c = dct(x[a:b], type=2, norm="ortho", axis=0)
-                c = np.concatenate([c, np.zeros((3, c.shape[1]))])[:3]
-                values = [c[0] / np.sqrt(length), c[1] * np.sqrt(2.0 / length), c[2] * np.sqrt(2.0 / length)]
-                for k, (lo, width, levels) in enumerate(quantisers):
-                    index[k].append(uniform_index(values[k], lo[group], width[group], levels))
-            index = [np.array(ix, dtype=np.int64).reshape(-1, len(group)) for ix in index]
+            bounds = gesture_boundaries(x, fps, n_min, n_max, speed=speed)
+            ends = np.array(list(bounds[1:-1]) + [len(dofs)], dtype=np.int64)
+            lengths = ends - bounds[:-1]
+            c = np.zeros((len(lengths), 3, len(group)))  # the first 3 DCT coefficients of each segment
+            for s, (a, b) in enumerate(zip(bounds[:-1], ends)):
+                head = dct(x[a:b], type=2, norm="ortho", axis=0)[:3]
+                c[s, :len(head)] = head
+            values = [c[:, 0] / np.sqrt(lengths)[:, None], c[:, 1] * np.sqrt(2.0 / lengths)[:, None],
+                      c[:, 2] * np.sqrt(2.0 / lengths)[:, None]]
+            index = [uniform_index(values[k], lo[group], width[group], levels)
+                     for k, (lo, width, levels) in enumerate(quantisers)]
             self._write_keys(writer, bounds)
             writer.signed(np.diff(index[0], axis=0, prepend=0))
             for k in (1, 2):
@@ -361,6 +462,15 @@ class HybridCoder(_GroupCoder):
                 index.append(reader.symbols(quantisers[k][2], n_segments * len(group)).reshape(n_segments, len(group)))
             recon[:, group] = self._synthesise(group, bounds, index, quantisers, n_blend)
         return recon
+
+
+@functools.lru_cache(maxsize=512)
+def _cosine_basis(length: int) -> np.ndarray:
+    """(3, length): 1, cos(pi k (2n + 1) / (2 length)) for k = 1, 2 (the hybrid coder's DCT basis), read-only."""
+    n = np.arange(length)
+    basis = np.stack([np.ones(length)] + [np.cos(np.pi * k * (2 * n + 1) / (2 * length)) for k in (1, 2)])
+    basis.setflags(write=False)
+    return basis
 
 
 def _load(dof_names, tables):

@@ -21,6 +21,10 @@ DC step = base step x Q, AC step = base step x Q / 3; the DC level of an inter s
 predicted from the previous segment's; JPEG-style size categories (category = bit length of
 |level|, then sign and the low bits) coded with Huffman tables designed offline from training
 data (tools/train_param_vlc.py) and shipped in comparisons/tables/param_vlc.json.
+
+Speed: LevelFrames codes every frame of an intra period (and its plane headers) in one kernel call
+(kernels/param_frames.py), the same bits as one write_levels call per track per frame; range fields and
+closed-loop levels are kernels too.
 """
 from __future__ import annotations
 
@@ -31,8 +35,15 @@ from pathlib import Path
 import numpy as np
 
 from comparisons.bitstream import BitReader, BitWriter
-from comparisons.entropy import CanonicalHuffman, ModelBank, decode_frame, encode_frame
+from comparisons.entropy import (
+    MAX_TOTAL,
+    CanonicalHuffman,
+    ModelBank,
+    decode_frame,
+    encode_frame,
+)
 from kernels import entropy_coding as kc
+from kernels import param_frames as pf
 from media.domain import check_q  # noqa: F401  (the FBA/BBA coders call pc.check_q)
 from media.errors import SigncastError
 
@@ -66,19 +77,13 @@ def level_limit(q: int) -> int:
 def predictive_levels(values: np.ndarray, held: np.ndarray, steps: np.ndarray, q: int):
     """Levels of one intra period of masked parameters, closed loop, unclipped.
 
-    values: (T, P) int64; held: (P,) decoder values before the period (unused here: intra levels
+    values: (T >= 1, P) int64; held: (P,) decoder values before the period (unused here: intra levels
     are absolute); steps: (P,) effective steps. Returns intra (P,), p_levels (T-1, P) and the
     decoder's reconstruction (T, P). Levels may exceed level_limit(q): callers send only the
     first `fitting_frames` frames in this period."""
-    intra = quantize(values[0], steps)
-    recon = np.empty_like(values)
-    recon[0] = intra * steps
-    p_levels = np.empty((len(values) - 1, values.shape[1]), dtype=np.int64)
-    for t in range(1, len(values)):
-        level = quantize(values[t] - recon[t - 1], steps)
-        p_levels[t - 1] = level
-        recon[t] = recon[t - 1] + level * steps
-    return intra, p_levels, recon
+    values = np.asarray(values, dtype=np.int64)
+    steps = np.ascontiguousarray(np.broadcast_to(np.asarray(steps, dtype=np.int64), values.shape[1:]))
+    return pf.predictive_levels(values, steps)
 
 
 def fitting_frames(p_levels: np.ndarray, q: int) -> int:
@@ -105,20 +110,22 @@ def alphabet(max_field: np.ndarray, min_field: np.ndarray, q: int) -> tuple[np.n
 
 def write_range_fields(writer: BitWriter, fields: np.ndarray) -> None:
     """fields: (4, P) I max, I min, P max, P min; a marker bit before every 4 parameters."""
-    for row in fields:
-        for j, value in enumerate(row):
-            if j % 4 == 0:
-                writer.write_bit(1)
-            writer.write(int(value), RANGE_BITS)
+    fields = np.ascontiguousarray(fields, dtype=np.int64).reshape(4, -1)
+    bad = np.flatnonzero((fields < 0) | (fields > MAX_RANGE_FIELD))
+    if len(bad):
+        raise SigncastError(f"value {int(fields.flat[bad[0]])} does not fit in {RANGE_BITS} bits")
+    writer.reserve(fields.size * (RANGE_BITS + 1))
+    pf.write_range_fields(writer.buffer, writer.state, fields, RANGE_BITS)
 
 
 def read_range_fields(reader: BitReader, n: int) -> np.ndarray:
+    """(4, n) int64 fields of write_range_fields; SigncastError on truncated data or a missing marker."""
     fields = np.zeros((4, n), dtype=np.int64)
-    for r in range(4):
-        for j in range(n):
-            if j % 4 == 0 and reader.read_bit() != 1:
-                raise SigncastError("corrupt stream: missing marker bit in the range fields")
-            fields[r, j] = reader.read(RANGE_BITS)
+    status = pf.read_range_fields(reader.array, reader.end_bit, reader.registers, fields, RANGE_BITS)
+    if status == pf.END_OF_DATA:
+        raise SigncastError("truncated stream: it ends inside a field")
+    if status:
+        raise SigncastError("corrupt stream: missing marker bit in the range fields")
     return fields
 
 
@@ -139,6 +146,85 @@ def read_levels(reader: BitReader, models: ModelBank, low: np.ndarray) -> np.nda
     if np.all(models.member_sizes() == 1):
         return np.asarray(low, dtype=np.int64).copy()
     return decode_frame(reader, models) + low
+
+
+class LevelFrames:
+    """Adaptive models (one per coded parameter, as make_models: all counts 1, +1 per coded symbol,
+    halved above entropy.MAX_TOTAL) of one or more tracks of levels whose frames are coded together:
+    per frame, each track's levels from a fresh arithmetic coder, so the bits are those of one
+    write_levels call per track per frame (the kernels do them all in one call).
+
+    low, high: (P,) alphabets of the tracks' parameters, concatenated; track_starts: (K + 1,) int64,
+    track k's columns track_starts[k]:track_starts[k + 1]. The models are kernels/param_frames.py
+    banks (excess form, allocated zeroed). once: the models code a single frame (an intra frame), so
+    they are never updated and need no arrays of counts."""
+
+    def __init__(self, low: np.ndarray, high: np.ndarray, track_starts, once: bool = False) -> None:
+        self.low = np.ascontiguousarray(low, dtype=np.int64)
+        self.high = np.ascontiguousarray(high, dtype=np.int64)
+        self.track_starts = np.ascontiguousarray(track_starts, dtype=np.int64)
+        sizes = self.high - self.low + 1
+        if np.any(sizes < 1):
+            raise SigncastError(f"an alphabet needs at least one symbol, got {int(sizes.min())}")
+        if np.any(sizes > MAX_TOTAL // 2):
+            raise SigncastError(f"alphabet of {int(sizes.max())} symbols is too large for a frequency "
+                                f"limit of {MAX_TOTAL}")
+        offsets, scalars = pf.new_scalars(sizes, MAX_TOTAL)
+        total = 0 if once else int(offsets[-1])
+        self.once = once
+        self.used = False
+        self.arrays = (sizes, offsets, np.zeros(total, dtype=np.int64), np.zeros(total + len(sizes), dtype=np.int64),
+                       scalars, np.arange(len(sizes), dtype=np.int64))
+
+    def track(self, k: int) -> LevelFrames:
+        """Track k alone, sharing its models (coding through either updates both)."""
+        a, b = int(self.track_starts[k]), int(self.track_starts[k + 1])
+        view = LevelFrames.__new__(LevelFrames)
+        view.low, view.high = self.low[a:b], self.high[a:b]
+        view.track_starts = np.array([0, b - a], dtype=np.int64)
+        view.arrays = (*self.arrays[:5], self.arrays[5][a:b])
+        view.once, view.used = self.once, self.used
+        return view
+
+    def bank_arrays(self) -> tuple:
+        """The kernels' view: sizes (M,), offsets, counts, tree, scalars (M, 5), members (P,) (model of each column)."""
+        return self.arrays
+
+    def write(self, writer: BitWriter, levels: np.ndarray, header: int = 0, header_bits: int = 0) -> None:
+        """levels (F, P): per frame `header` in `header_bits` bits, then each track's coded levels."""
+        levels = np.ascontiguousarray(levels, dtype=np.int64)
+        if levels.ndim != 2 or levels.shape[1] != len(self.low):
+            raise SigncastError(f"levels must be (F, {len(self.low)}), got {levels.shape}")
+        self._use(len(levels))
+        bad = pf.check_symbols(levels, self.low, self.high)
+        if bad >= 0:
+            p = bad % len(self.low)
+            raise SigncastError(f"symbol {int(levels.flat[bad] - self.low[p])} outside the model's alphabet "
+                                f"0..{int(self.high[p] - self.low[p])}")
+        writer.reserve(len(levels) * (header_bits + 4 * kc.PRECISION * (len(self.low) + len(self.track_starts))))
+        pf.write_level_frames(writer.buffer, writer.state, header, header_bits, levels, self.low, self.track_starts,
+                              *self.arrays, self.once)
+
+    def read(self, reader: BitReader) -> np.ndarray:
+        """(P,) int64 levels of one frame (its header already read)."""
+        self._use(1)
+        out = np.empty(len(self.low), dtype=np.int64)
+        check_level_status(pf.read_level_frame(reader.array, reader.end_bit, reader.registers, self.low,
+                                               self.track_starts, *self.arrays, out, self.once))
+        return out
+
+    def _use(self, n_frames: int) -> None:
+        if self.once and (self.used or n_frames > 1):
+            raise SigncastError("these models code a single frame")
+        self.used = self.used or n_frames > 0
+
+
+def check_level_status(status: int) -> None:
+    """SigncastError for a level-frame kernel's status (kernels/param_frames.py)."""
+    if status == pf.CORRUPT_CODE:
+        raise SigncastError("corrupt arithmetic-coded data")
+    if status == pf.CODE_ENDS_EARLY:
+        raise SigncastError("truncated stream: arithmetic-coded data ends early")
 
 
 # --------------------------------------------------------------------------- DCT segments

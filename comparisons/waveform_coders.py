@@ -24,6 +24,9 @@ Choices the seed leaves open (digest §7.4) and the values used here:
   DC predicted from the previous block, AC ranges = largest |coefficient| in the clip (float32 header);
 - wavelet: orthonormal Haar, full dyadic decomposition of 16-sample blocks, uniform step (dead zone
   of rounding = the thresholding that keeps the largest coefficients), approximation predicted.
+
+The closed loops of DPCM, ADPCM and dead reckoning run frame by frame in kernels/lab_predictive.py, with
+the NumPy formulation's arithmetic operation for operation (the streams are bitwise those it recorded).
 """
 from __future__ import annotations
 
@@ -33,6 +36,7 @@ import numpy as np
 from scipy.fft import dct, idct
 
 from comparisons.coded_streams import StreamReader, StreamWriter
+from kernels import lab_predictive
 from media.errors import SigncastError
 
 FIRST_FRAME_BITS = 16
@@ -163,6 +167,15 @@ def _read_diff_limits(reader: StreamReader, n_dofs: int) -> np.ndarray:
     return _diff_limits(np.frombuffer(payload, dtype=np.uint8).astype(np.int64))
 
 
+def _loop_input(dofs: np.ndarray | None, n_dofs: int) -> np.ndarray:
+    """The encoder's (T, D) input for a compiled loop, or an empty (0, D) array when decoding."""
+    return np.zeros((0, n_dofs)) if dofs is None else np.ascontiguousarray(dofs, dtype=np.float64)
+
+
+def _loop_symbols(symbols: np.ndarray, n_dofs: int) -> np.ndarray:
+    return np.ascontiguousarray(symbols, dtype=np.int64).reshape(-1, n_dofs)
+
+
 # ---------------------------------------------------------------- direct quantisation
 
 class UniformQuantizer(DofCoder):
@@ -173,12 +186,11 @@ class UniformQuantizer(DofCoder):
 
     def _encode(self, writer, dofs, fps, levels):
         index = uniform_index(dofs, self.lower, self.width, levels)
-        for d in range(self.n_dofs):  # one adaptive context per DOF
-            writer.symbols(index[:, d], levels)
+        writer.symbol_rows(index.T, levels)  # one section, and adaptive context, per DOF
         return uniform_value(index, self.lower, self.width, levels)
 
     def _decode(self, reader, n_frames, fps, levels):
-        index = np.stack([reader.symbols(levels, n_frames) for _ in range(self.n_dofs)], axis=1)
+        index = reader.symbol_rows(levels, self.n_dofs, n_frames).T
         return uniform_value(index, self.lower, self.width, levels)
 
 
@@ -200,13 +212,12 @@ class CompandedQuantizer(DofCoder):
         centre, radius = (self.upper + self.lower) / 2, self.width / 2
         u = np.clip((dofs - centre) / radius, -1.0, 1.0)
         index = np.rint(mu_compress(u, self.mu) * half).astype(np.int64) + half
-        for d in range(self.n_dofs):
-            writer.symbols(index[:, d], 2 * half + 1)
+        writer.symbol_rows(index.T, 2 * half + 1)
         return np.take_along_axis(self._table(levels), index, axis=0)
 
     def _decode(self, reader, n_frames, fps, levels):
         half = (levels - 2) // 2
-        index = np.stack([reader.symbols(2 * half + 1, n_frames) for _ in range(self.n_dofs)], axis=1)
+        index = reader.symbol_rows(2 * half + 1, self.n_dofs, n_frames).T
         return np.take_along_axis(self._table(levels), index, axis=0)
 
 
@@ -249,16 +260,11 @@ class DpcmCoder(ResidualCoder):
         """The loop both ends run: closed-loop prediction; encodes (dofs given) or decodes (symbols)."""
         recon = np.empty((n_frames, self.n_dofs))
         recon[0] = first
-        if dofs is not None:
+        encoding = dofs is not None
+        if encoding:
             symbols = np.empty((n_frames - 1, self.n_dofs), dtype=np.int64)
-            grid = steps  # (D, K) reconstruction offsets, ascending
-        rows = np.arange(self.n_dofs)
-        for t in range(1, n_frames):
-            prediction = recon[t - 1]
-            if dofs is not None:
-                error = dofs[t] - prediction
-                symbols[t - 1] = np.abs(grid - error[:, None]).argmin(axis=1)
-            recon[t] = np.clip(prediction + steps[rows, symbols[t - 1]], self.lower, self.upper)
+        lab_predictive.dpcm_loop(np.ascontiguousarray(steps), self.lower, self.upper, encoding,
+                                 _loop_input(dofs, self.n_dofs), _loop_symbols(symbols, self.n_dofs), recon)
         return recon, symbols
 
     def _predict(self, first, limits, levels, n_frames, fps, dofs=None, symbols=None):
@@ -272,44 +278,21 @@ class AdpcmCoder(ResidualCoder):
     settings = (4, 8, 16, 32, 64, 128, 256)
 
     def _run(self, first, limits, n_frames, fps, half, dofs=None, symbols=None):
+        """Per DOF and frame: once 3 frames are decoded, the order-2 predictor from the autocorrelation
+        (r0, r1, r2) of the last `window` decoded samples (mean removed, Hamming taper, r0 (1 + 1e-3) + 1e-18),
+        used while its forgetting sum of squared errors (0.8) is below the previous-value predictor's;
+        the quantiser's offsets scale x grid adapt by Jayant's multiplier within [limit / 2, 2 limit].
+        The loop is kernels/lab_predictive.adpcm_loop."""
         window = max(int(round(fps)), 8)
-        taper = np.hamming(window)
         recon = np.empty((n_frames, self.n_dofs))
         recon[0] = first
-        if dofs is not None:
+        encoding = dofs is not None
+        if encoding:
             symbols = np.empty((n_frames - 1, self.n_dofs), dtype=np.int64)
         grid = mu_expand(np.arange(-half, half + 1) / half, DpcmCoder.mu)  # (K,) in [-1, 1]
-        scale = limits.copy()
-        scale_min, scale_max = limits / 2.0, limits * 2.0
-        rows = np.arange(self.n_dofs)
-        error_order1 = np.zeros(self.n_dofs)  # forgetting sums of squared prediction errors on decoded values
-        error_order2 = np.zeros(self.n_dofs)
-        order2 = None
-        for t in range(1, n_frames):
-            if t < 3:
-                prediction = recon[t - 1]
-            else:
-                start = max(0, t - window)
-                past = recon[start:t]
-                mean = past.mean(axis=0)
-                seg = (past - mean) * taper[window - len(past):, None]
-                r0 = np.einsum("td,td->d", seg, seg) * (1.0 + 1e-3) + 1e-18
-                r1 = np.einsum("td,td->d", seg[1:], seg[:-1])
-                r2 = np.einsum("td,td->d", seg[2:], seg[:-2])
-                det = r0 * r0 - r1 * r1
-                a1 = r1 * (r0 - r2) / det
-                a2 = (r0 * r2 - r1 * r1) / det
-                order2 = mean + a1 * (recon[t - 1] - mean) + a2 * (recon[t - 2] - mean)
-                prediction = np.where(error_order2 < error_order1, order2, recon[t - 1])
-            offsets = scale[:, None] * grid[None, :]  # (D, K)
-            if dofs is not None:
-                symbols[t - 1] = np.abs(offsets - (dofs[t] - prediction)[:, None]).argmin(axis=1)
-            k = symbols[t - 1] - half
-            recon[t] = np.clip(prediction + offsets[rows, symbols[t - 1]], self.lower, self.upper)
-            scale = np.clip(scale * (0.9 + 1.6 * (k / half) ** 4), scale_min, scale_max)
-            if order2 is not None:
-                error_order1 = 0.8 * error_order1 + (recon[t] - recon[t - 1]) ** 2
-                error_order2 = 0.8 * error_order2 + (recon[t] - order2) ** 2
+        lab_predictive.adpcm_loop(np.asarray(limits, dtype=np.float64), grid, np.hamming(window), half, self.lower,
+                                  self.upper, encoding, _loop_input(dofs, self.n_dofs),
+                                  _loop_symbols(symbols, self.n_dofs), recon)
         return recon, symbols
 
     def _predict(self, first, limits, levels, n_frames, fps, dofs=None, symbols=None):
@@ -341,24 +324,14 @@ class DeadReckoningCoder(DofCoder):
         n_frames = len(dofs)
         recon = np.empty_like(dofs)
         recon[0] = write_first_frame(writer, self, dofs[0])
-        velocity = np.zeros(self.n_dofs)
-        flags = np.zeros((n_frames - 1, self.n_dofs), dtype=np.int64)
-        value_codes, velocity_codes = [], []
-        for t in range(1, n_frames):
-            guess = recon[t - 1] + velocity
-            update = np.abs(dofs[t] - guess) > threshold
-            flags[t - 1] = update
-            if update.any():
-                dv = np.rint((dofs[t][update] - guess[update]) / value_step).astype(np.int64)
-                dw = np.rint((slopes[t][update] - velocity[update]) / velocity_step).astype(np.int64)
-                value_codes.append(dv)
-                velocity_codes.append(dw)
-                guess[update] = guess[update] + dv * value_step
-                velocity[update] = velocity[update] + dw * velocity_step
-            recon[t] = guess
+        flags = np.empty((n_frames - 1, self.n_dofs), dtype=np.int64)
+        value_codes = np.empty(flags.size, dtype=np.int64)
+        velocity_codes = np.empty(flags.size, dtype=np.int64)
+        used = lab_predictive.deadreck_encode(np.ascontiguousarray(dofs), slopes, threshold, value_step, velocity_step,
+                                              flags, value_codes, velocity_codes, recon)
         writer.symbols(flags, 2)
-        writer.signed(np.concatenate(value_codes) if value_codes else np.zeros(0, np.int64))
-        writer.signed(np.concatenate(velocity_codes) if velocity_codes else np.zeros(0, np.int64))
+        writer.signed(value_codes[:used])
+        writer.signed(velocity_codes[:used])
         return recon
 
     def _decode(self, reader, n_frames, fps, threshold_deg):
@@ -370,19 +343,7 @@ class DeadReckoningCoder(DofCoder):
         n_updates = int(flags.sum())
         value_codes = reader.signed(n_updates)
         velocity_codes = reader.signed(n_updates)
-        velocity = np.zeros(self.n_dofs)
-        used = 0
-        for t in range(1, n_frames):
-            guess = recon[t - 1] + velocity
-            update = flags[t - 1]
-            count = int(update.sum())
-            if count:
-                dv = value_codes[used:used + count]
-                dw = velocity_codes[used:used + count]
-                used += count
-                guess[update] = guess[update] + dv * value_step
-                velocity[update] = velocity[update] + dw * velocity_step
-            recon[t] = guess
+        lab_predictive.deadreck_decode(flags, value_codes, velocity_codes, value_step, velocity_step, recon)
         return recon
 
 

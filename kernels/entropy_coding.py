@@ -361,22 +361,38 @@ def category(value: int, n_categories: int) -> int:
 
 
 @njit(cache=True)
-def put_code(buffer, state, codes, lengths, symbol) -> bool:
-    if symbol >= len(lengths) or lengths[symbol] == 0:
-        return False
-    put_bits(buffer, state, codes[symbol], lengths[symbol])
-    return True
+def put_local(buffer, pos: int, run: int, value: int, n_bits: int) -> tuple[int, int]:
+    """put_bits with the writer state (bits written, zero run) in locals: returns the new state."""
+    for shift in range(n_bits - 1, -1, -1):
+        if (value >> shift) & 1:
+            buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
+            pos += 1
+            run = 0
+        else:
+            pos += 1
+            run += 1
+            if run == MAX_ZERO_RUN:
+                buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
+                pos += 1
+                run = 0
+    return pos, run
 
 
 @njit(cache=True)
-def put_value_bits(buffer, state, value: int, cat: int) -> bool:
+def _code_and_bits(codes, lengths, symbol: int, value: int, cat: int) -> tuple[int, int, int]:
+    """(bits, bit count, status) of a Huffman code followed by the sign and low bits of value in
+    category cat; status 2 when the symbol has no code, 1 when value exceeds the category."""
+    if symbol >= len(lengths) or lengths[symbol] == 0:
+        return 0, 0, 2
+    bits, n = codes[symbol], lengths[symbol]
     if cat:
         magnitude = abs(value)
         if magnitude >> cat:
-            return False
-        put_bit(buffer, state, 1 if value < 0 else 0)
-        put_bits(buffer, state, magnitude - (1 << (cat - 1)), cat - 1)
-    return True
+            return 0, 0, 1
+        bits = (bits << 1) | (1 if value < 0 else 0)
+        bits = (bits << (cat - 1)) | (magnitude - (1 << (cat - 1)))
+        n += cat
+    return bits, n, 0
 
 
 @njit(cache=True)
@@ -385,60 +401,91 @@ def write_dct_blocks(buffer, state, dc_values, ac, dc_codes, dc_lengths, ac_code
     """Every parameter's block of a segment (param_coding.write_dct_block). Returns (0, 0), or
     (1, level) for a level beyond the largest category, or (2, symbol) for a symbol without a code."""
     n_ac = ac.shape[0]
+    pos, run = state[0], state[1]
     for p in range(len(dc_values)):
         cat = category(dc_values[p], n_categories)
-        if not put_code(buffer, state, dc_codes, dc_lengths, cat):
-            return 2, cat
-        if not put_value_bits(buffer, state, dc_values[p], cat):
-            return 1, dc_values[p]
+        bits, n, status = _code_and_bits(dc_codes, dc_lengths, cat, dc_values[p], cat)
+        if status:
+            state[0], state[1] = pos, run
+            return status, cat if status == 2 else dc_values[p]
+        pos, run = put_local(buffer, pos, run, bits, n)
         last = -1
         for k in range(n_ac):
             if ac[k, p] != 0:
                 last = k
-        run = 0
+        zeros = 0
         for k in range(last + 1):
             level = ac[k, p]
             if level == 0:
-                run += 1
+                zeros += 1
                 continue
             cat = category(level, n_categories)
-            symbol = 1 + run * (n_categories - 1) + cat - 1
-            if not put_code(buffer, state, ac_codes, ac_lengths, symbol):
-                return 2, symbol
-            if not put_value_bits(buffer, state, level, cat):
-                return 1, level
-            run = 0
-        if last < n_ac - 1 and not put_code(buffer, state, ac_codes, ac_lengths, 0):
-            return 2, 0
+            symbol = 1 + zeros * (n_categories - 1) + cat - 1
+            bits, n, status = _code_and_bits(ac_codes, ac_lengths, symbol, level, cat)
+            if status:
+                state[0], state[1] = pos, run
+                return status, symbol if status == 2 else level
+            pos, run = put_local(buffer, pos, run, bits, n)
+            zeros = 0
+        if last < n_ac - 1:
+            if ac_lengths[0] == 0:
+                state[0], state[1] = pos, run
+                return 2, 0
+            pos, run = put_local(buffer, pos, run, ac_codes[0], ac_lengths[0])
+    state[0], state[1] = pos, run
     return 0, 0
 
 
 @njit(cache=True)
-def get_code(data, end_bit, state, first_code, count, start, symbols) -> int:
-    """A canonical Huffman symbol; -1 truncated, -2 no code matches."""
+def get_local(data, end_bit: int, pos: int, run: int) -> tuple[int, int, int]:
+    """get_bit (not look-ahead) with the reader's position and zero run in locals: (bit or -1, pos, run)."""
+    if pos >= end_bit:
+        return -1, pos, run
+    bit = (data[pos >> 3] >> (7 - (pos & 7))) & 1
+    pos += 1
+    if bit:
+        return 1, pos, 0
+    run += 1
+    if run == MAX_ZERO_RUN:
+        run = 0
+        if pos >= end_bit:
+            return -1, pos, run
+        if (data[pos >> 3] >> (7 - (pos & 7))) & 1:
+            pos += 1                           # a stuffing bit; a 0 (start code, or damage) is left unread
+    return 0, pos, run
+
+
+@njit(cache=True)
+def _get_code_local(data, end_bit: int, pos: int, run: int, first_code, count, start,
+                    symbols) -> tuple[int, int, int]:
     code = 0
     for length in range(1, len(count)):
-        bit = get_bit(data, end_bit, state, False)
+        bit, pos, run = get_local(data, end_bit, pos, run)
         if bit < 0:
-            return -1
+            return -1, pos, run
         code = (code << 1) | bit
         if count[length]:
             index = code - first_code[length]
             if 0 <= index < count[length]:
-                return symbols[start[length] + index]
-    return -2
+                return symbols[start[length] + index], pos, run
+    return -2, pos, run
 
 
 @njit(cache=True)
-def get_value_bits(data, end_bit, state, cat: int) -> tuple[bool, int]:
+def _get_value_local(data, end_bit: int, pos: int, run: int, cat: int) -> tuple[bool, int, int, int]:
     if not cat:
-        return True, 0
-    negative = get_bit(data, end_bit, state, False)
-    rest = get_bits(data, end_bit, state, cat - 1) if negative >= 0 else -1
-    if rest < 0:
-        return False, 0
+        return True, 0, pos, run
+    negative, pos, run = get_local(data, end_bit, pos, run)
+    if negative < 0:
+        return False, 0, pos, run
+    rest = 0
+    for _ in range(cat - 1):
+        bit, pos, run = get_local(data, end_bit, pos, run)
+        if bit < 0:
+            return False, 0, pos, run
+        rest = (rest << 1) | bit
     magnitude = (1 << (cat - 1)) + rest
-    return True, -magnitude if negative else magnitude
+    return True, -magnitude if negative else magnitude, pos, run
 
 
 @njit(cache=True)
@@ -447,27 +494,37 @@ def read_dct_blocks(data, end_bit, state, dc_first, dc_count, dc_start, dc_symbo
     """Inverse of write_dct_blocks into dc_out (P,), ac_out (size - 1, P) (zero-filled). Returns 0,
     -1 truncated, -2 bits that match no code, -3 an AC run past the end of the segment."""
     n_ac = ac_out.shape[0]
+    pos, run = state[0], state[1]
+    status = 0
     for p in range(len(dc_out)):
-        cat = get_code(data, end_bit, state, dc_first, dc_count, dc_start, dc_symbols)
+        cat, pos, run = _get_code_local(data, end_bit, pos, run, dc_first, dc_count, dc_start, dc_symbols)
         if cat < 0:
-            return cat
-        ok, dc_out[p] = get_value_bits(data, end_bit, state, cat)
+            status = cat
+            break
+        ok, dc_out[p], pos, run = _get_value_local(data, end_bit, pos, run, cat)
         if not ok:
-            return -1
+            status = -1
+            break
         k = 0
         while k < n_ac:
-            symbol = get_code(data, end_bit, state, ac_first, ac_count, ac_start, ac_symbols)
+            symbol, pos, run = _get_code_local(data, end_bit, pos, run, ac_first, ac_count, ac_start, ac_symbols)
             if symbol < 0:
-                return symbol
+                status = symbol
+                break
             if symbol == 0:
                 break
-            run = (symbol - 1) // (n_categories - 1)
+            zeros = (symbol - 1) // (n_categories - 1)
             cat = (symbol - 1) % (n_categories - 1)
-            k += run
+            k += zeros
             if k >= n_ac:
-                return -3
-            ok, ac_out[k, p] = get_value_bits(data, end_bit, state, cat + 1)
+                status = -3
+                break
+            ok, ac_out[k, p], pos, run = _get_value_local(data, end_bit, pos, run, cat + 1)
             if not ok:
-                return -1
+                status = -1
+                break
             k += 1
-    return 0
+        if status:
+            break
+    state[0], state[1] = pos, run
+    return status

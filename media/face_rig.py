@@ -49,6 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kernels import bba_face_rig as face_kernel
 from media import rotations
 from media.avatar import Avatar, Skeleton, load_avatar
 from media.errors import SigncastError
@@ -326,9 +327,86 @@ def _skew(r: np.ndarray) -> np.ndarray:
     return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
 
 
+@dataclass(frozen=True)
+class _CarryPlan:
+    """The skeleton's part of a carry, the same for every motion: carriers (bone indices, parents first)
+    and skinned bones with the kernel's arrays (kernels/bba_face_rig.carry)."""
+    carriers: list[int]
+    skinned: list[int]
+    carrier_heads: np.ndarray      # (C, 3)
+    carrier_parents: np.ndarray    # (C,) index among the carriers, -1: the anchor
+    skinned_heads: np.ndarray      # (S, 3)
+    skinned_parents: np.ndarray    # (S,)
+    on_chain: np.ndarray           # (S, C) bool
+    group_members: np.ndarray      # (S,) skinned bones grouped by shared carriers ...
+    group_start: np.ndarray        # (G + 1,) ... group g: group_members[group_start[g]:group_start[g + 1]]
+    arms: np.ndarray               # (S, 3) head -> tail of each skinned bone
+
+
+_PLANS: dict[tuple[int, str, tuple[str, ...]], tuple[Skeleton, _CarryPlan]] = {}
+
+
+def _carry_plan(skeleton: Skeleton, anchor: str, names: tuple[str, ...]) -> _CarryPlan:
+    """The plan of carrying the skinned bones `names` below `anchor`; made once per skeleton object."""
+    key = (id(skeleton), anchor, names)
+    cached = _PLANS.get(key)
+    if cached is not None and cached[0] is skeleton:
+        return cached[1]
+    skinned = [skeleton.index(name) for name in names]
+    chains = [_ancestors_between(skeleton, anchor, name) for name in names]
+    carriers = sorted({bone for chain in chains for bone in chain})
+    position = {bone: j for j, bone in enumerate(carriers)}
+    on_chain = np.zeros((len(skinned), len(carriers)), dtype=bool)
+    for i, chain in enumerate(chains):
+        on_chain[i, [position[bone] for bone in chain]] = True
+    groups: list[set[int]] = []                   # skinned bones linked by shared carriers
+    for i in range(len(skinned)):
+        linked = [g for g in groups if any((on_chain[i] & on_chain[k]).any() for k in g)]
+        groups = [g for g in groups if g not in linked] + [set().union({i}, *linked)]
+    members = [i for g in groups for i in sorted(g)]
+    starts = np.cumsum([0] + [len(g) for g in groups])
+    plan = _CarryPlan(
+        carriers, skinned, np.ascontiguousarray(skeleton.heads[carriers], dtype=np.float64),
+        np.array([position.get(int(skeleton.parents[bone]), -1) for bone in carriers], dtype=np.int64),
+        np.ascontiguousarray(skeleton.heads[skinned], dtype=np.float64),
+        np.array([position.get(int(skeleton.parents[bone]), -1) for bone in skinned], dtype=np.int64),
+        on_chain, np.array(members, dtype=np.int64), starts.astype(np.int64), (skeleton.tails[skinned] - skeleton.heads[skinned]).astype(np.float64))
+    _PLANS[key] = (skeleton, plan)
+    return plan
+
+
 def _carry(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray, np.ndarray]],
            iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> dict[str, np.ndarray]:
     """Local rotations (T, 4) carrying skinned bones by their unskinned ancestors below `anchor`.
+
+    targets: skinned bone -> (head displacement, tail displacement), (T, 3) metres each in the anchor's
+    rest frame. The carriers turn so that each skinned bone's head moves by its displacement: damped
+    Gauss-Newton steps (damping in metres; no carrier turns more than max_turn radians a step), each
+    the smallest turns that meet the linearised targets at the current pose; unreachable targets end
+    at the nearest reachable pose (kernels/bba_face_rig.carry, frame by frame; `_carry_numpy` is the
+    same solve in NumPy). Each skinned bone then turns so that its tail moves by its own displacement
+    relative to its head.
+    """
+    plan = _carry_plan(skeleton, anchor, tuple(targets))
+    head_moved = np.stack([head for head, _ in targets.values()], axis=1)          # (T, S, 3)
+    tail_moved = np.stack([tail for _, tail in targets.values()], axis=1)
+    local, parent = face_kernel.carry(np.ascontiguousarray(head_moved, dtype=np.float64), plan.carrier_heads,
+                                      plan.carrier_parents, plan.skinned_heads, plan.skinned_parents,
+                                      plan.on_chain, plan.group_members, plan.group_start, iterations, damping,
+                                      max_turn)
+    arms = np.broadcast_to(plan.arms, tail_moved.shape)
+    turned = rotations.to_matrix(rotations.between(arms, arms + tail_moved - head_moved))
+    quaternions = rotations.from_matrix(np.concatenate([local, np.swapaxes(parent, -1, -2) @ turned], axis=1))
+    names = [skeleton.names[bone] for bone in plan.carriers + plan.skinned]
+    return {name: quaternions[:, k] for k, name in enumerate(names)}
+
+
+def _carry_numpy(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray, np.ndarray]],
+           iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> dict[str, np.ndarray]:
+    """`_carry` in NumPy, all frames at once: the readable reference of the compiled kernel
+    (kernels/bba_face_rig.py); tests compare the two.
+
+    Local rotations (T, 4) carrying skinned bones by their unskinned ancestors below `anchor`.
 
     targets: skinned bone -> (head displacement, tail displacement), (T, 3) metres each in the anchor's
     rest frame. The carriers turn so that each skinned bone's head moves by its displacement: damped

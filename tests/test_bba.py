@@ -1,4 +1,6 @@
 """MPEG-4 BBA: stream round trips, bone masks, resynchronisation, muscles, key frames, XML form."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -195,6 +197,21 @@ def test_bba_pred_refuses_a_value_its_intra_alphabet_cannot_hold():
     stream = bba.motion_to_stream(_root_motion([0.0, 16.0]), 1, "pred")                 # > 7620 levels x 2 mm
     with pytest.raises(SigncastError, match="cannot be sent"):
         bba.write_stream(stream)
+
+
+def test_bone_values_beyond_20_bits_are_refused_by_the_encoder_and_the_decoder():
+    stream = bba.motion_to_stream(_root_motion([0.0, 1.0]), 4, "pred")
+    root = bba.load_avatar().skeleton.index("root")
+    stream.frames[1].values[root][0] = bba.VALUE_LIMIT + 1
+    with pytest.raises(SigncastError, match="beyond"):
+        bba.write_stream(stream)
+    found = Path(__file__).resolve().parent / "fuzz" / "corpus" / "bba-resilient" / "found-value-beyond-20-bits.bba"
+    data = found.read_bytes()                       # a fuzzer's input: a P frame decodes to 596944 (1e-5 rad)
+    with pytest.raises(SigncastError):
+        bba.read_stream(data)
+    decoded, lost = bba.read_stream(data, resilient=True)
+    assert lost and all(abs(v) <= bba.VALUE_LIMIT for f in decoded.frames for vs in f.values.values() for v in vs)
+    from_xml(to_xml(decoded))
 
 
 def test_asl_letters_in_a_proper_euler_order_decode_within_a_few_milliradians():

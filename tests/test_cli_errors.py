@@ -114,7 +114,7 @@ def test_unwritable_output_file_is_one_line_before_the_work(tmp_path, capsys, na
     (tmp_path / "a-file").write_text("not a folder")
     path = (tmp_path / "a-file" if place == "beneath a file" else READ_ONLY) / f"signcast{suffix}"
     before = _tree(tmp_path) | ({"in.jsonl"} if name == "report -o" else set())
-    _fails_with_one_line(capsys, _file_argv(name, tmp_path, path), f"cannot write", str(path))
+    _fails_with_one_line(capsys, _file_argv(name, tmp_path, path), "cannot write", str(path))
     assert _tree(tmp_path) == before and not path.exists()
 
 
