@@ -64,7 +64,11 @@ Speed (the bits are those of the plain loops; tests/test_stream_identity.py hold
 distinct set of bone masks is laid out once (_layout: keys, steps); the predictive levels of a stream
 whose frames share one mask set run in one compiled loop (kernels/bba_levels.py); header and mask
 fields are gathered into one integer before the BitWriter takes them; the decoder reads the bone
-tables and masks with kernels/bba_masks.py and converts all frames' Euler angles in one call.
+tables and masks with kernels/bba_masks.py and converts all frames' Euler angles in one compiled call
+(kernels/bba_rotations.py, bitwise scipy's from_euler). Streams of one mask set without muscles are
+written from arrays (values (F, P), KeyFrameIndex (F,)); encode_motion and decode_motion (what
+comparisons/param_codecs.BbaCodec uses) go from a Motion to bytes and back without any BBAFrame, with
+the bytes and Motion of motion_to_stream + write_stream and read_stream + stream_to_motion.
 """
 from __future__ import annotations
 
@@ -81,6 +85,7 @@ from comparisons.bitstream import BitReader, BitWriter, crc8_bits, find_start_co
 from comparisons.fba_mapping import avatar_bap_map
 from kernels import bba_levels as level_kernel
 from kernels import bba_masks as mask_kernel
+from kernels import bba_rotations as euler_kernel
 from media import rotations
 from media.avatar import Skeleton, load_avatar
 from media.errors import SigncastError
@@ -306,15 +311,7 @@ def _intra_flags(stream: BBAStream, units: list[list[int]]) -> list[bool]:
 
 def _check_stream(stream: BBAStream) -> None:
     h = stream.header
-    pc.check_q(h.q)
-    if h.coding not in ("pred", "dct"):
-        raise SigncastError(f"unknown BBA coding {h.coding!r}: choose 'pred' or 'dct'")
-    if not 1 <= h.intra_period <= 63:
-        raise SigncastError(f"BBA intra period {h.intra_period} outside 1..63")
-    if not 0 <= h.header_period <= 63:
-        raise SigncastError(f"BBA header period {h.header_period} outside 0..63")
-    if not 0 <= h.rotation_order < 24:
-        raise SigncastError(f"rotationOrder {h.rotation_order} outside 0..23")
+    _check_header(h)
     if not stream.frames:
         raise SigncastError("a BBA stream needs at least one frame")
     if stream.frames[0].kfi:
@@ -440,41 +437,77 @@ def _levels_by_unit(stream: BBAStream, units, intra_flags, exponents, key_index:
 def _uniform_levels(stream: BBAStream, intra_flags: list[bool], exponents, key_index: dict[tuple[int, int], int]):
     """_levels of a predictive stream whose frames all carry the same bone masks (one unit per frame), in
     one compiled loop (kernels/bba_levels.py)."""
-    q = stream.header.q
     frames = stream.frames
-    masks = tuple(sorted(frames[0].bones.items()))
-    layout = _layout(masks, exponents)
+    layout = _frame_layout(frames[0].bones, exponents)
     values = np.array([list(itertools.chain.from_iterable(map(frame.values.__getitem__, layout.bones)))
                        for frame in frames], dtype=np.int64).reshape(len(frames), len(layout.keys))
     intra = np.array(intra_flags, dtype=bool)
+    levels = _predictive_levels(stream.header.q, layout, values, intra)
+    intra_flags[:] = intra.tolist()
+    columns = np.array([key_index[key] for key in layout.keys], dtype=np.int64)
+    return [(layout.keys, layout.steps, level, columns) for level in levels]
+
+
+def _predictive_levels(q: int, layout: _Layout, values: np.ndarray, intra: np.ndarray) -> np.ndarray:
+    """(F, P) int64 levels of values (F, P) int64 (one unit per frame, all of `layout`); intra (F,) bool,
+    in: units sent intra by rule, out: also those whose P levels do not fit. SigncastError when an intra
+    level does not fit."""
     levels = np.zeros(values.shape, dtype=np.int64)
     limit = pc.level_limit(q)
     status = level_kernel.predictive_levels(values, layout.steps, layout.is_angle, q, limit, ANGLE_PERIOD, intra, levels)
     if status >= 0:
-        unit, p = status % len(frames), status // len(frames)
+        unit, p = status % len(values), status // len(values)
         bone, bit = layout.keys[p]
         raise SigncastError(f"BBA bone {bone} {MASK_FIELDS[bit]} = {int(values[unit, p])} cannot be sent at Q={q}: "
                             f"its level exceeds the range fields' limit of {limit}")
-    intra_flags[:] = intra.tolist()
-    columns = np.array([key_index[key] for key in layout.keys], dtype=np.int64)
-    return [(layout.keys, layout.steps, level, columns) for level in levels]
+    return levels
 
 
 def write_stream(stream: BBAStream, skeleton: Skeleton | None = None) -> bytes:
     """Binary BBA stream of `stream` (values are quantised here)."""
     skeleton = skeleton or load_avatar().skeleton
     _check_stream(stream)
+    frames = stream.frames
+    if not any(frame.muscles for frame in frames) and len(_runs(frames)) == 1:
+        # One mask set, no muscles (what motion_to_stream makes): the array path.
+        layout = _frame_layout(frames[0].bones, _exponent_items(skeleton))
+        values = np.array([list(itertools.chain.from_iterable(map(frame.values.__getitem__, layout.bones)))
+                           for frame in frames], dtype=np.int64).reshape(len(frames), len(layout.keys))
+        kfi = np.array([frame.kfi for frame in frames], dtype=np.int64)
+        return _write_arrays(stream.header, frames[0].bones, kfi, values, skeleton)
     units = _units(stream)
     intra_flags = _intra_flags(stream, units)
-    bones = sorted({b for f in stream.frames for b in f.bones})
+    bones = sorted({b for f in frames for b in f.bones})
     animatable = {b: 0 for b in bones}
-    for frame in stream.frames:
+    for frame in frames:
         for b, m in frame.bones.items():
             animatable[b] |= m
     keys = [(b, k) for b in bones for k in _bits(animatable[b])]
     levels = _levels(stream, units, intra_flags, skeleton, {key: j for j, key in enumerate(keys)})
-    if stream.header.coding == "pred":
-        q = stream.header.q
+    firsts = [frames[unit[0]] for unit in units]
+    plan = _UnitPlan(units, display_numbers(frames), [f.kfi for f in firsts],
+                     [k > 0 and f.bones == firsts[k - 1].bones for k, f in enumerate(firsts)],
+                     [tuple(sorted(f.bones.items())) for f in firsts], [f.muscles for f in firsts])
+    return _write_levels(stream.header, plan, intra_flags, levels, bones, animatable, keys, skeleton)
+
+
+@dataclass
+class _UnitPlan:
+    """What the writer needs of each coded unit: units (frame indices), numbers (F,) display frame of
+    each frame, and per unit its first frame's KeyFrameIndex, whether its masks equal the previous
+    unit's, its sorted (boneID, mask) pairs and its muscle updates."""
+    units: list[list[int]]
+    numbers: np.ndarray
+    kfi: list[int]
+    same: list[bool]
+    masks: list[tuple[tuple[int, int], ...]]
+    muscles: list[list[MuscleUpdate]]
+
+
+def _write_levels(header: BBAHeader, plan: _UnitPlan, intra_flags, levels, bones, animatable, keys, skeleton) -> bytes:
+    """write_stream after the levels: the range fields (predictive) and the bits."""
+    if header.coding == "pred":
+        q = header.q
         # Levels by unit and stream key (0 where a unit does not carry the key: the range fields
         # cover 0 anyway), intra units and predicted units apart.
         by_key = np.zeros((len(levels), len(keys)), dtype=np.int64)
@@ -499,9 +532,71 @@ def write_stream(stream: BBAStream, skeleton: Skeleton | None = None) -> bytes:
                 return float((counts[0] * np.log2(i_high - i_low + 1)).sum() + (counts[1] * np.log2(p_high - p_low + 1)).sum())
             use_default = estimate(default) < estimate(fields) + 4 * pc.RANGE_BITS * len(keys)
         if use_default:
-            return _write(stream, units, intra_flags, levels, bones, animatable, keys, default, False, skeleton)
-        return _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, True, skeleton)
-    return _write(stream, units, intra_flags, levels, bones, animatable, keys, None, False, skeleton)
+            return _write(header, plan, intra_flags, levels, bones, animatable, default, False, skeleton)
+        return _write(header, plan, intra_flags, levels, bones, animatable, fields, True, skeleton)
+    return _write(header, plan, intra_flags, levels, bones, animatable, None, False, skeleton)
+
+
+def _check_header(h: BBAHeader) -> None:
+    pc.check_q(h.q)
+    if h.coding not in ("pred", "dct"):
+        raise SigncastError(f"unknown BBA coding {h.coding!r}: choose 'pred' or 'dct'")
+    if not 1 <= h.intra_period <= 63:
+        raise SigncastError(f"BBA intra period {h.intra_period} outside 1..63")
+    if not 0 <= h.header_period <= 63:
+        raise SigncastError(f"BBA header period {h.header_period} outside 0..63")
+    if not 0 <= h.rotation_order < 24:
+        raise SigncastError(f"rotationOrder {h.rotation_order} outside 0..23")
+
+
+def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, values: np.ndarray,
+                  skeleton: Skeleton) -> bytes:
+    """write_stream of a stream whose frames all carry the bone masks `bones` and no muscles, given as
+    arrays: kfi (F,) int64 KeyFrameIndex of each frame, values (F, P) int64 in stream order (bones
+    sorted, bits ascending). The same checks and the same bytes as write_stream of its BBAFrames."""
+    _check_header(header)
+    n = len(kfi)
+    if not n:
+        raise SigncastError("a BBA stream needs at least one frame")
+    if kfi[0]:
+        raise SigncastError("the first BBA frame has KeyFrameIndex 0: there is no frame before it to interpolate from")
+    bad = np.flatnonzero((kfi < 0) | (kfi > kf.MAX_KFI))
+    if len(bad):
+        raise SigncastError(f"KeyFrameIndex {int(kfi[bad[0]])} outside 0..31")
+    if header.coding == "dct" and np.any(kfi):
+        raise SigncastError("the DCT BBA coder carries neither key frames nor muscles")
+    for bone in bones:
+        if not 0 <= bone <= 1023:
+            raise SigncastError(f"boneID {bone} outside 0..1023")
+    numbers = np.cumsum(np.concatenate([[0], kfi[1:] + 1])).astype(np.int64)
+    _check_size(int(numbers[-1]) + 1, sum(mask.bit_count() for mask in bones.values()))
+    largest = int(np.abs(values).max(initial=0))
+    if largest > VALUE_LIMIT:
+        raise SigncastError(f"a BBA bone value of magnitude {largest} is beyond +-{VALUE_LIMIT}")
+    exponents = _exponent_items(skeleton)
+    masks = tuple(sorted(bones.items()))
+    layout = _layout(masks, exponents)
+    columns = np.arange(len(layout.keys), dtype=np.int64)
+    q = header.q
+    if header.coding == "dct":
+        units = [list(range(s, min(s + pc.SEGMENT, n))) for s in range(0, n, pc.SEGMENT)]
+    else:
+        units = [[t] for t in range(n)]
+    intra_flags = [k % header.intra_period == 0 for k in range(len(units))]
+    if header.coding == "pred":
+        intra = np.array(intra_flags, dtype=bool)
+        levels_array = _predictive_levels(q, layout, values, intra)
+        intra_flags = intra.tolist()
+        levels = [(layout.keys, layout.steps, level, columns) for level in levels_array]
+    else:
+        dc_step, ac_step = pc.dct_steps(layout.steps, q)
+        levels = [(layout.keys, layout.steps, *pc.dct_levels(values[unit[0]:unit[-1] + 1], dc_step, ac_step), len(unit))
+                  for unit in units]
+    kfis = kfi.tolist()
+    plan = _UnitPlan(units, numbers, [kfis[unit[0]] for unit in units], [k > 0 for k in range(len(units))],
+                     [masks] * len(units), [[]] * len(units))
+    bone_ids = sorted(bones)
+    return _write_levels(header, plan, intra_flags, levels, bone_ids, dict(masks), list(layout.keys), skeleton)
 
 
 class _Bits:
@@ -579,9 +674,8 @@ def _bone_list_bits(masks: tuple[tuple[int, int], ...], animatable: tuple[int, .
     return bits.value, bits.n_bits
 
 
-def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, tight, skeleton) -> bytes:
-    h = stream.header
-    numbers = display_numbers(stream.frames)
+def _write(h: BBAHeader, plan: _UnitPlan, intra_flags, levels, bones, animatable, fields, tight, skeleton) -> bytes:
+    numbers = plan.numbers
     writer = BitWriter()
     _write_header(writer, h, int(numbers[-1]) + 1, bones, animatable, fields, tight, skeleton)
     models = None
@@ -591,8 +685,8 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
     tables = pc.vlc_tables() if h.coding == "dct" else None
     previous_dc = None
     n_intra = 0
-    for k, (unit, intra) in enumerate(zip(units, intra_flags)):
-        frame = stream.frames[unit[0]]
+    for k, (unit, intra) in enumerate(zip(plan.units, intra_flags)):
+        muscles = plan.muscles[k]
         if intra:
             if h.header_period and n_intra and n_intra % h.header_period == 0:
                 _write_header(writer, h, int(numbers[-1]) + 1, bones, animatable, fields, tight, skeleton)
@@ -606,13 +700,13 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
             writer.write(number, FRAME_NUMBER_BITS)
         else:
             writer.write(number % (1 << P_FRAME_NUMBER_BITS), P_FRAME_NUMBER_BITS)
-        writer.write(frame.kfi, 5)
+        writer.write(plan.kfi[k], 5)
         if h.coding == "dct":
             writer.write(len(unit) - 1, 4)
         if not intra:
-            writer.write_bit(int(frame.bones == stream.frames[units[k - 1][0]].bones))
-        if intra or frame.bones != stream.frames[units[k - 1][0]].bones:
-            masks = tuple(sorted(frame.bones.items()))
+            writer.write_bit(int(plan.same[k]))
+        if intra or not plan.same[k]:
+            masks = plan.masks[k]
             writer.write(*_bone_list_bits(masks, tuple(animatable[b] for b, _ in masks)))
         writer = writer.flush(data)
         if h.coding == "pred":
@@ -626,12 +720,12 @@ def _write(stream, units, intra_flags, levels, bones, animatable, keys, fields, 
             dc_values = dc if intra else dc - previous_dc
             pc.write_dct_blocks(writer, tables, dc_values, intra, ac)
             previous_dc = dc
-        writer.write(len(frame.muscles), 10)
+        writer.write(len(muscles), 10)
         _write_crc(writer, unit_start)
-        if frame.muscles:
+        if muscles:
             writer.start_code(MUSCLE_START_CODE)
             muscle_start = writer.n_bits
-            for muscle in frame.muscles:
+            for muscle in muscles:
                 writer.write(muscle.muscle_id, 10)
                 writer.write(muscle.n_control_points, 6)
                 writer.write(muscle.n_knots, 6)
@@ -736,9 +830,40 @@ def _unit_number(field: int, intra: bool, kfi: int, n: int, display_end: int, st
     return number
 
 
+@dataclass
+class _Unit:
+    """A decoded unit as arrays: KeyFrameIndex of its first frame, boneID -> mask, the layout of those
+    masks, rows (n, P) int64 the values of its n frames in layout order, and its muscle updates."""
+    kfi: int
+    bones: dict[int, int]
+    layout: _Layout
+    rows: np.ndarray
+    muscles: list[MuscleUpdate]
+
+
+def _unit_frames(unit: _Unit) -> list[BBAFrame]:
+    """The unit's BBAFrames (muscles on the first)."""
+    frames = []
+    layout = unit.layout
+    for row in unit.rows.tolist():
+        values, j = {}, 0
+        for b, count in zip(layout.bones, layout.counts):
+            values[b] = row[j:j + count]
+            j += count
+        frames.append(BBAFrame(unit.kfi, dict(unit.bones), values, unit.muscles if not frames else []))
+    return frames
+
+
 def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool, display_end: int,
                strict: bool) -> tuple[int, list[BBAFrame]]:
     """(display frame of the unit's first frame, its frames)."""
+    number, unit = _read_unit_rows(reader, state, skip_muscles, display_end, strict)
+    return number, _unit_frames(unit)
+
+
+def _read_unit_rows(reader: BitReader, state: _DecoderState, skip_muscles: bool, display_end: int,
+                    strict: bool) -> tuple[int, _Unit]:
+    """(display frame of the unit's first frame, the unit)."""
     h = state.header
     unit_start = reader.pos
     intra = bool(reader.read_bit())
@@ -797,14 +922,7 @@ def _read_unit(reader: BitReader, state: _DecoderState, skip_muscles: bool, disp
     state.previous_bones = bones
     state.previous_layout = (layout, idx)
     state.synced = True
-    frames = []
-    for row in rows.tolist():
-        values, j = {}, 0
-        for b, count in zip(layout.bones, layout.counts):
-            values[b] = row[j:j + count]
-            j += count
-        frames.append(BBAFrame(kfi, dict(bones), values, muscles if not frames else []))
-    return number, frames
+    return number, _Unit(kfi, bones, layout, rows, muscles)
 
 
 def _read_unit_bones(reader: BitReader, state: _DecoderState) -> dict[int, int]:
@@ -874,6 +992,20 @@ def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = Fa
     when the stream has one. Without it, damage raises SigncastError.
     skip_muscles: ignore muscle data (a weak terminal), jumping to the next frame start code.
     Streams above MAX_DECODED_VALUES frames x values are refused before their frames are decoded."""
+    state, records, lost = _read_units(data, resilient, skip_muscles)
+    frames: list[BBAFrame] = []
+    for record in records:
+        if isinstance(record, int):
+            _conceal(frames, record)
+        else:
+            frames.extend(_unit_frames(record))
+    return BBAStream(state.header, frames), lost
+
+
+def _read_units(data: bytes, resilient: bool, skip_muscles: bool
+                ) -> tuple[_DecoderState, list[_Unit | int], list[int]]:
+    """read_stream's decoding: (decoder state, the decoded units in display order with the number of
+    frames to conceal (int) where units were lost, the lost display frames)."""
     data = bytes(data)
     codes = find_start_codes(data)
     end_position = len(data) - 4
@@ -887,7 +1019,7 @@ def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = Fa
     # The stream ends with its 4-byte end code; in resilient mode also when that code is damaged.
     codes = [(p, c) for p, c in codes if p < end_position] + [(end_position, END_CODE)]
     header_span = None if resilient else data[codes[0][0]:codes[1][0]]
-    frames: list[BBAFrame] = []
+    records: list[_Unit | int] = []
     lost: list[int] = []
     display_end = 0
     for k, (position, code) in enumerate(codes[:-1]):
@@ -906,7 +1038,7 @@ def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = Fa
         unit_end = codes[k + 2][0] if has_muscles and not skip_muscles else end
         reader = BitReader(data, start_byte=position + 4, end_byte=unit_end)
         try:
-            number, unit = _read_unit(reader, state, skip_muscles or not has_muscles, display_end, not resilient)
+            number, unit = _read_unit_rows(reader, state, skip_muscles or not has_muscles, display_end, not resilient)
             _check_unit_end(reader, unit_end)
         except SigncastError:
             if not resilient:
@@ -914,18 +1046,18 @@ def read_stream(data: bytes, *, resilient: bool = False, skip_muscles: bool = Fa
             state.synced = False
             state.previous_dc = None
             continue
-        start = number - unit[0].kfi
+        start = number - unit.kfi
         if start > display_end:
-            _conceal(frames, start - display_end)
+            records.append(start - display_end)
             lost.extend(range(display_end, number))
-        frames.extend(unit)
-        display_end = number + len(unit)
+        records.append(unit)
+        display_end = number + len(unit.rows)
     if display_end < state.n_frames:
         if not resilient:
             raise SigncastError(f"corrupt BBA stream: {display_end} of its {state.n_frames} frames")
-        _conceal(frames, state.n_frames - display_end)
+        records.append(state.n_frames - display_end)
         lost.extend(range(display_end, state.n_frames))
-    return BBAStream(state.header, frames), lost
+    return state, records, lost
 
 
 # --------------------------------------------------------------------------------- live decoding
@@ -1050,7 +1182,31 @@ def motion_to_stream(motion: Motion, q: int, coding: str = "pred", *, keyframes:
     asked.
     header_period: repeat the header before every n-th intra unit (0: never), so a resilient
     decoder survives a damaged header."""
+    header, mask, kfi, values = _motion_arrays(motion, q, coding, keyframes, threshold_rad, intra_period,
+                                               rotation_order, header_period, name, skeleton or load_avatar().skeleton)
+    spans, start = {}, 0                                # bone -> its values' slice of a row (stream order)
+    for b in sorted(mask):
+        spans[b] = (start, start + mask[b].bit_count())
+        start = spans[b][1]
+    frames = [BBAFrame(k, dict(mask), {b: row[a:e] for b, (a, e) in spans.items()})
+              for k, row in zip(kfi.tolist(), values.tolist())]
+    return BBAStream(header, frames)
+
+
+def encode_motion(motion: Motion, q: int, coding: str = "pred", *, keyframes: bool = False,
+                  skeleton: Skeleton | None = None) -> bytes:
+    """write_stream(motion_to_stream(motion, q, coding, keyframes=keyframes)) without building the
+    per-frame BBAFrames: the same bytes."""
     skeleton = skeleton or load_avatar().skeleton
+    header, mask, kfi, values = _motion_arrays(motion, q, coding, keyframes, None, None, 0, 0, "signcast", skeleton)
+    return _write_arrays(header, mask, kfi, values, skeleton)
+
+
+def _motion_arrays(motion: Motion, q: int, coding: str, keyframes: bool, threshold_rad: float | None,
+                   intra_period: int | None, rotation_order: int, header_period: int, name: str,
+                   skeleton: Skeleton) -> tuple[BBAHeader, dict[int, int], np.ndarray, np.ndarray]:
+    """motion_to_stream's analysis as arrays: (header, boneID -> mask of every frame, kfi (K,) int64,
+    values (K, P) int64 in stream order: bones sorted, bits ascending)."""
     q = pc.check_q(q)
     if keyframes and coding != "pred":
         raise SigncastError("key frames are coded with the predictive BBA coder only")
@@ -1091,17 +1247,10 @@ def motion_to_stream(motion: Motion, q: int, coding: str = "pred", *, keyframes:
         b, bit = columns[c]
         mask[b] = mask.get(b, 0) | (1 << bit)
     column_of = {key: c for c, key in reversed(list(enumerate(columns)))}      # the first column of each key
-    order = {b: [column_of[(b, bit)] for bit in _bits(mask[b])] for b in mask}
-    spans, start = {}, 0                                # bone -> its values' slice of a sent row
-    for b in mask:
-        spans[b] = (start, start + len(order[b]))
-        start += len(order[b])
-    sent_rows = values[:, [c for b in mask for c in order[b]]].tolist()
+    sent_columns = [column_of[(b, bit)] for b in sorted(mask) for bit in _bits(mask[b])]
     gaps = np.diff(keys_frames, prepend=keys_frames[0] - 1) - 1           # KeyFrameIndex; 0 for the first
-    frames = [BBAFrame(int(kfi), dict(mask), {b: row[a:e] for b, (a, e) in spans.items()})
-              for kfi, row in zip(gaps.tolist(), sent_rows)]
     header = BBAHeader(name, motion.fps, coding, q, intra_period, keyframes, rotation_order, header_period)
-    return BBAStream(header, frames)
+    return header, mask, gaps.astype(np.int64), np.ascontiguousarray(values[:, sent_columns], dtype=np.int64)
 
 
 def _runs(frames: list[BBAFrame]) -> list[tuple[int, int]]:
@@ -1113,47 +1262,90 @@ def _runs(frames: list[BBAFrame]) -> list[tuple[int, int]]:
 def stream_to_motion(stream: BBAStream, skeleton: Skeleton | None = None) -> Motion:
     """Motion of the decoded stream: held values, Euler -> quaternions, key frames expanded."""
     skeleton = skeleton or load_avatar().skeleton
-    runs = _runs(stream.frames)
-    masks = [stream.frames[start].bones for start, _ in runs]
+    frames = stream.frames
+    runs = []
+    for start, stop in _runs(frames):
+        bones = frames[start].bones
+        sent = sorted(bones)
+        n_keys = sum(bones[b].bit_count() for b in sent)
+        flat = np.array([list(itertools.chain.from_iterable(map(frame.values.__getitem__, sent)))
+                         for frame in frames[start:stop]], dtype=np.float64).reshape(stop - start, n_keys)
+        runs.append((bones, flat))
+    kfi = np.array([frame.kfi for frame in frames], dtype=np.int64)
+    return _motion_of_runs(stream.header, runs, kfi, skeleton)
+
+
+def decode_motion(data: bytes, skeleton: Skeleton | None = None) -> Motion:
+    """stream_to_motion(read_stream(data)[0]) without building the per-frame BBAFrames: the same Motion,
+    the same SigncastErrors."""
+    skeleton = skeleton or load_avatar().skeleton
+    state, records, _ = _read_units(bytes(data), False, False)
+    runs: list[tuple[dict[int, int], list[np.ndarray]]] = []
+    kfi = np.zeros(sum(len(unit.rows) for unit in records), dtype=np.int64)
+    t = 0
+    for unit in records:                        # strict decoding: every record is a unit
+        if not runs or unit.bones != runs[-1][0]:
+            runs.append((unit.bones, []))
+        runs[-1][1].append(unit.rows)
+        kfi[t:t + len(unit.rows)] = unit.kfi     # every frame of a unit has its KeyFrameIndex, as in read_stream
+        t += len(unit.rows)
+    return _motion_of_runs(state.header, [(bones, np.concatenate(rows).astype(np.float64)) for bones, rows in runs],
+                           kfi, skeleton)
+
+
+def _motion_of_runs(header: BBAHeader, runs: list[tuple[dict[int, int], np.ndarray]], kfi: np.ndarray,
+                    skeleton: Skeleton) -> Motion:
+    """stream_to_motion of frames given as runs of equal bone masks: (boneID -> mask, values (n, P)
+    float64 in stream order: bones sorted, bits ascending); kfi (F,) int64 KeyFrameIndex of every frame."""
+    masks = [mask for mask, _ in runs]
     bones = sorted({b for m in masks for b in m})
     root = int(np.flatnonzero(skeleton.parents < 0)[0])
     rotated = sorted({b for m in masks for b in m if m[b] & 0b111000} | {root})
     for b in bones:
         if b >= len(skeleton):
             raise SigncastError(f"BBA stream animates bone {b}, the avatar has {len(skeleton)}")
-    _check_size(*_size(stream.frames))
-    order = ORDER_NAMES[stream.header.rotation_order]
+    animatable: dict[int, int] = {}
+    for mask in masks:
+        for bone, bits in mask.items():
+            animatable[bone] = animatable.get(bone, 0) | bits
+    n_frames = len(kfi)
+    if n_frames:
+        _check_size(int(kfi[1:].sum()) + n_frames, sum(bits.bit_count() for bits in animatable.values()))
+    order = ORDER_NAMES[header.rotation_order]
     # Held values of every frame: columns 3 r .. 3 r + 2 the angles of rotated[r], then the root's translation.
     n_columns = 3 * len(rotated) + 3
     column = {(b, bit): 3 * r + axis for r, b in enumerate(rotated) for axis, bit in enumerate(ROTATION_BITS)}
     column |= {(root, bit): 3 * len(rotated) + axis for axis, bit in enumerate(TRANSLATION_BITS)}
-    table = np.zeros((len(stream.frames), n_columns))
+    table = np.zeros((n_frames, n_columns))
     held = np.zeros(n_columns)
-    for (start, stop), mask in zip(runs, masks):
-        sent = sorted(mask)
-        keys = [(b, bit) for b in sent for bit in _bits(mask[b])]
+    start = 0
+    for mask, flat in runs:
+        stop = start + len(flat)
+        keys = [(b, bit) for b in sorted(mask) for bit in _bits(mask[b])]
         source = [k for k, key in enumerate(keys) if key in column]
         target = [column[keys[k]] for k in source]
-        flat = np.array([list(itertools.chain.from_iterable(map(frame.values.__getitem__, sent)))
-                         for frame in stream.frames[start:stop]], dtype=np.float64).reshape(stop - start, len(keys))
         block = table[start:stop]
         block[:] = held
         block[:, target] = flat[:, source]
         held = block[-1]
+        start = stop
     angles = table[:, :3 * len(rotated)].reshape(len(table), len(rotated), 3)
-    key_q = rotations.from_euler(angles * bap_table.ROTATION_UNIT_RAD, order)          # (F, R, 4)
+    sequence = rotations.scipy_sequence(order)
+    key_q = euler_kernel.from_euler(np.ascontiguousarray((angles * bap_table.ROTATION_UNIT_RAD).reshape(-1, 3)),
+                                    np.array(["xyz".index(c) for c in sequence.lower()], dtype=np.int64),
+                                    sequence.isupper()).reshape(len(table), len(rotated), 4)     # (F, R, 4)
     key_t = table[:, 3 * len(rotated):] * bap_table.TRANSLATION_UNIT_M                 # (F, 3)
-    if not any(frame.kfi for frame in stream.frames[1:]):
+    if not kfi[1:].any():
         quats, trans = key_q, key_t
     else:
         q_parts, t_parts = [], []
-        for f, frame in enumerate(stream.frames):
-            if frame.kfi and f:
-                q_mid, t_mid = kf.expand(key_q[f - 1], key_t[f - 1], key_q[f], key_t[f], frame.kfi)
+        for f, gap in enumerate(kfi.tolist()):
+            if gap and f:
+                q_mid, t_mid = kf.expand(key_q[f - 1], key_t[f - 1], key_q[f], key_t[f], gap)
                 q_parts.append(q_mid)
                 t_parts.append(t_mid)
             q_parts.append(key_q[f:f + 1])
             t_parts.append(key_t[f:f + 1])
         quats, trans = np.concatenate(q_parts), np.concatenate(t_parts)
     names = tuple(skeleton.names[b] for b in rotated)
-    return Motion(stream.header.fps, names, quats, trans)
+    return Motion(header.fps, names, quats, trans)

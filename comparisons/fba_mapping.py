@@ -294,15 +294,16 @@ def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, stric
     bap_map = bap_map or avatar_bap_map()
     if strict:
         _, present = _bone_sources(motion.bone_names, bap_map._unmapped)
-        turned = np.max(rotations.angle_between(motion.rotations[:, present], rotations.IDENTITY), axis=0,
-                        initial=0.0) > 1e-4
+        # rotations.angle_between(q, IDENTITY) is 2 acos(|w|), largest where |w| is smallest
+        smallest_w = np.abs(motion.rotations[:, present, 0]).min(axis=0, initial=1.0)
+        turned = 2.0 * np.arccos(np.clip(smallest_w, 0.0, 1.0)) > 1e-4
         lost = [motion.bone_names[i] for i in present[turned]]
         if lost:
             raise SigncastError(f"motion rotates bones that no BAP carries: {', '.join(lost[:6])}")
     frames, neutrals, columns, signs = bap_map.arrays
-    # F^-1 (N^-1 q) F, bitwise what rotations.multiply and rotations.conjugate give (kernels/lab_rotations.py)
-    anatomical = lab_rotations.anatomical_rotations(_bone_rotations(motion, bap_map), frames, neutrals)
-    angles = rotations.to_euler(anatomical, EULER_ORDER) * signs       # (T, B, 3): F, A, L
+    mapped, source = _bone_sources(motion.bone_names, bap_map.bone_names)
+    # rotations.to_euler(F^-1 (N^-1 q) F, EULER_ORDER), bitwise, in one compiled pass (kernels/lab_rotations.py)
+    angles = lab_rotations.anatomical_euler(motion.rotations, mapped, source, frames, neutrals) * signs
     values = np.zeros((motion.n_frames, bap_table.N_BAPS), dtype=np.int64)
     values[:, columns] = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
     translation_mm = np.round(motion.root_translation / bap_table.TRANSLATION_UNIT_M).astype(np.int64)
@@ -312,9 +313,10 @@ def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, stric
     return values
 
 
-def baps_to_motion(values: np.ndarray, fps: float, bap_map: AvatarBapMap | None = None) -> Motion:
+def baps_to_motion(values: np.ndarray, fps: float, bap_map: AvatarBapMap | None = None, *,
+                   faps: np.ndarray | None = None) -> Motion:
     """Motion of all mapped avatar bones from (T, 296) BAP values (inverse of motion_to_baps): all
-    zero is the MPEG-4 neutral posture."""
+    zero is the MPEG-4 neutral posture. faps: the Motion's (T, 68) FAP values, or None."""
     bap_map = bap_map or avatar_bap_map()
     values = np.asarray(values)
     if values.ndim != 2 or values.shape[1] != bap_table.N_BAPS:
@@ -326,7 +328,7 @@ def baps_to_motion(values: np.ndarray, fps: float, bap_map: AvatarBapMap | None 
     q = lab_rotations.bap_rotations(np.ascontiguousarray(angles), frames, neutrals)
     names = bap_map.bone_names
     translation = np.stack([values[:, 182 - 1], values[:, 181 - 1], values[:, 183 - 1]], axis=1) * bap_table.TRANSLATION_UNIT_M
-    return Motion(fps, names, q, translation.astype(np.float64))
+    return Motion(fps, names, q, translation.astype(np.float64), faps)
 
 
 def extension_report(motions: Iterable[Motion | np.ndarray] | None = None,

@@ -23,31 +23,45 @@ def default_threshold_rad(q: int) -> float:
     return max(0.05, q * 64e-5)
 
 
-def _within(motion: Motion, first: int, last: int, threshold_rad: float, threshold_m: float) -> bool:
-    inner = np.arange(first + 1, last)
-    if not len(inner):
-        return True
-    x = (inner - first) / (last - first)
+def _within_each(motion: Motion, first: int, lasts: np.ndarray, threshold_rad: float, threshold_m: float) -> np.ndarray:
+    """(L,) bool: for each candidate key `lasts` (L,) (each > first + 1), whether interpolating between
+    `first` and it rebuilds every frame between them within the thresholds (slerp of the rotations,
+    linear root translation). All candidates' inner frames in one batch: the per-frame operations are
+    those of one candidate at a time, so the decisions are too."""
+    counts = lasts - first - 1                               # inner frames of each candidate
+    owner = np.repeat(np.arange(len(lasts)), counts)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    inner = first + 1 + (np.arange(len(owner)) - starts[owner])
+    x = (inner - first) / (lasts[owner] - first)
     q0 = np.broadcast_to(motion.rotations[first], (len(inner),) + motion.rotations.shape[1:])
-    q1 = np.broadcast_to(motion.rotations[last], q0.shape)
+    q1 = motion.rotations[lasts[owner]]
     estimate = rotations.slerp(q0, q1, np.broadcast_to(x[:, None], q0.shape[:2]))
-    if np.max(rotations.angle_between(estimate, motion.rotations[inner])) > threshold_rad:
-        return False
-    t0, t1 = motion.root_translation[first], motion.root_translation[last]
+    angle = np.maximum.reduceat(rotations.angle_between(estimate, motion.rotations[inner]).max(axis=1), starts)
+    t0, t1 = motion.root_translation[first], motion.root_translation[lasts[owner]]
     line = (1 - x)[:, None] * t0 + x[:, None] * t1
-    return bool(np.max(np.linalg.norm(line - motion.root_translation[inner], axis=1)) <= threshold_m)
+    distance = np.maximum.reduceat(np.linalg.norm(line - motion.root_translation[inner], axis=1), starts)
+    return ~(angle > threshold_rad) & (distance <= threshold_m)
 
 
 def key_frames(motion: Motion, threshold_rad: float, threshold_m: float = 0.002) -> np.ndarray:
-    """Indices of the key frames (always the first and the last frame)."""
+    """Indices of the key frames (always the first and the last frame). Greedy: from each key, the next
+    is the last frame before the first candidate (at most MAX_KFI + 1 frames on) that fails. Candidates
+    are tried in batches of 2, 4, 8, ... (a batch costs about as much as one candidate, and most gaps
+    are short)."""
     n = motion.n_frames
     keys = [0]
     current = 0
     while current < n - 1:
-        nxt = current + 1
-        while (nxt + 1 < n and nxt + 1 - current - 1 <= MAX_KFI
-               and _within(motion, current, nxt + 1, threshold_rad, threshold_m)):
-            nxt += 1
+        end = min(n - 1, current + MAX_KFI + 1)          # the farthest candidate
+        nxt, batch = current + 1, 2
+        while nxt < end:
+            lasts = np.arange(nxt + 1, min(end, nxt + batch) + 1)
+            ok = _within_each(motion, current, lasts, threshold_rad, threshold_m)
+            if not ok.all():
+                nxt += int(np.argmin(ok))
+                break
+            nxt += len(ok)
+            batch *= 2
         keys.append(nxt)
         current = nxt
     return np.array(keys, dtype=np.int64)

@@ -27,7 +27,10 @@ Frame counts of the seed (30 Hz) are scaled to `fps`.
 Speed without changing a bit: the speed fits are scipy's savgol_filter arithmetic without its per-call
 set-up, for all groups in one pass (`savgol_slope`, `group_speeds`); the time warp is np.interp's
 arithmetic on all columns at once; Hermite fills and the hybrid coder's quantisers work on all frames or
-segments at once with the same element-wise operations.
+segments at once with the same element-wise operations; the gesture coder warps all segments in one
+compiled call (kernels/lab_gesture.py) and screens table entries with one matrix product, computing
+gesture_distance's and nearest's exact arithmetic only for the entries that can win (GestureMatcher,
+PostureMatcher: the bounds are in their docstrings).
 """
 from __future__ import annotations
 
@@ -44,6 +47,7 @@ from scipy.signal import savgol_coeffs
 from comparisons.coded_streams import StreamReader, StreamWriter
 from comparisons.vector_quantization import TABLES_DIR, group_layout, load_table_file, nearest
 from comparisons.waveform_coders import DofCoder, uniform_index, uniform_value
+from kernels.lab_gesture import warp_rows
 from media.errors import SigncastError
 
 MODEL_TABLE_PATH = TABLES_DIR / "model_tables.npz"
@@ -161,8 +165,12 @@ def gesture_boundaries(group: np.ndarray, fps: float, n_min: int, n_max: int, be
 
     def search(start: int, stop: int, scale: float) -> list[int]:
         picked, last = [], start
-        for frame in range(start + n_min, stop - n_min + 1):
-            if minimum[frame] and omega[frame] < scale * average[frame] and frame - last >= n_min:
+        low, high = start + n_min, stop - n_min + 1
+        if high <= low:
+            return picked
+        below = minimum[low:high] & (omega[low:high] < scale * average[low:high])
+        for frame in (np.flatnonzero(below) + low).tolist():
+            if frame - last >= n_min:
                 picked.append(frame)
                 last = frame
         return picked
@@ -243,6 +251,18 @@ def warp(segment: np.ndarray, length: int) -> np.ndarray:
     return out
 
 
+def warp_segments(source: np.ndarray, starts, counts, lengths) -> np.ndarray:
+    """warp(source[start:start + count], length) of every (start, count, length), concatenated:
+    (sum(lengths), K), bitwise: kernels/lab_gesture.warp_rows does warp's element-wise arithmetic for all
+    segments in one call."""
+    starts, counts, lengths = (np.asarray(v, dtype=np.int64) for v in (starts, counts, lengths))
+    if np.any(counts < 2):
+        return np.concatenate([warp(source[a:a + n], m) for a, n, m in zip(starts, counts, lengths)])
+    out = np.empty((int(lengths.sum()), source.shape[1]))
+    warp_rows(np.ascontiguousarray(source, dtype=np.float64), starts, counts, lengths, out)
+    return out
+
+
 def gesture_weights(n_norm: int = N_NORM, a: float = 1.0, b: float = 0.5) -> np.ndarray:
     """End-emphasising weights of eq. 8-13 for samples n = 1..N."""
     n = np.arange(1, n_norm + 1, dtype=np.float64)
@@ -255,6 +275,86 @@ def gesture_distance(warped: np.ndarray, table: np.ndarray, weights: np.ndarray)
     np.square(squared, out=squared)
     squared = np.einsum("mnk,n->m", squared, weights)
     return np.sqrt(squared / (weights.sum() * warped.shape[1]))
+
+
+_EPS = np.finfo(np.float64).eps
+
+
+class GestureMatcher:
+    """The best gesture_distance match of many warped segments against one table (M, N, K), bitwise as
+    gesture_distance + argmin per segment, without computing every exact distance.
+
+    Screening: the weighted squared distance s = a_m - 2 p + b (a_m = sum w T^2, p = sum w T x, b = sum w x^2)
+    of all segments and entries comes from one matrix product. Any summation order of such sums of N K
+    terms is within (N K + 4) eps (a_m + b) of the exact value, so bound = 8 (N K + 16) eps (max a + b)
+    covers both the screened value's error and gesture_distance's own: an entry screened above the
+    segment's minimum by more than 3 bounds (plus a relative margin for the rounding of the division and
+    square root) can be neither the argmin nor tie with it. The remaining candidates (usually one per
+    segment) get gesture_distance's exact arithmetic: the same subtraction, square and einsum on
+    (candidates, N, K) rows, which computes each row as for the whole table (einsum reduces each row over
+    n and k alone), and argmin picks the first of equal distances as before."""
+
+    def __init__(self, table: np.ndarray, weights: np.ndarray):
+        self.table = table
+        self.weights = weights
+        m, n, k = table.shape
+        self.denominator = weights.sum() * k
+        weighted = table * weights[None, :, None]
+        self.weighted_flat = np.ascontiguousarray(weighted.reshape(m, n * k).T)  # (N K, M)
+        self.energy = np.einsum("mnk,mnk->m", weighted, table)  # a_m
+        self.column_weights = np.repeat(weights, k)  # (N K,) w of each flattened column
+        self.tolerance = 8.0 * (n * k + 16) * _EPS
+        self.largest = float(self.energy.max(initial=0.0))
+
+    def match(self, warped: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """warped (S, N, K) -> (index of the nearest entry (S,) int64, its distance (S,) as gesture_distance)."""
+        s, n, k = warped.shape
+        flat = warped.reshape(s, n * k)
+        energy = (flat * flat) @ self.column_weights  # b
+        screened = self.energy - 2.0 * (flat @ self.weighted_flat)
+        lowest = screened.min(axis=1) + energy
+        ceiling = lowest + self.tolerance * (np.abs(lowest) + 3.0 * (self.largest + energy)) - energy
+        segment, entry = np.nonzero(screened <= ceiling[:, None])  # segment-major, entries ascending
+        squared = np.empty((len(entry), n, k))
+        np.subtract(self.table[entry], warped[segment], out=squared)
+        np.square(squared, out=squared)
+        distance = np.sqrt(np.einsum("mnk,n->m", squared, self.weights) / self.denominator)
+        if len(entry) == s:  # one candidate per segment
+            return entry, distance
+        best, best_distance = np.empty(s, dtype=np.int64), np.empty(s)
+        first = np.searchsorted(segment, np.arange(s + 1))
+        for g in range(s):
+            pick = first[g] + int(distance[first[g]:first[g + 1]].argmin())
+            best[g], best_distance[g] = entry[pick], distance[pick]
+        return best, best_distance
+
+
+class PostureMatcher:
+    """vector_quantization.nearest(row[None], codebook) of many rows, bitwise, one matrix product for all.
+    nearest's value norms_m - 2 v.c_m is within (K + 2) eps (norms_m + 2 |v| |c_m|) of exact whatever the
+    summation order of the dot product, so a row whose screened values leave a single entry within twice
+    that bound (4 (K + 16) eps (max norms + 2 |v| max |c|)) of its minimum has nearest's answer; rows with
+    several entries in reach, and single rows, go to nearest itself."""
+
+    def __init__(self, codebook: np.ndarray):
+        self.codebook = codebook
+        self.codebook_t = np.ascontiguousarray(codebook.T)
+        self.norms = np.einsum("mk,mk->m", codebook, codebook)
+        self.largest = float(self.norms.max(initial=0.0))
+        self.tolerance = 4.0 * (codebook.shape[1] + 16) * _EPS
+
+    def nearest(self, rows: np.ndarray) -> np.ndarray:
+        """rows (F, K) -> (F,) int64 indices into the codebook."""
+        if len(rows) == 1:
+            return nearest(rows, self.codebook)
+        screened = self.norms - 2.0 * (rows @ self.codebook_t)
+        lengths = np.sqrt(np.einsum("fk,fk->f", rows, rows))
+        bound = self.tolerance * (self.largest + 2.0 * np.sqrt(self.largest) * lengths)
+        out = screened.argmin(axis=1)
+        ceiling = screened[np.arange(len(rows)), out] + 2.0 * bound
+        for f in np.flatnonzero((screened <= ceiling[:, None]).sum(axis=1) > 1):
+            out[f] = nearest(rows[f:f + 1], self.codebook)[0]
+        return out
 
 
 # ---------------------------------------------------------------- tables
@@ -320,16 +420,30 @@ class GestureCoder(_GroupCoder):
     fit_threshold = 0.12  # E: weighted RMS radians per DOF
     blend_at_30 = 10
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        weights = gesture_weights()
+        self.matchers = [(GestureMatcher(table, weights), PostureMatcher(postures))
+                         for table, postures in zip(self.gestures, self.postures)]
+
     def _synthesise(self, table, postures, start_value, lengths, flags, indices, fallbacks, n_blend):
         """The receiver: segments of `lengths` (frames incl. both ends) from gesture entries or posture
-        fallbacks, raised-cosine joined to the previous segment's last frame."""
-        out = [start_value[None]]
-        previous = start_value
-        g_used = p_used = 0
-        for length, is_gesture in zip(lengths, flags):
+        fallbacks, raised-cosine joined to the previous segment's last frame. The gesture entries are
+        warped all at once (warp_segments), then joined in order."""
+        lengths = np.asarray(lengths, dtype=np.int64)
+        flags = np.asarray(flags, dtype=np.int64)
+        out = np.empty((int(lengths.sum()) + 1, len(start_value)))
+        out[0] = start_value
+        gesture_lengths = lengths[flags != 0] + 1
+        if len(gesture_lengths):
+            entries = table[np.asarray(indices, dtype=np.int64)]
+            warped = warp_segments(entries.reshape(-1, entries.shape[2]), N_NORM * np.arange(len(entries)),
+                                   np.full(len(entries), N_NORM), gesture_lengths)
+        previous, row, g_at, p_used = start_value, 1, 0, 0
+        for length, is_gesture in zip(lengths.tolist(), flags.tolist()):
             if is_gesture:
-                segment = warp(table[indices[g_used]], length + 1)
-                g_used += 1
+                segment = warped[g_at:g_at + length + 1]
+                g_at += length + 1
                 blend = min(n_blend, length + 1)
                 w = raised_cosine(blend)[:, None]
                 segment[:blend] = w * previous + (1.0 - w) * segment[:blend]
@@ -338,34 +452,32 @@ class GestureCoder(_GroupCoder):
                 p_used += 1
                 w = raised_cosine(length + 1)[:, None]
                 segment = w * previous + (1.0 - w) * target
-            out.append(segment[1:])
+            out[row:row + length] = segment[1:]
+            row += length
             previous = segment[-1]
-        return np.concatenate(out)
+        return out
 
     def _encode(self, writer, dofs, fps, setting):
         n_min, n_max = (_frames(v, fps) for v in setting[:2])
         n_blend = _frames(self.blend_at_30, fps)
-        weights = gesture_weights()
         recon = np.empty_like(dofs)
         speeds = group_speeds(dofs, self.groups)
-        for group, postures, table, speed in zip(self.groups, self.postures, self.gestures, speeds):
+        for group, postures, table, speed, (gestures, nearest_posture) in zip(
+                self.groups, self.postures, self.gestures, speeds, self.matchers):
             x = dofs[:, group]
             bounds = gesture_boundaries(x, fps, n_min, n_max, beta=setting[2], speed=speed)
-            start = int(nearest(x[:1], postures)[0])
-            flags, indices, fallbacks = [], [], []
-            for a, b in zip(bounds[:-1], bounds[1:]):
-                distances = gesture_distance(warp(x[a:b + 1], N_NORM), table, weights)
-                best = int(distances.argmin())
-                if distances[best] <= self.fit_threshold:
-                    flags.append(1)
-                    indices.append(best)
-                else:
-                    flags.append(0)
-                    fallbacks.append(int(nearest(x[b:b + 1], postures)[0]))
+            n_segments = len(bounds) - 1
+            warped = warp_segments(x, bounds[:-1], np.diff(bounds) + 1, np.full(n_segments, N_NORM))
+            best, distance = gestures.match(warped.reshape(n_segments, N_NORM, len(group)))
+            fits = distance <= self.fit_threshold
+            flags = fits.astype(np.int64)
+            indices = best[fits]
+            chosen = nearest_posture.nearest(np.concatenate([x[:1], x[bounds[1:][~fits]]]))
+            start, fallbacks = int(chosen[0]), chosen[1:]
             self._write_keys(writer, bounds)
-            writer.symbols(np.array(flags, dtype=np.int64), 2)
-            writer.symbols(np.array(indices, dtype=np.int64), len(table))
-            writer.symbols(np.array([start] + fallbacks, dtype=np.int64), len(postures))
+            writer.symbols(flags, 2)
+            writer.symbols(indices, len(table))
+            writer.symbols(chosen, len(postures))
             recon[:, group] = self._synthesise(table, postures, postures[start], np.diff(bounds), flags,
                                                indices, fallbacks, n_blend)
         return recon

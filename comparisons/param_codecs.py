@@ -53,8 +53,7 @@ class FbaCodec:
 
     def decode(self, data: bytes) -> Motion:
         decoded = fba_codec.decode_fba(data)
-        body = baps_to_motion(decoded.baps_or_rest(), decoded.fps)
-        return Motion(body.fps, body.bone_names, body.rotations, body.root_translation, decoded.faps)
+        return baps_to_motion(decoded.baps_or_rest(), decoded.fps, faps=decoded.faps)
 
 
 class BbaCodec:
@@ -71,13 +70,10 @@ class BbaCodec:
             ", key frames + interpolation" if keyframes else "")
 
     def encode(self, motion: Motion, q: int) -> bytes:
-        stream = bba_codec.motion_to_stream(with_face_bones(motion).without_face(), q, self.coding,
-                                            keyframes=self.keyframes)
-        return bba_codec.write_stream(stream)
+        return bba_codec.encode_motion(with_face_bones(motion).without_face(), q, self.coding, keyframes=self.keyframes)
 
     def decode(self, data: bytes) -> Motion:
-        stream, _ = bba_codec.read_stream(data)
-        return bba_codec.stream_to_motion(stream)
+        return bba_codec.decode_motion(data)
 
 
 REGISTRY: dict[str, ParamCodec] = {}

@@ -84,3 +84,99 @@ def test_compiled_predictive_levels_raise_the_loop_error_on_an_intra_level_out_o
     far = _translated(motion, np.where(np.arange(motion.n_frames) == 3, 20.0, 0.0))   # beyond 15.24 m
     with pytest.raises(SigncastError, match="TranslationOnX = 20000 cannot be sent at Q=31"):
         bba_codec.write_stream(bba_codec.motion_to_stream(far, 31), avatar.skeleton)
+
+
+_CODEC_DIGEST = "0d270ac905bc477771472580f38f745de41954e4f47c233ae24590ac3924875a"   # the loops before the array paths
+
+
+def test_bba_codecs_array_paths_give_the_stored_bytes_and_motions():
+    """BbaCodec.encode / decode (face rig, encode_motion, decode_motion: no BBAFrames) on letters A and J
+    with their faces, all three codecs at Q 1, 8, 31: bytes and decoded arrays hash as the per-frame
+    code did (SHA-256 taken before the change); and the public per-frame path gives the same."""
+    import hashlib
+
+    from comparisons.param_codecs import get_codec
+    from media.face_rig import with_face_bones
+
+    digest = hashlib.sha256()
+    for letter in "AJ":
+        motion = letter_motion("ase", letter, 25.0)
+        for name, (coding, keyframes) in {"bba-pred": ("pred", False), "bba-dct": ("dct", False),
+                                          "bba-key": ("pred", True)}.items():
+            for q in (1, 8, 31):
+                codec = get_codec(name)
+                data = codec.encode(motion, q)
+                decoded = codec.decode(data)
+                digest.update(data)
+                digest.update(np.ascontiguousarray(decoded.rotations).tobytes())
+                digest.update(np.ascontiguousarray(decoded.root_translation).tobytes())
+                digest.update(repr(decoded.bone_names).encode())
+                if letter == "J" and q == 8:
+                    stream = bba_codec.motion_to_stream(with_face_bones(motion).without_face(), q, coding,
+                                                        keyframes=keyframes)
+                    assert bba_codec.write_stream(stream) == data
+                    public = bba_codec.stream_to_motion(bba_codec.read_stream(data)[0])
+                    assert public.bone_names == decoded.bone_names
+                    assert np.array_equal(public.rotations, decoded.rotations)
+                    assert np.array_equal(public.root_translation, decoded.root_translation)
+    assert digest.hexdigest() == _CODEC_DIGEST
+
+
+@pytest.mark.parametrize("order", range(24))
+def test_compiled_euler_conversion_is_bitwise_scipys(order):
+    from kernels.bba_rotations import from_euler
+    from media import rotations
+
+    name = bba_codec.ORDER_NAMES[order]
+    sequence = rotations.scipy_sequence(name)
+    rng = np.random.default_rng(order)
+    angles = rng.integers(-314159, 314160, size=(4000, 3)).astype(np.float64) * 1e-5
+    angles[:50] = 0.0
+    angles[50:100, 1] = 0.0
+    angles[100:150] = np.pi
+    angles[150:200] = -np.pi / 2
+    got = from_euler(angles, np.array(["xyz".index(c) for c in sequence.lower()], dtype=np.int64), sequence.isupper())
+    expected = rotations.from_euler(angles, name)
+    assert np.array_equal(got.view(np.int64), expected.view(np.int64))     # bitwise, signed zeros included
+
+
+def test_decode_motion_raises_what_read_stream_raises(avatar):
+    data = bba_codec.encode_motion(letter_motion("ase", "B", 25.0), 8, skeleton=avatar.skeleton)
+    for damaged in (data[:-6] + data[-4:], data[:40] + bytes([data[40] ^ 0x10]) + data[41:], data[:-4]):
+        with pytest.raises(SigncastError) as expected:
+            bba_codec.stream_to_motion(bba_codec.read_stream(damaged)[0], avatar.skeleton)
+        with pytest.raises(SigncastError) as got:
+            bba_codec.decode_motion(damaged, avatar.skeleton)
+        assert str(got.value) == str(expected.value)
+
+
+@pytest.mark.parametrize("fps", [10.0, 50.0])
+def test_batched_key_frames_match_the_greedy_one_candidate_at_a_time_analysis(fps):
+    """keyframes.key_frames (all candidates from a key in one batch) against the greedy loop of
+    seed 000 §3.5 written out here, one candidate at a time."""
+    from comparisons import keyframes
+    from media import rotations
+
+    def within(motion, first, last, threshold_rad, threshold_m):
+        inner = np.arange(first + 1, last)
+        x = (inner - first) / (last - first)
+        q0 = np.broadcast_to(motion.rotations[first], (len(inner),) + motion.rotations.shape[1:])
+        q1 = np.broadcast_to(motion.rotations[last], q0.shape)
+        estimate = rotations.slerp(q0, q1, np.broadcast_to(x[:, None], q0.shape[:2]))
+        if np.max(rotations.angle_between(estimate, motion.rotations[inner])) > threshold_rad:
+            return False
+        line = (1 - x)[:, None] * motion.root_translation[first] + x[:, None] * motion.root_translation[last]
+        return bool(np.max(np.linalg.norm(line - motion.root_translation[inner], axis=1)) <= threshold_m)
+
+    for letter in "CJ":
+        motion = letter_motion("ase", letter, fps)
+        for threshold_rad, threshold_m in ((0.01, 0.002), (0.05, 0.002), (0.3, 0.05), (10.0, 10.0)):
+            keys, current = [0], 0
+            while current < motion.n_frames - 1:
+                nxt = current + 1
+                while (nxt + 1 < motion.n_frames and nxt - current <= keyframes.MAX_KFI
+                       and within(motion, current, nxt + 1, threshold_rad, threshold_m)):
+                    nxt += 1
+                keys.append(nxt)
+                current = nxt
+            assert keyframes.key_frames(motion, threshold_rad, threshold_m).tolist() == keys

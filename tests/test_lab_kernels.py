@@ -17,12 +17,18 @@ from comparisons.fba_mapping import (
     motion_to_baps,
 )
 from comparisons.model_coders import (
+    GestureMatcher,
+    PostureMatcher,
+    gesture_distance,
+    gesture_weights,
     group_speed,
     group_speeds,
     hermite_fill,
     savgol_slope,
     warp,
+    warp_segments,
 )
+from comparisons.vector_quantization import nearest
 from media import rotations
 from media.errors import SigncastError
 
@@ -170,3 +176,37 @@ def test_hermite_fill_equals_the_per_interval_formula():
         expected[a:b + 1] = (h00[:, None] * values[m] + h10[:, None] * (b - a) * slopes[m]
                              + h01[:, None] * values[m + 1] + h11[:, None] * (b - a) * slopes[m + 1])
     assert got.tobytes() == expected.tobytes()
+
+
+def test_warp_segments_are_bitwise_each_segments_warp():
+    rng = np.random.default_rng(11)
+    source = rng.standard_normal((60, 5))
+    starts, counts, lengths = np.array([0, 3, 10, 30, 58]), np.array([4, 2, 21, 29, 2]), np.array([16, 7, 1, 16, 40])
+    expected = np.concatenate([warp(source[a:a + n], m) for a, n, m in zip(starts, counts, lengths)])
+    assert warp_segments(source, starts, counts, lengths).tobytes() == expected.tobytes()
+    assert warp_segments(source, [5], [1], [4]).tobytes() == warp(source[5:6], 4).tobytes()
+
+
+def test_gesture_matcher_is_gesture_distance_and_argmin_even_on_ties():
+    rng = np.random.default_rng(12)
+    weights = gesture_weights()
+    for k in (1, 3, 9, 21):
+        table = rng.standard_normal((k, 40, 16)).transpose(1, 2, 0)  # the shipped tables' layout
+        table[7] = table[3]  # an exact tie: argmin keeps the first
+        warped = table[[3, 0, 12, 39]] + rng.normal(0, 1e-3, (4, 16, k))
+        warped[0] = table[3]
+        warped = np.concatenate([warped, rng.standard_normal((3, 16, k))])
+        best, distance = GestureMatcher(table, weights).match(warped)
+        for s, segment in enumerate(warped):
+            expected = gesture_distance(segment, table, weights)
+            assert best[s] == expected.argmin() and distance[s] == expected[best[s]]
+        assert best[0] == 3
+
+
+def test_posture_matcher_is_nearest_of_each_row_even_on_near_ties():
+    rng = np.random.default_rng(13)
+    codebook = rng.standard_normal((18, 256)).T  # the shipped tables' layout
+    codebook[100] = codebook[50] * (1 + 1e-15)
+    rows = np.concatenate([codebook[[50, 100, 7]] + 1e-12, rng.standard_normal((20, 18))])
+    expected = np.array([nearest(row[None], codebook)[0] for row in rows])
+    assert np.array_equal(PostureMatcher(codebook).nearest(rows), expected)
