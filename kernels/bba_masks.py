@@ -13,21 +13,9 @@ group_start[g] .. group_start[g + 1] - 1 (MASK_TYPES: 0-2, 3-5, 6-8, 9-12, 13-15
 import numpy as np
 from numba import njit
 
-from kernels.entropy_coding import get_bit
+from kernels.entropy_coding import get_bit, get_bits
 
 OK, TRUNCATED, EMPTY_TYPE, UNKNOWN_BONE = 0, -1, -2, -3
-
-
-@njit(cache=True)
-def _read(data, end_bit, registers, n_bits):
-    """Unsigned n_bits field MSB first; -1 when the data ends inside it."""
-    value = 0
-    for _ in range(n_bits):
-        bit = get_bit(data, end_bit, registers, False)
-        if bit < 0:
-            return -1
-        value = (value << 1) | bit
-    return value
 
 
 @njit(cache=True)
@@ -38,7 +26,7 @@ def read_bone_table(data: np.ndarray, end_bit: int, registers: np.ndarray, group
     n_types = len(group_start) - 1
     present = np.zeros(n_types, dtype=np.int64)
     for k in range(len(ids)):
-        bone = _read(data, end_bit, registers, 10)
+        bone = get_bits(data, end_bit, registers, 10)
         if bone < 0:
             return TRUNCATED
         any_present = False
@@ -57,7 +45,7 @@ def read_bone_table(data: np.ndarray, end_bit: int, registers: np.ndarray, group
                     mask |= bit << b
         if any_present and mask == 0:
             return EMPTY_TYPE
-        exponent = _read(data, end_bit, registers, 4)
+        exponent = get_bits(data, end_bit, registers, 4)
         if exponent < 0:
             return TRUNCATED
         ids[k], masks[k], exponents[k] = bone, mask, exponent
@@ -73,12 +61,12 @@ def read_unit_bones(data: np.ndarray, end_bit: int, registers: np.ndarray, group
     ids, masks: (1023,) int64 filled with the entries in stream order; result[0] = their number
     (NSBB), result[1] = the boneID not in the header (status UNKNOWN_BONE). Returns OK, TRUNCATED or
     UNKNOWN_BONE."""
-    n = _read(data, end_bit, registers, 10)
+    n = get_bits(data, end_bit, registers, 10)
     if n < 0:
         return TRUNCATED
     result[0] = n
     for k in range(n):
-        bone = _read(data, end_bit, registers, 10)
+        bone = get_bits(data, end_bit, registers, 10)
         if bone < 0:
             return TRUNCATED
         allowed_mask = animatable[bone]
