@@ -1,4 +1,4 @@
-"""signcast's MPEG-4 parameter codecs against the glTF animation pipeline (gltfpack + meshoptimizer).
+"""signcast's parameter codecs against the glTF animation pipeline (gltfpack + meshoptimizer).
 
 What an engineer would pick today instead of MPEG-4 FBA/BBA is a glTF 2.0 animation packed by gltfpack:
 rotations quantised to N bits with meshoptimizer's QUATERNION filter (smallest three components) and the
@@ -23,15 +23,16 @@ buffers byte-compressed (EXT_meshopt_compression). This benchmark puts both on t
    "close" is a rotation of up to 0.2 deg (0.00349 rad), so nearly still bones (the spine while fingerspelling)
    carry errors up to ~0.4 deg at every bit depth. Those errors are counted: it is what a gltfpack user gets.
    The report says how many moving tracks stay keyed.
-2. signcast side. The same motion through `comparisons.param_codecs` (fba-pred, fba-dct, bba-pred, bba-dct)
-   at Q 1, 2, 4, 8, 16, 31; size = len() of the stream the decoder read back. By default the motion is sent
+2. signcast side. The same motion through every parameter codec of `comparisons.param_codecs`: the MPEG-4
+   fba-pred, fba-dct, bba-pred, bba-dct at Q 1, 2, 4, 8, 16, 31, and the seed-002 coders (quant ... hybrid)
+   at each of their operating points; size = len() of the stream the decoder read back. By default the motion is sent
    without its face (FAPs): the glTF animation carries only bones, so both sides carry the same body (chosen
    here; --with-face codes the face too, as the MPEG-4 streams can). Decoded bones are mapped to the
    original's by name; a moving bone a stream does not carry counts as at rest (the param_codecs contract).
 3. Error, the same on both sides: the angle of q_decoded^-1 q_original in degrees for every moving bone and
    frame, mean and max. kbps = 8 * bytes / (n_frames / fps) / 1000.
 4. The ratio at equal mean error: each side's curve (its Pareto front: cheapest kbps for an error at most e,
-   the best of the four codecs on signcast's side) is interpolated linearly in (log error, log kbps), and
+   the best codec at each error on signcast's side) is interpolated linearly in (log error, log kbps), and
    signcast's kbps over gltfpack's is printed at error levels spread over the range both curves cover.
    Target (issue 17): <= 0.5.
 
@@ -66,7 +67,7 @@ from media.avatar import Skeleton, load_avatar
 from media.errors import SigncastError
 from media.motion import Motion, resample
 
-CODECS = ("fba-pred", "fba-dct", "bba-pred", "bba-dct")
+MPEG_CODECS = ("fba-pred", "fba-dct", "bba-pred", "bba-dct")
 QS = (1, 2, 4, 8, 16, 31)
 ROTATION_BITS = tuple(range(8, 17))
 TARGET_RATIO = 0.5
@@ -411,6 +412,21 @@ def gltf_errors(motion: Motion, skeleton: Skeleton, rotation_bits: int, folder: 
     return rotation_errors_deg(reference, decoded), animation.animation_bytes, animation.file_bytes, keyed
 
 
+def signcast_codecs() -> tuple[str, ...]:
+    """Every registered parameter codec but bba-key (bba-pred with key frames: the same stream family)."""
+    from comparisons.param_codecs import codec_names
+    return tuple(name for name in codec_names() if name != "bba-key")
+
+
+def operating_points(name: str) -> tuple[int, ...]:
+    """The settings a codec is measured at: Q 1, 2, 4, 8, 16, 31 for MPEG-4; every operating point of a seed-002
+    coder (1 = its lowest rate)."""
+    if name in MPEG_CODECS:
+        return QS
+    from comparisons.param_codecs import get_codec
+    return tuple(range(1, len(get_codec(name).settings()) + 1))
+
+
 def codec_errors(motion: Motion, codec_name: str, q: int) -> tuple[np.ndarray, int, int]:
     """Code the motion with a signcast parameter codec at Q: (T, M) errors in degrees of its M moving bones
     (a bone the decoded motion lacks counts as at rest), the stream's bytes, and how many moving bones the
@@ -455,7 +471,7 @@ def clip_set(name: str, fps: float) -> list[Motion]:
 
 
 def measure_set(clips: list[Motion], skeleton: Skeleton, *, bits: tuple[int, ...] = ROTATION_BITS,
-                codecs: tuple[str, ...] = CODECS, qs: tuple[int, ...] = QS
+                codecs: tuple[str, ...] | None = None
                 ) -> tuple[list[Point], dict[str, tuple[int, int]]]:
     """Every gltfpack bit depth and every codec x Q on the clips: the points, and per side the fewest and the
     most moving-bone tracks (summed over clips, over its settings) its decoded animation still moves: for
@@ -472,9 +488,9 @@ def measure_set(clips: list[Motion], skeleton: Skeleton, *, bits: tuple[int, ...
                                  [r[2] for r in results], durations))
             counts.append(sum(r[3] for r in results))
         tracks["gltfpack"] = (min(counts), max(counts))
-    for name in codecs:
+    for name in codecs or signcast_codecs():
         counts = []
-        for q in qs:
+        for q in operating_points(name):
             results = [codec_errors(clip, name, q) for clip in clips]
             sizes = [r[1] for r in results]
             points.append(pooled(name, q, [r[0] for r in results], sizes, sizes, durations))
@@ -545,7 +561,8 @@ def ratio_table(rows: list[tuple[float, str, float, float, float]]) -> str:
 
 
 def chart(results: dict[tuple[str, float], list[Point]], path: Path) -> None:
-    """kbps against mean rotation error (log-log), one panel per (set, fps)."""
+    """kbps against mean rotation error (log-log), one panel per (set, fps): gltfpack, the MPEG-4 codecs and each
+    seed-002 coder that is signcast's cheapest somewhere on the curve."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -556,7 +573,8 @@ def chart(results: dict[tuple[str, float], list[Point]], path: Path) -> None:
     for axis in axes.reshape(-1)[len(keys):]:
         axis.set_visible(False)
     for axis, key in zip(axes.reshape(-1), keys):
-        for name in dict.fromkeys(p.codec for p in results[key]):
+        shown = {"gltfpack", *MPEG_CODECS} | {row[1] for row in ratios_at_equal_error(results[key], levels=24)}
+        for name in (name for name in dict.fromkeys(p.codec for p in results[key]) if name in shown):
             curve = sorted((p.mean_deg, p.kbps) for p in results[key] if p.codec == name)
             axis.plot(*zip(*curve), marker="o", label=name, linewidth=2.5 if name == "gltfpack" else 1.2)
         axis.set_xscale("log")
@@ -576,9 +594,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sets", default="hello,alphabet,abcdefghij", help="clip sets: hello, alphabet, abcdefghij")
     parser.add_argument("--fps", default="25,10", help="frame rates, comma-separated")
     parser.add_argument("--with-face", action="store_true", help="signcast codecs also carry the face (FAPs)")
+    parser.add_argument("--codecs", help="signcast codecs, comma-separated (default: every registered one)")
     parser.add_argument("--chart", type=Path, help="write a PNG chart here")
     args = parser.parse_args(argv)
     problem = missing_tools()
+    if args.codecs:
+        from comparisons.param_codecs import codec_names
+        unknown = sorted(set(args.codecs.split(",")) - set(codec_names()))
+        if unknown:
+            problem = f"unknown codec(s) {', '.join(unknown)}; known: {', '.join(codec_names())}"
     if problem:
         print(f"vs_gltf: {problem}", file=sys.stderr)
         return 2
@@ -593,7 +617,7 @@ def main(argv: list[str] | None = None) -> int:
             clips = clip_set(set_name, fps)
             if not args.with_face:
                 clips = [clip.without_face() for clip in clips]
-            points, carried = measure_set(clips, skeleton)
+            points, carried = measure_set(clips, skeleton, codecs=tuple(args.codecs.split(",")) if args.codecs else None)
             results[(set_name, fps)] = points
             frames = sum(c.n_frames for c in clips)
             print(f"\n== {set_name} at {fps:g} fps: {len(clips)} clip(s), {frames} frames, "
