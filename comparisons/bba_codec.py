@@ -68,7 +68,10 @@ tables and masks with kernels/bba_masks.py and converts all frames' Euler angles
 (kernels/bba_rotations.py, bitwise scipy's from_euler). Streams of one mask set without muscles are
 written from arrays (values (F, P), KeyFrameIndex (F,)); encode_motion and decode_motion (what
 comparisons/param_codecs.BbaCodec uses) go from a Motion to bytes and back without any BBAFrame, with
-the bytes and Motion of motion_to_stream + write_stream and read_stream + stream_to_motion.
+the bytes and Motion of motion_to_stream + write_stream and read_stream + stream_to_motion. decode_motion
+reads a stream whose units all carry one bone list and no muscles in one kernel call (_read_uniform,
+kernels/bba_units.py), its Motion column plan cached per stream; on anything else, damage included,
+it falls back to the unit-by-unit reader, which raises the errors.
 """
 from __future__ import annotations
 
@@ -86,6 +89,8 @@ from comparisons.fba_mapping import avatar_bap_map
 from kernels import bba_levels as level_kernel
 from kernels import bba_masks as mask_kernel
 from kernels import bba_rotations as euler_kernel
+from kernels import bba_units as unit_kernel
+from kernels import entropy_coding as crc_kernel
 from media import rotations
 from media.avatar import Skeleton, load_avatar
 from media.errors import SigncastError
@@ -743,7 +748,7 @@ def _write(h: BBAHeader, plan: _UnitPlan, intra_flags, levels, bones, animatable
 def _write_crc(writer: BitWriter, start_bit: int) -> None:
     """CRC-8 of the raw bits written since start_bit (signcast's; lets a decoder detect a damaged
     frame before it resynchronises)."""
-    writer.write(crc8_bits(writer.getvalue(), start_bit, writer.n_bits), 8)
+    writer.write(int(crc_kernel.crc8_bytes(writer.buffer, start_bit, writer.n_bits)), 8)   # crc8_bits, no copy
 
 
 def _check_crc(reader: BitReader, start_bit: int, what: str) -> None:
@@ -771,6 +776,7 @@ class _DecoderState:
     animatable: np.ndarray | None = None      # (1024,) int64 animatable mask by boneID, -1: not in the header
     alphabets: tuple | None = None            # predictive: (I low, I high, P low, P high) levels, (len(keys),) each
     previous_layout: tuple | None = None      # _unit_layout of previous_bones
+    uniform: dict = field(default_factory=dict)   # _uniform_layout's cache
 
 
 def _read_header(data: bytes, position: int) -> _DecoderState:
@@ -927,6 +933,12 @@ def _read_unit_rows(reader: BitReader, state: _DecoderState, skip_muscles: bool,
 
 def _read_unit_bones(reader: BitReader, state: _DecoderState) -> dict[int, int]:
     """A unit's bone list: boneID -> mask (bit k = MASK_FIELDS[k]), in stream order."""
+    ids, masks = _read_unit_bone_arrays(reader, state)
+    return dict(zip(ids.tolist(), masks.tolist()))
+
+
+def _read_unit_bone_arrays(reader: BitReader, state: _DecoderState) -> tuple[np.ndarray, np.ndarray]:
+    """A unit's bone list as read: boneIDs and masks (NSBB,) int64, in stream order."""
     ids, masks, result = np.zeros(1023, dtype=np.int64), np.zeros(1023, dtype=np.int64), np.zeros(2, dtype=np.int64)
     status = mask_kernel.read_unit_bones(reader.array, reader.end_bit, reader.registers, _GROUP_START, state.animatable,
                                          ids, masks, result)
@@ -935,7 +947,7 @@ def _read_unit_bones(reader: BitReader, state: _DecoderState) -> dict[int, int]:
     if status == mask_kernel.UNKNOWN_BONE:
         raise SigncastError(f"corrupt BBA frame: bone {int(result[1])} is not in the stream header")
     n = int(result[0])
-    return dict(zip(ids[:n].tolist(), masks[:n].tolist()))
+    return ids[:n].copy(), masks[:n].copy()
 
 
 def _unit_layout(state: _DecoderState, bones: dict[int, int]) -> tuple[_Layout, np.ndarray]:
@@ -1279,7 +1291,12 @@ def decode_motion(data: bytes, skeleton: Skeleton | None = None) -> Motion:
     """stream_to_motion(read_stream(data)[0]) without building the per-frame BBAFrames: the same Motion,
     the same SigncastErrors."""
     skeleton = skeleton or load_avatar().skeleton
-    state, records, _ = _read_units(bytes(data), False, False)
+    data = bytes(data)
+    uniform = _read_uniform(data)
+    if uniform is not None:
+        state, bones, rows, kfi = uniform
+        return _motion_of_runs(state.header, [(bones, rows.astype(np.float64))], kfi, skeleton)
+    state, records, _ = _read_units(data, False, False)
     runs: list[tuple[dict[int, int], list[np.ndarray]]] = []
     kfi = np.zeros(sum(len(unit.rows) for unit in records), dtype=np.int64)
     t = 0
@@ -1293,37 +1310,111 @@ def decode_motion(data: bytes, skeleton: Skeleton | None = None) -> Motion:
                            kfi, skeleton)
 
 
+def _read_uniform(data: bytes) -> tuple[_DecoderState, dict[int, int], np.ndarray, np.ndarray] | None:
+    """Strict decoding (_read_units(data, False, False)) of a stream whose units all carry the first unit's
+    bone list and no muscle data, every unit in one kernel call (kernels/bba_units.py): (decoder state,
+    boneID -> mask, values (F, P) int64 of every frame in layout order, KeyFrameIndex (F,) int64 of every
+    frame). None for any other stream, and for any damage: the unit-by-unit reader then raises its error."""
+    try:
+        codes = find_start_codes(data)
+        if (len(codes) < 3 or codes[-1] != (len(data) - 4, END_CODE) or codes[0] != (1, BBA_START_CODE)
+                or data[0] != 0x7F or codes[1][1] != FRAME_START_CODE):
+            return None
+        state = _uniform_header(data)
+        header_span = data[codes[0][0]:codes[1][0]]
+        positions, ends = [], []                       # each unit's start code and the next start code
+        for k, (position, code) in enumerate(codes[1:-1], start=1):
+            if code == FRAME_START_CODE:
+                positions.append(position)
+                ends.append(codes[k + 1][0])
+            elif code != BBA_START_CODE or data[position:codes[k + 1][0]] != header_span:
+                return None
+        reader = BitReader(data, start_byte=codes[1][0] + 4, end_byte=codes[2][0])
+        if not reader.read_bit():
+            return None
+        reader.read(FRAME_NUMBER_BITS + 5 + (4 if state.header.coding == "dct" else 0))
+        ids, masks = _read_unit_bone_arrays(reader, state)
+    except SigncastError:
+        return None
+    bones = dict(zip(ids.tolist(), masks.tolist()))
+    layout, idx, alphabets = _uniform_layout(state, bones)
+    starts = 8 * np.array(positions, dtype=np.int64) + 32
+    ends = 8 * np.array(ends, dtype=np.int64)
+    array = np.frombuffer(data, dtype=np.uint8)
+    h = state.header
+    n_units = len(starts)
+    if h.coding == "pred":
+        if alphabets is None:
+            return None
+        low_i, sizes_i, low_p, sizes_p = alphabets
+        rows = np.empty((n_units, len(idx)), dtype=np.int64)
+        kfi = np.empty(n_units, dtype=np.int64)
+        if unit_kernel.read_predictive_units(array, starts, ends, _GROUP_START, state.animatable, ids, masks,
+                                             layout.steps, layout.is_angle, h.q, VALUE_LIMIT, ANGLE_PERIOD, low_i,
+                                             sizes_i, low_p, sizes_p, pc.MAX_TOTAL, state.n_frames, rows, kfi):
+            return None
+        return state, bones, rows, kfi
+    tables = pc.vlc_tables()
+    dc = np.zeros((n_units, len(idx)), dtype=np.int64)
+    ac = np.zeros((n_units, pc.SEGMENT - 1, len(idx)), dtype=np.int64)
+    sizes, unit_kfi = np.empty(n_units, dtype=np.int64), np.empty(n_units, dtype=np.int64)
+    if unit_kernel.read_dct_units(array, starts, ends, _GROUP_START, state.animatable, ids, masks,
+                                  tables["dc_intra"].arrays()[2:], tables["dc_inter"].arrays()[2:],
+                                  tables["ac"].arrays()[2:], pc.N_CATEGORIES, state.n_frames, dc, ac, sizes, unit_kfi):
+        return None
+    dc_step, ac_step = pc.dct_steps(layout.steps, h.q)
+    segments = [pc.dct_reconstruct(dc[u], ac[u, :n - 1], dc_step, ac_step) for u, n in enumerate(sizes.tolist())]
+    rows = np.concatenate(segments)
+    if len(rows) and np.abs(rows).max(initial=0) > VALUE_LIMIT:
+        return None
+    return state, bones, rows, np.repeat(unit_kfi, sizes)
+
+
+def _uniform_header(data: bytes) -> _DecoderState:
+    """_find_header(data, codes, False) and _check_size of a stream that starts with 0x7F and its BBA start
+    code at byte 1 (raises SigncastError on damage)."""
+    state = _read_header(data, 1)
+    _check_size(state.n_frames, len(state.keys))
+    return state
+
+
+def _uniform_layout(state: _DecoderState, bones: dict[int, int]) -> tuple[_Layout, np.ndarray, tuple | None]:
+    """The layout of a unit's bones, their header columns, and (predictive) the alphabets of those values:
+    (intra first level, intra sizes, predicted first level, predicted sizes) (P,) int64 each, None when a
+    model could not be made (make_models raises). Cached in the shared state (by the masks)."""
+    masks = tuple(sorted(bones.items()))
+    cached = state.uniform.get(masks)
+    if cached is None:
+        layout = _layout(masks, tuple(sorted(state.exponents.items())))
+        index = {key: j for j, key in enumerate(state.keys)}
+        idx = np.array([index[key] for key in layout.keys], dtype=np.int64)
+        alphabets = None
+        if state.alphabets is not None:
+            low_i, high_i, low_p, high_p = (np.ascontiguousarray(a[idx], dtype=np.int64) for a in state.alphabets)
+            sizes_i, sizes_p = high_i - low_i + 1, high_p - low_p + 1
+            if min(sizes_i.min(initial=1), sizes_p.min(initial=1)) >= 1 and max(
+                    sizes_i.max(initial=1), sizes_p.max(initial=1)) <= pc.MAX_TOTAL // 2:
+                alphabets = (low_i, sizes_i, low_p, sizes_p)
+        cached = state.uniform[masks] = (layout, idx, alphabets)
+    return cached
+
+
 def _motion_of_runs(header: BBAHeader, runs: list[tuple[dict[int, int], np.ndarray]], kfi: np.ndarray,
                     skeleton: Skeleton) -> Motion:
     """stream_to_motion of frames given as runs of equal bone masks: (boneID -> mask, values (n, P)
     float64 in stream order: bones sorted, bits ascending); kfi (F,) int64 KeyFrameIndex of every frame."""
-    masks = [mask for mask, _ in runs]
-    bones = sorted({b for m in masks for b in m})
-    root = int(np.flatnonzero(skeleton.parents < 0)[0])
-    rotated = sorted({b for m in masks for b in m if m[b] & 0b111000} | {root})
-    for b in bones:
-        if b >= len(skeleton):
-            raise SigncastError(f"BBA stream animates bone {b}, the avatar has {len(skeleton)}")
-    animatable: dict[int, int] = {}
-    for mask in masks:
-        for bone, bits in mask.items():
-            animatable[bone] = animatable.get(bone, 0) | bits
+    plan = _runs_plan(tuple(tuple(sorted(mask.items())) for mask, _ in runs), skeleton)
+    rotated, n_values, names, columns = plan
     n_frames = len(kfi)
     if n_frames:
-        _check_size(int(kfi[1:].sum()) + n_frames, sum(bits.bit_count() for bits in animatable.values()))
+        _check_size(int(kfi[1:].sum()) + n_frames, n_values)
     order = ORDER_NAMES[header.rotation_order]
-    # Held values of every frame: columns 3 r .. 3 r + 2 the angles of rotated[r], then the root's translation.
     n_columns = 3 * len(rotated) + 3
-    column = {(b, bit): 3 * r + axis for r, b in enumerate(rotated) for axis, bit in enumerate(ROTATION_BITS)}
-    column |= {(root, bit): 3 * len(rotated) + axis for axis, bit in enumerate(TRANSLATION_BITS)}
     table = np.zeros((n_frames, n_columns))
     held = np.zeros(n_columns)
     start = 0
-    for mask, flat in runs:
+    for (_, flat), (source, target) in zip(runs, columns):
         stop = start + len(flat)
-        keys = [(b, bit) for b in sorted(mask) for bit in _bits(mask[b])]
-        source = [k for k, key in enumerate(keys) if key in column]
-        target = [column[keys[k]] for k in source]
         block = table[start:stop]
         block[:] = held
         block[:, target] = flat[:, source]
@@ -1347,5 +1438,41 @@ def _motion_of_runs(header: BBAHeader, runs: list[tuple[dict[int, int], np.ndarr
             q_parts.append(key_q[f:f + 1])
             t_parts.append(key_t[f:f + 1])
         quats, trans = np.concatenate(q_parts), np.concatenate(t_parts)
-    names = tuple(skeleton.names[b] for b in rotated)
     return Motion(header.fps, names, quats, trans)
+
+
+_PLANS: dict[tuple, tuple] = {}      # _runs_plan's cache: (masks of the runs, id(skeleton)) -> (skeleton, plan)
+
+
+def _runs_plan(masks: tuple[tuple[tuple[int, int], ...], ...], skeleton: Skeleton) -> tuple:
+    """What _motion_of_runs derives from the runs' masks (sorted (boneID, mask) pairs per run), cached:
+    (rotated boneIDs (the root's included), values per frame (animatable bits), their bone names,
+    per run (source, target) the columns of its values and of the held table they go to). The held
+    table has columns 3 r .. 3 r + 2 for the angles of rotated[r], then the root's translation.
+    SigncastError when a bone is not in the skeleton."""
+    cached = _PLANS.get((masks, id(skeleton)))
+    if cached is not None and cached[0] is skeleton:
+        return cached[1]
+    bones = sorted({b for m in masks for b, _ in m})
+    root = int(np.flatnonzero(skeleton.parents < 0)[0])
+    rotated = sorted({b for m in masks for b, bits in m if bits & 0b111000} | {root})
+    for b in bones:
+        if b >= len(skeleton):
+            raise SigncastError(f"BBA stream animates bone {b}, the avatar has {len(skeleton)}")
+    animatable: dict[int, int] = {}
+    for mask in masks:
+        for bone, bits in mask:
+            animatable[bone] = animatable.get(bone, 0) | bits
+    column = {(b, bit): 3 * r + axis for r, b in enumerate(rotated) for axis, bit in enumerate(ROTATION_BITS)}
+    column |= {(root, bit): 3 * len(rotated) + axis for axis, bit in enumerate(TRANSLATION_BITS)}
+    columns = []
+    for mask in masks:
+        keys = [(b, bit) for b, bits in mask for bit in _bits(bits)]
+        source = [k for k, key in enumerate(keys) if key in column]
+        columns.append((source, [column[keys[k]] for k in source]))
+    plan = (rotated, sum(bits.bit_count() for bits in animatable.values()), tuple(skeleton.names[b] for b in rotated),
+            columns)
+    if len(_PLANS) >= 256:
+        _PLANS.clear()
+    _PLANS[(masks, id(skeleton))] = (skeleton, plan)
+    return plan

@@ -121,6 +121,44 @@ def crc8(data: np.ndarray, start_bit: int, end_bit: int) -> int:
     return crc
 
 
+def _crc8_table() -> np.ndarray:
+    table = np.zeros(256, dtype=np.int64)
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+        table[byte] = crc
+    return table
+
+
+CRC8_TABLE = _crc8_table()
+
+
+@njit(cache=True)
+def crc8_bytes(data: np.ndarray, start_bit: int, end_bit: int) -> int:
+    """crc8, whole bytes at a time through a 256-entry table (the same CRC: it is linear in the bits)."""
+    crc = 0
+    position = start_bit
+    while position < end_bit and position & 7:
+        bit = (data[position >> 3] >> (7 - (position & 7))) & 1
+        feedback = ((crc >> 7) & 1) ^ bit
+        crc = (crc << 1) & 0xFF
+        if feedback:
+            crc ^= 0x07
+        position += 1
+    while position + 8 <= end_bit:
+        crc = CRC8_TABLE[crc ^ data[position >> 3]]
+        position += 8
+    while position < end_bit:
+        bit = (data[position >> 3] >> (7 - (position & 7))) & 1
+        feedback = ((crc >> 7) & 1) ^ bit
+        crc = (crc << 1) & 0xFF
+        if feedback:
+            crc ^= 0x07
+        position += 1
+    return crc
+
+
 @njit(cache=True)
 def prefix(tree: np.ndarray, symbol: int) -> int:
     total = 0
@@ -527,4 +565,160 @@ def read_dct_blocks(data, end_bit, state, dc_first, dc_count, dc_start, dc_symbo
         if status:
             break
     state[0], state[1] = pos, run
+    return status
+
+
+# ------------------------------------------------------------------ the arithmetic decoder with its state in locals
+# decode_frame's integer arithmetic and reader positions with the reader state (bit position, zero run, bits
+# read past the end) and the coder registers in local variables, the bank addressed by offsets instead of
+# array views, and no history ring: the reader state the decoder gives back (HISTORY look-ahead bits
+# before its last) is found again by re-reading from where the frame began.
+
+@njit(cache=True)
+def look_local(data, end_bit: int, pos: int, run: int, over: int) -> tuple[int, int, int, int]:
+    """get_bit(lookahead=True) on local state: (bit, pos, run, over); past end_bit a 0 bit and over + 1."""
+    if pos >= end_bit:
+        run += 1
+        if run == MAX_ZERO_RUN:
+            run = 0
+        return 0, pos + 1, run, over + 1
+    bit = (np.int64(data[pos >> 3]) >> (7 - (pos & 7))) & 1
+    pos += 1
+    run = (run + 1) & (bit - 1)                # 0 after a 1 bit; no branch on the data
+    if run == MAX_ZERO_RUN:
+        run = 0
+        if pos < end_bit and (data[pos >> 3] >> (7 - (pos & 7))) & 1:
+            pos += 1                           # a stuffing bit; a 0 (start code, or damage) is left unread
+    return bit, pos, run, over
+
+
+@njit(cache=True)
+def update_member(counts, tree, scalars, offsets, m: int, symbol: int) -> None:
+    """update() of model m of a bank (counts at offsets[m], tree at offsets[m] + m)."""
+    base = offsets[m]
+    tbase = base + m
+    increment, n = scalars[m, INCREMENT], scalars[m, N]
+    counts[base + symbol] += increment
+    scalars[m, TOTAL] += increment
+    if scalars[m, TOTAL] > scalars[m, LIMIT]:
+        total = 0
+        for k in range(n):
+            counts[base + k] = (counts[base + k] + 1) // 2
+            total += counts[base + k]
+            tree[tbase + k + 1] = counts[base + k]
+        for i in range(1, n + 1):
+            parent = i + (i & -i)
+            if parent <= n:
+                tree[tbase + parent] += tree[tbase + i]
+        scalars[m, TOTAL] = total
+        return
+    i = symbol + 1
+    while i <= n:
+        tree[tbase + i] += increment
+        i += i & -i
+
+
+@njit(cache=True)
+def _scale(span: int, cumulative: int, total: int) -> int:
+    """span * cumulative // total of non-negative values below 2^63, as an unsigned division (no floor fix-up)."""
+    return np.int64(np.uint64(span * cumulative) // np.uint64(total))
+
+
+@njit(cache=True)
+def decode_frame_local(data, end_bit: int, pos: int, run: int, over: int, counts, tree, scalars, offsets, members,
+                       out, out_start: int, fresh: bool) -> tuple[int, int, int, int]:
+    """decode_frame on local reader state: the symbols of members into out[out_start:], then the reader
+    given back to where the encoder's bits ended. fresh: every model is all-ones and codes one symbol
+    before it is dropped (only scalars' totals are read; counts, tree and scalars are not updated).
+    Returns (status, pos, run, over): status 0, -1 (data that cannot be arithmetic-coded) or -2 (the
+    coded bits run past end_bit)."""
+    pos0, run0, over0 = pos, run, over
+    value = 0
+    for _ in range(PRECISION):
+        bit, pos, run, over = look_local(data, end_bit, pos, run, over)
+        value = (value << 1) | bit
+    n_read = PRECISION
+    low, high = 0, TOP
+    for k in range(len(members)):
+        m = members[k]
+        span = high - low + 1
+        total = scalars[m, TOTAL]
+        if value < low:                        # a negative target
+            return -1, pos, run, over
+        target = np.int64((np.uint64(value - low + 1) * np.uint64(total) - np.uint64(1)) // np.uint64(span))
+        if target >= total:
+            return -1, pos, run, over
+        if fresh:
+            symbol, sym_low, sym_high = target, target, target + 1
+        else:
+            base = offsets[m]
+            tbase = base + m
+            position, remaining, step, n = 0, target, scalars[m, TOP_BIT], scalars[m, N]
+            while step:
+                nxt = position + step
+                if nxt <= n:
+                    weight = tree[tbase + nxt]
+                    if weight <= remaining:
+                        position = nxt
+                        remaining -= weight
+                step >>= 1
+            symbol = position
+            sym_low = target - remaining
+            sym_high = sym_low + counts[base + position]
+        high = low + _scale(span, sym_high, total) - 1
+        low = low + _scale(span, sym_low, total)
+        while True:
+            if high < HALF:
+                pass
+            elif low >= HALF:
+                low -= HALF
+                high -= HALF
+                value -= HALF
+            elif low >= QUARTER and high < THREE_QUARTERS:
+                low -= QUARTER
+                high -= QUARTER
+                value -= QUARTER
+            else:
+                break
+            low <<= 1
+            high = (high << 1) | 1
+            bit, pos, run, over = look_local(data, end_bit, pos, run, over)
+            value = (value << 1) | bit
+            n_read += 1
+        if not fresh:
+            update_member(counts, tree, scalars, offsets, m, symbol)
+        out[out_start + k] = symbol
+    pos, run, over = give_back(data, end_bit, pos0, run0, over0, pos, over, n_read)
+    return (-2 if pos > end_bit else 0), pos, run, over
+
+
+@njit(cache=True)
+def give_back(data, end_bit: int, pos0: int, run0: int, over0: int, pos: int, over: int, n_read: int
+              ) -> tuple[int, int, int]:
+    """The reader state (pos, run, over) after the first n_read - HISTORY of n_read look-ahead bits read from
+    (pos0, run0, over0), which ended at (pos, over): what decode_frame's history ring gives back. Without
+    emulation-prevention bits or bits past the end among them (pos - pos0 == n_read), HISTORY bits back and
+    the zero run counted backwards; else they are read again."""
+    if over == over0 and pos - pos0 == n_read:
+        back = pos - HISTORY
+        zeros = 0
+        while zeros < MAX_ZERO_RUN and back - zeros > pos0:
+            p = back - zeros - 1
+            if (data[p >> 3] >> (7 - (p & 7))) & 1:
+                return back, zeros, over
+            zeros += 1
+        if back - zeros == pos0 and run0 + zeros < MAX_ZERO_RUN:
+            return back, run0 + zeros, over
+    pos, run, over = pos0, run0, over0
+    for _ in range(n_read - HISTORY):
+        _, pos, run, over = look_local(data, end_bit, pos, run, over)
+    return pos, run, over
+
+
+@njit(cache=True)
+def decode_frame_fast(data, end_bit, reader_state, counts, tree, scalars, offsets, members, out) -> int:
+    """decode_frame (same arguments, statuses, symbols and reader state) on decode_frame_local."""
+    status, pos, run, over = decode_frame_local(data, end_bit, reader_state[0], reader_state[1], reader_state[2],
+                                                counts, tree, scalars, offsets, members, out, 0, False)
+    reader_state[0], reader_state[1], reader_state[2] = pos, run, over
     return status

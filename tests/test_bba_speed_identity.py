@@ -180,3 +180,84 @@ def test_batched_key_frames_match_the_greedy_one_candidate_at_a_time_analysis(fp
                 keys.append(nxt)
                 current = nxt
             assert keyframes.key_frames(motion, threshold_rad, threshold_m).tolist() == keys
+
+
+@pytest.mark.parametrize("codec", ["bba-pred", "bba-dct", "bba-key"])
+def test_whole_stream_kernel_decodes_what_the_unit_by_unit_reader_decodes(avatar, codec):
+    """_read_uniform (one kernel call for every unit) against _read_units on real letters: it takes the fast
+    path, and gives the same values and KeyFrameIndex of every frame."""
+    from comparisons.param_codecs import get_codec
+
+    for letter, q in (("C", 1), ("J", 8), ("E", 31)):
+        data = get_codec(codec).encode(letter_motion("ase", letter, 25.0), q)
+        fast = bba_codec._read_uniform(data)
+        assert fast is not None
+        _, records, lost = bba_codec._read_units(data, False, False)
+        assert lost == []
+        assert np.array_equal(fast[2], np.concatenate([unit.rows for unit in records]))
+        assert fast[3].tolist() == [unit.kfi for unit in records for _ in unit.rows]
+        assert fast[1] == records[0].bones
+
+
+@pytest.mark.parametrize("coding", ["pred", "dct"])
+def test_decode_motion_on_damaged_streams_raises_or_decodes_as_read_stream(avatar, coding):
+    """Flipped bits, cut and doubled bytes: decode_motion (whole-stream kernel, falling back to the unit-by-unit
+    reader) raises read_stream's SigncastError, or decodes the same Motion where the damage is harmless."""
+    data = bba_codec.encode_motion(letter_motion("ase", "D", 25.0), 8, coding, skeleton=avatar.skeleton)
+    rng = np.random.default_rng(5)
+    damaged = []
+    for position in rng.integers(0, len(data), 40).tolist():
+        damaged.append(data[:position] + bytes([data[position] ^ (1 << int(rng.integers(0, 8)))]) + data[position + 1:])
+    for position in rng.integers(1, len(data) - 1, 10).tolist():
+        damaged.append(data[:position] + data[position + 1:])
+        damaged.append(data[:position] + data[position:position + 1] + data[position:])
+    for stream in damaged:
+        try:
+            expected = bba_codec.stream_to_motion(bba_codec.read_stream(stream)[0], avatar.skeleton)
+        except SigncastError as error:
+            with pytest.raises(SigncastError) as got:
+                bba_codec.decode_motion(stream, avatar.skeleton)
+            assert str(got.value) == str(error)
+            continue
+        got = bba_codec.decode_motion(stream, avatar.skeleton)
+        assert np.array_equal(got.rotations, expected.rotations)
+        assert np.array_equal(got.root_translation, expected.root_translation)
+
+
+def test_local_state_arithmetic_decoder_matches_decode_frame():
+    """kernels/entropy_coding.decode_frame_fast against decode_frame: the same symbols, status and reader
+    state, on frames with long zero runs (emulation-prevention bits), on cut data and on random bytes."""
+    from comparisons.bitstream import BitReader, BitWriter
+    from comparisons.entropy import ModelBank, encode_frame
+    from kernels import entropy_coding as kc
+
+    rng = np.random.default_rng(3)
+    sizes = rng.integers(1, 400, 60)
+    frames = [np.minimum(rng.integers(0, 3, 60) * (rng.random(60) < 0.1), sizes - 1) for _ in range(12)]
+    frames += [np.minimum(rng.integers(0, 400, 60), sizes - 1) for _ in range(4)]
+    writer, bank = BitWriter(), ModelBank(sizes)
+    for frame in frames:
+        encode_frame(writer, bank, frame)
+    good = writer.getvalue()
+    streams = [good, good[:len(good) // 2], bytes(rng.integers(0, 256, len(good), dtype=np.uint8)), bytes(len(good))]
+    for data in streams:
+        readers, banks = [BitReader(data), BitReader(data)], [ModelBank(sizes), ModelBank(sizes)]
+        for frame in frames:
+            results = []
+            for kernel, reader, b in zip((kc.decode_frame, kc.decode_frame_fast), readers, banks):
+                out = np.empty(len(sizes), dtype=np.int64)
+                status = kernel(reader.array, reader.end_bit, reader.registers, b.counts, b.tree, b.scalars,
+                                b.offsets, b.members, out)
+                results.append((status, out if status == 0 else None, reader.state if status != -1 else None))
+            assert results[0][0] == results[1][0]
+            if results[0][0] == 0:
+                assert np.array_equal(results[0][1], results[1][1]) and results[0][2] == results[1][2]
+                if data is good:
+                    assert results[0][1].tolist() == frame.tolist()
+            else:
+                break
+            assert np.array_equal(banks[0].counts, banks[1].counts) and np.array_equal(banks[0].tree, banks[1].tree)
+    crc_data = np.frombuffer(good, dtype=np.uint8)
+    for start, end in rng.integers(0, 8 * len(good), (200, 2)).tolist():
+        start, end = min(start, end), max(start, end)
+        assert kc.crc8_bytes(crc_data, start, end) == kc.crc8(crc_data, start, end)
