@@ -10,6 +10,19 @@ the shared carriers only, and skinned bones that share no carrier (the two corne
 brows, the nose, the upper lip) are solved as separate small systems. The result equals the dense
 NumPy reference (media/face_rig.py `_carry_numpy`) to rounding (~1e-14).
 
+`carry` takes the frames together (chosen here for speed, ~2x): no frame's operations depend on its
+values (a fixed iteration count, no data-dependent branch), so each step runs as a loop over frames that
+the compiler vectorises, with every frame's arithmetic in the same order as `carry_by_frame` (the frame
+by frame form the stream hashes were taken with): its results are bitwise `carry_by_frame`'s. IEEE
++ - * / and sqrt round the same in vector and scalar instructions; Numba does not contract a * b + c into
+fused multiply-adds without fastmath, and sin and cos stay libm calls, one per value (no SVML here).
+error_model="numpy" only drops the ZeroDivisionError checks, whose divisors are never zero (a Cholesky
+pivot of a positive definite matrix, lengths floored at 1e-300).
+
+`from_matrix` and `bone_turns` are the scipy / NumPy conversions that follow the solve
+(media/rotations.py from_matrix, to_matrix and between), operation for operation: bitwise theirs,
+checked on random and edge-case inputs by tests/test_face_rig_speed.py.
+
 All geometry is in the anchor's rest frame, metres. Compiled nopython with cache=True; imports nothing
 of signcast.
 """
@@ -18,37 +31,10 @@ from numba import njit
 
 
 @njit(cache=True)
-def _matvec(m, v, out):
-    for r in range(3):
-        out[r] = m[r, 0] * v[0] + m[r, 1] * v[1] + m[r, 2] * v[2]
-
-
-@njit(cache=True)
 def _matmul(a, b, out):
     for r in range(3):
         for c in range(3):
             out[r, c] = a[r, 0] * b[0, c] + a[r, 1] * b[1, c] + a[r, 2] * b[2, c]
-
-
-@njit(cache=True)
-def _pose(local, carrier_heads, carrier_parents, rotation, offset):
-    """World (anchor-relative) rotation (C, 3, 3) and offset (C, 3) of each carrier from its local turn."""
-    point = np.empty(3)
-    moved = np.empty(3)
-    for j in range(len(carrier_parents)):
-        p = carrier_parents[j]
-        head = carrier_heads[j]
-        if p < 0:
-            rotation[j] = local[j]
-            _matvec(local[j], head, moved)
-            for r in range(3):
-                offset[j, r] = head[r] - moved[r]
-        else:
-            _matmul(rotation[p], local[j], rotation[j])
-            _matvec(rotation[p], head, point)
-            _matvec(rotation[j], head, moved)
-            for r in range(3):
-                offset[j, r] = offset[p, r] + point[r] - moved[r]
 
 
 @njit(cache=True)
@@ -79,9 +65,84 @@ def _solve_spd(matrix, rhs, n):
 
 
 @njit(cache=True)
-def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents, on_chain, group_members,
+def _pose(local, carrier_heads, carrier_parents, rotation, offset):
+    """World (anchor-relative) rotation (C, 3, 3) and offset (C, 3) of each carrier from its local turn
+    (C, 3, 3); the products written out as _matmul / _matvec order them (a[r, 0] b[0] + a[r, 1] b[1] + ...)."""
+    for j in range(len(carrier_parents)):
+        p = carrier_parents[j]
+        h0, h1, h2 = carrier_heads[j, 0], carrier_heads[j, 1], carrier_heads[j, 2]
+        if p < 0:
+            for r in range(3):
+                for c in range(3):
+                    rotation[j, r, c] = local[j, r, c]
+            for r in range(3):
+                moved = local[j, r, 0] * h0 + local[j, r, 1] * h1 + local[j, r, 2] * h2
+                offset[j, r] = carrier_heads[j, r] - moved
+        else:
+            for r in range(3):
+                a0, a1, a2 = rotation[p, r, 0], rotation[p, r, 1], rotation[p, r, 2]
+                for c in range(3):
+                    rotation[j, r, c] = a0 * local[j, 0, c] + a1 * local[j, 1, c] + a2 * local[j, 2, c]
+            for r in range(3):
+                point = rotation[p, r, 0] * h0 + rotation[p, r, 1] * h1 + rotation[p, r, 2] * h2
+                moved = rotation[j, r, 0] * h0 + rotation[j, r, 1] * h1 + rotation[j, r, 2] * h2
+                offset[j, r] = offset[p, r] + point - moved
+
+
+@njit(cache=True)
+def _layout(on_chain, group_members, group_start):
+    """Index lists of the sparse J, made once per call: per skinned bone its carriers (chain_start /
+    chain_index, carriers ascending), per carrier its skinned bones (carried_start / carried_index, skinned
+    ascending), and per pair (a <= b) of bones in a group the carriers both share (pair_start / pair_index,
+    ascending; pairs in the order the solve visits them)."""
+    n_skinned, n_carriers = on_chain.shape
+    chain_start = np.zeros(n_skinned + 1, np.int64)
+    chain_index = np.empty(n_skinned * n_carriers, np.int64)
+    n = 0
+    for i in range(n_skinned):
+        for j in range(n_carriers):
+            if on_chain[i, j]:
+                chain_index[n] = j
+                n += 1
+        chain_start[i + 1] = n
+    carried_start = np.zeros(n_carriers + 1, np.int64)
+    carried_index = np.empty(n_skinned * n_carriers, np.int64)
+    n = 0
+    for j in range(n_carriers):
+        for i in range(n_skinned):
+            if on_chain[i, j]:
+                carried_index[n] = i
+                n += 1
+        carried_start[j + 1] = n
+    n_pairs = 0
+    for g in range(len(group_start) - 1):
+        m = group_start[g + 1] - group_start[g]
+        n_pairs += m * (m + 1) // 2
+    pair_start = np.zeros(n_pairs + 1, np.int64)
+    pair_index = np.empty(n_pairs * n_carriers, np.int64)
+    n = 0
+    pair = 0
+    for g in range(len(group_start) - 1):
+        first, last = group_start[g], group_start[g + 1]
+        for a in range(first, last):
+            i = group_members[a]
+            for b in range(a, last):
+                k = group_members[b]
+                for j in range(n_carriers):
+                    if on_chain[i, j] and on_chain[k, j]:
+                        pair_index[n] = j
+                        n += 1
+                pair += 1
+                pair_start[pair] = n
+    return chain_start, chain_index, carried_start, carried_index, pair_start, pair_index
+
+
+@njit(cache=True)
+def carry_by_frame(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents, on_chain, group_members,
           group_start, iterations, damping, max_turn):
-    """Local turns of the carriers and the posed rotation of each skinned bone's parent.
+    """`carry` frame by frame (the form the stored stream hashes were taken with; `carry` must equal it
+    bitwise, tests/test_face_rig_speed.py): local turns of the carriers and the posed rotation of each
+    skinned bone's parent.
 
     wanted: (T, S, 3) float64 head displacement of each skinned bone. carrier_heads: (C, 3) rest heads of
     the carriers, parents before children; carrier_parents: (C,) int64 index of each carrier's parent
@@ -90,11 +151,14 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
     carrier j carries skinned bone i. group_members (S,) int64, group_start (G + 1,) int64: the skinned
     bones grouped by shared carriers (group g: group_members[group_start[g]:group_start[g + 1]]); bones
     of different groups share no carrier, so J J^T is block diagonal and each group's block is solved
-    alone (Cholesky: the block is symmetric positive definite). Returns local (T, C, 3, 3) rotation matrices and parent (T, S, 3, 3)
-    the final posed rotation of each skinned bone's parent (identity for the anchor).
+    alone (Cholesky: the block is symmetric positive definite). Returns local (T, C, 3, 3) rotation
+    matrices and parent (T, S, 3, 3) the final posed rotation of each skinned bone's parent (identity for
+    the anchor).
     """
     n_frames, n_skinned = wanted.shape[0], wanted.shape[1]
     n_carriers = carrier_heads.shape[0]
+    chain_start, chain_index, carried_start, carried_index, pair_start, pair_index = _layout(
+        on_chain, group_members, group_start)
     local = np.zeros((n_frames, n_carriers, 3, 3))
     parent_out = np.zeros((n_frames, n_skinned, 3, 3))
     rotation = np.empty((n_carriers, 3, 3))
@@ -109,9 +173,10 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
     step = np.empty((n_carriers, 3))
     turn = np.empty((3, 3))
     cross = np.empty((3, 3))
-    scratch = np.empty((3, 3))
-    scratch2 = np.empty((3, 3))
-    arm = np.empty(3)
+    square = np.empty((3, 3))
+    left = np.empty((3, 3))
+    middle = np.empty((3, 3))
+    damping2 = damping * damping
     for t in range(n_frames):
         current = local[t]
         for j in range(n_carriers):
@@ -121,61 +186,62 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
             _pose(current, carrier_heads, carrier_parents, rotation, offset)
             for i in range(n_skinned):
                 p = skinned_parents[i]
-                if p < 0:
-                    for r in range(3):
-                        heads[i, r] = skinned_heads[i, r]
-                else:
-                    _matvec(rotation[p], skinned_heads[i], arm)
-                    for r in range(3):
-                        heads[i, r] = arm[r] + offset[p, r]
                 for r in range(3):
+                    if p < 0:
+                        heads[i, r] = skinned_heads[i, r]
+                    else:
+                        arm = (rotation[p, r, 0] * skinned_heads[i, 0] + rotation[p, r, 1] * skinned_heads[i, 1]
+                               + rotation[p, r, 2] * skinned_heads[i, 2])
+                        heads[i, r] = arm + offset[p, r]
                     residual[3 * i + r] = wanted[t, i, r] - (heads[i, r] - skinned_heads[i, r])
             for j in range(n_carriers):
-                _matvec(rotation[j], carrier_heads[j], arm)
                 for r in range(3):
-                    pivots[j, r] = arm[r] + offset[j, r]
+                    arm = (rotation[j, r, 0] * carrier_heads[j, 0] + rotation[j, r, 1] * carrier_heads[j, 1]
+                           + rotation[j, r, 2] * carrier_heads[j, 2])
+                    pivots[j, r] = arm + offset[j, r]
             for i in range(n_skinned):
-                for j in range(n_carriers):
-                    if on_chain[i, j]:
-                        x = heads[i, 0] - pivots[j, 0]
-                        y = heads[i, 1] - pivots[j, 1]
-                        z = heads[i, 2] - pivots[j, 2]
-                        b = blocks[i, j]
-                        b[0, 0], b[0, 1], b[0, 2] = 0.0, z, -y
-                        b[1, 0], b[1, 1], b[1, 2] = -z, 0.0, x
-                        b[2, 0], b[2, 1], b[2, 2] = y, -x, 0.0
+                for n in range(chain_start[i], chain_start[i + 1]):
+                    j = chain_index[n]
+                    x = heads[i, 0] - pivots[j, 0]
+                    y = heads[i, 1] - pivots[j, 1]
+                    z = heads[i, 2] - pivots[j, 2]
+                    blocks[i, j, 0, 0], blocks[i, j, 0, 1], blocks[i, j, 0, 2] = 0.0, z, -y
+                    blocks[i, j, 1, 0], blocks[i, j, 1, 1], blocks[i, j, 1, 2] = -z, 0.0, x
+                    blocks[i, j, 2, 0], blocks[i, j, 2, 1], blocks[i, j, 2, 2] = y, -x, 0.0
             # normal = J J^T + damping^2 I, block (i, k) = sum_j B_ij B_kj^T over the carriers both share
+            pair = 0
             for g in range(len(group_start) - 1):
-                members = group_members[group_start[g]:group_start[g + 1]]
-                m = len(members)
+                first, last = group_start[g], group_start[g + 1]
+                m = last - first
                 for a in range(m):
-                    i = members[a]
+                    i = group_members[first + a]
                     for b in range(a, m):
-                        k = members[b]
+                        k = group_members[first + b]
                         for r in range(3):
                             for c in range(3):
                                 total = 0.0
-                                for j in range(n_carriers):
-                                    if on_chain[i, j] and on_chain[k, j]:
-                                        total += (blocks[i, j, r, 0] * blocks[k, j, c, 0] + blocks[i, j, r, 1] * blocks[k, j, c, 1]
-                                                  + blocks[i, j, r, 2] * blocks[k, j, c, 2])
+                                for n in range(pair_start[pair], pair_start[pair + 1]):
+                                    j = pair_index[n]
+                                    total += (blocks[i, j, r, 0] * blocks[k, j, c, 0] + blocks[i, j, r, 1] * blocks[k, j, c, 1]
+                                              + blocks[i, j, r, 2] * blocks[k, j, c, 2])
                                 normal[3 * a + r, 3 * b + c] = total
                                 normal[3 * b + c, 3 * a + r] = total
+                        pair += 1
                     for r in range(3):
-                        normal[3 * a + r, 3 * a + r] += damping * damping
+                        normal[3 * a + r, 3 * a + r] += damping2
                         rhs[3 * a + r] = residual[3 * i + r]
                 _solve_spd(normal, rhs, 3 * m)
                 for a in range(m):
                     for r in range(3):
-                        solved[3 * members[a] + r] = rhs[3 * a + r]
+                        solved[3 * group_members[first + a] + r] = rhs[3 * a + r]
             largest = 0.0
             for j in range(n_carriers):
                 for c in range(3):
                     total = 0.0
-                    for i in range(n_skinned):
-                        if on_chain[i, j]:
-                            for r in range(3):
-                                total += blocks[i, j, r, c] * solved[3 * i + r]
+                    for n in range(carried_start[j], carried_start[j + 1]):
+                        i = carried_index[n]
+                        for r in range(3):
+                            total += blocks[i, j, r, c] * solved[3 * i + r]
                     step[j, c] = total
                 size = np.sqrt(step[j, 0] ** 2 + step[j, 1] ** 2 + step[j, 2] ** 2)
                 largest = max(largest, size)
@@ -189,21 +255,24 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
                 cross[0, 0], cross[0, 1], cross[0, 2] = 0.0, -uz, uy
                 cross[1, 0], cross[1, 1], cross[1, 2] = uz, 0.0, -ux
                 cross[2, 0], cross[2, 1], cross[2, 2] = -uy, ux, 0.0
-                _matmul(cross, cross, scratch)
+                _matmul(cross, cross, square)
                 sine, versine = np.sin(angle), 1.0 - np.cos(angle)
                 for r in range(3):
                     for c in range(3):
-                        turn[r, c] = (1.0 if r == c else 0.0) + sine * cross[r, c] + versine * scratch[r, c]
+                        turn[r, c] = (1.0 if r == c else 0.0) + sine * cross[r, c] + versine * square[r, c]
                 # local = parent^T turn parent local, parent: the carrier's parent posed at this iteration's start
                 p = carrier_parents[j]
                 if p < 0:
-                    _matmul(turn, current[j], scratch)
-                    current[j] = scratch
+                    _matmul(turn, current[j], square)
                 else:
-                    _matmul(rotation[p].T, turn, scratch)
-                    _matmul(scratch, rotation[p], scratch2)
-                    _matmul(scratch2, current[j], scratch)
-                    current[j] = scratch
+                    for r in range(3):
+                        for c in range(3):
+                            left[r, c] = rotation[p, 0, r] * turn[0, c] + rotation[p, 1, r] * turn[1, c] + rotation[p, 2, r] * turn[2, c]
+                    _matmul(left, rotation[p], middle)
+                    _matmul(middle, current[j], square)
+                for r in range(3):
+                    for c in range(3):
+                        current[j, r, c] = square[r, c]
         _pose(current, carrier_heads, carrier_parents, rotation, offset)
         for i in range(n_skinned):
             p = skinned_parents[i]
@@ -213,3 +282,373 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
             else:
                 parent_out[t, i] = rotation[p]
     return local, parent_out
+
+
+@njit(cache=True)
+def from_matrix(matrix):
+    """Rotation matrices (N, 3, 3) -> ((N, 4) float64 (w, x, y, z) unit quaternions with w >= 0, ok).
+
+    scipy 1.17's Rotation.from_matrix(matrix).as_quat(canonical=True) (media/rotations.py `from_matrix`)
+    operation for operation for matrices it takes as orthogonal, so the results are bitwise scipy's: the
+    largest of the diagonal and the trace picks the formula (Markley 2008; first of equals), the quaternion
+    is divided by its norm sqrt(((x^2 + y^2) + z^2) + w^2), then made canonical (w > 0, or the first
+    non-zero of x, y, z positive where w = 0). scipy first orthogonalises (SVD) a matrix whose M M^T is not
+    the identity to within its tolerances (1e-12 off the diagonal, 1e-5 + 1e-12 on it) and refuses one
+    with det <= 0; ok is False when any matrix is not clearly inside those tolerances (a margin of 10 %
+    covers M M^T's rounding), and the caller then asks scipy.
+    """
+    n = matrix.shape[0]
+    out = np.empty((n, 4))
+    ok = True
+    for k in range(n):
+        m = matrix[k]
+        for r in range(3):
+            for c in range(3):
+                g = m[r, 0] * m[c, 0] + m[r, 1] * m[c, 1] + m[r, 2] * m[c, 2]
+                if r == c:
+                    if not abs(g - 1.0) <= 0.9e-5:
+                        ok = False
+                elif not abs(g) <= 0.9e-12:
+                    ok = False
+        trace = m[0, 0] + m[1, 1] + m[2, 2]
+        choice = 0
+        best = m[0, 0]
+        if m[1, 1] > best:
+            choice, best = 1, m[1, 1]
+        if m[2, 2] > best:
+            choice, best = 2, m[2, 2]
+        if trace > best:
+            choice = 3
+        q = np.empty(4)      # (x, y, z, w) as scipy keeps them
+        if choice == 3:
+            q[0] = m[2, 1] - m[1, 2]
+            q[1] = m[0, 2] - m[2, 0]
+            q[2] = m[1, 0] - m[0, 1]
+            q[3] = 1.0 + trace
+        else:
+            i = choice
+            j = (i + 1) % 3
+            h = (j + 1) % 3
+            q[i] = 1.0 - trace + 2.0 * m[i, i]
+            q[j] = m[j, i] + m[i, j]
+            q[h] = m[h, i] + m[i, h]
+            q[3] = m[h, j] - m[j, h]
+        norm = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        x, y, z, w = q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm
+        if w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0))))):
+            w, x, y, z = -w, -x, -y, -z
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = w, x, y, z
+    return out, ok
+
+
+@njit(cache=True, error_model="numpy")
+def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents, on_chain, group_members,
+          group_start, iterations, damping, max_turn):
+    """Local turns of the carriers and the posed rotation of each skinned bone's parent.
+
+    wanted: (T, S, 3) float64 head displacement of each skinned bone. carrier_heads: (C, 3) rest heads of
+    the carriers, parents before children; carrier_parents: (C,) int64 index of each carrier's parent
+    among the carriers, -1 for the anchor. skinned_heads: (S, 3) rest heads of the skinned bones;
+    skinned_parents: (S,) int64 their parents among the carriers (-1: the anchor). on_chain: (S, C) bool,
+    carrier j carries skinned bone i. group_members (S,) int64, group_start (G + 1,) int64: the skinned
+    bones grouped by shared carriers (group g: group_members[group_start[g]:group_start[g + 1]]); bones
+    of different groups share no carrier, so J J^T is block diagonal and each group's block is solved
+    alone (Cholesky: the block is symmetric positive definite). Returns local (T, C, 3, 3) rotation
+    matrices and parent (T, S, 3, 3) the final posed rotation of each skinned bone's parent (identity for
+    the anchor).
+
+    Every frame is solved alone, by the same operations in the same order whatever its values (the
+    iteration count is fixed and nothing branches on the data), so the frames go through each operation
+    together: state arrays keep the frame last and every step is a loop over frames, which the compiler
+    turns into vector instructions (exact IEEE operations, no contraction into fused multiply-adds, sin
+    and cos still one libm call per value), the same numbers as frame by frame.
+    """
+    n_frames, n_skinned = wanted.shape[0], wanted.shape[1]
+    n_carriers = carrier_heads.shape[0]
+    chain_start, chain_index, carried_start, carried_index, pair_start, pair_index = _layout(
+        on_chain, group_members, group_start)
+    entry = np.full((n_skinned, n_carriers), -1, np.int64)        # (i, j) -> its block in `blocks`
+    for i in range(n_skinned):
+        for n in range(chain_start[i], chain_start[i + 1]):
+            entry[i, chain_index[n]] = n
+    T = n_frames
+    target = np.empty((n_skinned, 3, T))
+    for t in range(T):
+        for i in range(n_skinned):
+            for r in range(3):
+                target[i, r, t] = wanted[t, i, r]
+    current = np.zeros((n_carriers, 3, 3, T))
+    for j in range(n_carriers):
+        for r in range(3):
+            current[j, r, r, :] = 1.0
+    rotation = np.empty((n_carriers, 3, 3, T))
+    offset = np.empty((n_carriers, 3, T))
+    heads = np.empty((n_skinned, 3, T))
+    pivots = np.empty((n_carriers, 3, T))
+    blocks = np.empty((max(chain_start[n_skinned], 1), 3, 3, T))      # J's blocks: -[head_i - pivot_j]x
+    normal = np.empty((3 * n_skinned, 3 * n_skinned, T))
+    residual = np.empty((3 * n_skinned, T))
+    rhs = np.empty((3 * n_skinned, T))
+    solved = np.empty((3 * n_skinned, T))
+    step = np.empty((n_carriers, 3, T))
+    largest = np.empty(T)
+    scale = np.empty(T)
+    sine = np.empty(T)
+    versine = np.empty(T)
+    axis = np.empty((3, T))
+    total = np.empty(T)
+    totals = np.empty((9, T))
+    damping2 = damping * damping
+    for _ in range(iterations):
+        _pose_frames(current, carrier_heads, carrier_parents, rotation, offset)
+        for i in range(n_skinned):
+            p = skinned_parents[i]
+            h0, h1, h2 = skinned_heads[i, 0], skinned_heads[i, 1], skinned_heads[i, 2]
+            for r in range(3):
+                hr = skinned_heads[i, r]
+                if p < 0:
+                    for t in range(T):
+                        heads[i, r, t] = hr
+                else:
+                    for t in range(T):
+                        arm = rotation[p, r, 0, t] * h0 + rotation[p, r, 1, t] * h1 + rotation[p, r, 2, t] * h2
+                        heads[i, r, t] = arm + offset[p, r, t]
+                for t in range(T):
+                    residual[3 * i + r, t] = target[i, r, t] - (heads[i, r, t] - hr)
+        for j in range(n_carriers):
+            h0, h1, h2 = carrier_heads[j, 0], carrier_heads[j, 1], carrier_heads[j, 2]
+            for r in range(3):
+                for t in range(T):
+                    arm = rotation[j, r, 0, t] * h0 + rotation[j, r, 1, t] * h1 + rotation[j, r, 2, t] * h2
+                    pivots[j, r, t] = arm + offset[j, r, t]
+        for i in range(n_skinned):
+            for n in range(chain_start[i], chain_start[i + 1]):
+                j = chain_index[n]
+                b = blocks[n]
+                for t in range(T):
+                    x = heads[i, 0, t] - pivots[j, 0, t]
+                    y = heads[i, 1, t] - pivots[j, 1, t]
+                    z = heads[i, 2, t] - pivots[j, 2, t]
+                    b[0, 0, t], b[0, 1, t], b[0, 2, t] = 0.0, z, -y
+                    b[1, 0, t], b[1, 1, t], b[1, 2, t] = -z, 0.0, x
+                    b[2, 0, t], b[2, 1, t], b[2, 2, t] = y, -x, 0.0
+        # normal = J J^T + damping^2 I, block (i, k) = sum_j B_ij B_kj^T over the carriers both share
+        pair = 0
+        for g in range(len(group_start) - 1):
+            first, last = group_start[g], group_start[g + 1]
+            m = last - first
+            for a in range(m):
+                i = group_members[first + a]
+                for b_ in range(a, m):
+                    k = group_members[first + b_]
+                    totals[:] = 0.0
+                    for n in range(pair_start[pair], pair_start[pair + 1]):
+                        j = pair_index[n]
+                        bi = blocks[entry[i, j]]
+                        bk = blocks[entry[k, j]]
+                        for r in range(3):
+                            for c in range(3):
+                                for t in range(T):
+                                    totals[3 * r + c, t] += (bi[r, 0, t] * bk[c, 0, t] + bi[r, 1, t] * bk[c, 1, t]
+                                                             + bi[r, 2, t] * bk[c, 2, t])
+                    for r in range(3):
+                        for c in range(3):
+                            for t in range(T):
+                                normal[3 * a + r, 3 * b_ + c, t] = totals[3 * r + c, t]
+                                normal[3 * b_ + c, 3 * a + r, t] = totals[3 * r + c, t]
+                    pair += 1
+                for r in range(3):
+                    for t in range(T):
+                        normal[3 * a + r, 3 * a + r, t] += damping2
+                        rhs[3 * a + r, t] = residual[3 * i + r, t]
+            _solve_spd_frames(normal, rhs, 3 * m, total)
+            for a in range(m):
+                for r in range(3):
+                    for t in range(T):
+                        solved[3 * group_members[first + a] + r, t] = rhs[3 * a + r, t]
+        largest[:] = 0.0
+        for j in range(n_carriers):
+            for c in range(3):
+                total[:] = 0.0
+                for n in range(carried_start[j], carried_start[j + 1]):
+                    i = carried_index[n]
+                    b = blocks[entry[i, j]]
+                    for r in range(3):
+                        for t in range(T):
+                            total[t] += b[r, c, t] * solved[3 * i + r, t]
+                for t in range(T):
+                    step[j, c, t] = total[t]
+            for t in range(T):
+                size = np.sqrt(step[j, 0, t] ** 2 + step[j, 1, t] ** 2 + step[j, 2, t] ** 2)
+                largest[t] = max(largest[t], size)
+        for t in range(T):
+            scale[t] = min(1.0, max_turn / max(largest[t], 1e-300))
+        for j in range(n_carriers):
+            # Rodrigues: I + sin(a) K + (1 - cos(a)) K K, K the cross matrix of the unit axis
+            for t in range(T):
+                vx, vy, vz = step[j, 0, t] * scale[t], step[j, 1, t] * scale[t], step[j, 2, t] * scale[t]
+                angle = np.sqrt(vx * vx + vy * vy + vz * vz)
+                unit = max(angle, 1e-300)
+                axis[0, t], axis[1, t], axis[2, t] = vx / unit, vy / unit, vz / unit
+                sine[t] = angle
+            for t in range(T):              # libm, one call per value (kept out of the vectorised loops)
+                versine[t] = 1.0 - np.cos(sine[t])
+                sine[t] = np.sin(sine[t])
+            # local = parent^T turn parent local, parent: the carrier's parent posed at this iteration's start
+            p = carrier_parents[j]
+            for t in range(T):
+                ux, uy, uz = axis[0, t], axis[1, t], axis[2, t]
+                k = (0.0, -uz, uy, uz, 0.0, -ux, -uy, ux, 0.0)
+                kk = _mul9(k, k)
+                s, v = sine[t], versine[t]
+                turn9 = ((1.0 + s * k[0]) + v * kk[0], (0.0 + s * k[1]) + v * kk[1], (0.0 + s * k[2]) + v * kk[2],
+                         (0.0 + s * k[3]) + v * kk[3], (1.0 + s * k[4]) + v * kk[4], (0.0 + s * k[5]) + v * kk[5],
+                         (0.0 + s * k[6]) + v * kk[6], (0.0 + s * k[7]) + v * kk[7], (1.0 + s * k[8]) + v * kk[8])
+                c = current[j]
+                now = (c[0, 0, t], c[0, 1, t], c[0, 2, t], c[1, 0, t], c[1, 1, t], c[1, 2, t],
+                       c[2, 0, t], c[2, 1, t], c[2, 2, t])
+                if p < 0:
+                    new = _mul9(turn9, now)
+                else:
+                    q = rotation[p]
+                    parent9 = (q[0, 0, t], q[0, 1, t], q[0, 2, t], q[1, 0, t], q[1, 1, t], q[1, 2, t],
+                               q[2, 0, t], q[2, 1, t], q[2, 2, t])
+                    new = _mul9(_mul9(_tmul9(parent9, turn9), parent9), now)
+                c[0, 0, t], c[0, 1, t], c[0, 2, t] = new[0], new[1], new[2]
+                c[1, 0, t], c[1, 1, t], c[1, 2, t] = new[3], new[4], new[5]
+                c[2, 0, t], c[2, 1, t], c[2, 2, t] = new[6], new[7], new[8]
+    _pose_frames(current, carrier_heads, carrier_parents, rotation, offset)
+    local = np.empty((T, n_carriers, 3, 3))
+    parent_out = np.zeros((T, n_skinned, 3, 3))
+    for t in range(T):
+        for j in range(n_carriers):
+            for r in range(3):
+                for c in range(3):
+                    local[t, j, r, c] = current[j, r, c, t]
+        for i in range(n_skinned):
+            p = skinned_parents[i]
+            for r in range(3):
+                if p < 0:
+                    parent_out[t, i, r, r] = 1.0
+                else:
+                    for c in range(3):
+                        parent_out[t, i, r, c] = rotation[p, r, c, t]
+    return local, parent_out
+
+
+@njit(cache=True, error_model="numpy")
+def _pose_frames(local, carrier_heads, carrier_parents, rotation, offset):
+    """_pose for all frames: local (C, 3, 3, T) -> rotation (C, 3, 3, T), offset (C, 3, T)."""
+    n_frames = local.shape[3]
+    for j in range(len(carrier_parents)):
+        p = carrier_parents[j]
+        h0, h1, h2 = carrier_heads[j, 0], carrier_heads[j, 1], carrier_heads[j, 2]
+        if p < 0:
+            rotation[j] = local[j]
+            for r in range(3):
+                hr = carrier_heads[j, r]
+                for t in range(n_frames):
+                    moved = local[j, r, 0, t] * h0 + local[j, r, 1, t] * h1 + local[j, r, 2, t] * h2
+                    offset[j, r, t] = hr - moved
+        else:
+            for r in range(3):
+                for c in range(3):
+                    for t in range(n_frames):
+                        rotation[j, r, c, t] = (rotation[p, r, 0, t] * local[j, 0, c, t] + rotation[p, r, 1, t] * local[j, 1, c, t]
+                                                + rotation[p, r, 2, t] * local[j, 2, c, t])
+            for r in range(3):
+                for t in range(n_frames):
+                    point = rotation[p, r, 0, t] * h0 + rotation[p, r, 1, t] * h1 + rotation[p, r, 2, t] * h2
+                    moved = rotation[j, r, 0, t] * h0 + rotation[j, r, 1, t] * h1 + rotation[j, r, 2, t] * h2
+                    offset[j, r, t] = offset[p, r, t] + point - moved
+
+
+@njit(cache=True, error_model="numpy")
+def _solve_spd_frames(matrix, rhs, n, total):
+    """_solve_spd for all frames: matrix (>= n, >= n, T), rhs (>= n, T); total (T,) scratch."""
+    n_frames = matrix.shape[2]
+    for j in range(n):
+        total[:] = matrix[j, j]
+        for k in range(j):
+            for t in range(n_frames):
+                total[t] -= matrix[j, k, t] * matrix[j, k, t]
+        for t in range(n_frames):
+            matrix[j, j, t] = np.sqrt(total[t])
+        for i in range(j + 1, n):
+            total[:] = matrix[i, j]
+            for k in range(j):
+                for t in range(n_frames):
+                    total[t] -= matrix[i, k, t] * matrix[j, k, t]
+            for t in range(n_frames):
+                matrix[i, j, t] = total[t] / matrix[j, j, t]
+    for i in range(n):
+        total[:] = rhs[i]
+        for k in range(i):
+            for t in range(n_frames):
+                total[t] -= matrix[i, k, t] * rhs[k, t]
+        for t in range(n_frames):
+            rhs[i, t] = total[t] / matrix[i, i, t]
+    for i in range(n - 1, -1, -1):
+        total[:] = rhs[i]
+        for k in range(i + 1, n):
+            for t in range(n_frames):
+                total[t] -= matrix[k, i, t] * rhs[k, t]
+        for t in range(n_frames):
+            rhs[i, t] = total[t] / matrix[i, i, t]
+
+
+@njit(cache=True)
+def bone_turns(arms, head_moved, tail_moved):
+    """Rotation matrices (T, S, 3, 3) turning each skinned bone so that its tail moves by its own
+    displacement relative to its head: media/rotations.py `between(arm, arm + tail - head)` then
+    `to_matrix`, operation for operation, so the results are bitwise theirs.
+
+    arms (S, 3) head -> tail at rest; head_moved, tail_moved (T, S, 3) metres. between: both directions
+    divided by their norms sqrt((x^2 + y^2) + z^2) (NumPy's order for three terms), q = (1 + a.b, a x b)
+    (or a half turn about a x (1, 0, 0), a x (0, 1, 0) where |a_x| >= 0.9, for opposite directions) divided
+    by its norm; to_matrix: scipy 1.17's from_quat (normalised once more) and as_matrix.
+    """
+    n_frames, n_skinned = head_moved.shape[0], head_moved.shape[1]
+    out = np.empty((n_frames, n_skinned, 3, 3))
+    for t in range(n_frames):
+        for i in range(n_skinned):
+            a0, a1, a2 = arms[i, 0], arms[i, 1], arms[i, 2]
+            b0 = (a0 + tail_moved[t, i, 0]) - head_moved[t, i, 0]
+            b1 = (a1 + tail_moved[t, i, 1]) - head_moved[t, i, 1]
+            b2 = (a2 + tail_moved[t, i, 2]) - head_moved[t, i, 2]
+            na = np.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+            nb = np.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+            a0, a1, a2 = a0 / na, a1 / na, a2 / na
+            b0, b1, b2 = b0 / nb, b1 / nb, b2 / nb
+            dot = a0 * b0 + a1 * b1 + a2 * b2
+            if dot < -1.0 + 1e-12:
+                if abs(a0) < 0.9:
+                    h0, h1, h2 = 1.0, 0.0, 0.0
+                else:
+                    h0, h1, h2 = 0.0, 1.0, 0.0
+                w, x, y, z = 0.0, a1 * h2 - a2 * h1, a2 * h0 - a0 * h2, a0 * h1 - a1 * h0
+            else:
+                w, x, y, z = 1.0 + dot, a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+            norm = np.sqrt(w * w + x * x + y * y + z * z)
+            w, x, y, z = w / norm, x / norm, y / norm, z / norm
+            norm = np.sqrt(x * x + y * y + z * z + w * w)           # scipy's from_quat, (x, y, z, w) order
+            x, y, z, w = x / norm, y / norm, z / norm, w / norm
+            x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+            xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+            m = out[t, i]
+            m[0, 0], m[0, 1], m[0, 2] = x2 - y2 - z2 + w2, 2.0 * (xy - zw), 2.0 * (xz + yw)
+            m[1, 0], m[1, 1], m[1, 2] = 2.0 * (xy + zw), -x2 + y2 - z2 + w2, 2.0 * (yz - xw)
+            m[2, 0], m[2, 1], m[2, 2] = 2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2
+    return out
+
+
+@njit(cache=True, inline="always")
+def _mul9(a, b):
+    """a b of 3 x 3 matrices as row-major 9-tuples, each entry a[r, 0] b[0, c] + a[r, 1] b[1, c] + a[r, 2] b[2, c]."""
+    return (a[0] * b[0] + a[1] * b[3] + a[2] * b[6], a[0] * b[1] + a[1] * b[4] + a[2] * b[7], a[0] * b[2] + a[1] * b[5] + a[2] * b[8], a[3] * b[0] + a[4] * b[3] + a[5] * b[6], a[3] * b[1] + a[4] * b[4] + a[5] * b[7], a[3] * b[2] + a[4] * b[5] + a[5] * b[8], a[6] * b[0] + a[7] * b[3] + a[8] * b[6], a[6] * b[1] + a[7] * b[4] + a[8] * b[7], a[6] * b[2] + a[7] * b[5] + a[8] * b[8])
+
+
+@njit(cache=True, inline="always")
+def _tmul9(a, b):
+    """a^T b of 3 x 3 matrices as row-major 9-tuples, in _mul9's order of terms."""
+    return (a[0] * b[0] + a[3] * b[3] + a[6] * b[6], a[0] * b[1] + a[3] * b[4] + a[6] * b[7], a[0] * b[2] + a[3] * b[5] + a[6] * b[8], a[1] * b[0] + a[4] * b[3] + a[7] * b[6], a[1] * b[1] + a[4] * b[4] + a[7] * b[7], a[1] * b[2] + a[4] * b[5] + a[7] * b[8], a[2] * b[0] + a[5] * b[3] + a[8] * b[6], a[2] * b[1] + a[5] * b[4] + a[8] * b[7], a[2] * b[2] + a[5] * b[5] + a[8] * b[8])

@@ -198,10 +198,11 @@ class _Displacements:
 
     def __init__(self, faps: np.ndarray, fapu: Fapu):
         self.faps, self.fapu = faps, fapu
+        self.values = faps.astype(np.float64)          # (T, 68), converted once (integers: exact)
 
     def value(self, name: str) -> np.ndarray:
-        """(T,) float64 value of a FAP, in its unit."""
-        return self.faps[:, FAP_IDS[name] - 1].astype(np.float64)
+        """(T,) float64 value of a FAP, in its unit (a view: read only by the callers)."""
+        return self.values[:, FAP_IDS[name] - 1]
 
     def lip(self, name: str) -> np.ndarray:
         """(T,) the mean of an inner-lip FAP and its outer-lip twin (one bone plays both)."""
@@ -216,19 +217,16 @@ class _Displacements:
 
 def _turned_bones(face: _Displacements, skeleton: Skeleton) -> dict[str, np.ndarray]:
     """(T, 4) rotations of the jaw, the eyelids and the eyeballs, each turned about its own head."""
-    fapu, jaw = face.fapu, skeleton.index("jaw")
+    fapu = face.fapu
     opening = np.maximum(face.value("open_jaw"), 0.0)      # unidirectional: the jaw does not close past rest
-    names, arms, displacements = ["jaw"], [skeleton.tails[jaw] - skeleton.heads[jaw]], [
-        face.vector(x=-face.value("shift_jaw") * fapu.mw, y=-opening * fapu.mns)]
+    names, displacements = ["jaw"], [face.vector(x=-face.value("shift_jaw") * fapu.mw, y=-opening * fapu.mns)]
     eye_angles = []
     for side, s in SIDES.items():
-        upper, lower = _lid_arms(skeleton, side, fapu.irisd * FAPU_DIVISOR)
         names += [f"orbicularis03.{side}", f"orbicularis04.{side}"]
-        arms += [upper, lower]
         displacements += [face.vector(y=-face.value(f"close_t_{s}_eyelid") * fapu.irisd),
                           face.vector(y=face.value(f"close_b_{s}_eyelid") * fapu.irisd)]
         eye_angles += [face.value(f"yaw_{s}_eyeball") * ANGLE_UNIT_RAD, face.value(f"pitch_{s}_eyeball") * ANGLE_UNIT_RAD]
-    turned = dict(zip(names, _turns(np.array(arms), np.stack(displacements))))
+    turned = dict(zip(names, _turns(_turned_arms(skeleton, fapu), np.stack(displacements))))
     # Per eye: yaw about +Y, then pitch about +X; all four turns in one call, then both products.
     axes = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]] * len(SIDES))[:, None]           # (4, 1, 3)
     turns = rotations.from_axis_angle(axes, np.stack(eye_angles))                         # (4, T, 4)
@@ -246,14 +244,15 @@ def _carried_bones(face: _Displacements, skeleton: Skeleton) -> dict[str, np.nda
     upper_lip = {"oris05": vector(y=-lip("lower_t_midlip") * fapu.mns, z=value("push_t_lip") * fapu.mns)}
     lower_lip = {"oris01": vector(y=lip("raise_b_midlip") * fapu.mns, z=value("push_b_lip") * fapu.mns)}
     on_head = {}        # skinned bone -> (head displacement, tail displacement)
+    shares = _corner_shares(skeleton)
     for side, s in SIDES.items():
         outward = OUTWARD[side]
         corner = vector(x=outward * lip(f"stretch_{s}_cornerlip") * fapu.mw, y=lip(f"raise_{s}_cornerlip") * fapu.mns)
         corner_lift = corner * [0.0, 1.0, 0.0]
         upper_lip[f"oris03.{side}"] = (vector(y=-lip(f"lower_t_lip_{s}m") * fapu.mns, z=value("push_t_lip") * fapu.mns)
-                                       + _share_of_corner(skeleton, f"oris03.{side}") * corner_lift)
+                                       + shares[f"oris03.{side}"] * corner_lift)
         lower_lip[f"oris07.{side}"] = (vector(y=lip(f"raise_b_lip_{s}m") * fapu.mns, z=value("push_b_lip") * fapu.mns)
-                                       + _share_of_corner(skeleton, f"oris07.{side}") * corner_lift)
+                                       + shares[f"oris07.{side}"] * corner_lift)
         cheek = vector(x=outward * value(f"puff_{s}_cheek") * fapu.es,
                        y=np.maximum(value(f"lift_{s}_cheek"), 0.0) * fapu.ens)
         squeeze = -outward * value(f"squeeze_{s}_eyebrow") * fapu.es       # positive: towards the midline
@@ -313,6 +312,36 @@ def _turns(arms: np.ndarray, displacements: np.ndarray) -> np.ndarray:
     return rotations.from_axis_angle(np.cross(arms[:, None], direction), angle)
 
 
+_ARMS: dict[tuple[int, Fapu], tuple[Skeleton, np.ndarray]] = {}
+_SHARES: dict[int, tuple[Skeleton, dict[str, float]]] = {}
+
+
+def _turned_arms(skeleton: Skeleton, fapu: Fapu) -> np.ndarray:
+    """(5, 3) the turned bones' arms from their pivots, metres: the jaw's (head -> tail), then per side
+    (L, R) the upper and lower lid margins' (`_lid_arms`). Made once per skeleton object and FAPU."""
+    cached = _ARMS.get((id(skeleton), fapu))
+    if cached is not None and cached[0] is skeleton:
+        return cached[1]
+    jaw = skeleton.index("jaw")
+    arms = [skeleton.tails[jaw] - skeleton.heads[jaw]]
+    for side in SIDES:
+        arms += _lid_arms(skeleton, side, fapu.irisd * FAPU_DIVISOR)
+    result = np.array(arms)
+    result.flags.writeable = False
+    _ARMS[(id(skeleton), fapu)] = (skeleton, result)
+    return result
+
+
+def _corner_shares(skeleton: Skeleton) -> dict[str, float]:
+    """Lip side bone -> `_share_of_corner`, for the four lip sides; made once per skeleton object."""
+    cached = _SHARES.get(id(skeleton))
+    if cached is not None and cached[0] is skeleton:
+        return cached[1]
+    shares = {f"oris0{k}.{side}": _share_of_corner(skeleton, f"oris0{k}.{side}") for k in (3, 7) for side in SIDES}
+    _SHARES[id(skeleton)] = (skeleton, shares)
+    return shares
+
+
 def _share_of_corner(skeleton: Skeleton, lip_bone: str) -> float:
     """How much of its corner's displacement a lip side follows: its tail's distance from the midline over
     the corner bone's (the lip is held at the middle and pulled at the corner)."""
@@ -363,6 +392,7 @@ class _CarryPlan:
     group_members: np.ndarray      # (S,) skinned bones grouped by shared carriers ...
     group_start: np.ndarray        # (G + 1,) ... group g: group_members[group_start[g]:group_start[g + 1]]
     arms: np.ndarray               # (S, 3) head -> tail of each skinned bone
+    names: tuple[str, ...]         # the carriers' then the skinned bones' names, as _carry returns them
 
 
 _PLANS: dict[tuple[int, str, tuple[str, ...]], tuple[Skeleton, _CarryPlan]] = {}
@@ -392,7 +422,9 @@ def _carry_plan(skeleton: Skeleton, anchor: str, names: tuple[str, ...]) -> _Car
         np.array([position.get(int(skeleton.parents[bone]), -1) for bone in carriers], dtype=np.int64),
         np.ascontiguousarray(skeleton.heads[skinned], dtype=np.float64),
         np.array([position.get(int(skeleton.parents[bone]), -1) for bone in skinned], dtype=np.int64),
-        on_chain, np.array(members, dtype=np.int64), starts.astype(np.int64), (skeleton.tails[skinned] - skeleton.heads[skinned]).astype(np.float64))
+        on_chain, np.array(members, dtype=np.int64), starts.astype(np.int64),
+        np.ascontiguousarray(skeleton.tails[skinned] - skeleton.heads[skinned], dtype=np.float64),
+        tuple(skeleton.names[bone] for bone in carriers + skinned))
     _PLANS[key] = (skeleton, plan)
     return plan
 
@@ -405,22 +437,34 @@ def _carry(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray,
     rest frame. The carriers turn so that each skinned bone's head moves by its displacement: damped
     Gauss-Newton steps (damping in metres; no carrier turns more than max_turn radians a step), each
     the smallest turns that meet the linearised targets at the current pose; unreachable targets end
-    at the nearest reachable pose (kernels/bba_face_rig.carry, frame by frame; `_carry_numpy` is the
-    same solve in NumPy). Each skinned bone then turns so that its tail moves by its own displacement
-    relative to its head.
+    at the nearest reachable pose (kernels/bba_face_rig.carry, each frame alone; `_carry_numpy` is the
+    same solve in NumPy; a frame equal to the one before it is not solved again). Each skinned bone then
+    turns so that its tail moves by its own displacement relative to its head.
     """
     plan = _carry_plan(skeleton, anchor, tuple(targets))
     head_moved = np.stack([head for head, _ in targets.values()], axis=1)          # (T, S, 3)
     tail_moved = np.stack([tail for _, tail in targets.values()], axis=1)
-    local, parent = face_kernel.carry(np.ascontiguousarray(head_moved, dtype=np.float64), plan.carrier_heads,
+    # Frames are solved independently by the same operations, so a frame whose targets equal the previous
+    # frame's bit for bit (a held face) has the same solution: solve the first of each run, copy it.
+    rows = np.ascontiguousarray(head_moved, dtype=np.float64).reshape(len(head_moved), 3 * len(targets))
+    rows = rows.view(np.int64)
+    changed = np.ones(len(rows), dtype=bool)
+    changed[1:] = np.any(rows[1:] != rows[:-1], axis=1)
+    solved = head_moved if changed.all() else head_moved[changed]
+    local, parent = face_kernel.carry(np.ascontiguousarray(solved, dtype=np.float64), plan.carrier_heads,
                                       plan.carrier_parents, plan.skinned_heads, plan.skinned_parents,
                                       plan.on_chain, plan.group_members, plan.group_start, iterations, damping,
                                       max_turn)
-    arms = np.broadcast_to(plan.arms, tail_moved.shape)
-    turned = rotations.to_matrix(rotations.between(arms, arms + tail_moved - head_moved))
-    quaternions = rotations.from_matrix(np.concatenate([local, np.swapaxes(parent, -1, -2) @ turned], axis=1))
-    names = [skeleton.names[bone] for bone in plan.carriers + plan.skinned]
-    return {name: quaternions[:, k] for k, name in enumerate(names)}
+    if not changed.all():
+        run = np.cumsum(changed) - 1                     # frame -> its run's first frame among the solved
+        local, parent = local[run], parent[run]
+    turned = face_kernel.bone_turns(plan.arms, head_moved, tail_moved)     # bitwise to_matrix(between(...))
+    matrices = np.concatenate([local, np.swapaxes(parent, -1, -2) @ turned], axis=1)
+    quaternions, orthogonal = face_kernel.from_matrix(matrices.reshape(-1, 3, 3))     # bitwise scipy's ...
+    if not orthogonal:
+        quaternions = rotations.from_matrix(matrices)             # ... except where scipy orthogonalises first
+    quaternions = quaternions.reshape(matrices.shape[:2] + (4,))
+    return {name: quaternions[:, k] for k, name in enumerate(plan.names)}
 
 
 def _carry_numpy(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray, np.ndarray]],

@@ -1,0 +1,128 @@
+"""The face rig's faster paths against what they replace, bitwise: the frame-vectorised solve
+(kernels/bba_face_rig.carry) against the frame-by-frame one, the compiled conversions against scipy /
+NumPy (media/rotations.py), held frames solved once, and the whole rig against a SHA-256 of its
+rotations taken before these changes."""
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from comparisons.fap_rates import synthetic_faps
+from kernels import bba_face_rig as face_kernel
+from media import face_rig, rotations
+from media.face_rig import avatar_fapu, face_bone_rotations
+from media.fingerspelling import letter_motion
+
+# face_bone_rotations of the cases below, hashed with the frame-by-frame solve and scipy's conversions.
+_RIG_DIGEST = "1b22d77515672ddf201236f051863e2b3c73544e6d3197632cd6b11749aefdb6"
+
+
+def _bits(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64).view(np.int64)
+
+
+def _wild_faps() -> np.ndarray:
+    """(40, 68) FAPs beyond the rig's reach, with all-zero frames and frames held from the one before."""
+    wild = np.random.default_rng(7).integers(-3000, 3000, size=(40, 68))
+    wild[::5] = 0
+    wild[1::7] = wild[0::7][: len(wild[1::7])]
+    return wild
+
+
+def test_face_bone_rotations_hash_as_before_the_faster_paths(avatar):
+    fapu = avatar_fapu(avatar)
+    cases = [letter_motion("ase", letter, 25.0).faps for letter in "ABCDEFGHIJ"]
+    cases += [synthetic_faps(60, 25.0, seed=seed) for seed in range(3)] + [_wild_faps()]
+    digest = hashlib.sha256()
+    for faps in cases:
+        for name, q in face_bone_rotations(faps, avatar.skeleton, fapu).items():
+            digest.update(name.encode())
+            digest.update(np.ascontiguousarray(q).tobytes())
+    assert digest.hexdigest() == _RIG_DIGEST
+
+
+@pytest.mark.parametrize("anchor, names", [
+    ("head", ("levator05.L", "risorius03.L", "oculi01.L", "levator06.L", "levator05.R", "risorius03.R",
+              "oculi01.R", "levator06.R", "oris05", "oris03.L", "oris03.R")),
+    ("jaw", ("oris01", "oris07.L", "oris07.R")),
+])
+def test_frame_vectorised_solve_is_bitwise_the_frame_by_frame_one(avatar, anchor, names):
+    plan = face_rig._carry_plan(avatar.skeleton, anchor, names)
+    rng = np.random.default_rng(len(names))
+    for scale in (0.0, 1e-4, 3e-3, 0.05):              # rest, small, typical, far beyond reach
+        wanted = rng.normal(size=(37, len(names), 3)) * scale
+        wanted[5] = 0.0
+        args = (plan.carrier_heads, plan.carrier_parents, plan.skinned_heads, plan.skinned_parents, plan.on_chain,
+                plan.group_members, plan.group_start, 10, 3e-3, 0.3)
+        local, parent = face_kernel.carry(wanted, *args)
+        local_ref, parent_ref = face_kernel.carry_by_frame(wanted, *args)
+        assert np.array_equal(_bits(local), _bits(local_ref))
+        assert np.array_equal(_bits(parent), _bits(parent_ref))
+        assert np.array_equal(local[5], np.broadcast_to(np.eye(3), local[5].shape))   # no target: no turn
+        if scale > 0:
+            assert not np.allclose(local, np.eye(3))
+
+
+def test_compiled_from_matrix_is_bitwise_scipys_and_defers_what_scipy_orthogonalises():
+    rng = np.random.default_rng(0)
+    matrices = [Rotation.random(20000, random_state=1).as_matrix()]
+    for scale in (1e-9, 1e-4, 0.3):
+        matrices.append(Rotation.from_rotvec(rng.normal(size=(5000, 3)) * scale).as_matrix())
+    axes = rng.normal(size=(5000, 3))
+    matrices.append(Rotation.from_rotvec(axes / np.linalg.norm(axes, axis=1)[:, None] * np.pi).as_matrix())
+    for axis in np.eye(3):           # half and quarter turns: ties between the trace and the diagonal
+        for angle in (0.0, np.pi / 2, -np.pi / 2, np.pi):
+            matrices.append(Rotation.from_rotvec(axis * angle).as_matrix()[None])
+    m = np.ascontiguousarray(np.concatenate(matrices))
+    products = np.einsum("nij,njk->nik", m[:10000], m[10000:20000])     # a few ulp off orthogonal, as posed
+    for batch in (m, products):
+        got, orthogonal = face_kernel.from_matrix(batch)
+        assert orthogonal
+        assert np.array_equal(_bits(got), _bits(rotations.from_matrix(batch)))
+    skewed = m[:3].copy()
+    skewed[1, 0, 1] += 1e-9                               # scipy would orthogonalise this one (SVD)
+    assert not face_kernel.from_matrix(skewed)[1]
+
+
+def test_compiled_bone_turns_are_bitwise_between_then_to_matrix():
+    rng = np.random.default_rng(1)
+    arms = rng.normal(size=(5, 3)) * 0.01
+    for scale in (1e-6, 1e-3, 0.05):
+        head = rng.normal(size=(400, 5, 3)) * scale
+        tail = head + rng.normal(size=(400, 5, 3)) * scale * (rng.random((400, 5, 1)) < 0.5)
+        tail[1::13] = head[1::13] - 2 * arms                  # the bone turned right round
+        full = np.broadcast_to(arms, tail.shape)
+        expected = rotations.to_matrix(rotations.between(full, full + tail - head))
+        assert np.array_equal(_bits(face_kernel.bone_turns(arms, head, tail)), _bits(expected))
+
+
+def test_held_frames_are_solved_once_and_give_each_frame_its_own_solution(avatar, monkeypatch):
+    fapu = avatar_fapu(avatar)
+    faps = synthetic_faps(12, 25.0, seed=4)
+    held = faps[[0, 0, 0, 1, 2, 2, 3, 4, 5, 5, 5, 5, 6, 7, 8, 9, 10, 11, 11]]
+    solved_frames = []
+    kernel = face_kernel.carry
+
+    def counting(wanted, *args):
+        solved_frames.append(len(wanted))
+        return kernel(wanted, *args)
+
+    monkeypatch.setattr(face_kernel, "carry", counting)
+    once = face_bone_rotations(faps, avatar.skeleton, fapu)
+    with_holds = face_bone_rotations(held, avatar.skeleton, fapu)
+    assert solved_frames == [12, 12, 12, 12]          # head and jaw carriers, without and with the holds
+    for name, rotation in once.items():
+        assert np.array_equal(_bits(with_holds[name]), _bits(rotation[[0, 0, 0, 1, 2, 2, 3, 4, 5, 5, 5, 5, 6, 7, 8, 9,
+                                                                         10, 11, 11]])), name
+
+
+@pytest.mark.parametrize("n_frames", [0, 1])
+def test_face_rig_takes_empty_and_single_frame_tracks(avatar, n_frames):
+    faps = np.zeros((n_frames, 68), dtype=np.int64)
+    result = face_bone_rotations(faps, avatar.skeleton, avatar_fapu(avatar))
+    for rotation in result.values():
+        assert rotation.shape == (n_frames, 4)
+        assert np.array_equal(rotation, np.broadcast_to([1.0, 0.0, 0.0, 0.0], rotation.shape))
