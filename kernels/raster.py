@@ -24,7 +24,8 @@ than tiles with per-tile triangle lists. The avatar's triangles cover a few pixe
 them would add a pass and a second setup per triangle for no saving in the raster loop, and CPU
 atomics on distinct pixels are cheap. What the frames spent time on instead: per-thread launch cost,
 kernel arguments packed again every frame (recorded launches now), bounding-box pixels whose
-centres lie outside the triangle, a clearing pass, and one host copy per output (OpenCL: one).
+centres lie outside the triangle, a clearing pass, one host copy per output (now one in all), and on Warp
+a resolve pass that rewrote every pixel (now only the rows' spans that were or are drawn).
 
 At the default sizes a triangle of the avatar covers a few pixels, so per-face lighting is as
 smooth as interpolated normals would be, and costs no per-vertex normal pass.
@@ -274,10 +275,14 @@ def _resolve(s: _Scene, keys, shade):
 
 class _WarpRaster:
     """Device buffers and recorded launches are kept per mesh and image size, so a frame packs no kernel
-    arguments again; the mesh topology, parts and colours upload only when they change (UploadCache).
+    arguments again (and sets the camera, light and look only when they change); the mesh topology,
+    parts and colours upload only when they change (UploadCache).
 
     On the CPU device each thread takes a run of items (kernels/raster_warp.py says why) and the
-    positions and outputs are NumPy views of the device buffers; on CUDA one thread per item.
+    positions and the background colour are written through NumPy views of the device buffers; on
+    CUDA one thread per item. The four outputs are views of one device buffer that the resolve pass
+    only partly rewrites each frame (empty pixels that stay empty keep the background), so a frame
+    returns one copy of it: rgb (3n bytes), labels (n), triangle ids (4n), depth (4n) for n pixels.
     """
 
     CPU_CHUNK = 256          # vertices or triangles per thread on the CPU device (chosen here)
@@ -296,28 +301,33 @@ class _WarpRaster:
         if frame is None:
             on_cpu = device == "cpu"
             chunk = self.CPU_CHUNK if on_cpu else 1
-            pixel_chunk = W if on_cpu else 1
+            n = W * H
+            out = wp.empty(12 * n, dtype=wp.uint8, device=device)
+            outputs = [wp.array(ptr=out.ptr + offset, dtype=dtype, shape=(size,), device=device)
+                       for offset, size, dtype in ((0, 3 * n, wp.uint8), (3 * n, n, wp.uint8), (4 * n, n, wp.int32),
+                                                   (8 * n, n, wp.float32))]
             frame = types.SimpleNamespace(
                 positions=wp.empty(V, dtype=wp.vec3, device=device),
                 fixed_x=wp.empty(V, dtype=wp.int64, device=device), fixed_y=wp.empty(V, dtype=wp.int64, device=device),
                 depth=wp.empty(V, dtype=wp.float32, device=device), valid=wp.empty(V, dtype=wp.int32, device=device),
-                keys=wp.full(W * H, int(EMPTY_KEY), dtype=wp.int64, device=device),
-                shade=wp.zeros(F, dtype=wp.float32, device=device),
-                background=wp.zeros(3, dtype=wp.uint8, device=device),
-                outputs=[wp.empty(n, dtype=dtype, device=device) for n, dtype in
-                         ((3 * W * H, wp.uint8), (W * H, wp.uint8), (W * H, wp.int32), (W * H, wp.float32))],
-                clean=True, on_cpu=on_cpu)
+                keys=wp.full(n, int(EMPTY_KEY), dtype=wp.int64, device=device),
+                face_rgb=wp.zeros(3 * F, dtype=wp.uint8, device=device),
+                background=wp.zeros(3, dtype=wp.uint8, device=device), out=out, outputs=outputs,
+                spans=[wp.full(H, value, dtype=wp.int32, device=device) for value in (W, -1, W, -1)],
+                clean=True, fresh=True, on_cpu=on_cpu, settings=None, drawn_background=None)
+            if on_cpu:
+                frame.positions_host, frame.background_host = frame.positions.numpy(), frame.background.numpy()
+                frame.out_host = out.numpy()
             frame.project = wp.launch(raster_warp.project, dim=-(-V // chunk), device=device, record_cmd=True,
                                       inputs=[frame.positions, wp.mat44(), float(W), float(H), chunk, frame.fixed_x,
                                               frame.fixed_y, frame.depth, frame.valid])
             frame.raster = wp.launch(raster_warp.raster, dim=-(-F // chunk), device=device, record_cmd=True,
                                      inputs=[triangles, frame.positions, frame.fixed_x, frame.fixed_y, frame.depth,
-                                             frame.valid, W, H, 0, 0, wp.vec3(), 0.0, 0.0, chunk, frame.keys,
-                                             frame.shade])
-            frame.resolve = wp.launch(raster_warp.resolve, dim=-(-(W * H) // pixel_chunk), device=device,
-                                      record_cmd=True,
-                                      inputs=[frame.keys, part, frame.shade, colour, palette, frame.background, 0,
-                                              pixel_chunk, *frame.outputs])
+                                             frame.valid, W, H, 0, 0, wp.vec3(), 0.0, 0.0, colour, chunk, frame.keys,
+                                             frame.face_rgb, *frame.spans[:2]])
+            frame.resolve = wp.launch(raster_warp.resolve, dim=H, device=device, record_cmd=True,
+                                      inputs=[frame.keys, part, frame.face_rgb, palette, frame.background, 0, 1, W,
+                                              *frame.spans, *outputs])
             frame.inputs = (triangles, part, colour, palette)
             if len(self._frames) >= 4:
                 self._frames.pop(next(iter(self._frames)))
@@ -334,34 +344,48 @@ class _WarpRaster:
         frame = self._frame(s, *inputs)
         if any(a is not b for a, b in zip(inputs, frame.inputs)):     # the mesh or its colours changed
             frame.raster.set_param_at_index(0, inputs[0])
-            for index, array in zip((1, 3, 4), inputs[1:]):
-                frame.resolve.set_param_at_index(index, array)
+            frame.raster.set_param_at_index(13, inputs[2])
+            frame.resolve.set_param_at_index(1, inputs[1])
+            frame.resolve.set_param_at_index(3, inputs[3])
             frame.inputs = inputs
         if not frame.clean:            # an earlier frame stopped between raster and resolve
             frame.keys.fill_(int(EMPTY_KEY))
+            frame.fresh = True
         background = s.background if s.shaded else s.palette[0]
+        settings = (s.camera.tobytes(), s.cull, s.shaded, s.light.tobytes())
+        if settings != frame.settings:
+            frame.project.set_param_at_index(1, wp.mat44(s.camera))
+            frame.raster.set_param_at_index(8, int(s.cull))
+            frame.raster.set_param_at_index(9, int(s.shaded))
+            frame.raster.set_param_at_index(10, wp.vec3(*s.light[:3]))
+            frame.raster.set_param_at_index(11, float(s.light[3]))
+            frame.raster.set_param_at_index(12, float(s.light[4]))
+            frame.resolve.set_param_at_index(5, int(s.shaded))
+            frame.settings = settings
+        if frame.drawn_background is None or not np.array_equal(background, frame.drawn_background):
+            frame.fresh = True
         if frame.on_cpu:
-            frame.positions.numpy()[:] = s.positions
-            frame.background.numpy()[:] = background
+            frame.positions_host[:] = s.positions
+            frame.background_host[:] = background
         else:
             frame.positions.assign(s.positions)
             frame.background.assign(background)
-        frame.project.set_param_at_index(1, wp.mat44(s.camera))
-        frame.raster.set_param_at_index(8, int(s.cull))
-        frame.raster.set_param_at_index(9, int(s.shaded))
-        frame.raster.set_param_at_index(10, wp.vec3(*s.light[:3]))
-        frame.raster.set_param_at_index(11, float(s.light[3]))
-        frame.raster.set_param_at_index(12, float(s.light[4]))
-        frame.resolve.set_param_at_index(6, int(s.shaded))
+        if frame.fresh:
+            frame.resolve.set_param_at_index(6, 1)
         frame.project.launch()
         frame.clean = False
         frame.raster.launch()
         frame.resolve.launch()
         frame.clean = True
-        shapes = ((H, W, 3), (H, W), (H, W), (H, W))
-        # CPU: copies of the buffers' NumPy views (the next frame overwrites them); CUDA: .numpy() copies already
-        return tuple((o.numpy().copy() if frame.on_cpu else o.numpy()).reshape(shape)
-                     for o, shape in zip(frame.outputs, shapes))
+        if frame.fresh:
+            frame.resolve.set_param_at_index(6, 0)
+            frame.drawn_background = background.copy()
+            frame.fresh = False
+        # CPU: a copy of the buffer's NumPy view (the next frame overwrites it); CUDA: .numpy() copies already
+        host = frame.out_host.copy() if frame.on_cpu else frame.out.numpy()
+        n = W * H
+        return (host[:3 * n].reshape(H, W, 3), host[3 * n:4 * n].reshape(H, W),
+                host[4 * n:8 * n].view(np.int32).reshape(H, W), host[8 * n:].view(np.float32).reshape(H, W))
 
 
 # --- OpenCL ---------------------------------------------------------------------------------------

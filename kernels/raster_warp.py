@@ -111,10 +111,12 @@ def project(positions: wp.array(dtype=wp.vec3), m: wp.mat44, width: wp.float32, 
 def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec3),
            fixed_x: wp.array(dtype=wp.int64), fixed_y: wp.array(dtype=wp.int64), depth: wp.array(dtype=wp.float32),
            valid: wp.array(dtype=wp.int32), width: wp.int32, height: wp.int32, cull: wp.int32, shaded: wp.int32,
-           light: wp.vec3, ambient: wp.float32, diffuse: wp.float32, chunk: wp.int32, keys: wp.array(dtype=wp.int64),
-           shade: wp.array(dtype=wp.float32)):
-    """Triangles [tid * chunk, (tid + 1) * chunk): per-triangle setup, edge functions with the top-left rule
-    over the pixel centres inside the bounding box, depth test."""
+           light: wp.vec3, ambient: wp.float32, diffuse: wp.float32, colour: wp.array(dtype=wp.uint8), chunk: wp.int32,
+           keys: wp.array(dtype=wp.int64), face_rgb: wp.array(dtype=wp.uint8), row_lo: wp.array(dtype=wp.int32),
+           row_hi: wp.array(dtype=wp.int32)):
+    """Triangles [tid * chunk, (tid + 1) * chunk): per-triangle setup (shaded look: the lit colour of the face
+    into face_rgb, 3 bytes a triangle), edge functions with the top-left rule over the pixel centres inside
+    the bounding box, depth test. Each image row's span of drawn bounding boxes widens [row_lo, row_hi]."""
     first = wp.tid() * chunk
     for t in range(first, wp.min(first + chunk, triangles.shape[0] / 3)):
         # per-triangle setup: drop triangles with a vertex off limits, degenerate ones, culled back faces
@@ -160,7 +162,10 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
         z1 = depth[j1]
         z2 = depth[j2]
         if shaded != 0:
-            shade[t] = face_shade(positions[i0], positions[i1], positions[i2], flipped, light, ambient, diffuse)
+            s = face_shade(positions[i0], positions[i1], positions[i2], flipped, light, ambient, diffuse)
+            face_rgb[3 * t] = wp.uint8(wp.min(wp.float32(colour[3 * t]) * s + 0.5, 255.0))
+            face_rgb[3 * t + 1] = wp.uint8(wp.min(wp.float32(colour[3 * t + 1]) * s + 0.5, 255.0))
+            face_rgb[3 * t + 2] = wp.uint8(wp.min(wp.float32(colour[3 * t + 2]) * s + 0.5, 255.0))
         # walking order a, b, c = v0, v2, v1 turns counter-clockwise: edge functions are positive inside
         ax = x0
         ay = y0
@@ -187,6 +192,8 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
         step_y1 = (ax - cx) * SUBPIXEL
         step_y2 = (bx - ax) * SUBPIXEL
         for py in range(wp.int32(ymin), wp.int32(ymax) + 1):
+            wp.atomic_min(row_lo, py, wp.int32(xmin))
+            wp.atomic_max(row_hi, py, wp.int32(xmax))
             e0 = row0
             e1 = row1
             e2 = row2
@@ -208,22 +215,40 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
 
 
 @wp.kernel
-def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uint8), shade: wp.array(dtype=wp.float32),
-            colour: wp.array(dtype=wp.uint8), palette: wp.array(dtype=wp.uint8), background: wp.array(dtype=wp.uint8),
-            shaded: wp.int32, chunk: wp.int32, rgb: wp.array(dtype=wp.uint8), labels: wp.array(dtype=wp.uint8),
-            triangle_id: wp.array(dtype=wp.int32), depth_out: wp.array(dtype=wp.float32)):
-    """Pixels [tid * chunk, (tid + 1) * chunk): each key -> triangle id, label, depth and colour; the key is
-    reset to EMPTY_KEY for the next frame."""
-    first = wp.tid() * chunk
-    for i in range(first, wp.min(first + chunk, keys.shape[0])):
+def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uint8), face_rgb: wp.array(dtype=wp.uint8),
+            palette: wp.array(dtype=wp.uint8), background: wp.array(dtype=wp.uint8), shaded: wp.int32, fresh: wp.int32,
+            width: wp.int32, row_lo: wp.array(dtype=wp.int32), row_hi: wp.array(dtype=wp.int32),
+            drawn_lo: wp.array(dtype=wp.int32), drawn_hi: wp.array(dtype=wp.int32), rgb: wp.array(dtype=wp.uint8),
+            labels: wp.array(dtype=wp.uint8), triangle_id: wp.array(dtype=wp.int32),
+            depth_out: wp.array(dtype=wp.float32)):
+    """Image row tid: each key -> triangle id, label, depth and colour; the key is reset to EMPTY_KEY for the
+    next frame.
+
+    The outputs are kept from frame to frame. Unless `fresh`, only the pixels of the row inside this
+    frame's span of drawn boxes [row_lo, row_hi] or the last frame's [drawn_lo, drawn_hi] are visited (the
+    others were empty then and are empty now, so they hold the background already), and an empty pixel
+    that was empty in the last frame (triangle id -1) is not written again. The row's spans then move on:
+    drawn = this frame's, this frame's = empty for the next raster pass."""
+    y = wp.tid()
+    lo = wp.min(row_lo[y], drawn_lo[y])
+    hi = wp.max(row_hi[y], drawn_hi[y])
+    if fresh != 0:
+        lo = 0
+        hi = width - 1
+    drawn_lo[y] = row_lo[y]
+    drawn_hi[y] = row_hi[y]
+    row_lo[y] = width
+    row_hi[y] = -1
+    for i in range(y * width + lo, y * width + hi + 1):
         key = keys[i]
         if key == EMPTY_KEY:
-            labels[i] = wp.uint8(0)
-            triangle_id[i] = -1
-            depth_out[i] = wp.inf
-            rgb[3 * i] = background[0]
-            rgb[3 * i + 1] = background[1]
-            rgb[3 * i + 2] = background[2]
+            if fresh != 0 or triangle_id[i] != -1:
+                labels[i] = wp.uint8(0)
+                triangle_id[i] = -1
+                depth_out[i] = wp.inf
+                rgb[3 * i] = background[0]
+                rgb[3 * i + 1] = background[1]
+                rgb[3 * i + 2] = background[2]
             continue
         keys[i] = EMPTY_KEY
         t = wp.int32(key % ID_SCALE)
@@ -236,7 +261,6 @@ def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uin
             rgb[3 * i + 1] = palette[3 * wp.int32(label) + 1]
             rgb[3 * i + 2] = palette[3 * wp.int32(label) + 2]
         else:
-            s = shade[t]
-            rgb[3 * i] = wp.uint8(wp.min(wp.float32(colour[3 * t]) * s + 0.5, 255.0))
-            rgb[3 * i + 1] = wp.uint8(wp.min(wp.float32(colour[3 * t + 1]) * s + 0.5, 255.0))
-            rgb[3 * i + 2] = wp.uint8(wp.min(wp.float32(colour[3 * t + 2]) * s + 0.5, 255.0))
+            rgb[3 * i] = face_rgb[3 * t]
+            rgb[3 * i + 1] = face_rgb[3 * t + 1]
+            rgb[3 * i + 2] = face_rgb[3 * t + 2]

@@ -5,6 +5,7 @@ Entry points `skin` and `skin_rigid` take explicit arrays and a backend ("warp",
 no inverse bind matrix is involved: v' = sum_b w_b M_b v.
 """
 
+import types
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,34 +125,52 @@ class _NumpySkinning:
 # --- Warp (bodies in kernels/skinning_warp.py, imported on first use) ----------------------------
 
 class _WarpSkinning:
-    """Device buffers live as long as the process; the rest mesh and weights upload once."""
+    """Device buffers and recorded launches live as long as the process, one set per kernel, vertex count
+    and bone count; the rest mesh and weights upload once (UploadCache), the bone matrices go into a kept
+    buffer (on the CPU device through its NumPy view), so a frame packs no kernel arguments again."""
+
+    CPU_CHUNK = 256          # vertices per thread on the CPU device (kernels/skinning_warp.py says why)
 
     def __init__(self):
         self._uploads = None
-        self._outputs = {}
+        self._launches = {}
 
-    def _launch(self, kernel, rest, arguments, bone_matrices):
+    def _launch(self, name, rest, arguments, bone_matrices):
+        from kernels import skinning_warp
         wp, device = backends.warp(), backends.warp_device()
         if self._uploads is None:
             self._uploads = UploadCache(lambda a: wp.array(a, device=device))
             self._points = UploadCache(lambda a: wp.array(a, dtype=wp.vec3, device=device))
-        n = len(rest)
-        if n not in self._outputs:
-            self._outputs[n] = wp.empty(n, dtype=wp.vec3, device=device)
-        posed = self._outputs[n]
-        matrices = wp.array(bone_matrices, dtype=wp.mat44, device=device)
-        inputs = [self._points.get("rest", rest), *(self._uploads.get(name, a) for name, a in arguments), matrices, posed]
-        wp.launch(kernel, dim=n, device=device, inputs=inputs)
-        return posed.numpy().copy()
+        inputs = [self._points.get("rest", rest), *(self._uploads.get(key, a) for key, a in arguments)]
+        n, slot = len(rest), (name, len(rest), len(bone_matrices))
+        job = self._launches.get(slot)
+        if job is None:
+            on_cpu = device == "cpu"
+            chunk = self.CPU_CHUNK if on_cpu else 1
+            matrices = wp.empty(len(bone_matrices), dtype=wp.mat44, device=device)
+            posed = wp.empty(n, dtype=wp.vec3, device=device)
+            command = wp.launch(getattr(skinning_warp, name), dim=-(-n // chunk), device=device, record_cmd=True,
+                                inputs=[*inputs, matrices, chunk, posed])
+            job = self._launches[slot] = types.SimpleNamespace(command=command, inputs=inputs, matrices=matrices,
+                                                               posed=posed, on_cpu=on_cpu)
+        for index, (new, old) in enumerate(zip(inputs, job.inputs)):
+            if new is not old:               # the rest mesh or the weights changed: uploaded again
+                job.command.set_param_at_index(index, new)
+                job.inputs[index] = new
+        if job.on_cpu:
+            job.matrices.numpy()[:] = bone_matrices
+        else:
+            job.matrices.assign(bone_matrices)
+        job.command.launch()
+        # CPU: a copy of the buffer's NumPy view (the next frame overwrites it); CUDA: .numpy() copies already
+        return job.posed.numpy().copy() if job.on_cpu else job.posed.numpy()
 
     def skin(self, rest, weights, bone_matrices):
-        from kernels import skinning_warp
         arguments = [("indptr", weights.indptr), ("bones", weights.bones), ("values", weights.values)]
-        return self._launch(skinning_warp.linear_blend, rest, arguments, bone_matrices)
+        return self._launch("linear_blend", rest, arguments, bone_matrices)
 
     def skin_rigid(self, rest, dominant_bone, bone_matrices):
-        from kernels import skinning_warp
-        return self._launch(skinning_warp.rigid, rest, [("dominant", dominant_bone)], bone_matrices)
+        return self._launch("rigid", rest, [("dominant", dominant_bone)], bone_matrices)
 
 
 # --- OpenCL ---------------------------------------------------------------------------------------

@@ -180,3 +180,25 @@ def test_two_avatars_in_one_frame_and_a_changed_mesh_match_the_oracle(avatar, si
     result = rasterize(two, triangles, parts, camera, width, height, backend=accelerated_backend)
     assert np.array_equal(result[2], inside_out[2])
     assert not np.array_equal(inside_out[2], reference[2])
+
+
+def test_frames_that_change_pose_look_and_background_each_match_the_oracle_and_stay_as_returned(
+        avatar, signing_poses, accelerated_backend):
+    # The Warp body keeps its outputs between frames and rewrites only what changed (kernels/raster.py):
+    # every frame must still equal the oracle's, and frames already returned must not change afterwards.
+    width, height = 176, 144
+    camera = signing_space_camera(avatar, width, height)
+    away = signing_poses[1] + np.float32([0, 0, -50])    # beyond the far plane: nothing is drawn
+    steps = [(signing_poses[0], "shaded", None), (signing_poses[2], "shaded", None), (away, "shaded", None),
+             (signing_poses[1], "flat", None), (signing_poses[1], "shaded", np.uint8([10, 200, 30])),
+             (signing_poses[0], "shaded", np.uint8([10, 200, 30])), (signing_poses[2], "flat", None)]
+    kept = []
+    for positions, look, background in steps:
+        arguments = (positions, avatar.triangles, avatar.triangle_part, camera, width, height)
+        reference = rasterize(*arguments, look=look, background=background, backend="numpy")
+        result = rasterize(*arguments, look=look, background=background, backend=accelerated_backend)
+        assert np.array_equal(result[2], reference[2]) and np.array_equal(result[1], reference[1])
+        assert np.array_equal(result[0], reference[0]) and np.array_equal(result[3], reference[3])
+        kept.append(([r.copy() for r in result], result))
+    for copies, result in kept:
+        assert all(np.array_equal(c, r) for c, r in zip(copies, result))
