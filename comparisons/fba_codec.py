@@ -57,6 +57,12 @@ Speed (kernels/param_frames.py): the encoder's decisions (changed mask, closed-l
 fields) and all P planes of an intra period are one kernel call each; the decoder reads the P planes
 after an intra plane in one call (`_read_predicted_planes`), and falls back to reading field by field
 at anything else (another header, damage), so its checks and messages are those of the plain loop.
+The P-frame models are sparse (only the symbols coded so far carry a count: the alphabets of Q = 1 run
+to ~10^5 symbols per plane, and allocating and touching Fenwick trees of that size cost more than the
+coding); the decoder hands them to the dense banks (pc.LevelFrames) when an intra period outgrows
+SPARSE_KEYS planes. Both write and read exactly the bits of those banks. A DCT segment keeps
+param_coding's NumPy matrix products (their summation order is BLAS's) and does the rounding around
+them in kernels, bit for bit; the encoder writes a segment's fields with the bit kernels directly.
 
 Streams hold at most MAX_FRAMES frames; the encoder refuses longer input and the decoder stops
 with SigncastError before storing frame MAX_FRAMES + 1 (a 15.6 kB DCT stream can hold 400,000
@@ -74,6 +80,8 @@ import numpy as np
 from comparisons import bap_table, fap_table
 from comparisons import param_coding as pc
 from comparisons.bitstream import BitReader, BitWriter
+from comparisons.entropy import MAX_TOTAL
+from kernels import entropy_coding as kc
 from kernels import param_frames as pf
 from media.errors import SigncastError
 
@@ -144,6 +152,8 @@ BAPS = ParameterSet("BAP", PARAMSET_BAP, bap_table.N_BAPS, bap_table.GROUP_MEMBE
 FAPS = ParameterSet("FAP", PARAMSET_FAP, fap_table.N_FAPS, fap_table.GROUP_MEMBERS, fap_table.steps(), "fap_quant",
                     "FAP mask type 2 (interpolated FAPs) is not supported", (1,), _describe_fap)
 PARAMETER_SETS = (FAPS, BAPS)          # the order of the blocks in a plane: face, then body
+_FAP_LIMITS = fap_table.limits()       # (68,) int64, computed once
+_FAP_LIMITS.flags.writeable = False
 
 
 def coded_order(mask: np.ndarray, parameter_set: ParameterSet = BAPS) -> np.ndarray:
@@ -306,12 +316,64 @@ def _write_predictive_intra_block(writer: BitWriter, track: _Track, decisions: t
     _write_block_intra_header(writer, track, mask, PREDICTIVE, 15 if tight else 0, 4)    # is_i/p_new_max/min
     if tight:
         pc.write_range_fields(writer, fields)
-    pc.LevelFrames(i_low, i_high, [0, len(i_low)], once=True).write(writer, intra[None])
+    _write_intra_levels(writer, intra, i_low, i_high)
     return p_low, p_high
+
+
+def _write_intra_levels(writer: BitWriter, intra: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
+    """The levels (P,) of an intra plane in alphabets low..high (P,): one frame of all-ones models, the bits of
+    pc.LevelFrames(low, high, [0, P], once=True).write(writer, intra[None])."""
+    bad = pf.check_symbols(intra[None], low, high)
+    if bad >= 0:
+        raise SigncastError(f"symbol {int(intra[bad] - low[bad])} outside the model's alphabet "
+                            f"0..{int(high[bad] - low[bad])}")
+    sizes = high - low + 1
+    offsets, scalars = pf.new_scalars(sizes, MAX_TOTAL)
+    writer.reserve(pf.PRECISION * 4 * (len(low) + 2))
+    pf.write_level_frames(writer.buffer, writer.state, 0, 0, intra[None], low, np.array([0, len(low)]), sizes, offsets,
+                          _NO_COUNTS, _NO_COUNTS, scalars, np.arange(len(low)), True)
+
+
+def _read_intra_levels(reader: BitReader, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """(P,) int64 levels of an intra plane in alphabets low..high (P,): _write_intra_levels' inverse."""
+    sizes = high - low + 1
+    offsets, scalars = pf.new_scalars(sizes, MAX_TOTAL)
+    out = np.empty(len(low), dtype=np.int64)
+    pc.check_level_status(pf.read_level_frame(reader.array, reader.end_bit, reader.registers, low,
+                                              np.array([0, len(low)]), sizes, offsets, _NO_COUNTS, _NO_COUNTS,
+                                              scalars, np.arange(len(low)), out, True))
+    return out
+
+
+_NO_COUNTS = np.zeros(0, dtype=np.int64)
 
 
 def _paramset(tracks: list[_Track]) -> int:
     return sum(track.parameter_set.paramset_bit for track in tracks)
+
+
+def _write_p_planes(writer: BitWriter, alphabets: list[tuple[np.ndarray, np.ndarray]], levels: list[np.ndarray],
+                    header: int, header_bits: int) -> None:
+    """The P planes of an intra period: per frame the plane header, then each track's levels (F, P_k) in its
+    alphabets (low, high) (P_k,), arithmetic-coded with fresh adaptive models (the bits of pc.LevelFrames.write,
+    with kernels/param_frames.py sparse models: no arrays the size of the alphabets)."""
+    if len(alphabets) == 1:
+        (low, high), levels = alphabets[0], levels[0]
+        starts = np.array([0, len(low)], dtype=np.int64)
+    else:
+        low = np.concatenate([a[0] for a in alphabets])
+        high = np.concatenate([a[1] for a in alphabets])
+        starts = np.cumsum([0] + [len(a[0]) for a in alphabets])
+        levels = np.concatenate(levels, axis=1)
+    bad = pf.check_symbols(levels, low, high)
+    if bad >= 0:
+        p = bad % len(low)
+        raise SigncastError(f"symbol {int(levels.flat[bad] - low[p])} outside the model's alphabet "
+                            f"0..{int(high[p] - low[p])}")
+    sizes = high - low + 1
+    writer.reserve(len(levels) * (header_bits + 4 * pf.PRECISION * (len(low) + len(starts))))
+    pf.write_sparse_frames(writer.buffer, writer.state, header, header_bits, levels, low, starts, sizes,
+                           *pf.new_sparse(sizes, len(levels)), MAX_TOTAL)
 
 
 def _write_predictive_period(writer: BitWriter, tracks: list[_Track], start: int, stop: int, fps: float) -> int:
@@ -325,27 +387,33 @@ def _write_predictive_period(writer: BitWriter, tracks: list[_Track], start: int
     alphabets = [_write_predictive_intra_block(writer, track, d) for track, d in zip(tracks, decisions)]
     n_frames = len(decisions[0][5])
     if n_frames > 1:
-        starts = np.cumsum([0] + [len(low) for low, _ in alphabets])
-        frames = pc.LevelFrames(np.concatenate([low for low, _ in alphabets]),
-                                np.concatenate([high for _, high in alphabets]), starts)
-        levels = decisions[0][4] if len(decisions) == 1 else np.concatenate([d[4] for d in decisions], axis=1)
-        frames.write(writer, levels, *plane_header_bits(False, fps, paramset))
+        _write_p_planes(writer, alphabets, [d[4] for d in decisions], *plane_header_bits(False, fps, paramset))
     for track, d in zip(tracks, decisions):
         track.held[d[2]] = d[5][-1]
     return n_frames
+
+
+def _dct_levels(segment: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """pc.dct_levels, bitwise: its matrix product, then the rounding in one kernel."""
+    return pf.dct_quantise(pc.dct_matrix(len(segment)) @ segment.astype(np.float64), dc_step, ac_step)
+
+
+def _dct_reconstruct(dc: np.ndarray, ac: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> np.ndarray:
+    """pc.dct_reconstruct, bitwise: its coefficients and rounding in kernels, its matrix product."""
+    return pf.round_to_int(pc.dct_matrix(len(ac) + 1).T @ pf.dct_coefficients(dc, ac, dc_step, ac_step))
 
 
 def dct_period(block: np.ndarray, held: np.ndarray, q: int, parameter_set: ParameterSet = BAPS):
     """The DCT coder's decisions for one intra period of `block` (T, count): (mask (count,) bool,
     coded order, DC step, AC step, segments [(n_frames, DC levels (P,), AC levels (n_frames - 1, P))])."""
     steps_all = parameter_set.base_steps
-    mask = _changed_mask(block, held, steps_all * q)
+    mask = pf.changed_mask(np.ascontiguousarray(block, dtype=np.int64), np.asarray(held, dtype=np.int64), steps_all * q)
     order = parameter_set.coded_order(mask)
     dc_step, ac_step = pc.dct_steps(steps_all[order], q)
     segments = []
     for start in range(0, len(block), pc.SEGMENT):
         segment = block[start:start + pc.SEGMENT, order]
-        segments.append((len(segment), *pc.dct_levels(segment, dc_step, ac_step)))
+        segments.append((len(segment), *_dct_levels(segment, dc_step, ac_step)))
     return mask, order, dc_step, ac_step, segments
 
 
@@ -361,36 +429,51 @@ def dct_training_symbols(values: np.ndarray, q: int, intra_segments: int = DEFAU
         for k, (n, dc, ac) in enumerate(segments):
             out.append((dc if k == 0 else dc - previous, ac, k == 0))
             previous = dc
-            held[order] = pc.dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
+            held[order] = _dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
     return out
 
 
 def _write_dct_period(writer: BitWriter, tracks: list[_Track], start: int, stop: int, fps: float,
                       is_last_period: bool) -> int:
-    """Codes frames start..stop as one intra period of DCT segments; returns the frames it holds."""
+    """Codes frames start..stop as one intra period of DCT segments; returns the frames it holds. (The bits of
+    writer.write / write_group_masks / pc.write_dct_blocks, written by their kernels after one reserve per
+    segment.)"""
     tables = pc.vlc_tables()
+    dc_tables = {True: tables["dc_intra"].arrays()[:2], False: tables["dc_inter"].arrays()[:2]}
+    ac_codes, ac_lengths = tables["ac"].arrays()[:2]
     periods = [dct_period(track.values[start:stop], track.held, track.quant, track.parameter_set)
                for track in tracks]
     paramset = _paramset(tracks)
     intra_header, p_header = plane_header_bits(True, fps, paramset), plane_header_bits(False, fps, paramset)
     n_segments = len(periods[0][4])
     previous_dc = [None] * len(tracks)
+    buffer_bits = 64 + sum(8 + track.parameter_set.count + 3 * len(track.parameter_set.group_members)
+                           for track in tracks)
     for k in range(n_segments):
         intra = k == 0
         if intra:
             writer.start_code(PLANE_START_CODE)
-        writer.write(*(intra_header if intra else p_header))
         n = periods[0][4][k][0]
+        writer.reserve(buffer_bits + sum(72 * n * len(order) for _, order, _, _, _ in periods))
+        kc.put_bits(writer.buffer, writer.state, *(intra_header if intra else p_header))
         short = is_last_period and k == n_segments - 1 or n < pc.SEGMENT
         for j, (track, (mask, order, dc_step, ac_step, segments)) in enumerate(zip(tracks, periods)):
             _, dc, ac = segments[k]
             if intra:
-                _write_block_intra_header(writer, track, mask, DCT)
-            writer.write(*((16 | n - 1, 5) if short else (0, 1)))       # is_short [+ frames - 1]
+                pset = track.parameter_set
+                kc.put_bits(writer.buffer, writer.state, track.quant, 5)
+                pf.write_group_masks(writer.buffer, writer.state, mask, pset.group_starts, pset.group_order)
+                kc.put_bits(writer.buffer, writer.state, DCT, 2)                # gender 0, coding_type
+            kc.put_bits(writer.buffer, writer.state, *((16 | n - 1, 5) if short else (0, 1)))   # is_short [+ frames - 1]
             dc_values = dc if intra else dc - previous_dc[j]
-            pc.write_dct_blocks(writer, tables, dc_values, intra, ac)
+            status, detail = kc.write_dct_blocks(writer.buffer, writer.state, dc_values, ac, *dc_tables[intra],
+                                                 ac_codes, ac_lengths, pc.N_CATEGORIES)
+            if status == 1:
+                raise SigncastError(f"DCT level {detail} exceeds the largest category")
+            if status == 2:
+                raise SigncastError(f"symbol {detail} has no code in this Huffman table")
             previous_dc[j] = dc
-            track.held[order] = pc.dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
+            track.held[order] = _dct_reconstruct(dc, ac, dc_step, ac_step)[n - 1]
     return stop - start
 
 
@@ -425,11 +508,11 @@ def _checked_tracks(values, faps, face_frames, q: int,
         faps = faps.astype(np.int64)
         if np.any(faps[:, :2]):
             raise SigncastError("FAPs 1 (viseme) and 2 (expression) are not sent: they must be 0")
-        outside = np.abs(faps) > fap_table.limits()
+        outside = np.abs(faps) > _FAP_LIMITS
         if outside.any():
             t, index = np.argwhere(outside)[0]
             raise SigncastError(f"{_describe_fap(int(index) + 1, int(faps[t, index]))} at frame {t} is outside "
-                                f"its range +-{int(fap_table.limits()[index])}")
+                                f"its range +-{int(_FAP_LIMITS[index])}")
         face = _Track(FAPS, faps, fap_quant, np.zeros(FAPS.count, dtype=np.int64))
     if face_frames is None:
         face_frames = np.full(n_frames, face is not None)
@@ -571,17 +654,22 @@ class _BlockDecoder:
         if self.coding == DCT:
             return self._read_dct_segment(reader, intra)
         if intra:
-            self.held[self.order] = self.i_frames.read(reader) * self.steps
+            self.held[self.order] = _read_intra_levels(reader, *self.i_alphabet) * self.steps
         else:
             self.held[self.order] += self.p_frames.read(reader) * self.steps
         return self.held[None].copy()
 
     @property
     def p_frames(self) -> pc.LevelFrames:
-        """The P-frame models of this intra period (made at the first predicted plane)."""
+        """The P-frame models of this intra period (made at the first predicted plane, or those the fast
+        path left: p_source, its _SparseModels and this block's track)."""
         if self._p_frames is None:
-            low, high = self.p_alphabet
-            self._p_frames = pc.LevelFrames(low, high, [0, len(low)])
+            if self.p_source is not None:
+                models, k = self.p_source
+                self._p_frames = models.dense().track(k)
+            else:
+                low, high = self.p_alphabet
+                self._p_frames = pc.LevelFrames(low, high, [0, len(low)])
         return self._p_frames
 
     @p_frames.setter
@@ -603,14 +691,14 @@ class _BlockDecoder:
                 raise SigncastError("corrupt FBA stream: mixed range flags are not supported")
             fields = (pc.read_range_fields(reader, len(self.order)) if flags[0]
                       else np.full((4, len(self.order)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64))
-            i_low, i_high = pc.alphabet(fields[0], fields[1], q)
-            p_low, p_high = pc.alphabet(fields[2], fields[3], q)
-            if np.any(i_high - i_low >= 32768) or np.any(p_high - p_low >= 32768):
+            i_low, i_high, p_low, p_high = pf.alphabets(fields, q, pc.RANGE_DELTA)
+            if len(i_low) and max((i_high - i_low).max(), (p_high - p_low).max()) >= 32768:
                 raise SigncastError("corrupt FBA stream: impossible value ranges")
             self.steps = pset.steps(q)[self.order]
-            self.i_frames = pc.LevelFrames(i_low, i_high, [0, len(i_low)], once=True)
+            self.i_alphabet = (i_low, i_high)
             self.p_alphabet = (p_low, p_high)
             self._p_frames: pc.LevelFrames | None = None
+            self.p_source: tuple[_SparseModels, int] | None = None
         else:
             self.dc_step, self.ac_step = pc.dct_steps(pset.base_steps[self.order], q)
             self.previous_dc = None
@@ -624,7 +712,7 @@ class _BlockDecoder:
         if not intra:
             dc += self.previous_dc
         self.previous_dc = dc
-        segment = pc.dct_reconstruct(dc, ac, self.dc_step, self.ac_step)
+        segment = _dct_reconstruct(dc, ac, self.dc_step, self.ac_step)
         rows = np.repeat(self.held[None], n, axis=0)
         rows[:, self.order] = segment
         self.held = rows[-1].copy()
@@ -632,6 +720,28 @@ class _BlockDecoder:
 
 
 PREDICTED_CHUNK = 64       # predicted planes the fast path decodes per kernel call
+SPARSE_KEYS = 32           # counted symbols a sparse P-frame model holds (an intra period's 31 P frames)
+
+
+class _SparseModels:
+    """The P-frame models of the blocks of one intra plane, all their columns concatenated (low, high
+    (P,) alphabets, track_starts (K + 1,)), as kernels/param_frames.py sparse models; `dense()` turns
+    them into the equivalent pc.LevelFrames once (streams whose P planes outgrow SPARSE_KEYS, and the
+    field-by-field path), after which the sparse arrays are no longer used."""
+
+    def __init__(self, low: np.ndarray, high: np.ndarray, track_starts: np.ndarray) -> None:
+        self.low, self.high, self.track_starts = low, high, track_starts
+        self.sizes = high - low + 1
+        self.arrays = pf.new_sparse(self.sizes, SPARSE_KEYS)
+        self._dense: pc.LevelFrames | None = None
+
+    def dense(self) -> pc.LevelFrames:
+        if self._dense is None:
+            frames = pc.LevelFrames(self.low, self.high, self.track_starts)
+            _, offsets, counts, tree, scalars, _ = frames.bank_arrays()
+            pf.sparse_to_dense(self.sizes, *self.arrays, offsets, counts, tree, scalars)
+            self._dense = frames
+        return self._dense
 
 
 def _read_predicted_planes(reader: BitReader, blocks: list[_BlockDecoder], paramset: int, room: int,
@@ -641,34 +751,50 @@ def _read_predicted_planes(reader: BitReader, blocks: list[_BlockDecoder], param
     how many. It stops before anything else (a start code, another plane header, the end, the frame
     limit), which decode_fba then reads field by field with its checks and messages."""
     if len(blocks) == 1:
-        frames = blocks[0].p_frames
+        block = blocks[0]
+        low, high = block.p_alphabet
+        starts = np.array([0, len(low)], dtype=np.int64)
+        held, columns, steps = block.held, block.order, block.steps
+        width = block.parameter_set.count
     else:
+        low = np.concatenate([b.p_alphabet[0] for b in blocks])
+        high = np.concatenate([b.p_alphabet[1] for b in blocks])
         starts = np.cumsum([0] + [len(b.order) for b in blocks])
-        frames = pc.LevelFrames(np.concatenate([b.p_alphabet[0] for b in blocks]),
-                                np.concatenate([b.p_alphabet[1] for b in blocks]), starts)
-    offsets = np.cumsum([0] + [b.parameter_set.count for b in blocks])
-    held = np.concatenate([b.held for b in blocks])
-    columns = np.concatenate([b.order + offset for b, offset in zip(blocks, offsets)])
-    steps = np.concatenate([b.steps for b in blocks])
-    if len(blocks) > 1:
-        for k, b in enumerate(blocks):              # the field-by-field path continues with the same models
-            b.p_frames = frames.track(k)
+        held = np.concatenate([b.held for b in blocks])
+        columns = np.concatenate([blocks[0].order, blocks[1].order + FAPS.count])
+        steps = np.concatenate([b.steps for b in blocks])
+        width = len(held)
+    models = _SparseModels(low, high, starts)
+    for k, b in enumerate(blocks):              # the field-by-field path continues with the same models
+        b.p_source = (models, k)
+        b.p_frames = None
     total = 0
+    status = 0
     while total < room:
-        out = np.empty((min(PREDICTED_CHUNK, room - total), len(held)), dtype=np.int64)
-        status, n = pf.read_predicted_planes(reader.array, reader.end_bit, reader.registers, paramset, frames.low,
-                                             frames.track_starts, *frames.bank_arrays(), columns, steps, held, out)
+        out = np.empty((min(PREDICTED_CHUNK, room - total), width), dtype=np.int64)
+        full = False
+        if models._dense is None:
+            status, n = pf.read_sparse_planes(reader.array, reader.end_bit, reader.registers, paramset, low, starts,
+                                              models.sizes, *models.arrays, MAX_TOTAL, columns, steps, held, out)
+            if status == pf.SPARSE_FULL:
+                models.dense()
+                status, full = 0, True
+        else:
+            frames = models.dense()
+            status, n = pf.read_predicted_planes(reader.array, reader.end_bit, reader.registers, paramset, low,
+                                                 starts, *frames.bank_arrays(), columns, steps, held, out)
         if n:
             if face_frames is not None:
                 face_frames.extend(out[:n, :FAPS.count])
             if body_frames is not None:
-                body_frames.extend(out[:n, offsets[-2]:])
+                body_frames.extend(out[:n, width - BAPS.count:])
             total += n
         pc.check_level_status(status)
-        if n < len(out):
+        if n < len(out) and not full:
             break
-    for b, offset in zip(blocks, offsets):
-        b.held = held[offset:offset + b.parameter_set.count].copy()
+    if len(blocks) > 1:
+        for b, offset in zip(blocks, (0, FAPS.count)):
+            b.held = held[offset:offset + b.parameter_set.count].copy()
     return total
 
 

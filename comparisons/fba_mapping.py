@@ -294,6 +294,7 @@ def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, stric
     bap_map = bap_map or avatar_bap_map()
     if strict:
         _, present = _bone_sources(motion.bone_names, bap_map._unmapped)
+    if strict and len(present):
         # rotations.angle_between(q, IDENTITY) is 2 acos(|w|), largest where |w| is smallest
         smallest_w = np.abs(motion.rotations[:, present, 0]).min(axis=0, initial=1.0)
         turned = 2.0 * np.arccos(np.clip(smallest_w, 0.0, 1.0)) > 1e-4
@@ -302,10 +303,11 @@ def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, stric
             raise SigncastError(f"motion rotates bones that no BAP carries: {', '.join(lost[:6])}")
     frames, neutrals, columns, signs = bap_map.arrays
     mapped, source = _bone_sources(motion.bone_names, bap_map.bone_names)
-    # rotations.to_euler(F^-1 (N^-1 q) F, EULER_ORDER), bitwise, in one compiled pass (kernels/lab_rotations.py)
-    angles = lab_rotations.anatomical_euler(motion.rotations, mapped, source, frames, neutrals) * signs
     values = np.zeros((motion.n_frames, bap_table.N_BAPS), dtype=np.int64)
-    values[:, columns] = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
+    # np.round(rotations.to_euler(F^-1 (N^-1 q) F, EULER_ORDER) * signs / unit), bitwise, in one compiled pass
+    # (kernels/lab_rotations.py)
+    lab_rotations.anatomical_bap_levels(motion.rotations, mapped, source, frames, neutrals, columns, signs,
+                                        bap_table.ROTATION_UNIT_RAD, values)
     translation_mm = np.round(motion.root_translation / bap_table.TRANSLATION_UNIT_M).astype(np.int64)
     values[:, 181 - 1] = translation_mm[:, 1]   # vertical
     values[:, 182 - 1] = translation_mm[:, 0]   # lateral
@@ -322,10 +324,15 @@ def baps_to_motion(values: np.ndarray, fps: float, bap_map: AvatarBapMap | None 
     if values.ndim != 2 or values.shape[1] != bap_table.N_BAPS:
         raise SigncastError(f"BAP values must be (T, {bap_table.N_BAPS}), got {values.shape}")
     frames, neutrals, columns, signs = bap_map.arrays
-    angles = values[:, columns].astype(np.float64) * bap_table.ROTATION_UNIT_RAD * signs
-    # N (F E F^-1) with E = rotations.from_euler(angles, EULER_ORDER), normalised, w >= 0, in one compiled pass
-    # (kernels/lab_rotations.py; within 1e-15 of those NumPy/scipy calls)
-    q = lab_rotations.bap_rotations(np.ascontiguousarray(angles), frames, neutrals)
+    # N (F E F^-1) with E = rotations.from_euler(angles, EULER_ORDER), normalised, w >= 0, of the angles
+    # values[:, columns] x unit x signs, in one compiled pass (kernels/lab_rotations.py; within 1e-15 of those
+    # NumPy/scipy calls)
+    if np.issubdtype(values.dtype, np.integer):
+        q = lab_rotations.bap_value_rotations(values.astype(np.int64, copy=False), columns, signs,
+                                              bap_table.ROTATION_UNIT_RAD, frames, neutrals)
+    else:
+        angles = values[:, columns].astype(np.float64) * bap_table.ROTATION_UNIT_RAD * signs
+        q = lab_rotations.bap_rotations(np.ascontiguousarray(angles), frames, neutrals)
     names = bap_map.bone_names
     translation = np.stack([values[:, 182 - 1], values[:, 181 - 1], values[:, 183 - 1]], axis=1) * bap_table.TRANSLATION_UNIT_M
     return Motion(fps, names, q, translation.astype(np.float64), faps)

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 from typing import Protocol
 
+import numpy as np
+
 from comparisons import bba_codec, fap_table, fba_codec
 from comparisons.fba_mapping import baps_to_motion, motion_to_baps
 from media.errors import SigncastError
@@ -49,11 +51,20 @@ class FbaCodec:
 
     def encode(self, motion: Motion, q: int) -> bytes:
         return fba_codec.encode_fba(motion_to_baps(motion), motion.fps, q, self.coding,
-                                   faps=None if motion.faps is None else fap_table.saturated(motion.faps))
+                                   faps=None if motion.faps is None else _saturated(motion.faps))
 
     def decode(self, data: bytes) -> Motion:
         decoded = fba_codec.decode_fba(data)
         return baps_to_motion(decoded.baps_or_rest(), decoded.fps, faps=decoded.faps)
+
+
+_FAP_BOUND = fap_table.limits()
+_FAP_BOUND.flags.writeable = False
+
+
+def _saturated(faps) -> np.ndarray:
+    """fap_table.saturated (FAPs (T, 68) clipped to limits()), with the limits computed once."""
+    return np.minimum(np.maximum(np.asarray(faps, dtype=np.int64), -_FAP_BOUND), _FAP_BOUND)
 
 
 class BbaCodec:

@@ -7,10 +7,16 @@ Witten-Neal-Cleary arithmetic coder over Fenwick-tree model banks) and write exa
 per-field calls wrote, so streams stay byte-identical. Like entropy_coding they import nothing of
 the package's Python modules and return status codes; comparisons/ raises SigncastError from them.
 
+The P frames of the FBA stream use sparse models (write_sparse_frames, read_sparse_planes: see that
+section), which code the same bits as the Fenwick banks without arrays the size of the alphabets; the
+DCT helpers do the elementwise rounding around param_coding's NumPy matrix products.
+
 Status codes of the readers: 0 done, -1 the data ends inside a field, -2 corrupt arithmetic-coded
 data, -3 arithmetic-coded data ends early; the group-mask and range-field readers add their own
 (see each docstring).
 """
+import math
+
 import numpy as np
 from numba import njit
 
@@ -577,3 +583,324 @@ def read_predicted_planes(data, end_bit, state, paramset: int, low, track_starts
         out[count, :] = held
         count += 1
     return 0, count
+
+
+# ------------------------------------------------------------------ sparse adaptive models (P frames)
+# The P-frame models of an intra period start all-ones and see one symbol per frame, so at most a few
+# dozen of their (up to ~15,000 at Q = 1) counts ever leave 1. A sparse model keeps only those: per
+# model m, its symbols with a count above 1, sorted, keys[m, :used[m]], and their excess count - 1,
+# extra[m, :used[m]]; totals[m] is the model's total. The cumulative count of symbol s is
+# s + (excess of the keys below s), so coding reads and updates exactly the numbers of the Fenwick bank
+# (entropy_coding's increment 1, halving above `limit`) and writes the same bits, without allocating or
+# touching arrays the size of the alphabets. A model holds at most keys.shape[1] keys; the readers
+# stop (SPARSE_FULL) before a plane that could exceed it, and the caller goes on with a dense bank
+# (sparse_to_dense), so time per symbol stays bounded on any stream.
+
+SPARSE_FULL = -20
+
+
+@njit(cache=True, inline="always")
+def _sparse_add(keys, extra, used, totals, limit: int, size: int, m: int, slot: int, symbol: int) -> None:
+    """One more count of symbol (at keys[m, slot] already, or to be inserted there); halves the model
+    (count -> (count + 1) // 2, as entropy_coding.update) when its total exceeds limit."""
+    n = used[m]
+    if slot < n and keys[m, slot] == symbol:
+        extra[m, slot] += 1
+    else:
+        for s in range(n, slot, -1):
+            keys[m, s] = keys[m, s - 1]
+            extra[m, s] = extra[m, s - 1]
+        keys[m, slot] = symbol
+        extra[m, slot] = 1
+        used[m] = n + 1
+    totals[m] += 1
+    if totals[m] > limit:
+        total = size
+        kept = 0
+        for s in range(used[m]):
+            e = (extra[m, s] + 2) // 2 - 1
+            if e:
+                keys[m, kept] = keys[m, s]
+                extra[m, kept] = e
+                kept += 1
+                total += e
+        used[m] = kept
+        totals[m] = total
+
+
+@njit(cache=True)
+def new_sparse(sizes, capacity: int):
+    """Fresh all-ones sparse models of these alphabet sizes (M,): (totals (M,), keys (M, capacity),
+    extra (M, capacity), used (M,))."""
+    n_models = len(sizes)
+    totals = np.empty(n_models, dtype=np.int64)
+    for m in range(n_models):
+        totals[m] = sizes[m]
+    return (totals, np.empty((n_models, capacity), dtype=np.int64), np.empty((n_models, capacity), dtype=np.int64),
+            np.zeros(n_models, dtype=np.int64))
+
+
+@njit(cache=True)
+def sparse_to_dense(sizes, totals, keys, extra, used, offsets, counts, tree, scalars) -> None:
+    """Loads sparse models into a fresh bank of new_scalars (excess form, counts and tree zeroed)."""
+    for m in range(len(sizes)):
+        n = sizes[m]
+        base = offsets[m]
+        tbase = base + m
+        for s in range(used[m]):
+            counts[base + keys[m, s]] = extra[m, s]
+            tree[tbase + keys[m, s] + 1] = extra[m, s]
+        for i in range(1, n + 1):
+            parent = i + (i & -i)
+            if parent <= n:
+                tree[tbase + parent] += tree[tbase + i]
+        scalars[m, TOTAL] = totals[m]
+
+
+@njit(cache=True)
+def _sparse_encode_track(buffer, pos: int, run: int, symbols, a: int, b: int, sizes, totals, keys, extra, used,
+                         limit: int) -> tuple[int, int]:
+    """_encode_track of symbols[a:b], model p for column p, with sparse models."""
+    low, high, pending = 0, TOP, 0
+    for p in range(a, b):
+        symbol = symbols[p]
+        cumulative = symbol
+        excess = 0
+        slot = used[p]
+        for s in range(used[p]):
+            key = keys[p, s]
+            if key >= symbol:
+                slot = s
+                if key == symbol:
+                    excess = extra[p, s]
+                break
+            cumulative += extra[p, s]
+        total = totals[p]
+        span = high - low + 1
+        high = low + span * (cumulative + 1 + excess) // total - 1
+        low = low + span * cumulative // total
+        while True:
+            if high < HALF:
+                bit = 0
+            elif low >= HALF:
+                bit = 1
+                low -= HALF
+                high -= HALF
+            elif low >= QUARTER and high < THREE_QUARTERS:
+                pending += 1
+                low -= QUARTER
+                high -= QUARTER
+                low <<= 1
+                high = (high << 1) | 1
+                continue
+            else:
+                break
+            pos, run = _put(buffer, pos, run, bit)
+            for _ in range(pending):
+                pos, run = _put(buffer, pos, run, 1 - bit)
+            pending = 0
+            low <<= 1
+            high = (high << 1) | 1
+        _sparse_add(keys, extra, used, totals, limit, sizes[p], p, slot, symbol)
+    bit = 0 if low < QUARTER else 1
+    pos, run = _put(buffer, pos, run, bit)
+    for _ in range(pending + 1):
+        pos, run = _put(buffer, pos, run, 1 - bit)
+    return pos, run
+
+
+@njit(cache=True)
+def write_sparse_frames(buffer, state, header: int, header_bits: int, levels, low, track_starts, sizes, totals,
+                        keys, extra, used, limit: int) -> None:
+    """write_level_frames (not fresh; model p codes column p) with sparse models of capacity >= len(levels)."""
+    symbols = np.empty(levels.shape[1], dtype=np.int64)
+    pos, run = state[0], state[1]
+    for f in range(levels.shape[0]):
+        for shift in range(header_bits - 1, -1, -1):
+            pos, run = _put(buffer, pos, run, (header >> shift) & 1)
+        for p in range(levels.shape[1]):
+            symbols[p] = levels[f, p] - low[p]
+        for k in range(len(track_starts) - 1):
+            a, b = track_starts[k], track_starts[k + 1]
+            coded = False
+            for p in range(a, b):
+                if sizes[p] > 1:
+                    coded = True
+                    break
+            if coded:
+                pos, run = _sparse_encode_track(buffer, pos, run, symbols, a, b, sizes, totals, keys, extra, used,
+                                                limit)
+    state[0], state[1] = pos, run
+
+
+@njit(cache=True, inline="always")
+def _next(data, end_bit: int, pos: int, run: int, over: int) -> tuple[int, int, int, int]:
+    """_look without the ring (and without a branch on the bit): (bit, pos, run, over) after one data bit."""
+    if pos >= end_bit:
+        return 0, pos + 1, (run + 1) % MAX_ZERO_RUN, over + 1
+    bit = np.int64((data[pos >> 3] >> (7 - (pos & 7))) & 1)
+    pos += 1
+    run = (run + 1) * (1 - bit)
+    if run == MAX_ZERO_RUN:
+        run = 0
+        if pos < end_bit and (data[pos >> 3] >> (7 - (pos & 7))) & 1:
+            pos += 1                              # a stuffing bit; a 0 (start code, or damage) is left unread
+    return bit, pos, run, over
+
+
+@njit(cache=True)
+def _sparse_decode_track(data, end_bit: int, state, a: int, b: int, sizes, totals, keys, extra, used,
+                         limit: int, out) -> int:
+    """_decode_track of columns a:b (model p for column p) with sparse models. The renormalisation shifts all
+    the leading bits that low and high share at once (value_n = value 2^n - (those bits of low) 2^32 + the n
+    bits read: the per-bit steps' arithmetic, summed), and the reader state that the encoder's bits end at
+    (the state HISTORY bits before the last read) is found by reading again from the start instead of keeping
+    a ring of states."""
+    pos0, run0, over0 = state[0], state[1], state[2]
+    pos, run, over = pos0, run0, over0
+    value = 0
+    for _ in range(PRECISION):
+        bit, pos, run, over = _next(data, end_bit, pos, run, over)
+        value = (value << 1) | bit
+    at = PRECISION
+    low, high = 0, TOP
+    for p in range(a, b):
+        span = high - low + 1
+        total = totals[p]
+        target = ((value - low + 1) * total - 1) // span
+        if not 0 <= target < total:
+            return CORRUPT_CODE
+        below = 0                                  # excess of the keys below
+        slot = used[p]
+        symbol, cumulative, excess = -1, 0, 0
+        for s in range(used[p]):
+            start = keys[p, s] + below
+            if target < start:
+                slot = s
+                break
+            if target <= start + extra[p, s]:
+                slot = s
+                symbol, cumulative, excess = keys[p, s], start, extra[p, s]
+                break
+            below += extra[p, s]
+        if symbol < 0:
+            symbol, cumulative = target - below, target
+        high = low + span * (cumulative + 1 + excess) // total - 1
+        low = low + span * cumulative // total
+        while True:
+            shared = low ^ high
+            if shared < HALF:                      # high < HALF or low >= HALF, for n leading bits
+                n = 1
+                while n < PRECISION and not (shared >> (PRECISION - 1 - n)) & 1:
+                    n += 1
+                bits = 0
+                for _ in range(n):
+                    bit, pos, run, over = _next(data, end_bit, pos, run, over)
+                    bits = (bits << 1) | bit
+                value = (value << n) - ((low >> (PRECISION - n)) << PRECISION) + bits
+                low = (low << n) & TOP
+                high = ((high << n) | ((1 << n) - 1)) & TOP
+                at += n
+            elif low >= QUARTER and high < THREE_QUARTERS:
+                bit, pos, run, over = _next(data, end_bit, pos, run, over)
+                low = (low - QUARTER) << 1
+                high = ((high - QUARTER) << 1) | 1
+                value = ((value - QUARTER) << 1) | bit
+                at += 1
+            else:
+                break
+        _sparse_add(keys, extra, used, totals, limit, sizes[p], p, slot, symbol)
+        out[p] = symbol
+    pos, run, over = pos0, run0, over0
+    for _ in range(at - HISTORY):
+        _, pos, run, over = _next(data, end_bit, pos, run, over)
+    state[0], state[1], state[2] = pos, run, over
+    return CODE_ENDS_EARLY if pos > end_bit else 0
+
+
+@njit(cache=True)
+def read_sparse_planes(data, end_bit, state, paramset: int, low, track_starts, sizes, totals, keys, extra, used,
+                       limit: int, columns, steps, held, out) -> tuple[int, int]:
+    """read_predicted_planes (model p for column p) with sparse models. Also returns SPARSE_FULL, with the
+    reader before the plane, when a model holds keys.shape[1] keys."""
+    levels = np.empty(len(low), dtype=np.int64)
+    capacity = keys.shape[1]
+    count = 0
+    while count < out.shape[0]:
+        if state[0] >= end_bit or at_start_code(data, end_bit, state[0]):
+            break
+        for m in range(len(used)):
+            if used[m] >= capacity:
+                return SPARSE_FULL, count
+        saved0, saved1, saved2 = state[0], state[1], state[2]
+        header = get_bits(data, end_bit, state, 4)
+        if header != paramset << 1:
+            state[0], state[1], state[2] = saved0, saved1, saved2
+            break
+        for k in range(len(track_starts) - 1):
+            a, b = track_starts[k], track_starts[k + 1]
+            coded = False
+            for p in range(a, b):
+                if sizes[p] > 1:
+                    coded = True
+                    break
+            if coded:
+                status = _sparse_decode_track(data, end_bit, state, a, b, sizes, totals, keys, extra, used, limit,
+                                              levels)
+                if status:
+                    return status, count
+            else:
+                for p in range(a, b):
+                    levels[p] = 0
+            for p in range(a, b):
+                levels[p] += low[p]
+        for p in range(len(levels)):
+            held[columns[p]] += levels[p] * steps[p]
+        out[count, :] = held
+        count += 1
+    return 0, count
+
+
+# ------------------------------------------------------------------ DCT levels around NumPy's matrix products
+# param_coding.dct_levels / dct_reconstruct without their elementwise NumPy passes: the same IEEE operations
+# per element (the DCT matrix products stay NumPy's, whose summation order is BLAS's).
+
+@njit(cache=True)
+def dct_quantise(coefficients, dc_step, ac_step):
+    """coefficients (n, P) -> DC levels (P,), AC levels (n - 1, P): sign(c) floor(|c| / step + 0.5)."""
+    n, n_params = coefficients.shape
+    dc = np.empty(n_params, dtype=np.int64)
+    ac = np.empty((n - 1, n_params), dtype=np.int64)
+    for p in range(n_params):
+        c = coefficients[0, p]
+        level = np.int64(math.floor(abs(c) / dc_step[p] + 0.5))
+        dc[p] = -level if c < 0 else (level if c > 0 else 0)
+    for k in range(1, n):
+        for p in range(n_params):
+            c = coefficients[k, p]
+            level = np.int64(math.floor(abs(c) / ac_step[p] + 0.5))
+            ac[k - 1, p] = -level if c < 0 else (level if c > 0 else 0)
+    return dc, ac
+
+
+@njit(cache=True)
+def dct_coefficients(dc, ac, dc_step, ac_step):
+    """(n, P) float64 [dc x dc_step; ac x ac_step] of levels dc (P,), ac (n - 1, P)."""
+    n_params = len(dc)
+    out = np.empty((ac.shape[0] + 1, n_params))
+    for p in range(n_params):
+        out[0, p] = dc[p] * dc_step[p]
+    for k in range(ac.shape[0]):
+        for p in range(n_params):
+            out[k + 1, p] = ac[k, p] * ac_step[p]
+    return out
+
+
+@njit(cache=True)
+def round_to_int(values):
+    """np.round(values).astype(np.int64) of finite values (n, P)."""
+    out = np.empty(values.shape, dtype=np.int64)
+    for k in range(values.shape[0]):
+        for p in range(values.shape[1]):
+            out[k, p] = np.int64(np.rint(values[k, p]))
+    return out

@@ -2,7 +2,11 @@
 it replaced: F^-1 (N^-1 q) F, then media.rotations.to_euler (scipy's from_quat and as_euler). The BAP
 integers are rounded angles, so the angles must be bitwise equal, not merely close: checked on real
 retargeted letters and on poses at the awkward places of the Euler split (angles near +-pi, the
-abduction at +-pi/2 where the split is in gimbal lock, and just off it)."""
+abduction at +-pi/2 where the split is in gimbal lock, and just off it).
+
+Also the other speed-ups that must not change a bit: held frames skipped by the rotation kernels, the
+sparse P-frame models against the Fenwick banks (kernels/param_frames.py), and the DCT kernels around
+NumPy's matrix products."""
 from __future__ import annotations
 
 import functools
@@ -10,15 +14,21 @@ import functools
 import numpy as np
 import pytest
 
-from comparisons import bap_table
+from comparisons import bap_table, fba_codec
+from comparisons import param_coding as pc
+from comparisons.bitstream import BitReader, BitWriter
+from comparisons.entropy import MAX_TOTAL
+from comparisons.fba_codec import decode_fba, encode_fba
 from comparisons.fba_mapping import (
     EULER_ORDER,
     _bone_rotations,
     _bone_sources,
     avatar_bap_map,
+    baps_to_motion,
     motion_to_baps,
 )
 from kernels import lab_rotations
+from kernels import param_frames as pf
 from media import rotations
 from media.fingerspelling import letter_motion
 from media.motion import Motion
@@ -109,3 +119,147 @@ def test_missing_bones_at_rest():
     motion = Motion(full.fps, tuple(full.bone_names[k] for k in keep), full.rotations[:, keep],
                     full.root_translation)
     assert np.array_equal(motion_to_baps(motion), scipy_baps(motion))
+
+
+# ------------------------------------------------------------------ held poses (the kernels skip repeated frames)
+
+def _with_held_frames(motion: Motion) -> Motion:
+    """The motion with runs of repeated frames and exact zeros of both signs (0.0 and -0.0 must not count
+    as the same input: atan2 tells them apart)."""
+    q = motion.rotations[np.repeat(np.arange(motion.n_frames), 3)].copy()
+    q[1::6, :5, 1:] = 0.0
+    q[2::6, :5, 1:] = -0.0
+    q[4::6, :5, 1:] = -0.0
+    t = np.repeat(motion.root_translation, 3, axis=0)
+    return Motion(motion.fps, motion.bone_names, q, t)
+
+
+@pytest.mark.parametrize("letter", ["B", "J"])
+def test_held_frames_bitwise(letter):
+    motion = _with_held_frames(_letter(letter))
+    assert np.array_equal(motion_to_baps(motion), scipy_baps(motion))
+
+
+def test_bap_value_rotations_bitwise():
+    """BAPs -> rotations with repeated frames skipped: bitwise the per-frame kernel on the angles."""
+    bap_map = avatar_bap_map()
+    frames, neutrals, columns, signs = bap_map.arrays
+    values = np.concatenate([motion_to_baps(_letter(letter)) for letter in "AHJ"])
+    values = values[np.repeat(np.arange(len(values)), 2)]
+    values[::5, columns[:4]] = 0
+    angles = values[:, columns].astype(np.float64) * bap_table.ROTATION_UNIT_RAD * signs
+    expected = lab_rotations.bap_rotations(np.ascontiguousarray(angles), frames, neutrals)
+    got = lab_rotations.bap_value_rotations(values, columns, signs, bap_table.ROTATION_UNIT_RAD, frames, neutrals)
+    assert np.array_equal(got.view(np.int64), expected.view(np.int64))
+    decoded = baps_to_motion(values, 25.0)
+    assert np.array_equal(decoded.rotations.view(np.int64), expected.view(np.int64))
+
+
+# ------------------------------------------------------------------ sparse P-frame models
+
+def _skewed_levels(n_frames: int, sizes: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(levels (F, P), low (P,)): geometric-ish residuals in alphabets of these sizes, centred on 0."""
+    rng = np.random.default_rng(seed)
+    low = -(sizes // 2)
+    draws = np.minimum(rng.geometric(0.4, (n_frames, len(sizes))) - 1, sizes - 1)
+    signs = np.where(rng.random((n_frames, len(sizes))) < 0.5, -1, 1)
+    levels = np.clip(draws * signs, low, low + sizes - 1)
+    return levels.astype(np.int64), low.astype(np.int64)
+
+
+@pytest.mark.parametrize("n_frames, seed", [(31, 1), (400, 2), (70_000, 3)])
+def test_sparse_models_code_the_dense_banks_bits(n_frames, seed):
+    """write_sparse_frames writes the bits of write_level_frames (Fenwick banks) with the same models, also
+    past the models' halving (70,000 symbols of a 5-symbol model exceed MAX_TOTAL); read_sparse_planes
+    reads them back, also when a model outgrows its keys and decoding continues on the dense bank."""
+    sizes = np.array([1, 5, 200, 15241, 3], dtype=np.int64)
+    levels, low = _skewed_levels(n_frames, sizes, seed)
+    starts = np.array([0, 2, 5], dtype=np.int64)
+    header, header_bits = 0b0100, 4                      # a predicted plane of BAPs
+    dense = pc.LevelFrames(low, low + sizes - 1, starts)
+    dense_writer = BitWriter()
+    dense.write(dense_writer, levels, header, header_bits)
+    sparse_writer = BitWriter()
+    sparse_writer.reserve(dense_writer.n_bits + 64)
+    pf.write_sparse_frames(sparse_writer.buffer, sparse_writer.state, header, header_bits, levels, low, starts,
+                           sizes, *pf.new_sparse(sizes, n_frames), MAX_TOTAL)
+    data = sparse_writer.getvalue()
+    assert data == dense_writer.getvalue()
+
+    columns = np.arange(len(sizes), dtype=np.int64)
+    steps = np.ones(len(sizes), dtype=np.int64)
+    expected = np.cumsum(levels, axis=0)
+    for capacity in (8, 256):
+        reader = BitReader(data)
+        models = pf.new_sparse(sizes, capacity)
+        held = np.zeros(len(sizes), dtype=np.int64)
+        out = np.zeros((n_frames, len(sizes)), dtype=np.int64)
+        status, n = pf.read_sparse_planes(reader.array, reader.end_bit, reader.registers, 2, low, starts, sizes,
+                                          *models, MAX_TOTAL, columns, steps, held, out)
+        if capacity == 8:                             # the 200- and 15241-symbol models outgrow 8 keys
+            assert status == pf.SPARSE_FULL and 8 <= n < n_frames
+            bank = pc.LevelFrames(low, low + sizes - 1, starts)
+            _, offsets, counts, tree, scalars, _ = bank.bank_arrays()
+            pf.sparse_to_dense(sizes, *models, offsets, counts, tree, scalars)
+            status, m = pf.read_predicted_planes(reader.array, reader.end_bit, reader.registers, 2, low, starts,
+                                                 *bank.bank_arrays(), columns, steps, held, out[n:])
+            n += m
+        assert status == 0 and n == n_frames
+        assert np.array_equal(out, expected)
+
+
+def _long_period_stream(q: int) -> tuple[np.ndarray, bytes]:
+    values = np.concatenate([motion_to_baps(_letter(letter)) for letter in "AHJ"])
+    return values, encode_fba(values, 25.0, q, "pred", intra_period=len(values))
+
+
+@pytest.mark.parametrize("q", [1, 31])
+def test_decoder_leaves_sparse_models_for_long_periods(q, monkeypatch):
+    """An intra period of more P planes than SPARSE_KEYS decodes the same through the sparse models, the
+    switch to the dense bank, and the dense bank alone, within half a step of the input."""
+    values, data = _long_period_stream(q)
+    decoded = {}
+    for keys in (0, 4, fba_codec.SPARSE_KEYS, 1000):
+        monkeypatch.setattr(fba_codec, "SPARSE_KEYS", keys)
+        decoded[keys] = decode_fba(data).baps
+    for keys, baps in decoded.items():
+        assert np.array_equal(baps, decoded[0]), keys
+    assert np.all(np.abs(decoded[0] - values) <= bap_table.steps() * q // 2)
+
+
+def test_encoder_p_planes_match_level_frames(monkeypatch):
+    """_write_p_planes (sparse models) writes what pc.LevelFrames.write wrote, on real letters with the face."""
+    def dense(writer, alphabets, levels, header, header_bits):
+        starts = np.cumsum([0] + [len(low) for low, _ in alphabets])
+        frames = pc.LevelFrames(np.concatenate([low for low, _ in alphabets]),
+                                np.concatenate([high for _, high in alphabets]), starts)
+        frames.write(writer, np.concatenate(levels, axis=1), header, header_bits)
+
+    for letter in "AHJ":
+        motion = _letter(letter)
+        for q in (1, 8, 31):
+            for period in (32, motion.n_frames):
+                got = encode_fba(motion_to_baps(motion), 25.0, q, "pred", faps=motion.faps, intra_period=period)
+                with monkeypatch.context() as patch:
+                    patch.setattr(fba_codec, "_write_p_planes", dense)
+                    want = encode_fba(motion_to_baps(motion), 25.0, q, "pred", faps=motion.faps, intra_period=period)
+                assert got == want
+
+
+# ------------------------------------------------------------------ DCT levels around NumPy's products
+
+@pytest.mark.parametrize("q", [1, 8, 31])
+def test_dct_kernels_bitwise(q):
+    """The DCT levels and reconstructions of the kernels are param_coding's, bit for bit, on real segments
+    of every length 1..16."""
+    values = np.concatenate([motion_to_baps(_letter(letter)) for letter in "AHJ"])
+    order = np.flatnonzero(np.any(values != 0, axis=0))
+    dc_step, ac_step = pc.dct_steps(bap_table.steps()[order], q)
+    for n in range(1, 17):
+        for start in (0, 7, len(values) - n):
+            segment = values[start:start + n, order]
+            dc, ac = pc.dct_levels(segment, dc_step, ac_step)
+            got_dc, got_ac = fba_codec._dct_levels(segment, dc_step, ac_step)
+            assert np.array_equal(got_dc, dc) and np.array_equal(got_ac, ac)
+            assert np.array_equal(fba_codec._dct_reconstruct(dc, ac, dc_step, ac_step),
+                                  pc.dct_reconstruct(dc, ac, dc_step, ac_step))
