@@ -303,6 +303,35 @@ def _put(buffer, pos: int, run: int, bit: int) -> tuple[int, int]:
     return pos, run
 
 
+@njit(cache=True, inline="always")
+def _renormalise(buffer, pos: int, run: int, low: int, high: int, pending: int) -> tuple[int, int, int, int, int]:
+    """The encoder's interval renormalisation (entropy_coding.encode_symbol's loop) on local state: emits the
+    settled bits and their pending follow bits; returns (position, zero run, low, high, pending)."""
+    while True:
+        if high < HALF:
+            bit = 0
+        elif low >= HALF:
+            bit = 1
+            low -= HALF
+            high -= HALF
+        elif low >= QUARTER and high < THREE_QUARTERS:
+            pending += 1
+            low -= QUARTER
+            high -= QUARTER
+            low <<= 1
+            high = (high << 1) | 1
+            continue
+        else:
+            break
+        pos, run = _put(buffer, pos, run, bit)
+        for _ in range(pending):
+            pos, run = _put(buffer, pos, run, 1 - bit)
+        pending = 0
+        low <<= 1
+        high = (high << 1) | 1
+    return pos, run, low, high, pending
+
+
 @njit(cache=True)
 def new_scalars(sizes, limit: int):
     """offsets (M + 1,) of each model's counts and scalars (M, 5) (total, top bit, increment 1, limit, n)
@@ -374,28 +403,7 @@ def _encode_track(buffer, pos: int, run: int, symbols, a: int, b: int, offsets, 
         span = high - low + 1
         high = low + span * (cumulative + 1 + excess) // total - 1
         low = low + span * cumulative // total
-        while True:
-            if high < HALF:
-                bit = 0
-            elif low >= HALF:
-                bit = 1
-                low -= HALF
-                high -= HALF
-            elif low >= QUARTER and high < THREE_QUARTERS:
-                pending += 1
-                low -= QUARTER
-                high -= QUARTER
-                low <<= 1
-                high = (high << 1) | 1
-                continue
-            else:
-                break
-            pos, run = _put(buffer, pos, run, bit)
-            for _ in range(pending):
-                pos, run = _put(buffer, pos, run, 1 - bit)
-            pending = 0
-            low <<= 1
-            high = (high << 1) | 1
+        pos, run, low, high, pending = _renormalise(buffer, pos, run, low, high, pending)
         if not fresh:
             _update(counts, tree, scalars, m, base, symbol)
     bit = 0 if low < QUARTER else 1
@@ -679,28 +687,7 @@ def _sparse_encode_track(buffer, pos: int, run: int, symbols, a: int, b: int, si
         span = high - low + 1
         high = low + span * (cumulative + 1 + excess) // total - 1
         low = low + span * cumulative // total
-        while True:
-            if high < HALF:
-                bit = 0
-            elif low >= HALF:
-                bit = 1
-                low -= HALF
-                high -= HALF
-            elif low >= QUARTER and high < THREE_QUARTERS:
-                pending += 1
-                low -= QUARTER
-                high -= QUARTER
-                low <<= 1
-                high = (high << 1) | 1
-                continue
-            else:
-                break
-            pos, run = _put(buffer, pos, run, bit)
-            for _ in range(pending):
-                pos, run = _put(buffer, pos, run, 1 - bit)
-            pending = 0
-            low <<= 1
-            high = (high << 1) | 1
+        pos, run, low, high, pending = _renormalise(buffer, pos, run, low, high, pending)
         _sparse_add(keys, extra, used, totals, limit, sizes[p], p, slot, symbol)
     bit = 0 if low < QUARTER else 1
     pos, run = _put(buffer, pos, run, bit)
