@@ -41,7 +41,7 @@ from typing import NamedTuple
 import numpy as np
 
 from kernels import backends
-from kernels._arrays import OpenCLBuffers, UploadCache, as_array, check_indices
+from kernels._arrays import UploadCache, as_array, check_indices
 from kernels.errors import KernelError
 
 LOOKS = ("shaded", "flat")
@@ -389,6 +389,12 @@ class _WarpRaster:
 
 
 # --- OpenCL ---------------------------------------------------------------------------------------
+# Chosen here after profiling on PoCL's CPU device (2 threads): one work item per vertex or triangle ran
+# the trivial per-item bodies several times slower than a loop over a run of items in one work item, so
+# every kernel takes a run (OPENCL_CHUNK vertices or triangles, one image row in the resolve). The other
+# costs were the ones of the Warp-CPU path: kernel arguments packed again every frame (now set once per
+# mesh and image size), a resolve over every pixel (now only the rows' drawn spans) and the lit colour
+# computed per pixel (now per face, in the triangle pass).
 
 _OPENCL_SOURCE = backends.opencl_defines({
     "SUBPIXEL": SUBPIXEL, "HALF_SUBPIXEL": HALF_SUBPIXEL, "MIN_CLIP_W": MIN_CLIP_W, "GUARD_PIXELS": GUARD_PIXELS,
@@ -423,45 +429,52 @@ inline float face_shade(float3 p0, float3 p1, float3 p2, int flipped, float lx, 
     return ambient + diffuse * fmax(cosine, 0.0f);
 }
 
-/* m: the world -> clip matrix, row-major, as one kernel argument (no upload) */
-__kernel void project(__global const float *positions, float16 m, float width, float height,
+/* Vertices [g * chunk, (g + 1) * chunk) of n. m: the world -> clip matrix, row-major, as one kernel argument. */
+__kernel void project(__global const float *positions, float16 m, float width, float height, int n, int chunk,
                       __global long *fixed_x, __global long *fixed_y, __global float *depth,
                       __global int *valid) {
-    int v = get_global_id(0);
-    float x = positions[3 * v], y = positions[3 * v + 1], z = positions[3 * v + 2];
-    float cx = m.s0 * x + m.s1 * y + m.s2 * z + m.s3;
-    float cy = m.s4 * x + m.s5 * y + m.s6 * z + m.s7;
-    float cz = m.s8 * x + m.s9 * y + m.sa * z + m.sb;
-    float cw = m.sc * x + m.sd * y + m.se * z + m.sf;
-    int ok = cw > MIN_CLIP_W;
-    float w = ok ? cw : 1.0f;
-    float wx = (cx / w * 0.5f + 0.5f) * width;
-    float wy = (0.5f - cy / w * 0.5f) * height;
-    depth[v] = cz / w * 0.5f + 0.5f;
-    if (fabs(wx) >= GUARD_PIXELS || fabs(wy) >= GUARD_PIXELS) ok = 0;
-    fixed_x[v] = ok ? (long)floor(wx * (float)SUBPIXEL + 0.5f) : 0;
-    fixed_y[v] = ok ? (long)floor(wy * (float)SUBPIXEL + 0.5f) : 0;
-    valid[v] = ok;
+    int first = get_global_id(0) * chunk, last = min(first + chunk, n);
+    for (int v = first; v < last; ++v) {
+        float x = positions[3 * v], y = positions[3 * v + 1], z = positions[3 * v + 2];
+        float cx = m.s0 * x + m.s1 * y + m.s2 * z + m.s3;
+        float cy = m.s4 * x + m.s5 * y + m.s6 * z + m.s7;
+        float cz = m.s8 * x + m.s9 * y + m.sa * z + m.sb;
+        float cw = m.sc * x + m.sd * y + m.se * z + m.sf;
+        int ok = cw > MIN_CLIP_W;
+        float w = ok ? cw : 1.0f;
+        float wx = (cx / w * 0.5f + 0.5f) * width;
+        float wy = (0.5f - cy / w * 0.5f) * height;
+        depth[v] = cz / w * 0.5f + 0.5f;
+        if (fabs(wx) >= GUARD_PIXELS || fabs(wy) >= GUARD_PIXELS) ok = 0;
+        fixed_x[v] = ok ? (long)floor(wx * (float)SUBPIXEL + 0.5f) : 0;
+        fixed_y[v] = ok ? (long)floor(wy * (float)SUBPIXEL + 0.5f) : 0;
+        valid[v] = ok;
+    }
 }
 
+/* Triangles [g * chunk, (g + 1) * chunk) of n: per-triangle setup (shaded look: the lit colour of the face
+   into face_rgb, 3 bytes a triangle), edge functions with the top-left rule over the pixel centres inside the
+   bounding box, depth test. Each image row's span of drawn bounding boxes widens [row_lo, row_hi]. */
 __kernel void raster(__global const int *triangles, __global const float *positions,
                      __global const long *fixed_x, __global const long *fixed_y,
                      __global const float *depth, __global const int *valid, int width, int height, int cull,
                      int shaded, float lx, float ly, float lz, float ambient, float diffuse,
-                     __global long *keys, __global float *shade) {
-    int t = get_global_id(0);
+                     __global const uchar *colour, int n, int chunk, __global long *keys, __global uchar *face_rgb,
+                     __global int *row_lo, __global int *row_hi) {
+  int first = get_global_id(0) * chunk, last = min(first + chunk, n);
+  for (int t = first; t < last; ++t) {
     /* per-triangle setup: drop triangles with a vertex off limits, degenerate ones, culled back faces */
     int i0 = triangles[3 * t], i1 = triangles[3 * t + 1], i2 = triangles[3 * t + 2];
-    if (!valid[i0] || !valid[i1] || !valid[i2]) return;
+    if (!valid[i0] || !valid[i1] || !valid[i2]) continue;
     long x0 = fixed_x[i0], y0 = fixed_y[i0], x1 = fixed_x[i1], y1 = fixed_y[i1], x2 = fixed_x[i2], y2 = fixed_y[i2];
     long area = edge(x0, y0, x1, y1, x2, y2);
-    if (area == 0 || (area > 0 && cull)) return;
+    if (area == 0 || (area > 0 && cull)) continue;
     /* bounding box of the pixel centres the triangle can cover, clipped to the image: a triangle between
        pixel centres (sub-pixel) or off the image covers none and stops here */
     long xmin = first_centre(min(min(x0, x1), x2)), xmax = min(last_centre(max(max(x0, x1), x2)), (long)(width - 1));
-    if (xmax < xmin) return;
+    if (xmax < xmin) continue;
     long ymin = first_centre(min(min(y0, y1), y2)), ymax = min(last_centre(max(max(y0, y1), y2)), (long)(height - 1));
-    if (ymax < ymin) return;
+    if (ymax < ymin) continue;
     float z0 = depth[i0], z1 = depth[i1], z2 = depth[i2];
     int flipped = 0;
     if (area > 0) {             /* window y points down: front faces turn clockwise, area < 0 */
@@ -471,9 +484,12 @@ __kernel void raster(__global const int *triangles, __global const float *positi
         area = -area;
         flipped = 1;
     }
-    if (shaded)
-        shade[t] = face_shade(vload3(i0, positions), vload3(i1, positions), vload3(i2, positions), flipped,
-                              lx, ly, lz, ambient, diffuse);
+    if (shaded) {
+        float s = face_shade(vload3(i0, positions), vload3(i1, positions), vload3(i2, positions), flipped,
+                             lx, ly, lz, ambient, diffuse);
+        for (int k = 0; k < 3; ++k)
+            face_rgb[3 * t + k] = (uchar)fmin((float)colour[3 * t + k] * s + 0.5f, 255.0f);
+    }
     /* walking order a, b, c = v0, v2, v1 turns counter-clockwise: edge functions are positive inside */
     long ax = x0, ay = y0, bx = x2, by = y2, cx = x1, cy = y1;
     /* edge functions at the pixel centres, with the top-left rule, stepped incrementally across the box */
@@ -487,6 +503,8 @@ __kernel void raster(__global const int *triangles, __global const float *positi
     long step_x0 = -(cy - by) * SUBPIXEL, step_x1 = -(ay - cy) * SUBPIXEL, step_x2 = -(by - ay) * SUBPIXEL;
     long step_y0 = (cx - bx) * SUBPIXEL, step_y1 = (ax - cx) * SUBPIXEL, step_y2 = (bx - ax) * SUBPIXEL;
     for (int py = (int)ymin; py <= (int)ymax; ++py) {
+        atomic_min(&row_lo[py], (int)xmin);
+        atomic_max(&row_hi[py], (int)xmax);
         long e0 = row0, e1 = row1, e2 = row2;
         for (int px = (int)xmin; px <= (int)xmax; ++px) {
             if (e0 >= b0 && e1 >= b1 && e2 >= b2) {
@@ -503,51 +521,104 @@ __kernel void raster(__global const int *triangles, __global const float *positi
         }
         row0 += step_y0; row1 += step_y1; row2 += step_y2;
     }
+  }
 }
 
-__kernel void clear(__global long *keys) { keys[get_global_id(0)] = EMPTY_KEY; }
+/* Sets every key to EMPTY_KEY and every row's spans to empty (a new buffer, or a frame stopped mid-way). */
+__kernel void clear(__global long *keys, int width, __global int *row_lo, __global int *row_hi) {
+    int y = get_global_id(0);
+    for (int i = y * width; i < (y + 1) * width; ++i) keys[i] = EMPTY_KEY;
+    row_lo[y] = width; row_hi[y] = -1;
+}
 
-/* Pixel i: key -> triangle id, label, depth and colour, all in one output buffer read back in one copy:
-   rgb (3n bytes), labels (n), triangle ids (4n), depth (4n) for n pixels. The key is reset to EMPTY_KEY
-   for the next frame, so no clearing pass is needed. */
-__kernel void resolve(__global long *keys, __global const uchar *triangle_part, __global const float *shade,
-                      __global const uchar *colour, __global const uchar *palette, uchar bg_r, uchar bg_g,
-                      uchar bg_b, int shaded, __global uchar *out) {
-    int i = get_global_id(0), n = get_global_size(0);
+/* Image row y: each key -> triangle id, label, depth and colour, into one output buffer read back in one
+   copy: rgb (3n bytes), labels (n), triangle ids (4n), depth (4n) for n pixels. The key is reset to
+   EMPTY_KEY for the next frame. The output is kept from frame to frame: unless `fresh`, only the pixels
+   inside this frame's span of drawn boxes [row_lo, row_hi] or the last frame's [drawn_lo, drawn_hi] are
+   visited (the others were empty then and are empty now, so they hold the background already), and an empty
+   pixel that was empty in the last frame (triangle id -1) is not written again. The row's spans then move
+   on: drawn = this frame's, this frame's = empty for the next raster pass. */
+__kernel void resolve(__global long *keys, __global const uchar *triangle_part, __global const uchar *face_rgb,
+                      __global const uchar *palette, uchar bg_r, uchar bg_g, uchar bg_b, int shaded, int fresh,
+                      int width, int n, __global int *row_lo, __global int *row_hi, __global int *drawn_lo,
+                      __global int *drawn_hi, __global uchar *out) {
+    int y = get_global_id(0);
     __global uchar *rgb = out, *labels = out + 3 * n;
     __global int *triangle_id = (__global int *)(out + 4 * n);
     __global float *depth_out = (__global float *)(out + 8 * n);
-    long key = keys[i];
-    if (key == EMPTY_KEY) {
-        labels[i] = 0; triangle_id[i] = -1; depth_out[i] = INFINITY;
-        rgb[3 * i] = bg_r; rgb[3 * i + 1] = bg_g; rgb[3 * i + 2] = bg_b;
-        return;
-    }
-    keys[i] = EMPTY_KEY;
-    int t = (int)(key % ID_SCALE);
-    uchar label = triangle_part[t];
-    labels[i] = label; triangle_id[i] = t;
-    depth_out[i] = (float)(key / ID_SCALE) / DEPTH_SCALE;
-    if (!shaded) {
-        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = palette[3 * label + k];
-    } else {
-        float s = shade[t];
-        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = (uchar)fmin((float)colour[3 * t + k] * s + 0.5f, 255.0f);
+    int lo = fresh ? 0 : min(row_lo[y], drawn_lo[y]), hi = fresh ? width - 1 : max(row_hi[y], drawn_hi[y]);
+    drawn_lo[y] = row_lo[y]; drawn_hi[y] = row_hi[y];
+    row_lo[y] = width; row_hi[y] = -1;
+    for (int i = y * width + lo; i <= y * width + hi; ++i) {
+        long key = keys[i];
+        if (key == EMPTY_KEY) {
+            if (fresh || triangle_id[i] != -1) {
+                labels[i] = 0; triangle_id[i] = -1; depth_out[i] = INFINITY;
+                rgb[3 * i] = bg_r; rgb[3 * i + 1] = bg_g; rgb[3 * i + 2] = bg_b;
+            }
+            continue;
+        }
+        keys[i] = EMPTY_KEY;
+        int t = (int)(key % ID_SCALE);
+        uchar label = triangle_part[t];
+        labels[i] = label; triangle_id[i] = t;
+        depth_out[i] = (float)(key / ID_SCALE) / DEPTH_SCALE;
+        __global const uchar *c = shaded ? face_rgb + 3 * t : palette + 3 * label;
+        rgb[3 * i] = c[0]; rgb[3 * i + 1] = c[1]; rgb[3 * i + 2] = c[2];
     }
 }
 """
 
 
 class _OpenCLRaster:
-    """One program, kernels fetched once, device buffers kept per size; the mesh topology, parts and
-    colours upload only when they change (UploadCache). A frame is five commands: upload the
-    positions, project, raster, resolve (which also clears the keys for the next frame), and one
-    read-back of all four outputs."""
+    """Device buffers and kernels with their arguments set are kept per mesh and image size, so a frame sets
+    only what changed (positions upload, camera, light, look, background); the mesh topology, parts and
+    colours upload only when they change (UploadCache). A frame is five commands: upload the positions,
+    project, raster, resolve (which also clears the keys and spans for the next frame), and one blocking
+    read-back of the output buffer that the resolve only partly rewrites (see the kernel)."""
+
+    CHUNK = 64             # vertices or triangles per work item (chosen here, see above)
 
     def __init__(self):
         self._uploads = None
-        self._buffer = OpenCLBuffers().get
-        self._clean_keys = None
+        self._frames = {}
+
+    def _frame(self, s: _Scene, triangles, part, colour, palette):
+        """The buffers and argument-bound kernels for this mesh and image size (built on first use)."""
+        import pyopencl as cl
+        context, _ = backends.opencl_queue()
+        V, F, W, H = len(s.positions), len(s.triangles), s.width, s.height
+        slot = (V, F, W, H)
+        frame = self._frames.get(slot)
+        if frame is not None:
+            return frame
+        program = backends.opencl_kernels(_OPENCL_SOURCE).raster.program
+        kernels = types.SimpleNamespace(**{name: cl.Kernel(program, name)
+                                           for name in ("project", "raster", "clear", "resolve")})
+
+        def buffer(nbytes):
+            return cl.Buffer(context, cl.mem_flags.READ_WRITE, max(nbytes, 1))
+
+        n, chunk = W * H, self.CHUNK
+        frame = types.SimpleNamespace(
+            kernels=kernels, positions=buffer(12 * V), fixed_x=buffer(8 * V), fixed_y=buffer(8 * V),
+            depth=buffer(4 * V), valid=buffer(4 * V), keys=buffer(8 * n), face_rgb=buffer(3 * F), out=buffer(12 * n),
+            spans=[buffer(4 * H) for _ in range(4)], clean=False, fresh=True, settings=None, drawn_background=None,
+            inputs=None, project_size=(max(-(-V // chunk), 1),), raster_size=(max(-(-F // chunk), 1),))
+        row_lo, row_hi, drawn_lo, drawn_hi = frame.spans
+        kernels.project.set_args(frame.positions, np.zeros(1, cl.cltypes.float16)[0], np.float32(W), np.float32(H),
+                                 np.int32(V), np.int32(chunk), frame.fixed_x, frame.fixed_y, frame.depth, frame.valid)
+        kernels.raster.set_args(triangles, frame.positions, frame.fixed_x, frame.fixed_y, frame.depth, frame.valid,
+                                np.int32(W), np.int32(H), np.int32(0), np.int32(0), *np.zeros(5, np.float32), colour,
+                                np.int32(F), np.int32(chunk), frame.keys, frame.face_rgb, row_lo, row_hi)
+        kernels.clear.set_args(frame.keys, np.int32(W), row_lo, row_hi)
+        kernels.resolve.set_args(frame.keys, part, frame.face_rgb, palette, *np.zeros(3, np.uint8), np.int32(0),
+                                 np.int32(1), np.int32(W), np.int32(n), row_lo, row_hi, drawn_lo, drawn_hi, frame.out)
+        frame.inputs = (triangles, part, colour, palette)
+        if len(self._frames) >= 4:
+            self._frames.pop(next(iter(self._frames)))
+        self._frames[slot] = frame
+        return frame
 
     def render(self, s: _Scene):
         import pyopencl as cl
@@ -555,32 +626,51 @@ class _OpenCLRaster:
         if self._uploads is None:
             self._uploads = UploadCache(lambda a: cl.Buffer(context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
                                                             hostbuf=np.ascontiguousarray(a)))
-        k = backends.opencl_kernels(_OPENCL_SOURCE)
-        V, F, W, H = len(s.positions), len(s.triangles), s.width, s.height
-        positions = self._buffer("positions", s.positions.nbytes)
-        cl.enqueue_copy(queue, positions, s.positions, is_blocking=False)
-        triangles = self._uploads.get("triangles", s.triangles)
-        fixed_x, fixed_y = self._buffer("fixed_x", 8 * V), self._buffer("fixed_y", 8 * V)
-        depth, valid = self._buffer("depth", 4 * V), self._buffer("valid", 4 * V)
-        camera = np.zeros(1, cl.cltypes.float16)
-        camera.view(np.float32)[:] = s.camera.reshape(-1)
-        k.project(queue, (V,), None, positions, camera[0], np.float32(W), np.float32(H), fixed_x, fixed_y, depth,
-                  valid)
-        keys = self._buffer("keys", 8 * W * H)
-        if self._clean_keys is not keys:     # new buffer, or an earlier frame stopped before its resolve
-            k.clear(queue, (W * H,), None, keys)
-        self._clean_keys = None
-        shade = self._buffer("shade", 4 * F)
-        k.raster(queue, (F,), None, triangles, positions, fixed_x, fixed_y, depth, valid, np.int32(W), np.int32(H),
-                 np.int32(s.cull), np.int32(s.shaded), *(np.float32(x) for x in s.light), keys, shade)
-        out = self._buffer("out", 12 * W * H)
+        W, H = s.width, s.height
+        inputs = (self._uploads.get("triangles", s.triangles), self._uploads.get("part", s.triangle_part),
+                  self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette))
+        frame = self._frame(s, *inputs)
+        k = frame.kernels
+        if any(a is not b for a, b in zip(inputs, frame.inputs)):     # the mesh or its colours changed
+            k.raster.set_arg(0, inputs[0])
+            k.raster.set_arg(15, inputs[2])
+            k.resolve.set_arg(1, inputs[1])
+            k.resolve.set_arg(3, inputs[3])
+            frame.inputs = inputs
+        if not frame.clean:            # a new buffer, or an earlier frame stopped between raster and resolve
+            k.clear.set_args(frame.keys, np.int32(W), *frame.spans[:2])
+            cl.enqueue_nd_range_kernel(queue, k.clear, (H,), None)
+            frame.fresh = True
+        settings = (s.camera.tobytes(), s.cull, s.shaded, s.light.tobytes())
+        if settings != frame.settings:
+            camera = np.zeros(1, cl.cltypes.float16)
+            camera.view(np.float32)[:] = s.camera.reshape(-1)
+            k.project.set_arg(1, camera[0])
+            k.raster.set_arg(8, np.int32(s.cull))
+            k.raster.set_arg(9, np.int32(s.shaded))
+            for index, value in enumerate(s.light):
+                k.raster.set_arg(10 + index, np.float32(value))
+            k.resolve.set_arg(7, np.int32(s.shaded))
+            frame.settings = settings
         background = s.background if s.shaded else s.palette[0]
-        k.resolve(queue, (W * H,), None, keys, self._uploads.get("part", s.triangle_part), shade,
-                  self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette),
-                  *(np.uint8(c) for c in background), np.int32(s.shaded), out)
+        if frame.drawn_background is None or not np.array_equal(background, frame.drawn_background):
+            for index, value in enumerate(background):
+                k.resolve.set_arg(4 + index, np.uint8(value))
+            frame.fresh = True
+        if frame.fresh:
+            k.resolve.set_arg(8, np.int32(1))
+        cl.enqueue_copy(queue, frame.positions, s.positions, is_blocking=False)
+        cl.enqueue_nd_range_kernel(queue, k.project, frame.project_size, None)
+        frame.clean = False
+        cl.enqueue_nd_range_kernel(queue, k.raster, frame.raster_size, None)
+        cl.enqueue_nd_range_kernel(queue, k.resolve, (H,), None)
         host = np.empty(12 * W * H, np.uint8)
-        cl.enqueue_copy(queue, host, out, is_blocking=True)
-        self._clean_keys = keys
+        cl.enqueue_copy(queue, host, frame.out, is_blocking=True)
+        frame.clean = True
+        if frame.fresh:
+            k.resolve.set_arg(8, np.int32(0))
+            frame.drawn_background = background.copy()
+            frame.fresh = False
         n = W * H
         return (host[:3 * n].reshape(H, W, 3), host[3 * n:4 * n].reshape(H, W),
                 host[4 * n:8 * n].view(np.int32).reshape(H, W), host[8 * n:].view(np.float32).reshape(H, W))

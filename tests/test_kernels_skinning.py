@@ -73,3 +73,19 @@ def test_dense_weights_round_trip_and_rows_are_renormalised():
     assert weights.dominant_bone().tolist() == [0, 1, 2]
     with pytest.raises(KernelError, match=r"^1 vertices have no bone weight$"):
         SkinWeights.from_dense(np.array([[1.0, 0.0], [0.0, 0.0]]))
+
+
+def test_returned_poses_stay_as_returned_when_meshes_and_kernels_alternate(avatar, signing_matrices,
+                                                                            accelerated_backend):
+    # the kept device buffers and kernels (one set per kernel and mesh size) must not leak between calls
+    dominant = avatar.weights.dominant_bone()
+    half = len(avatar.vertices) // 2
+    part = SkinWeights.from_dense(avatar.weights.dense(len(avatar.skeleton))[:half])
+    results, references = [], []
+    for matrices in signing_matrices[:2]:
+        for function, rest, weights in ((skin, avatar.vertices, avatar.weights), (skin_rigid, avatar.vertices, dominant),
+                                        (skin, avatar.vertices[:half], part)):
+            results.append(function(rest, weights, matrices, backend=accelerated_backend))
+            references.append(function(rest, weights, matrices, backend="numpy"))
+    for result, reference in zip(results, references):
+        assert result.shape == reference.shape and relative_error(result, reference) < 1e-4
