@@ -90,6 +90,7 @@ from kernels import bba_levels as level_kernel
 from kernels import bba_masks as mask_kernel
 from kernels import bba_rotations as euler_kernel
 from kernels import bba_units as unit_kernel
+from kernels import bba_writer as writer_kernel
 from kernels import entropy_coding as crc_kernel
 from media import rotations
 from media.avatar import Skeleton, load_avatar
@@ -512,7 +513,6 @@ class _UnitPlan:
 def _write_levels(header: BBAHeader, plan: _UnitPlan, intra_flags, levels, bones, animatable, keys, skeleton) -> bytes:
     """write_stream after the levels: the range fields (predictive) and the bits."""
     if header.coding == "pred":
-        q = header.q
         # Levels by unit and stream key (0 where a unit does not carry the key: the range fields
         # cover 0 anyway), intra units and predicted units apart.
         by_key = np.zeros((len(levels), len(keys)), dtype=np.int64)
@@ -520,26 +520,29 @@ def _write_levels(header: BBAHeader, plan: _UnitPlan, intra_flags, levels, bones
         for u, (_, _, level, columns) in enumerate(levels):
             by_key[u, columns] = level
             carried[u, columns] = True
-        intra = np.array(intra_flags, dtype=bool)
-        fields = np.zeros((4, len(keys)), dtype=np.int64)
-        fields[0], fields[1] = pc.range_fields(by_key[intra], q)
-        fields[2], fields[3] = pc.range_fields(by_key[~intra], q)
-        # Tight ranges unless the default alphabets are estimated (log2 of alphabet sizes per coded
-        # level) to cost less than the range fields they save.
-        use_default = False
-        if np.all(fields <= pc.DEFAULT_RANGE_FIELD):
-            default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
-            counts = np.array([carried[intra].sum(axis=0), carried[~intra].sum(axis=0)], dtype=np.int64)
-
-            def estimate(f: np.ndarray) -> float:
-                i_low, i_high = pc.alphabet(f[0], f[1], q)
-                p_low, p_high = pc.alphabet(f[2], f[3], q)
-                return float((counts[0] * np.log2(i_high - i_low + 1)).sum() + (counts[1] * np.log2(p_high - p_low + 1)).sum())
-            use_default = estimate(default) < estimate(fields) + 4 * pc.RANGE_BITS * len(keys)
-        if use_default:
-            return _write(header, plan, intra_flags, levels, bones, animatable, default, False, skeleton)
-        return _write(header, plan, intra_flags, levels, bones, animatable, fields, True, skeleton)
+        fields, tight = _range_choice(by_key, carried, np.array(intra_flags, dtype=bool), header.q)
+        return _write(header, plan, intra_flags, levels, bones, animatable, fields, tight, skeleton)
     return _write(header, plan, intra_flags, levels, bones, animatable, None, False, skeleton)
+
+
+def _range_choice(by_key: np.ndarray, carried: np.ndarray, intra: np.ndarray, q: int) -> tuple[np.ndarray, bool]:
+    """(fields (4, K) int64, tight) of a predictive stream: by_key (U, K) int64 levels by unit and stream key
+    (0 where not carried), carried (U, K) bool, intra (U,) bool. Tight ranges unless the default alphabets
+    are estimated (log2 of alphabet sizes per coded level) to cost less than the range fields they save."""
+    fields = np.zeros((4, by_key.shape[1]), dtype=np.int64)
+    fields[0], fields[1] = pc.range_fields(by_key[intra], q)
+    fields[2], fields[3] = pc.range_fields(by_key[~intra], q)
+    if np.all(fields <= pc.DEFAULT_RANGE_FIELD):
+        default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
+        counts = np.array([carried[intra].sum(axis=0), carried[~intra].sum(axis=0)], dtype=np.int64)
+
+        def estimate(f: np.ndarray) -> float:
+            i_low, i_high = pc.alphabet(f[0], f[1], q)
+            p_low, p_high = pc.alphabet(f[2], f[3], q)
+            return float((counts[0] * np.log2(i_high - i_low + 1)).sum() + (counts[1] * np.log2(p_high - p_low + 1)).sum())
+        if estimate(default) < estimate(fields) + 4 * pc.RANGE_BITS * by_key.shape[1]:
+            return default, False
+    return fields, True
 
 
 def _check_header(h: BBAHeader) -> None:
@@ -578,30 +581,72 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
     largest = int(np.abs(values).max(initial=0))
     if largest > VALUE_LIMIT:
         raise SigncastError(f"a BBA bone value of magnitude {largest} is beyond +-{VALUE_LIMIT}")
-    exponents = _exponent_items(skeleton)
     masks = tuple(sorted(bones.items()))
-    layout = _layout(masks, exponents)
-    columns = np.arange(len(layout.keys), dtype=np.int64)
+    layout = _layout(masks, _exponent_items(skeleton))
     q = header.q
-    if header.coding == "dct":
-        units = [list(range(s, min(s + pc.SEGMENT, n))) for s in range(0, n, pc.SEGMENT)]
-    else:
-        units = [[t] for t in range(n)]
-    intra_flags = [k % header.intra_period == 0 for k in range(len(units))]
+    bone_ids = [b for b, _ in masks]
+    list_bits = _bit_array(*_bone_list_bits(masks, tuple(mask for _, mask in masks)))
+    n_display = int(numbers[-1]) + 1
     if header.coding == "pred":
-        intra = np.array(intra_flags, dtype=bool)
-        levels_array = _predictive_levels(q, layout, values, intra)
-        intra_flags = intra.tolist()
-        levels = [(layout.keys, layout.steps, level, columns) for level in levels_array]
-    else:
-        dc_step, ac_step = pc.dct_steps(layout.steps, q)
-        levels = [(layout.keys, layout.steps, *pc.dct_levels(values[unit[0]:unit[-1] + 1], dc_step, ac_step), len(unit))
-                  for unit in units]
-    kfis = kfi.tolist()
-    plan = _UnitPlan(units, numbers, [kfis[unit[0]] for unit in units], [k > 0 for k in range(len(units))],
-                     [masks] * len(units), [[]] * len(units))
-    bone_ids = sorted(bones)
-    return _write_levels(header, plan, intra_flags, levels, bone_ids, dict(masks), list(layout.keys), skeleton)
+        intra = np.arange(n) % header.intra_period == 0
+        levels = _predictive_levels(q, layout, values, intra)
+        fields, tight = _range_choice(levels, np.ones(levels.shape, dtype=bool), intra, q)
+        low_i, high_i = pc.alphabet(fields[0], fields[1], q)
+        low_p, high_p = pc.alphabet(fields[2], fields[3], q)
+        sizes_i, sizes_p = high_i - low_i + 1, high_p - low_p + 1
+        for sizes in (sizes_i, sizes_p):                    # pc.make_models' checks
+            if np.any(sizes < 1):
+                raise SigncastError(f"an alphabet needs at least one symbol, got {int(sizes.min())}")
+            if np.any(sizes > pc.MAX_TOTAL // 2):
+                raise SigncastError(f"alphabet of {int(sizes.max())} symbols is too large for a frequency "
+                                    f"limit of {pc.MAX_TOTAL}")
+        header_bits = _bit_array(*_header_bits(header, n_display, bone_ids, bones, tight, skeleton))
+        detail = np.zeros(4, dtype=np.int64)
+        room = (2 * (len(header_bits) + 8 * fields.size) + len(list_bits) + 4 * 32 * (len(layout.keys) + 1) + 256)
+        size = (len(header_bits) + 8 * fields.size + 64 + n * room) * 23 // 22 // 8 + 64
+        while True:
+            buffer = np.zeros(size, dtype=np.uint8)
+            n_bits = writer_kernel.write_predictive_stream(
+                buffer, header_bits, tight, fields, pc.RANGE_BITS, list_bits, header.header_period, numbers, kfi,
+                intra, levels, low_i, sizes_i, low_p, sizes_p, pc.MAX_TOTAL, detail)
+            if n_bits != writer_kernel.STATUS_FULL:
+                break
+            size *= 2
+        if n_bits == writer_kernel.STATUS_LIMIT:                # models that would be halved: unit by unit
+            columns = np.arange(len(layout.keys), dtype=np.int64)
+            plan = _UnitPlan([[t] for t in range(n)], numbers, kfi.tolist(), [k > 0 for k in range(n)], [masks] * n,
+                             [[]] * n)
+            return _write(header, plan, intra.tolist(), [(layout.keys, layout.steps, level, columns) for level in levels],
+                          bone_ids, bones, fields, tight, skeleton)
+        if n_bits == writer_kernel.STATUS_SYMBOL:
+            raise SigncastError(f"symbol {int(detail[2])} outside the model's alphabet 0..{int(detail[3]) - 1}")
+        return buffer[:(n_bits + 7) >> 3].tobytes()
+    starts = np.arange(0, n, pc.SEGMENT)
+    sizes = np.minimum(starts + pc.SEGMENT, n) - starts
+    dc = np.zeros((len(starts), len(layout.keys)), dtype=np.int64)
+    ac = np.zeros((len(starts), pc.SEGMENT - 1, len(layout.keys)), dtype=np.int64)
+    dc_step, ac_step = pc.dct_steps(layout.steps, q)
+    for u, (start, size) in enumerate(zip(starts.tolist(), sizes.tolist())):
+        dc[u], ac[u, :size - 1] = pc.dct_levels(values[start:start + size], dc_step, ac_step)
+    intra = np.arange(len(starts)) % header.intra_period == 0
+    header_bits = _bit_array(*_header_bits(header, n_display, bone_ids, bones, False, skeleton))
+    tables = pc.vlc_tables()
+    detail = np.zeros(1, dtype=np.int64)
+    size = (3 * len(header_bits) + len(starts) * (len(list_bits) + 72 * len(layout.keys) * pc.SEGMENT + 512)) * 23 // 22 // 8 + 64
+    while True:
+        buffer = np.zeros(size, dtype=np.uint8)
+        n_bits = writer_kernel.write_dct_stream(
+            buffer, header_bits, list_bits, header.header_period, numbers[starts], sizes, intra, dc, ac,
+            *tables["dc_intra"].arrays()[:2], *tables["dc_inter"].arrays()[:2], *tables["ac"].arrays()[:2],
+            pc.N_CATEGORIES, detail)
+        if n_bits != writer_kernel.STATUS_FULL:
+            break
+        size *= 2
+    if n_bits == writer_kernel.STATUS_DCT_LEVEL:
+        raise SigncastError(f"DCT level {int(detail[0])} exceeds the largest category")
+    if n_bits == writer_kernel.STATUS_DCT_CODE:
+        raise SigncastError(f"symbol {int(detail[0])} has no code in this Huffman table")
+    return buffer[:(n_bits + 7) >> 3].tobytes()
 
 
 class _Bits:
@@ -636,7 +681,15 @@ def _write_header(writer: BitWriter, header: BBAHeader, n_frames: int, bones, an
     """The BBA start code and the header (the same bits for the first header and its copies)."""
     writer.start_code(BBA_START_CODE)
     header_start = writer.n_bits - 8               # the CRC covers the start code's last byte
-    data, writer = writer, _Bits()
+    writer.write(*_header_bits(header, n_frames, bones, animatable, tight, skeleton))
+    if tight:
+        pc.write_range_fields(writer, fields)
+    _write_crc(writer, header_start)
+
+
+def _header_bits(header: BBAHeader, n_frames: int, bones, animatable, tight: bool, skeleton) -> tuple[int, int]:
+    """(value, number of bits) of the header's fields after its start code, up to the range fields."""
+    writer = _Bits()
     writer.write(VERSION, 8)
     _write_fps(writer, header.fps)
     writer.write(0 if header.coding == "pred" else 1, 2)
@@ -649,10 +702,15 @@ def _write_header(writer: BitWriter, header: BBAHeader, n_frames: int, bones, an
     writer.write_bit(int(tight))
     writer.write(len(bones), 10)
     writer.write(*_bone_table_bits(tuple((b, animatable[b]) for b in bones), _exponent_items(skeleton)))
-    writer.flush(data)
-    if tight:
-        pc.write_range_fields(data, fields)
-    _write_crc(data, header_start)
+    return writer.value, writer.n_bits
+
+
+@functools.lru_cache(maxsize=256)
+def _bit_array(value: int, n_bits: int) -> np.ndarray:
+    """(n_bits,) uint8 0/1: value's bits MSB first (read-only; cached)."""
+    bits = np.unpackbits(np.frombuffer(value.to_bytes((n_bits + 7) // 8, "big"), dtype=np.uint8))[8 * ((n_bits + 7) // 8) - n_bits:]
+    bits.flags.writeable = False
+    return bits
 
 
 @functools.lru_cache(maxsize=64)
@@ -1222,47 +1280,70 @@ def _motion_arrays(motion: Motion, q: int, coding: str, keyframes: bool, thresho
     q = pc.check_q(q)
     if keyframes and coding != "pred":
         raise SigncastError("key frames are coded with the predictive BBA coder only")
-    bone_ids = [skeleton.index(name_) for name_ in motion.bone_names]
     order = ORDER_NAMES[rotation_order]
+    columns, source, steps, is_angle, first_of = _column_plan(tuple(motion.bone_names), skeleton)
     angles = rotations.to_euler(motion.rotations, order)                  # (T, B, 3)
     rot = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
     trans = np.round(motion.root_translation / bap_table.TRANSLATION_UNIT_M).astype(np.int64)
-    root = int(np.flatnonzero(skeleton.parents < 0)[0])
     keys_frames = np.arange(motion.n_frames)
     if keyframes:
         keys_frames = kf.key_frames(motion, threshold_rad if threshold_rad is not None else kf.default_threshold_rad(q))
-    # value columns: (boneID, bit)
-    columns, series = [], []
-    for j, b in enumerate(bone_ids):
-        if b == root:
-            for axis, bit in enumerate(TRANSLATION_BITS):
-                columns.append((b, bit))
-                series.append(trans[:, axis])
-        for axis, bit in enumerate(ROTATION_BITS):
-            columns.append((b, bit))
-            series.append(rot[:, j, axis])
-    if root not in bone_ids:
-        for axis, bit in enumerate(TRANSLATION_BITS):
-            columns.append((root, bit))
-            series.append(trans[:, axis])
-    values = np.stack(series, axis=1)[keys_frames]                       # (K, C)
-    exponents = _rotation_step_exponents(skeleton)
-    steps = np.array([2 if bit in TRANSLATION_BITS else 1 << exponents.get(b, 7) for b, bit in columns], dtype=np.int64)
+    # value columns (boneID, bit) (_column_plan) from [root translation, each bone's three angles]
+    values = np.concatenate([trans[keys_frames], rot[keys_frames].reshape(len(keys_frames), 3 * rot.shape[1])],
+                            axis=1)[:, source]
     if intra_period is None:
         intra_period = DEFAULT_INTRA_PERIOD if coding == "pred" else DEFAULT_INTRA_SEGMENTS
     # Every frame carries every value that is ever sent (not only those changing in its intra
     # period), so an intra unit refreshes the whole pose: after a loss, the frames from the next
     # intra unit on are exact, and the frames a decoder reports lost are the only wrong ones.
-    sent = np.flatnonzero(np.any(pc.quantize(_fold(values, _is_angle(columns)), steps * q) != 0, axis=0))
+    sent = np.flatnonzero(np.any(pc.quantize(_fold(values, is_angle), steps * q) != 0, axis=0))
     mask: dict[int, int] = {}
-    for c in sent:
+    for c in sent.tolist():
         b, bit = columns[c]
         mask[b] = mask.get(b, 0) | (1 << bit)
-    column_of = {key: c for c, key in reversed(list(enumerate(columns)))}      # the first column of each key
-    sent_columns = [column_of[(b, bit)] for b in sorted(mask) for bit in _bits(mask[b])]
+    sent_columns = [first_of[(b, bit)] for b in sorted(mask) for bit in _bits(mask[b])]
     gaps = np.diff(keys_frames, prepend=keys_frames[0] - 1) - 1           # KeyFrameIndex; 0 for the first
     header = BBAHeader(name, motion.fps, coding, q, intra_period, keyframes, rotation_order, header_period)
     return header, mask, gaps.astype(np.int64), np.ascontiguousarray(values[:, sent_columns], dtype=np.int64)
+
+
+_COLUMN_PLANS: dict[tuple, tuple] = {}     # _column_plan's cache: (bone names, id(skeleton)) -> (skeleton, plan)
+
+
+def _column_plan(bone_names: tuple[str, ...], skeleton: Skeleton) -> tuple:
+    """The candidate value columns of a Motion with these bones, cached: (columns: (boneID, bit) of each,
+    source (C,) int64: each column's index in [root translation (3), angles of bone j axis a (3 j + a)],
+    steps (C,) int64 base steps, is_angle (C,) bool, first_of: (boneID, bit) -> its first column). The
+    columns: per bone in the Motion's order, the root's translation before the root's angles, then the
+    three angles; the root's translation last when the Motion does not carry the root."""
+    cached = _COLUMN_PLANS.get((bone_names, id(skeleton)))
+    if cached is not None and cached[0] is skeleton:
+        return cached[1]
+    bone_ids = [skeleton.index(name_) for name_ in bone_names]
+    root = int(np.flatnonzero(skeleton.parents < 0)[0])
+    columns, source = [], []
+    for j, b in enumerate(bone_ids):
+        if b == root:
+            for axis, bit in enumerate(TRANSLATION_BITS):
+                columns.append((b, bit))
+                source.append(axis)
+        for axis, bit in enumerate(ROTATION_BITS):
+            columns.append((b, bit))
+            source.append(3 + 3 * j + axis)
+    if root not in bone_ids:
+        for axis, bit in enumerate(TRANSLATION_BITS):
+            columns.append((root, bit))
+            source.append(axis)
+    exponents = _rotation_step_exponents(skeleton)
+    steps = np.array([2 if bit in TRANSLATION_BITS else 1 << exponents.get(b, 7) for b, bit in columns], dtype=np.int64)
+    first_of = {key: c for c, key in reversed(list(enumerate(columns)))}
+    plan = (columns, np.array(source, dtype=np.int64), steps, _is_angle(columns), first_of)
+    for array in plan[1:4]:
+        array.flags.writeable = False
+    if len(_COLUMN_PLANS) >= 64:
+        _COLUMN_PLANS.clear()
+    _COLUMN_PLANS[(bone_names, id(skeleton))] = (skeleton, plan)
+    return plan
 
 
 def _runs(frames: list[BBAFrame]) -> list[tuple[int, int]]:

@@ -23,32 +23,61 @@ def default_threshold_rad(q: int) -> float:
     return max(0.05, q * 64e-5)
 
 
-def _within_each(motion: Motion, first: int, lasts: np.ndarray, threshold_rad: float, threshold_m: float) -> np.ndarray:
-    """(L,) bool: for each candidate key `lasts` (L,) (each > first + 1), whether interpolating between
-    `first` and it rebuilds every frame between them within the thresholds (slerp of the rotations,
-    linear root translation). All candidates' inner frames in one batch: the per-frame operations are
-    those of one candidate at a time, so the decisions are too."""
-    counts = lasts - first - 1                               # inner frames of each candidate
+def _within_each(rotations_: np.ndarray, translation: np.ndarray, firsts: np.ndarray, lasts: np.ndarray,
+                 threshold_rad: float, threshold_m: float) -> np.ndarray:
+    """(L,) bool: for each candidate pair of keys firsts[k] < lasts[k] (L,) (lasts > firsts + 1), whether
+    interpolating between them rebuilds every frame between them within the thresholds (slerp of the
+    rotations (T, B, 4), linear root translation (T, 3)). All candidates' inner frames in one batch: the
+    per-frame operations are those of one candidate at a time, so the decisions are too."""
+    counts = lasts - firsts - 1                              # inner frames of each candidate
     owner = np.repeat(np.arange(len(lasts)), counts)
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    first = firsts[owner]
     inner = first + 1 + (np.arange(len(owner)) - starts[owner])
     x = (inner - first) / (lasts[owner] - first)
-    q0 = np.broadcast_to(motion.rotations[first], (len(inner),) + motion.rotations.shape[1:])
-    q1 = motion.rotations[lasts[owner]]
-    estimate = rotations.slerp(q0, q1, np.broadcast_to(x[:, None], q0.shape[:2]))
-    angle = np.maximum.reduceat(rotations.angle_between(estimate, motion.rotations[inner]).max(axis=1), starts)
-    t0, t1 = motion.root_translation[first], motion.root_translation[lasts[owner]]
+    if rotations_.shape[1]:
+        q0 = rotations_[first]
+        q1 = rotations_[lasts[owner]]
+        estimate = rotations.slerp(q0, q1, np.broadcast_to(x[:, None], q0.shape[:2]))
+        angle = np.maximum.reduceat(rotations.angle_between(estimate, rotations_[inner]).max(axis=1), starts)
+    else:
+        angle = np.zeros(len(lasts))
+    t0, t1 = translation[first], translation[lasts[owner]]
     line = (1 - x)[:, None] * t0 + x[:, None] * t1
-    distance = np.maximum.reduceat(np.linalg.norm(line - motion.root_translation[inner], axis=1), starts)
+    distance = np.maximum.reduceat(np.linalg.norm(line - translation[inner], axis=1), starts)
     return ~(angle > threshold_rad) & (distance <= threshold_m)
+
+
+def _moving(quaternions: np.ndarray) -> np.ndarray:
+    """(B,) bool: the bones of quaternions (T, B, 4) that can fail the angle test. A bone whose rotation is
+    the same unit quaternion (squared norm within 1e-9 of 1) in every frame is rebuilt by slerp within
+    1e-4 rad (rounding), below the thresholds it is left out for (>= 1e-3 rad): no decision changes."""
+    if not len(quaternions):
+        return np.zeros(quaternions.shape[1], dtype=bool)
+    still = np.all(quaternions == quaternions[:1], axis=(0, 2))
+    unit = np.abs(np.sum(quaternions[0] * quaternions[0], axis=-1) - 1.0) < 1e-9
+    return ~(still & unit)
 
 
 def key_frames(motion: Motion, threshold_rad: float, threshold_m: float = 0.002) -> np.ndarray:
     """Indices of the key frames (always the first and the last frame). Greedy: from each key, the next
     is the last frame before the first candidate (at most MAX_KFI + 1 frames on) that fails. Candidates
     are tried in batches of 2, 4, 8, ... (a batch costs about as much as one candidate, and most gaps
-    are short)."""
+    are short); the first batch of every possible key is tried in one call up front. Bones that never move
+    are left out of the angle test (_moving)."""
     n = motion.n_frames
+    quaternions = motion.rotations
+    if threshold_rad >= 1e-3:
+        quaternions = quaternions[:, _moving(quaternions)]
+    translation = motion.root_translation
+    # Every key's first batch (the candidates 2 and 3 frames on) for every possible key, in one call.
+    firsts = np.repeat(np.arange(max(n - 2, 0)), 2)
+    lasts = firsts + np.tile([2, 3], max(n - 2, 0))
+    valid = lasts <= n - 1
+    short = np.ones((max(n - 2, 0), 2), dtype=bool)
+    if valid.any():
+        short.reshape(-1)[valid] = _within_each(quaternions, translation, firsts[valid], lasts[valid], threshold_rad,
+                                                threshold_m)
     keys = [0]
     current = 0
     while current < n - 1:
@@ -56,7 +85,11 @@ def key_frames(motion: Motion, threshold_rad: float, threshold_m: float = 0.002)
         nxt, batch = current + 1, 2
         while nxt < end:
             lasts = np.arange(nxt + 1, min(end, nxt + batch) + 1)
-            ok = _within_each(motion, current, lasts, threshold_rad, threshold_m)
+            if nxt == current + 1:
+                ok = short[current, :len(lasts)]
+            else:
+                ok = _within_each(quaternions, translation, np.full(len(lasts), current), lasts, threshold_rad,
+                                  threshold_m)
             if not ok.all():
                 nxt += int(np.argmin(ok))
                 break

@@ -261,3 +261,91 @@ def test_local_state_arithmetic_decoder_matches_decode_frame():
     for start, end in rng.integers(0, 8 * len(good), (200, 2)).tolist():
         start, end = min(start, end), max(start, end)
         assert kc.crc8_bytes(crc_data, start, end) == kc.crc8(crc_data, start, end)
+
+
+def _per_field_bytes(header, bones, kfi, values, skeleton):
+    """The per-field writer (bba_codec._write_levels / _write, one BitWriter call per field) on the unit plan
+    _write_arrays makes: the bytes the whole-stream kernels (kernels/bba_writer.py) must reproduce."""
+    from comparisons import param_coding as pc
+
+    n = len(kfi)
+    masks = tuple(sorted(bones.items()))
+    layout = bba_codec._layout(masks, bba_codec._exponent_items(skeleton))
+    numbers = np.cumsum(np.concatenate([[0], kfi[1:] + 1])).astype(np.int64)
+    if header.coding == "dct":
+        units = [list(range(s, min(s + pc.SEGMENT, n))) for s in range(0, n, pc.SEGMENT)]
+    else:
+        units = [[t] for t in range(n)]
+    intra_flags = [k % header.intra_period == 0 for k in range(len(units))]
+    if header.coding == "pred":
+        intra = np.array(intra_flags, dtype=bool)
+        levels_array = bba_codec._predictive_levels(header.q, layout, values, intra)
+        intra_flags = intra.tolist()
+        columns = np.arange(len(layout.keys), dtype=np.int64)
+        levels = [(layout.keys, layout.steps, level, columns) for level in levels_array]
+    else:
+        dc_step, ac_step = pc.dct_steps(layout.steps, header.q)
+        levels = [(layout.keys, layout.steps, *pc.dct_levels(values[u[0]:u[-1] + 1], dc_step, ac_step), len(u))
+                  for u in units]
+    plan = bba_codec._UnitPlan(units, numbers, [int(kfi[u[0]]) for u in units], [k > 0 for k in range(len(units))],
+                               [masks] * len(units), [[]] * len(units))
+    return bba_codec._write_levels(header, plan, intra_flags, levels, sorted(bones), dict(masks), list(layout.keys),
+                                   skeleton)
+
+
+@pytest.mark.parametrize("coding", ["pred", "dct"])
+def test_whole_stream_writer_gives_the_per_field_writers_bytes(avatar, coding):
+    """_write_arrays (one kernel call for the whole stream) against the per-field writer, on real letters with
+    key frames, short intra periods (intra units forced by rule and by P levels that do not fit, models reset)
+    and header copies, at Q 1, 8, 31."""
+    rng = np.random.default_rng(3)
+    skeleton = avatar.skeleton
+    for letter, q in (("C", 1), ("J", 8), ("E", 31)):
+        motion = letter_motion("ase", letter, 25.0)
+        for intra_period, header_period, keyframes in ((32, 0, False), (3, 2, coding == "pred"), (1, 1, False)):
+            header, bones, kfi, values = bba_codec._motion_arrays(
+                motion, q, coding, keyframes, None, intra_period, int(rng.integers(24)), header_period, "t", skeleton)
+            if q == 1 and coding == "pred":
+                values = values.copy()
+                values[len(values) // 2:, 0] += 300000          # a jump no P level carries: an intra unit
+            expected = _per_field_bytes(header, bones, kfi, values, skeleton)
+            assert bba_codec._write_arrays(header, bones, kfi, values, skeleton) == expected
+            assert bba_codec.read_stream(expected)[1] == []
+
+
+def test_whole_stream_writer_falls_back_when_a_model_would_be_halved(avatar, monkeypatch):
+    """A predicted model whose count would pass the frequency limit (halved by the per-field coder) is left to
+    the per-field writer: the same bytes."""
+    from kernels import bba_writer
+
+    skeleton = avatar.skeleton
+    header, bones, kfi, values = bba_codec._motion_arrays(letter_motion("ase", "B", 25.0), 8, "pred", False, None,
+                                                          None, 0, 0, "t", skeleton)
+    expected = _per_field_bytes(header, bones, kfi, values, skeleton)
+    called = []
+    original = bba_writer.write_predictive_stream
+
+    def small_limit(*args):
+        args = list(args)
+        args[15] = 3                                        # limit: below any predicted model's total
+        called.append(original(*args))
+        return called[-1]
+    monkeypatch.setattr(bba_writer, "write_predictive_stream", small_limit)
+    assert bba_codec._write_arrays(header, bones, kfi, values, skeleton) == expected
+    assert called == [bba_writer.STATUS_LIMIT]
+
+
+def test_key_frames_leave_out_still_bones_without_changing_a_decision(monkeypatch):
+    """key_frames with the bones that never move left out (keyframes._moving) against key_frames over every
+    bone, on letters whose body holds still, at several thresholds; and on a motion where nothing moves."""
+    from comparisons import keyframes
+
+    motions = [letter_motion("ase", letter, fps) for letter, fps in (("A", 25.0), ("J", 50.0), ("E", 10.0))]
+    still = Motion(25.0, motions[0].bone_names, np.repeat(motions[0].rotations[:1], 12, axis=0),
+                   np.zeros((12, 3)))
+    thresholds = ((0.01, 0.002), (0.05, 0.002), (0.3, 0.05), (10.0, 10.0))
+    fast = [keyframes.key_frames(m, r, t).tolist() for m in [*motions, still] for r, t in thresholds]
+    assert not keyframes._moving(still.rotations).any() and keyframes._moving(motions[1].rotations).any()
+    monkeypatch.setattr(keyframes, "_moving", lambda quaternions: np.ones(quaternions.shape[1], dtype=bool))
+    assert fast == [keyframes.key_frames(m, r, t).tolist() for m in [*motions, still] for r, t in thresholds]
+    assert fast[-len(thresholds):] == [[0, 11]] * len(thresholds)        # nothing moves: first and last frame
