@@ -12,7 +12,8 @@ bit of the next start code. bone_ids, bone_masks (B,) int64: the bone list every
 order. Values per unit are in the layout order of comparisons/bba_codec._layout (P of them).
 
 Predictive units: the levels are arithmetic-coded with one adaptive model per value, all reset at each
-intra unit (kernels/entropy_coding.py decode_frame_local, the bits of comparisons/entropy.decode_frame);
+intra unit (kernels/entropy_coding.py decode_frame_window, the bits of comparisons/entropy.decode_frame; the
+bank is int32 here: its totals stay at most the limit, at most WINDOW_MAX_TOTAL, else FALLBACK);
 an intra value is level x step x Q, a predicted one the previous value plus that, angles folded into
 (-period / 2, period / 2]. DCT units: kernels/entropy_coding.read_dct_blocks per segment, the inter DC
 levels added to the previous segment's; the caller applies the inverse DCT (NumPy, as the per-unit reader).
@@ -25,8 +26,9 @@ from kernels.bba_levels import _fold
 from kernels.bba_masks import read_unit_bones
 from kernels.entropy_coding import (
     TOTAL,
+    WINDOW_MAX_TOTAL,
     crc8_bytes,
-    decode_frame_local,
+    decode_frame_window,
     get_local,
     init_bank,
     read_dct_blocks,
@@ -133,6 +135,8 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
     """Every predictive unit: values into rows (U, P) int64, KeyFrameIndex into kfi_out (U,). low_*, sizes_*
     (P,) int64: the intra and predicted alphabets (first level, number of levels) of each value; limit: the
     models' frequency limit. Returns OK or FALLBACK."""
+    if not 1 <= limit <= WINDOW_MAX_TOTAL:            # the int32 bank's bound
+        return FALLBACK
     n_values = len(steps)
     offsets_p = np.zeros(n_values + 1, dtype=np.int64)
     coded_i, coded_p = False, False
@@ -140,8 +144,8 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
         offsets_p[p + 1] = offsets_p[p] + sizes_p[p]
         coded_i = coded_i or sizes_i[p] != 1
         coded_p = coded_p or sizes_p[p] != 1
-    counts_p = np.ones(offsets_p[-1], dtype=np.int64)
-    tree_p = np.empty(offsets_p[-1] + n_values, dtype=np.int64)
+    counts_p = np.ones(offsets_p[-1], dtype=np.int32)
+    tree_p = np.empty(offsets_p[-1] + n_values, dtype=np.int32)
     scalars_i, scalars_p = np.zeros((n_values, 5), dtype=np.int64), np.empty((n_values, 5), dtype=np.int64)
     scalars_i[:, TOTAL] = sizes_i                  # all the fresh intra models need
     members = np.arange(n_values)
@@ -160,10 +164,10 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
         if intra:
             _reset_bank(sizes_p, offsets_p, counts_p, tree_p, scalars_p, limit)
             if coded_i:                            # fresh intra models, each coding one level
-                status, pos, run, _ = decode_frame_local(data, end_bit, pos, run, 0, counts_p, tree_p, scalars_i,
+                status, pos, run, _ = decode_frame_window(data, end_bit, pos, run, 0, counts_p, tree_p, scalars_i,
                                                          offsets_p, members, levels, 0, True)
         elif coded_p:
-            status, pos, run, _ = decode_frame_local(data, end_bit, pos, run, 0, counts_p, tree_p, scalars_p,
+            status, pos, run, _ = decode_frame_window(data, end_bit, pos, run, 0, counts_p, tree_p, scalars_p,
                                                      offsets_p, members, levels, 0, False)
         if status:
             return FALLBACK

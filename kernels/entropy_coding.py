@@ -15,7 +15,9 @@ bits) or (low, high, value); a frequency model is counts (n,), Fenwick tree (n +
 at offsets[m], its tree at offsets[m] + m) with scalars (M, 5).
 """
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 
 MAX_ZERO_RUN = 22
 PRECISION = 32
@@ -715,10 +717,274 @@ def give_back(data, end_bit: int, pos0: int, run0: int, over0: int, pos: int, ov
     return pos, run, over
 
 
+# ------------------------------------------------------------------ the arithmetic decoder on a bit window
+# decode_frame_local's symbols, model updates, statuses and reader state, faster:
+# - the unit's emulation-prevention bits are found first: where the zero runs (with the reader's run) stay below
+#   MAX_ZERO_RUN the coded bits are the raw bits, else they are copied once without the dropped bits
+#   (_strip); the decoder then takes its bits several at a time from a 56-bit window;
+# - the renormalisation loop runs as two counts: k E1/E2 shifts (the leading bits low and high share) and then
+#   k3 E3 shifts (bits where low is 1 and high 0 after the top bit), with exactly the loop's subtractions;
+#   this needs low <= high after each symbol, which totals of at most 2^30 guarantee (span > QUARTER after every
+#   renormalisation, and a count of at least 1): totals and limits of at most WINDOW_MAX_TOTAL and increments of
+#   at most WINDOW_MAX_INCREMENT keep every total below 2^26;
+# - the Fenwick search without data-dependent branches;
+# - the reader state given back from the clean-bit index and the zero run counted backwards (mod MAX_ZERO_RUN:
+#   the reader's run restarts at every MAX_ZERO_RUN zeros, whether or not a stuffing bit follows).
+# A frame outside those bounds (a run >= MAX_ZERO_RUN, a total above WINDOW_MAX_TOTAL) goes to decode_frame_local.
+
+WINDOW_MAX_TOTAL = 1 << 24
+WINDOW_MAX_INCREMENT = 1 << 16
+
+
+def _byte_tables() -> tuple[np.ndarray, np.ndarray]:
+    lead, trail = np.zeros(256, dtype=np.int64), np.zeros(256, dtype=np.int64)
+    for byte in range(256):
+        lead[byte] = 8 - byte.bit_length()
+        trail[byte] = 8 if byte == 0 else (byte & -byte).bit_length() - 1
+    return lead, trail
+
+
+LEADING_ZEROS8, TRAILING_ZEROS8 = _byte_tables()
+
+
+@intrinsic
+def _ctlz64(typingctx, x):
+    """LLVM's count-leading-zeros of an int64 (64 for 0)."""
+    if not isinstance(x, types.Integer):
+        return None
+
+    def codegen(context, builder, signature, args):
+        value = context.cast(builder, args[0], signature.args[0], types.int64)
+        return builder.ctlz(value, ir.Constant(ir.IntType(1), 0))
+
+    return types.int64(x), codegen
+
+
+@njit(cache=True)
+def _clz32(x: int) -> int:
+    """Leading zeros of a value below 2^32, as a 32-bit value (32 for 0)."""
+    return _ctlz64(x) - 32
+
+
+@njit(cache=True)
+def _has_stuffing(data, end_bit: int, pos: int, run: int) -> bool:
+    """Whether look_local from (pos, run) meets MAX_ZERO_RUN zeros before end_bit (where a stuffing bit
+    may be dropped or a start code left unread)."""
+    zeros = run
+    while pos < end_bit and pos & 7:
+        if (data[pos >> 3] >> (7 - (pos & 7))) & 1:
+            zeros = 0
+        else:
+            zeros += 1
+            if zeros >= MAX_ZERO_RUN:
+                return True
+        pos += 1
+    while pos + 8 <= end_bit:
+        byte = data[pos >> 3]
+        if zeros + LEADING_ZEROS8[byte] >= MAX_ZERO_RUN:
+            return True
+        zeros = zeros + 8 if byte == 0 else TRAILING_ZEROS8[byte]
+        pos += 8
+    while pos < end_bit:
+        if (data[pos >> 3] >> (7 - (pos & 7))) & 1:
+            zeros = 0
+        else:
+            zeros += 1
+            if zeros >= MAX_ZERO_RUN:
+                return True
+        pos += 1
+    return False
+
+
+@njit(cache=True)
+def _strip(data, end_bit: int, pos: int, run: int, clean, stuffed) -> tuple[int, int]:
+    """The bits look_local reads from (pos, run) before end_bit, into the zero-filled clean (MSB first), and the
+    clean index that follows each dropped stuffing bit into stuffed: (clean bits, stuffing bits)."""
+    n, n_stuffed = 0, 0
+    while pos < end_bit:
+        bit = (data[pos >> 3] >> (7 - (pos & 7))) & 1
+        pos += 1
+        if bit:
+            clean[n >> 3] |= np.uint8(0x80 >> (n & 7))
+            run = 0
+        else:
+            run += 1
+            if run == MAX_ZERO_RUN:
+                run = 0
+                if pos < end_bit and (data[pos >> 3] >> (7 - (pos & 7))) & 1:
+                    pos += 1
+                    stuffed[n_stuffed] = n + 1
+                    n_stuffed += 1
+        n += 1
+    return n, n_stuffed
+
+
+@njit(cache=True)
+def _refill(source, source_end: int, buf: int, n_buf: int, byte_at: int) -> tuple[int, int, int]:
+    """Bytes of source (bits at and past source_end read as 0) into the window buf (n_buf bits) up to 56 bits."""
+    buf &= (1 << n_buf) - 1
+    while n_buf <= 48:
+        first = byte_at << 3
+        byte = 0
+        if first < source_end:
+            byte = np.int64(source[byte_at])
+            if first + 8 > source_end:
+                byte &= (0xFF << (8 - (source_end - first))) & 0xFF
+        buf = (buf << 8) | byte
+        n_buf += 8
+        byte_at += 1
+    return buf, n_buf, byte_at
+
+
+@njit(cache=True)
+def _clean_bit(source, source_start: int, source_end: int, c: int) -> int:
+    p = source_start + c
+    if p >= source_end:
+        return 0
+    return (source[p >> 3] >> (7 - (p & 7))) & 1
+
+
+@njit(cache=True)
+def _state_at(source, source_start: int, source_end: int, n_clean: int, stuffed, n_stuffed: int, pos0: int,
+              run0: int, over0: int, j: int) -> tuple[int, int, int]:
+    """The reader state (pos, run, over) before clean bit j of the bits read from (pos0, run0, over0)."""
+    zeros = 0
+    c = j
+    if j > n_clean:
+        zeros = j - n_clean
+        c = n_clean
+    while c > 0 and not _clean_bit(source, source_start, source_end, c - 1):
+        zeros += 1
+        c -= 1
+    if c == 0:
+        zeros += run0
+    if j <= n_clean:
+        skipped = 0
+        for s in range(n_stuffed):
+            if stuffed[s] <= j:
+                skipped += 1
+        return pos0 + j + skipped, zeros % MAX_ZERO_RUN, over0
+    return pos0 + n_stuffed + j, zeros % MAX_ZERO_RUN, over0 + j - n_clean
+
+
+@njit(cache=True, inline="always")
+def _update_inline(counts, tree, scalars, offsets, m: int, symbol: int) -> None:
+    """update_member, inlined into the decoder's loop (a call passes every array field by field)."""
+    base = offsets[m]
+    tbase = base + m
+    increment, n = scalars[m, INCREMENT], scalars[m, N]
+    counts[np.uint64(base + symbol)] += increment
+    total = scalars[m, TOTAL] + increment
+    scalars[m, TOTAL] = total
+    if total > scalars[m, LIMIT]:
+        total = 0
+        for k in range(n):
+            counts[base + k] = (counts[base + k] + 1) // 2
+            total += counts[base + k]
+            tree[tbase + k + 1] = counts[base + k]
+        for i in range(1, n + 1):
+            parent = i + (i & -i)
+            if parent <= n:
+                tree[tbase + parent] += tree[tbase + i]
+        scalars[m, TOTAL] = total
+        return
+    i = symbol + 1
+    while i <= n:
+        tree[np.uint64(tbase + i)] += increment
+        i += i & -i
+
+
+@njit(cache=True)
+def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, counts, tree, scalars, offsets, members,
+                        out, out_start: int, fresh: bool) -> tuple[int, int, int, int]:
+    """decode_frame_local (same arguments, results and model updates) on a bit window."""
+    if not 0 <= run < MAX_ZERO_RUN:
+        return decode_frame_local(data, end_bit, pos, run, over, counts, tree, scalars, offsets, members, out,
+                                  out_start, fresh)
+    for k in range(len(members)):
+        m = members[k]
+        if not 1 <= scalars[m, TOTAL] <= WINDOW_MAX_TOTAL or (not fresh and not (
+                scalars[m, LIMIT] <= WINDOW_MAX_TOTAL and 0 <= scalars[m, INCREMENT] <= WINDOW_MAX_INCREMENT)):
+            return decode_frame_local(data, end_bit, pos, run, over, counts, tree, scalars, offsets, members, out,
+                                      out_start, fresh)
+    pos0, run0, over0 = pos, run, over
+    n_clean = max(end_bit - pos, 0)
+    stuffed = np.zeros(1, dtype=np.int64)
+    n_stuffed = 0
+    if _has_stuffing(data, end_bit, pos, run):
+        clean = np.zeros(n_clean // 8 + 1, dtype=np.uint8)
+        stuffed = np.zeros(n_clean // MAX_ZERO_RUN + 1, dtype=np.int64)
+        n_clean, n_stuffed = _strip(data, end_bit, pos, run, clean, stuffed)
+        source, source_start, source_end = clean, 0, n_clean
+    else:
+        source, source_start, source_end = data, pos, end_bit
+    byte_at = source_start >> 3
+    buf, n_buf, byte_at = _refill(source, source_end, 0, 0, byte_at)
+    n_buf -= source_start & 7
+    value = (buf >> (n_buf - PRECISION)) & TOP
+    n_buf -= PRECISION
+    n_read = PRECISION
+    low, high = 0, TOP
+    status = 0
+    for k in range(len(members)):
+        m = members[k]
+        span = high - low + 1
+        total = scalars[m, TOTAL]
+        if value < low:                        # a negative target
+            status = -1
+            break
+        target = np.int64((np.uint64(value - low + 1) * np.uint64(total) - np.uint64(1)) // np.uint64(span))
+        if target >= total:
+            status = -1
+            break
+        if fresh:
+            symbol, sym_low, sym_high = target, target, target + 1
+        else:
+            base = offsets[m]
+            tbase = base + m
+            position, remaining, step, n = 0, target, scalars[m, TOP_BIT], scalars[m, N]
+            while step:
+                nxt = position + step
+                weight = tree[np.uint64(tbase + min(nxt, n))]
+                take = (nxt <= n) & (weight <= remaining)
+                position = nxt if take else position
+                remaining = remaining - weight if take else remaining
+                step >>= 1
+            symbol = position
+            sym_low = target - remaining
+            sym_high = sym_low + counts[np.uint64(base + position)]
+        high = low + _scale(span, sym_high, total) - 1
+        low = low + _scale(span, sym_low, total)
+        # E1/E2: the leading bits low and high share; then E3: after the top bit, the bits where low is 1 and
+        # high is 0 (no branches: a count of 0 changes nothing)
+        shifts = _clz32(low ^ high)
+        out_bits = (low >> (PRECISION - shifts)) << PRECISION
+        low = (low << shifts) - out_bits
+        high = (high << shifts) - out_bits + ((1 << shifts) - 1)
+        follow = _clz32(~(low & ~high) & (HALF - 1)) - 1
+        if n_buf < shifts + follow:
+            buf, n_buf, byte_at = _refill(source, source_end, buf, n_buf, byte_at)
+        n_buf -= shifts
+        value = (value << shifts) - out_bits + ((buf >> n_buf) & ((1 << shifts) - 1))
+        n_buf -= follow
+        low = (low << follow) & (HALF - 1)
+        high = (((high << follow) | ((1 << follow) - 1)) & TOP) | HALF
+        value = (value << follow) - ((1 << follow) - 1) * HALF + ((buf >> n_buf) & ((1 << follow) - 1))
+        n_read += shifts + follow
+        if not fresh:
+            _update_inline(counts, tree, scalars, offsets, m, symbol)
+        out[out_start + k] = symbol
+    j = n_read - HISTORY if status == 0 else n_read
+    pos, run, over = _state_at(source, source_start, source_end, n_clean, stuffed, n_stuffed, pos0, run0, over0, j)
+    if status == 0 and pos > end_bit:
+        status = -2
+    return status, pos, run, over
+
+
 @njit(cache=True)
 def decode_frame_fast(data, end_bit, reader_state, counts, tree, scalars, offsets, members, out) -> int:
-    """decode_frame (same arguments, statuses, symbols and reader state) on decode_frame_local."""
-    status, pos, run, over = decode_frame_local(data, end_bit, reader_state[0], reader_state[1], reader_state[2],
-                                                counts, tree, scalars, offsets, members, out, 0, False)
+    """decode_frame (same arguments, statuses, symbols and reader state) on decode_frame_window."""
+    status, pos, run, over = decode_frame_window(data, end_bit, reader_state[0], reader_state[1], reader_state[2],
+                                                 counts, tree, scalars, offsets, members, out, 0, False)
     reader_state[0], reader_state[1], reader_state[2] = pos, run, over
     return status
