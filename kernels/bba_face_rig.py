@@ -19,6 +19,13 @@ fused multiply-adds without fastmath, and sin and cos stay libm calls, one per v
 error_model="numpy" only drops the ZeroDivisionError checks, whose divisors are never zero (a Cholesky
 pivot of a positive definite matrix, lengths floored at 1e-300).
 
+J's blocks -[lever]x and Rodrigues' K are cross matrices with a zero diagonal: `carry` leaves out the
+products with those zeros (exact +-0, the values are finite) in J J^T, J^T x and K K. A sum of the remaining
+one or two products is the same number up to the sign of a zero, and every such sum then goes into an
+accumulator that starts at +0.0 or into 1.0 + . or (0.0 + .) + ., none of which can keep a -0.0: bitwise
+the full sums (tests/test_face_rig_speed.py). The frame loops index the state arrays whole rather than
+through views (a view costs reference counting) and avoid slice assignments.
+
 `from_matrix` and `bone_turns` are the scipy / NumPy conversions that follow the solve
 (media/rotations.py from_matrix, to_matrix and between), operation for operation: bitwise theirs,
 checked on random and edge-case inputs by tests/test_face_rig_speed.py.
@@ -319,22 +326,17 @@ def from_matrix(matrix):
             choice, best = 2, m[2, 2]
         if trace > best:
             choice = 3
-        q = np.empty(4)      # (x, y, z, w) as scipy keeps them
+        # (x, y, z, w) as scipy keeps them, in scalars (a small array per matrix would cost an allocation)
         if choice == 3:
-            q[0] = m[2, 1] - m[1, 2]
-            q[1] = m[0, 2] - m[2, 0]
-            q[2] = m[1, 0] - m[0, 1]
-            q[3] = 1.0 + trace
+            q0, q1, q2, q3 = m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], 1.0 + trace
+        elif choice == 0:
+            q0, q1, q2, q3 = 1.0 - trace + 2.0 * m[0, 0], m[1, 0] + m[0, 1], m[2, 0] + m[0, 2], m[2, 1] - m[1, 2]
+        elif choice == 1:
+            q0, q1, q2, q3 = m[0, 1] + m[1, 0], 1.0 - trace + 2.0 * m[1, 1], m[2, 1] + m[1, 2], m[0, 2] - m[2, 0]
         else:
-            i = choice
-            j = (i + 1) % 3
-            h = (j + 1) % 3
-            q[i] = 1.0 - trace + 2.0 * m[i, i]
-            q[j] = m[j, i] + m[i, j]
-            q[h] = m[h, i] + m[i, h]
-            q[3] = m[h, j] - m[j, h]
-        norm = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-        x, y, z, w = q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm
+            q0, q1, q2, q3 = m[0, 2] + m[2, 0], m[1, 2] + m[2, 1], 1.0 - trace + 2.0 * m[2, 2], m[1, 0] - m[0, 1]
+        norm = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+        x, y, z, w = q0 / norm, q1 / norm, q2 / norm, q3 / norm
         if w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0))))):
             w, x, y, z = -w, -x, -y, -z
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = w, x, y, z
@@ -385,7 +387,7 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
     offset = np.empty((n_carriers, 3, T))
     heads = np.empty((n_skinned, 3, T))
     pivots = np.empty((n_carriers, 3, T))
-    blocks = np.empty((max(chain_start[n_skinned], 1), 3, 3, T))      # J's blocks: -[head_i - pivot_j]x
+    lever = np.empty((max(chain_start[n_skinned], 1), 3, T))     # head_i - pivot_j: J's block is -[lever]x
     normal = np.empty((3 * n_skinned, 3 * n_skinned, T))
     residual = np.empty((3 * n_skinned, T))
     rhs = np.empty((3 * n_skinned, T))
@@ -398,6 +400,10 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
     axis = np.empty((3, T))
     total = np.empty(T)
     totals = np.empty((9, T))
+    turn = np.empty((1, 3, 3, T))        # (1, ...): indexed as the (C, 3, 3, T) state arrays are
+    left = np.empty((1, 3, 3, T))
+    middle = np.empty((1, 3, 3, T))
+    product = np.empty((1, 3, 3, T))
     damping2 = damping * damping
     for _ in range(iterations):
         _pose_frames(current, carrier_heads, carrier_parents, rotation, offset)
@@ -424,14 +430,9 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
         for i in range(n_skinned):
             for n in range(chain_start[i], chain_start[i + 1]):
                 j = chain_index[n]
-                b = blocks[n]
-                for t in range(T):
-                    x = heads[i, 0, t] - pivots[j, 0, t]
-                    y = heads[i, 1, t] - pivots[j, 1, t]
-                    z = heads[i, 2, t] - pivots[j, 2, t]
-                    b[0, 0, t], b[0, 1, t], b[0, 2, t] = 0.0, z, -y
-                    b[1, 0, t], b[1, 1, t], b[1, 2, t] = -z, 0.0, x
-                    b[2, 0, t], b[2, 1, t], b[2, 2, t] = y, -x, 0.0
+                for r in range(3):
+                    for t in range(T):
+                        lever[n, r, t] = heads[i, r, t] - pivots[j, r, t]
         # normal = J J^T + damping^2 I, block (i, k) = sum_j B_ij B_kj^T over the carriers both share
         pair = 0
         for g in range(len(group_start) - 1):
@@ -441,16 +442,12 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
                 i = group_members[first + a]
                 for b_ in range(a, m):
                     k = group_members[first + b_]
-                    totals[:] = 0.0
+                    for e in range(9):
+                        for t in range(T):
+                            totals[e, t] = 0.0
                     for n in range(pair_start[pair], pair_start[pair + 1]):
                         j = pair_index[n]
-                        bi = blocks[entry[i, j]]
-                        bk = blocks[entry[k, j]]
-                        for r in range(3):
-                            for c in range(3):
-                                for t in range(T):
-                                    totals[3 * r + c, t] += (bi[r, 0, t] * bk[c, 0, t] + bi[r, 1, t] * bk[c, 1, t]
-                                                             + bi[r, 2, t] * bk[c, 2, t])
+                        _add_block_product(lever, entry[i, j], entry[k, j], totals)
                     for r in range(3):
                         for c in range(3):
                             for t in range(T):
@@ -466,16 +463,26 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
                 for r in range(3):
                     for t in range(T):
                         solved[3 * group_members[first + a] + r, t] = rhs[3 * a + r, t]
-        largest[:] = 0.0
+        for t in range(T):
+            largest[t] = 0.0
         for j in range(n_carriers):
             for c in range(3):
-                total[:] = 0.0
+                for t in range(T):
+                    total[t] = 0.0
+                # sum_i B_ij^T solved_i over rows r = 0, 1, 2 of column c, without row c (B_ij[c, c] = 0); with
+                # (g, h) = (c + 1, c + 2) mod 3, B_ij[g, c] = -lever[h] and B_ij[h, c] = lever[g]
+                g, h = (c + 1) % 3, (c + 2) % 3
                 for n in range(carried_start[j], carried_start[j + 1]):
                     i = carried_index[n]
-                    b = blocks[entry[i, j]]
-                    for r in range(3):
+                    e = entry[i, j]
+                    if g < h:
                         for t in range(T):
-                            total[t] += b[r, c, t] * solved[3 * i + r, t]
+                            total[t] -= lever[e, h, t] * solved[3 * i + g, t]
+                            total[t] += lever[e, g, t] * solved[3 * i + h, t]
+                    else:
+                        for t in range(T):
+                            total[t] += lever[e, g, t] * solved[3 * i + h, t]
+                            total[t] -= lever[e, h, t] * solved[3 * i + g, t]
                 for t in range(T):
                     step[j, c, t] = total[t]
             for t in range(T):
@@ -494,29 +501,19 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
             for t in range(T):              # libm, one call per value (kept out of the vectorised loops)
                 versine[t] = 1.0 - np.cos(sine[t])
                 sine[t] = np.sin(sine[t])
+            _rodrigues_frames(axis, sine, versine, turn)
             # local = parent^T turn parent local, parent: the carrier's parent posed at this iteration's start
             p = carrier_parents[j]
-            for t in range(T):
-                ux, uy, uz = axis[0, t], axis[1, t], axis[2, t]
-                k = (0.0, -uz, uy, uz, 0.0, -ux, -uy, ux, 0.0)
-                kk = _mul9(k, k)
-                s, v = sine[t], versine[t]
-                turn9 = ((1.0 + s * k[0]) + v * kk[0], (0.0 + s * k[1]) + v * kk[1], (0.0 + s * k[2]) + v * kk[2],
-                         (0.0 + s * k[3]) + v * kk[3], (1.0 + s * k[4]) + v * kk[4], (0.0 + s * k[5]) + v * kk[5],
-                         (0.0 + s * k[6]) + v * kk[6], (0.0 + s * k[7]) + v * kk[7], (1.0 + s * k[8]) + v * kk[8])
-                c = current[j]
-                now = (c[0, 0, t], c[0, 1, t], c[0, 2, t], c[1, 0, t], c[1, 1, t], c[1, 2, t],
-                       c[2, 0, t], c[2, 1, t], c[2, 2, t])
-                if p < 0:
-                    new = _mul9(turn9, now)
-                else:
-                    q = rotation[p]
-                    parent9 = (q[0, 0, t], q[0, 1, t], q[0, 2, t], q[1, 0, t], q[1, 1, t], q[1, 2, t],
-                               q[2, 0, t], q[2, 1, t], q[2, 2, t])
-                    new = _mul9(_mul9(_tmul9(parent9, turn9), parent9), now)
-                c[0, 0, t], c[0, 1, t], c[0, 2, t] = new[0], new[1], new[2]
-                c[1, 0, t], c[1, 1, t], c[1, 2, t] = new[3], new[4], new[5]
-                c[2, 0, t], c[2, 1, t], c[2, 2, t] = new[6], new[7], new[8]
+            if p < 0:
+                _matmul_frames(turn, 0, current, j, product, False)
+            else:
+                _matmul_frames(rotation, p, turn, 0, left, True)
+                _matmul_frames(left, 0, rotation, p, middle, False)
+                _matmul_frames(middle, 0, current, j, product, False)
+            for r in range(3):
+                for c in range(3):
+                    for t in range(T):
+                        current[j, r, c, t] = product[0, r, c, t]
     _pose_frames(current, carrier_heads, carrier_parents, rotation, offset)
     local = np.empty((T, n_carriers, 3, 3))
     parent_out = np.zeros((T, n_skinned, 3, 3))
@@ -537,6 +534,78 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
 
 
 @njit(cache=True, error_model="numpy")
+def _rodrigues_frames(axis, sine, versine, turn):
+    """turn (1, 3, 3, T) = I + sin(a) K + (1 - cos(a)) K K, K the cross matrix of the unit axis (3, T); sine and
+    versine (T,) hold sin(a) and 1 - cos(a).
+
+    Each entry as the row-times-column product K K (a[r, 0] b[0, c] + a[r, 1] b[1, c] + a[r, 2] b[2, c]) and
+    (delta + s K) + v KK summed it before, less the products
+    with a zero of K (its diagonal): KK[r, r] = -(K's two squares), KK[r, c] one product, and the sums of
+    one or two terms left are the same numbers up to the sign of a zero, which 1.0 + . and (0.0 + .) + .
+    (never -0.0) absorb. Products and sums of two terms commute exactly; negations are exact. One loop per
+    entry (one output, few inputs), so that each is vectorised."""
+    for t in range(len(sine)):
+        turn[0, 0, 0, t] = 1.0 - versine[t] * (axis[2, t] * axis[2, t] + axis[1, t] * axis[1, t])
+    for t in range(len(sine)):
+        turn[0, 1, 1, t] = 1.0 - versine[t] * (axis[2, t] * axis[2, t] + axis[0, t] * axis[0, t])
+    for t in range(len(sine)):
+        turn[0, 2, 2, t] = 1.0 - versine[t] * (axis[1, t] * axis[1, t] + axis[0, t] * axis[0, t])
+    for t in range(len(sine)):
+        turn[0, 0, 1, t] = (0.0 - sine[t] * axis[2, t]) + versine[t] * (axis[1, t] * axis[0, t])
+    for t in range(len(sine)):
+        turn[0, 1, 0, t] = (0.0 + sine[t] * axis[2, t]) + versine[t] * (axis[1, t] * axis[0, t])
+    for t in range(len(sine)):
+        turn[0, 0, 2, t] = (0.0 + sine[t] * axis[1, t]) + versine[t] * (axis[2, t] * axis[0, t])
+    for t in range(len(sine)):
+        turn[0, 2, 0, t] = (0.0 - sine[t] * axis[1, t]) + versine[t] * (axis[2, t] * axis[0, t])
+    for t in range(len(sine)):
+        turn[0, 1, 2, t] = (0.0 - sine[t] * axis[0, t]) + versine[t] * (axis[2, t] * axis[1, t])
+    for t in range(len(sine)):
+        turn[0, 2, 1, t] = (0.0 + sine[t] * axis[0, t]) + versine[t] * (axis[2, t] * axis[1, t])
+
+
+@njit(cache=True, error_model="numpy")
+def _matmul_frames(a, ja, b, jb, out, transpose):
+    """out[0] = a[ja] b[jb] (a[ja]^T b[jb] where transpose) for 3 x 3 matrices of T frames, arrays (n, 3, 3, T),
+    each entry a[r, 0] b[0, c] + a[r, 1] b[1, c] + a[r, 2] b[2, c] (a[0, r] b[0, c] + ...); out is neither a nor b. Indexed whole (no views: a view costs
+    reference counting, more than these few products)."""
+    for r in range(3):
+        for c in range(3):
+            if transpose:
+                for t in range(out.shape[3]):
+                    out[0, r, c, t] = (a[ja, 0, r, t] * b[jb, 0, c, t] + a[ja, 1, r, t] * b[jb, 1, c, t]
+                                       + a[ja, 2, r, t] * b[jb, 2, c, t])
+            else:
+                for t in range(out.shape[3]):
+                    out[0, r, c, t] = (a[ja, r, 0, t] * b[jb, 0, c, t] + a[ja, r, 1, t] * b[jb, 1, c, t]
+                                       + a[ja, r, 2, t] * b[jb, 2, c, t])
+
+
+@njit(cache=True, error_model="numpy")
+def _add_block_product(lever, nu, nw, totals):
+    """totals (9, T) += B_u B_w^T row-major, for J's blocks B_u = -[u]x and B_w = -[w]x, u = lever[nu] and
+    w = lever[nw] (3, T).
+
+    Each entry is sum_s B_u[r, s] B_w[c, s], summed over s = 0, 1, 2 before; the terms with a zero of -[.]x
+    (s = r or s = c) are exact zeros (+-0, the levers are finite) and are left out: a sum of one or two
+    products is then the same number except perhaps the sign of a zero, which `totals` (sums that start at
+    +0.0 and so never hold -0.0) absorbs. Negations are exact and x + (-y) is x - y, so the products of
+    negated entries are written as differences."""
+    for t in range(totals.shape[1]):
+        x, y, z = lever[nu, 0, t], lever[nu, 1, t], lever[nu, 2, t]
+        a, b, c = lever[nw, 0, t], lever[nw, 1, t], lever[nw, 2, t]
+        totals[0, t] += z * c + y * b
+        totals[1, t] -= y * a
+        totals[2, t] -= z * a
+        totals[3, t] -= x * b
+        totals[4, t] += z * c + x * a
+        totals[5, t] -= z * b
+        totals[6, t] -= x * c
+        totals[7, t] -= y * c
+        totals[8, t] += y * b + x * a
+
+
+@njit(cache=True, error_model="numpy")
 def _pose_frames(local, carrier_heads, carrier_parents, rotation, offset):
     """_pose for all frames: local (C, 3, 3, T) -> rotation (C, 3, 3, T), offset (C, 3, T)."""
     n_frames = local.shape[3]
@@ -544,7 +613,10 @@ def _pose_frames(local, carrier_heads, carrier_parents, rotation, offset):
         p = carrier_parents[j]
         h0, h1, h2 = carrier_heads[j, 0], carrier_heads[j, 1], carrier_heads[j, 2]
         if p < 0:
-            rotation[j] = local[j]
+            for r in range(3):
+                for c in range(3):
+                    for t in range(n_frames):
+                        rotation[j, r, c, t] = local[j, r, c, t]
             for r in range(3):
                 hr = carrier_heads[j, r]
                 for t in range(n_frames):
@@ -568,28 +640,32 @@ def _solve_spd_frames(matrix, rhs, n, total):
     """_solve_spd for all frames: matrix (>= n, >= n, T), rhs (>= n, T); total (T,) scratch."""
     n_frames = matrix.shape[2]
     for j in range(n):
-        total[:] = matrix[j, j]
+        for t in range(n_frames):
+            total[t] = matrix[j, j, t]
         for k in range(j):
             for t in range(n_frames):
                 total[t] -= matrix[j, k, t] * matrix[j, k, t]
         for t in range(n_frames):
             matrix[j, j, t] = np.sqrt(total[t])
         for i in range(j + 1, n):
-            total[:] = matrix[i, j]
+            for t in range(n_frames):
+                total[t] = matrix[i, j, t]
             for k in range(j):
                 for t in range(n_frames):
                     total[t] -= matrix[i, k, t] * matrix[j, k, t]
             for t in range(n_frames):
                 matrix[i, j, t] = total[t] / matrix[j, j, t]
     for i in range(n):
-        total[:] = rhs[i]
+        for t in range(n_frames):
+            total[t] = rhs[i, t]
         for k in range(i):
             for t in range(n_frames):
                 total[t] -= matrix[i, k, t] * rhs[k, t]
         for t in range(n_frames):
             rhs[i, t] = total[t] / matrix[i, i, t]
     for i in range(n - 1, -1, -1):
-        total[:] = rhs[i]
+        for t in range(n_frames):
+            total[t] = rhs[i, t]
         for k in range(i + 1, n):
             for t in range(n_frames):
                 total[t] -= matrix[k, i, t] * rhs[k, t]
@@ -641,14 +717,3 @@ def bone_turns(arms, head_moved, tail_moved):
             m[2, 0], m[2, 1], m[2, 2] = 2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2
     return out
 
-
-@njit(cache=True, inline="always")
-def _mul9(a, b):
-    """a b of 3 x 3 matrices as row-major 9-tuples, each entry a[r, 0] b[0, c] + a[r, 1] b[1, c] + a[r, 2] b[2, c]."""
-    return (a[0] * b[0] + a[1] * b[3] + a[2] * b[6], a[0] * b[1] + a[1] * b[4] + a[2] * b[7], a[0] * b[2] + a[1] * b[5] + a[2] * b[8], a[3] * b[0] + a[4] * b[3] + a[5] * b[6], a[3] * b[1] + a[4] * b[4] + a[5] * b[7], a[3] * b[2] + a[4] * b[5] + a[5] * b[8], a[6] * b[0] + a[7] * b[3] + a[8] * b[6], a[6] * b[1] + a[7] * b[4] + a[8] * b[7], a[6] * b[2] + a[7] * b[5] + a[8] * b[8])
-
-
-@njit(cache=True, inline="always")
-def _tmul9(a, b):
-    """a^T b of 3 x 3 matrices as row-major 9-tuples, in _mul9's order of terms."""
-    return (a[0] * b[0] + a[3] * b[3] + a[6] * b[6], a[0] * b[1] + a[3] * b[4] + a[6] * b[7], a[0] * b[2] + a[3] * b[5] + a[6] * b[8], a[1] * b[0] + a[4] * b[3] + a[7] * b[6], a[1] * b[1] + a[4] * b[4] + a[7] * b[7], a[1] * b[2] + a[4] * b[5] + a[7] * b[8], a[2] * b[0] + a[5] * b[3] + a[8] * b[6], a[2] * b[1] + a[5] * b[4] + a[8] * b[7], a[2] * b[2] + a[5] * b[5] + a[8] * b[8])
