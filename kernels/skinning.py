@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kernels import backends
-from kernels._arrays import UploadCache, as_array, check_indices
+from kernels._arrays import OpenCLBuffers, UploadCache, as_array, check_indices
 from kernels.errors import KernelError
 
 
@@ -174,8 +174,6 @@ class _WarpSkinning:
 
 
 # --- OpenCL ---------------------------------------------------------------------------------------
-# Each work item takes a run of CHUNK vertices: on PoCL's CPU device one work item per vertex ran the short
-# body several times slower (measured; kernels/raster.py says the same of its kernels).
 
 _OPENCL_SOURCE = r"""
 #pragma OPENCL FP_CONTRACT OFF
@@ -185,75 +183,54 @@ float3 transform_point(__global const float *m, float3 p) {
                     m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
 }
 
-/* vertices [g * chunk, (g + 1) * chunk) of n */
 __kernel void linear_blend(__global const float *rest, __global const int *indptr,
                            __global const int *bones, __global const float *values,
-                           __global const float *matrices, int n, int chunk, __global float *posed) {
-    int first = get_global_id(0) * chunk, last = min(first + chunk, n);
-    for (int v = first; v < last; ++v) {
-        float3 p = vload3(v, rest);
-        float3 total = (float3)(0.0f);
-        for (int k = indptr[v]; k < indptr[v + 1]; ++k)
-            total += values[k] * transform_point(matrices + 16 * bones[k], p);
-        vstore3(total, v, posed);
-    }
+                           __global const float *matrices, __global float *posed) {
+    int v = get_global_id(0);
+    float3 p = vload3(v, rest);
+    float3 total = (float3)(0.0f);
+    for (int k = indptr[v]; k < indptr[v + 1]; ++k)
+        total += values[k] * transform_point(matrices + 16 * bones[k], p);
+    vstore3(total, v, posed);
 }
 
 __kernel void rigid(__global const float *rest, __global const int *dominant_bone,
-                    __global const float *matrices, int n, int chunk, __global float *posed) {
-    int first = get_global_id(0) * chunk, last = min(first + chunk, n);
-    for (int v = first; v < last; ++v)
-        vstore3(transform_point(matrices + 16 * dominant_bone[v], vload3(v, rest)), v, posed);
+                    __global const float *matrices, __global float *posed) {
+    int v = get_global_id(0);
+    vstore3(transform_point(matrices + 16 * dominant_bone[v], vload3(v, rest)), v, posed);
 }
 """
 
 
 class _OpenCLSkinning:
-    """Read-only inputs upload once (UploadCache); per kernel, vertex count and bone count one kernel object
-    keeps its arguments set (the bone matrices and the output reuse one buffer each), so a frame is three
-    commands: upload the matrices, run, one blocking read-back."""
-
-    CHUNK = 64               # vertices per work item (chosen here, see above)
+    """Read-only inputs upload once; the bone matrices and the output reuse one buffer each."""
 
     def __init__(self):
         self._uploads = None
-        self._jobs = {}
+        self._buffer = OpenCLBuffers().get
 
-    def _run(self, name, rest, arguments, bone_matrices):
+    def _run(self, kernel, rest, arguments, bone_matrices):
         import pyopencl as cl
         context, queue = backends.opencl_queue()
         if self._uploads is None:
             flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
             self._uploads = UploadCache(lambda a: cl.Buffer(context, flags, hostbuf=a))
-        inputs = [self._uploads.get("rest", rest), *(self._uploads.get(key, a) for key, a in arguments)]
-        n, slot = len(rest), (name, len(rest), len(bone_matrices))
-        job = self._jobs.get(slot)
-        if job is None:
-            kernel = cl.Kernel(getattr(backends.opencl_kernels(_OPENCL_SOURCE), name).program, name)
-            matrices = cl.Buffer(context, cl.mem_flags.READ_ONLY, max(bone_matrices.nbytes, 1))
-            posed = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, max(12 * n, 1))
-            kernel.set_args(*inputs, matrices, np.int32(n), np.int32(self.CHUNK), posed)
-            job = types.SimpleNamespace(kernel=kernel, inputs=inputs, matrices=matrices, posed=posed,
-                                        size=(max(-(-n // self.CHUNK), 1),))
-            if len(self._jobs) >= 8:
-                self._jobs.pop(next(iter(self._jobs)))
-            self._jobs[slot] = job
-        for index, (new, old) in enumerate(zip(inputs, job.inputs)):
-            if new is not old:               # the rest mesh or the weights changed: uploaded again
-                job.kernel.set_arg(index, new)
-                job.inputs[index] = new
-        cl.enqueue_copy(queue, job.matrices, bone_matrices, is_blocking=False)
-        cl.enqueue_nd_range_kernel(queue, job.kernel, job.size, None)
-        posed = np.empty((n, 3), dtype=np.float32)
-        cl.enqueue_copy(queue, posed, job.posed, is_blocking=True)
+        matrices = self._buffer("matrices", bone_matrices.nbytes)
+        cl.enqueue_copy(queue, matrices, bone_matrices, is_blocking=False)
+        posed = np.empty((len(rest), 3), dtype=np.float32)
+        posed_d = self._buffer("posed", posed.nbytes)
+        inputs = [self._uploads.get("rest", rest), *(self._uploads.get(name, a) for name, a in arguments)]
+        kernel(queue, (len(rest),), None, *inputs, matrices, posed_d)
+        cl.enqueue_copy(queue, posed, posed_d, is_blocking=True)
         return posed
 
     def skin(self, rest, weights, bone_matrices):
         arguments = [("indptr", weights.indptr), ("bones", weights.bones), ("values", weights.values)]
-        return self._run("linear_blend", rest, arguments, bone_matrices)
+        return self._run(backends.opencl_kernels(_OPENCL_SOURCE).linear_blend, rest, arguments, bone_matrices)
 
     def skin_rigid(self, rest, dominant_bone, bone_matrices):
-        return self._run("rigid", rest, [("dominant", dominant_bone)], bone_matrices)
+        return self._run(backends.opencl_kernels(_OPENCL_SOURCE).rigid, rest, [("dominant", dominant_bone)],
+                         bone_matrices)
 
 
 _IMPLEMENTATIONS = {"numpy": _NumpySkinning(), "warp": _WarpSkinning(), "opencl": _OpenCLSkinning()}
