@@ -23,7 +23,13 @@ signcast's Python modules.
 import numpy as np
 from numba import njit
 
-from kernels.entropy_coding import MAX_ZERO_RUN, crc8_bytes, write_dct_blocks
+from kernels.entropy_coding import (
+    MAX_ZERO_RUN,
+    crc8_bytes,
+    put_bit_local,
+    renormalise_encoder,
+    write_dct_blocks,
+)
 
 PRECISION = 32
 TOP = (1 << PRECISION) - 1
@@ -39,24 +45,10 @@ STATUS_DCT_CODE = -4        # a DCT symbol without a Huffman code (detail[0]: th
 STATUS_LIMIT = -5           # a predicted model would reach the frequency limit (the caller writes otherwise)
 
 
-@njit(cache=True, inline="always")
-def _put(buffer, pos: int, run: int, bit: int) -> tuple[int, int]:
-    """One data bit with emulation prevention: (position, zero run) after it."""
-    if bit:
-        buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
-        return pos + 1, 0
-    pos += 1
-    run += 1
-    if run == MAX_ZERO_RUN:
-        buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
-        return pos + 1, 0
-    return pos, run
-
-
 @njit(cache=True)
 def _put_bits(buffer, pos: int, run: int, value: int, n_bits: int) -> tuple[int, int]:
     for shift in range(n_bits - 1, -1, -1):
-        pos, run = _put(buffer, pos, run, (value >> shift) & 1)
+        pos, run = put_bit_local(buffer, pos, run, (value >> shift) & 1)
     return pos, run
 
 
@@ -64,7 +56,7 @@ def _put_bits(buffer, pos: int, run: int, value: int, n_bits: int) -> tuple[int,
 def _put_array(buffer, pos: int, run: int, bits) -> tuple[int, int]:
     """bits (N,) uint8 of 0 and 1, in order."""
     for k in range(len(bits)):
-        pos, run = _put(buffer, pos, run, bits[k])
+        pos, run = put_bit_local(buffer, pos, run, bits[k])
     return pos, run
 
 
@@ -92,7 +84,7 @@ def _header(buffer, pos: int, header_bits, tight: bool, fields, range_bits: int)
         for r in range(fields.shape[0]):
             for j in range(fields.shape[1]):
                 if j % 4 == 0:
-                    pos, run = _put(buffer, pos, run, 1)
+                    pos, run = put_bit_local(buffer, pos, run, 1)
                 pos, run = _put_bits(buffer, pos, run, fields[r, j], range_bits)
     pos, run = _put_bits(buffer, pos, run, crc8_bytes(buffer, start, pos), CRC_BITS)
     return pos
@@ -110,7 +102,7 @@ def _unit_head(buffer, pos: int, header_bits, tight: bool, fields, range_bits: i
         n_intra += 1
     pos = _start_code(buffer, pos, FRAME_START_CODE)
     start = pos
-    pos, run = _put(buffer, pos, 0, 1 if intra else 0)
+    pos, run = put_bit_local(buffer, pos, 0, 1 if intra else 0)
     if intra:
         pos, run = _put_bits(buffer, pos, run, number, FRAME_NUMBER_BITS)
     else:
@@ -121,7 +113,7 @@ def _unit_head(buffer, pos: int, header_bits, tight: bool, fields, range_bits: i
     if intra:
         pos, run = _put_array(buffer, pos, run, list_bits)
     else:
-        pos, run = _put(buffer, pos, run, 1)      # same_mask: every unit carries the first unit's bone list
+        pos, run = put_bit_local(buffer, pos, run, 1)      # same_mask: every unit carries the first unit's bone list
     return pos, run, start, n_intra
 
 
@@ -131,34 +123,6 @@ def _unit_tail(buffer, pos: int, run: int, start: int) -> int:
     pos, run = _put_bits(buffer, pos, run, 0, MUSCLE_COUNT_BITS)
     pos, run = _put_bits(buffer, pos, run, crc8_bytes(buffer, start, pos), CRC_BITS)
     return pos
-
-
-@njit(cache=True, inline="always")
-def _renormalise(buffer, pos: int, run: int, low: int, high: int, pending: int) -> tuple[int, int, int, int, int]:
-    """entropy_coding.encode_symbol's renormalisation on local state: (position, zero run, low, high, pending)."""
-    while True:
-        if high < HALF:
-            bit = 0
-        elif low >= HALF:
-            bit = 1
-            low -= HALF
-            high -= HALF
-        elif low >= QUARTER and high < THREE_QUARTERS:
-            pending += 1
-            low -= QUARTER
-            high -= QUARTER
-            low <<= 1
-            high = (high << 1) | 1
-            continue
-        else:
-            break
-        pos, run = _put(buffer, pos, run, bit)
-        for _ in range(pending):
-            pos, run = _put(buffer, pos, run, 1 - bit)
-        pending = 0
-        low <<= 1
-        high = (high << 1) | 1
-    return pos, run, low, high, pending
 
 
 @njit(cache=True)
@@ -187,11 +151,11 @@ def _encode_levels(buffer, pos: int, run: int, levels, u: int, low, sizes, fresh
         span = np.uint64(high - low_ + 1)         # unsigned division: the operands are non-negative
         high = low_ + np.int64(span * np.uint64(cumulative + count) // np.uint64(total)) - 1
         low_ = low_ + np.int64(span * np.uint64(cumulative) // np.uint64(total))
-        pos, run, low_, high, pending = _renormalise(buffer, pos, run, low_, high, pending)
+        pos, run, low_, high, pending = renormalise_encoder(buffer, pos, run, low_, high, pending)
     bit = 0 if low_ < QUARTER else 1
-    pos, run = _put(buffer, pos, run, bit)
+    pos, run = put_bit_local(buffer, pos, run, bit)
     for _ in range(pending + 1):
-        pos, run = _put(buffer, pos, run, 1 - bit)
+        pos, run = put_bit_local(buffer, pos, run, 1 - bit)
     return pos, run
 
 

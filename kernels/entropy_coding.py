@@ -988,3 +988,49 @@ def decode_frame_fast(data, end_bit, reader_state, counts, tree, scalars, offset
                                                  counts, tree, scalars, offsets, members, out, 0, False)
     reader_state[0], reader_state[1], reader_state[2] = pos, run, over
     return status
+
+
+# ------------------------------------------------------------------ encoder on local state (shared by the stream writers)
+
+@njit(cache=True, inline="always")
+def put_bit_local(buffer, pos: int, run: int, bit: int) -> tuple[int, int]:
+    """put_bit on local state: one data bit with emulation prevention; (position, zero run) after it."""
+    if bit:
+        buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
+        return pos + 1, 0
+    pos += 1
+    run += 1
+    if run == MAX_ZERO_RUN:
+        buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
+        return pos + 1, 0
+    return pos, run
+
+
+@njit(cache=True, inline="always")
+def renormalise_encoder(buffer, pos: int, run: int, low: int, high: int,
+                        pending: int) -> tuple[int, int, int, int, int]:
+    """encode_symbol's interval renormalisation on local state: emits the settled bits and their pending follow
+    bits; returns (position, zero run, low, high, pending)."""
+    while True:
+        if high < HALF:
+            bit = 0
+        elif low >= HALF:
+            bit = 1
+            low -= HALF
+            high -= HALF
+        elif low >= QUARTER and high < THREE_QUARTERS:
+            pending += 1
+            low -= QUARTER
+            high -= QUARTER
+            low <<= 1
+            high = (high << 1) | 1
+            continue
+        else:
+            break
+        pos, run = put_bit_local(buffer, pos, run, bit)
+        for _ in range(pending):
+            pos, run = put_bit_local(buffer, pos, run, 1 - bit)
+        pending = 0
+        low <<= 1
+        high = (high << 1) | 1
+    return pos, run, low, high, pending

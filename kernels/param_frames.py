@@ -36,7 +36,9 @@ from kernels.entropy_coding import (
     get_bit,
     get_bits,
     put_bit,
+    put_bit_local,
     put_bits,
+    renormalise_encoder,
 )
 
 END_OF_DATA, CORRUPT_CODE, CODE_ENDS_EARLY = -1, -2, -3
@@ -290,49 +292,6 @@ def check_symbols(levels, low, high) -> int:
 # while the alphabets of Q = 1 run to ~10^6 symbols per plane); offsets and scalars as entropy_coding.
 
 @njit(cache=True)
-def _put(buffer, pos: int, run: int, bit: int) -> tuple[int, int]:
-    """entropy_coding.put_bit on local state: (position, zero run) after the bit."""
-    if bit:
-        buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
-        return pos + 1, 0
-    pos += 1
-    run += 1
-    if run == MAX_ZERO_RUN:
-        buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
-        return pos + 1, 0
-    return pos, run
-
-
-@njit(cache=True, inline="always")
-def _renormalise(buffer, pos: int, run: int, low: int, high: int, pending: int) -> tuple[int, int, int, int, int]:
-    """The encoder's interval renormalisation (entropy_coding.encode_symbol's loop) on local state: emits the
-    settled bits and their pending follow bits; returns (position, zero run, low, high, pending)."""
-    while True:
-        if high < HALF:
-            bit = 0
-        elif low >= HALF:
-            bit = 1
-            low -= HALF
-            high -= HALF
-        elif low >= QUARTER and high < THREE_QUARTERS:
-            pending += 1
-            low -= QUARTER
-            high -= QUARTER
-            low <<= 1
-            high = (high << 1) | 1
-            continue
-        else:
-            break
-        pos, run = _put(buffer, pos, run, bit)
-        for _ in range(pending):
-            pos, run = _put(buffer, pos, run, 1 - bit)
-        pending = 0
-        low <<= 1
-        high = (high << 1) | 1
-    return pos, run, low, high, pending
-
-
-@njit(cache=True)
 def new_scalars(sizes, limit: int):
     """offsets (M + 1,) of each model's counts and scalars (M, 5) (total, top bit, increment 1, limit, n)
     of a bank of all-ones models of these alphabet sizes (M,)."""
@@ -403,13 +362,13 @@ def _encode_track(buffer, pos: int, run: int, symbols, a: int, b: int, offsets, 
         span = high - low + 1
         high = low + span * (cumulative + 1 + excess) // total - 1
         low = low + span * cumulative // total
-        pos, run, low, high, pending = _renormalise(buffer, pos, run, low, high, pending)
+        pos, run, low, high, pending = renormalise_encoder(buffer, pos, run, low, high, pending)
         if not fresh:
             _update(counts, tree, scalars, m, base, symbol)
     bit = 0 if low < QUARTER else 1
-    pos, run = _put(buffer, pos, run, bit)
+    pos, run = put_bit_local(buffer, pos, run, bit)
     for _ in range(pending + 1):
-        pos, run = _put(buffer, pos, run, 1 - bit)
+        pos, run = put_bit_local(buffer, pos, run, 1 - bit)
     return pos, run
 
 
@@ -425,7 +384,7 @@ def write_level_frames(buffer, state, header: int, header_bits: int, levels, low
     pos, run = state[0], state[1]
     for f in range(levels.shape[0]):
         for shift in range(header_bits - 1, -1, -1):
-            pos, run = _put(buffer, pos, run, (header >> shift) & 1)
+            pos, run = put_bit_local(buffer, pos, run, (header >> shift) & 1)
         for p in range(levels.shape[1]):
             symbols[p] = levels[f, p] - low[p]
         for k in range(len(track_starts) - 1):
@@ -687,12 +646,12 @@ def _sparse_encode_track(buffer, pos: int, run: int, symbols, a: int, b: int, si
         span = high - low + 1
         high = low + span * (cumulative + 1 + excess) // total - 1
         low = low + span * cumulative // total
-        pos, run, low, high, pending = _renormalise(buffer, pos, run, low, high, pending)
+        pos, run, low, high, pending = renormalise_encoder(buffer, pos, run, low, high, pending)
         _sparse_add(keys, extra, used, totals, limit, sizes[p], p, slot, symbol)
     bit = 0 if low < QUARTER else 1
-    pos, run = _put(buffer, pos, run, bit)
+    pos, run = put_bit_local(buffer, pos, run, bit)
     for _ in range(pending + 1):
-        pos, run = _put(buffer, pos, run, 1 - bit)
+        pos, run = put_bit_local(buffer, pos, run, 1 - bit)
     return pos, run
 
 
@@ -704,7 +663,7 @@ def write_sparse_frames(buffer, state, header: int, header_bits: int, levels, lo
     pos, run = state[0], state[1]
     for f in range(levels.shape[0]):
         for shift in range(header_bits - 1, -1, -1):
-            pos, run = _put(buffer, pos, run, (header >> shift) & 1)
+            pos, run = put_bit_local(buffer, pos, run, (header >> shift) & 1)
         for p in range(levels.shape[1]):
             symbols[p] = levels[f, p] - low[p]
         for k in range(len(track_starts) - 1):
