@@ -981,15 +981,6 @@ def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, count
     return status, pos, run, over
 
 
-@njit(cache=True)
-def decode_frame_fast(data, end_bit, reader_state, counts, tree, scalars, offsets, members, out) -> int:
-    """decode_frame (same arguments, statuses, symbols and reader state) on decode_frame_window."""
-    status, pos, run, over = decode_frame_window(data, end_bit, reader_state[0], reader_state[1], reader_state[2],
-                                                 counts, tree, scalars, offsets, members, out, 0, False)
-    reader_state[0], reader_state[1], reader_state[2] = pos, run, over
-    return status
-
-
 # ------------------------------------------------------------------ encoder on local state (shared by the stream writers)
 
 @njit(cache=True, inline="always")
