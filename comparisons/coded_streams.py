@@ -9,6 +9,8 @@ Each section is one of
     b"S" varint(alphabet) varint(count) varint(n_bytes) bytes   symbols in [0, alphabet), entropy coded
     b"R" varint(count) varint(n_bytes) bytes                    integers of known bit widths, packed MSB first
     b"H" varint(n_bytes) bytes                                  coder side information (fixed layout per coder)
+    b"C" varint(count) varint(n_bytes) bytes                    wavelet coefficients (D, n_blocks, 16), context
+                                                                coded (kernels/lab_context.py), count = their number
 
 Writer and reader are used in the same order by a coder's encoder and decoder. The reader checks
 every length and the CRC, so corrupt or truncated input raises SigncastError instead of decoding
@@ -35,7 +37,7 @@ from typing import Callable
 
 import numpy as np
 
-from kernels import lab_streams
+from kernels import lab_context, lab_streams
 from media.errors import SigncastError
 
 MAGIC = b"SCM1"
@@ -344,6 +346,21 @@ class StreamWriter:
         self.symbols(classes, _MAX_MAGNITUDE_CLASS + 1)
         self.parts += [b"R", _varint(len(values)), _varint(n_bytes), packed[:n_bytes].tobytes()]
 
+    def context_coded(self, coeffs: np.ndarray) -> None:
+        """Wavelet coefficients (D, n_blocks, 16) int64 as one b"C" section (kernels/lab_context.py: binarised,
+        context-modelled binary range coding; the section's own models, whatever the entropy stage)."""
+        coeffs = np.ascontiguousarray(coeffs, dtype=np.int64)
+        if coeffs.ndim != 3 or coeffs.shape[2] != lab_context.BLOCK:
+            raise ValueError("context-coded coefficients must be (D, n_blocks, 16)")
+        out = np.zeros(lab_context.payload_capacity(coeffs.size), dtype=np.uint8)
+        n_bytes = lab_context.encode(coeffs, out)
+        if n_bytes > len(out):  # a noise-like input: code again into the size the first pass measured
+            out = np.zeros(n_bytes, dtype=np.uint8)
+            n_bytes = lab_context.encode(coeffs, out)
+        if n_bytes < 0:
+            raise ValueError(f"coefficient too large for the context coder (|v| < 2^{lab_context.MAX_CLASS})")
+        self.parts += [b"C", _varint(coeffs.size), _varint(n_bytes), out[:n_bytes].tobytes()]
+
     def finish(self) -> bytes:
         body = b"".join(self.parts)
         return body + struct.pack("<I", zlib.crc32(body))
@@ -466,6 +483,20 @@ class StreamReader:
         self.pos = start  # not accepted: the checking reader says what is wrong
         mantissa = self.raw(classes)
         return from_magnitude_classes(classes, mantissa)
+
+    def context_coded(self, n_dofs: int, n_blocks: int) -> np.ndarray:
+        """The b"C" section StreamWriter.context_coded wrote: (n_dofs, n_blocks, 16) int64; the count must be
+        exactly that (the caller derives it from the header, so the allocation is bounded)."""
+        self._tag(b"C")
+        count = self._varint()
+        if count != n_dofs * n_blocks * lab_context.BLOCK:
+            raise self._fail(f"context-coded section holds {count} coefficients where "
+                             f"{n_dofs * n_blocks * lab_context.BLOCK} fit")
+        payload = np.frombuffer(self._take(self._varint()), dtype=np.uint8).copy()  # the kernel's buffer is writable
+        coeffs = np.zeros((n_dofs, n_blocks, lab_context.BLOCK), dtype=np.int64)
+        if lab_context.decode(payload, coeffs) != 0:
+            raise self._fail("context-coded payload undecodable (damaged or truncated)")
+        return coeffs
 
     def finish(self) -> None:
         if self.pos != len(self.body):

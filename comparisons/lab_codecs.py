@@ -40,7 +40,10 @@ NOT_SIGNING = {"root", "pelvis", "upperleg01", "upperleg02", "lowerleg01", "lowe
 HAND_BONES = ("finger", "metacarpal")
 ARM_BONES = ("clavicle", "shoulder01", "upperarm", "lowerarm", "wrist")
 LAB_CODEC_NAMES = MOTION_CODER_NAMES           # WAVEFORM_NAMES + MODEL_NAMES (media.domain)
-CODER_IDS = {name: i + 1 for i, name in enumerate(LAB_CODEC_NAMES)}
+CODER_CLASSES = {**WAVEFORM_CODERS, "svq": SpatialVQ, "tvq": TemporalVQ, "posture": PostureCoder,
+                 "gesture": GestureCoder, "hybrid": HybridCoder}
+# each coder's id in its streams' headers is the class's own, so listing a new coder anywhere keeps old streams
+CODER_IDS = {name: CODER_CLASSES[name].coder_id for name in LAB_CODEC_NAMES}
 
 
 @dataclass(frozen=True)
@@ -152,6 +155,7 @@ DESCRIPTIONS = {
     "deadreck": "dead reckoning, constant-velocity extrapolation (threshold, degrees)",
     "dct": "16-sample DCT blocks, Appendix III bit allocations",
     "wavelet": "Haar wavelet of 16-sample blocks (step, rad)",
+    "wavelet-cx": "Haar wavelet of 16-sample blocks, context-modelled binary coding (step, rad)",
     "svq": "spatial VQ per joint group (codebook size)",
     "tvq": "temporal VQ of 6-sample blocks, closed loop (codebook size)",
     "posture": "posture segmentation + posture table + Hermite interpolation (distance d, rad)",
@@ -175,8 +179,7 @@ class LabCodec:
 
     def settings(self) -> tuple:
         """The coder's operating points, q = 1 .. len()."""
-        return {**WAVEFORM_CODERS, "svq": SpatialVQ, "tvq": TemporalVQ, "posture": PostureCoder,
-                "gesture": GestureCoder, "hybrid": HybridCoder}[self.name].settings
+        return CODER_CLASSES[self.name].settings
 
     def index_of(self, q: int) -> int:
         settings = self.settings()

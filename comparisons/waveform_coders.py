@@ -37,7 +37,7 @@ import numpy as np
 from scipy.fft import dct, idct
 
 from comparisons.coded_streams import StreamReader, StreamWriter
-from kernels import lab_predictive
+from kernels import lab_context, lab_predictive
 from media.errors import SigncastError
 
 FIRST_FRAME_BITS = 16
@@ -488,5 +488,44 @@ class WaveletCoder(DofCoder):
         return from_blocks(haar_inverse([index * step for index in indices]), n_frames)
 
 
+class ContextWaveletCoder(DofCoder):
+    """The wavelet coder (§7.8.2) with context-modelled entropy coding, chosen here: the seed names a wavelet
+    coder but not how its coefficients are entropy coded. As H.264's CABAC and JPEG 2000's EBCOT do, each
+    coefficient is binarised (magnitude class in unary, sign, top mantissa bit, remaining bits) and every bin is
+    coded by a binary range coder with an adaptive probability chosen by its context: the band, and the
+    magnitude of the same DOF's previous coefficient of that band in time and of its parent in the coarser band
+    (kernels/lab_context.py). A still DOF then costs a fraction of a bit per coefficient. Transform, blocks,
+    steps and the approximation's prediction (from the previous block; the first from 0) are `wavelet`'s;
+    the indices are the coefficients rounded to the nearest step multiple (halves away from zero).
+    One b"C" section (comparisons/coded_streams.py) holds every coefficient."""
+
+    name, coder_id, unit = "wavelet-cx", 13, "step (rad)"
+    settings = WaveletCoder.settings
+    rounding = 0.5  # index = sign(c) floor(|c| / step + rounding)
+
+    def _encode(self, writer, dofs, fps, step):
+        coeffs = np.concatenate(haar_forward(to_blocks(dofs)), axis=-1) / step
+        if not np.all(np.abs(coeffs) < 2.0 ** (lab_context.MAX_CLASS - 1)):
+            raise SigncastError(f"{self.name}: DOF values too large for step {step} rad")
+        indices = (np.sign(coeffs) * np.floor(np.abs(coeffs) + self.rounding)).astype(np.int64)
+        coded = indices.copy()
+        coded[..., 0] = np.diff(indices[..., 0], axis=1, prepend=0)
+        writer.context_coded(coded)
+        return self._reconstruct(indices, step, len(dofs))
+
+    @staticmethod
+    def _reconstruct(indices: np.ndarray, step: float, n_frames: int) -> np.ndarray:
+        bands, start, width = [indices[..., :1]], 1, 1
+        while start < BLOCK:
+            bands.append(indices[..., start:start + width])
+            start, width = start + width, 2 * width
+        return from_blocks(haar_inverse([band * step for band in bands]), n_frames)
+
+    def _decode(self, reader, n_frames, fps, step):
+        indices = reader.context_coded(self.n_dofs, -(-n_frames // BLOCK))
+        indices[..., 0] = np.cumsum(indices[..., 0], axis=1)
+        return self._reconstruct(indices, step, n_frames)
+
+
 WAVEFORM_CODERS = {cls.name: cls for cls in (UniformQuantizer, CompandedQuantizer, DpcmCoder, AdpcmCoder,
-                                             DeadReckoningCoder, DctCoder, WaveletCoder)}
+                                             DeadReckoningCoder, DctCoder, WaveletCoder, ContextWaveletCoder)}

@@ -121,7 +121,7 @@ FBA, BBA = "FBA", "BBA"
 # freedom and model-based coders. They code the same motion as FBA/BBA but are not MPEG-4 streams, so their
 # records carry a solution of their own.
 MOTION_CODER = "motion coder"
-WAVEFORM_NAMES = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavelet", "svq", "tvq")
+WAVEFORM_NAMES = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavelet", "wavelet-cx", "svq", "tvq")
 MODEL_NAMES = ("posture", "gesture", "hybrid")
 MOTION_CODER_NAMES = WAVEFORM_NAMES + MODEL_NAMES
 # Solutions that send pixels; their solution is the study's choice of objects, not the video codec's.

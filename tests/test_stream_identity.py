@@ -349,3 +349,34 @@ REFERENCE = {
 @pytest.mark.parametrize("kind, arguments", list(all_cases()), ids=lambda v: str(v))
 def test_streams_and_decoded_values_match_the_stored_references(kind, arguments):
     assert DIGESTS[kind](*arguments) == REFERENCE[(kind, arguments)]
+
+
+# wavelet-cx (comparisons/waveform_coders.py ContextWaveletCoder): the coder's own stream (SCM1) over the clip's
+# active DOFs and the shipped DOF ranges, as lab_codecs.LabCodec hands them to it (independent of the SCL1 wrapper's
+# coder id, which comes with the name's registration in media.domain). (clip, q 1..11): (stream, decoded) SHA-256.
+CONTEXT_WAVELET_REFERENCE = {
+    ('ase_HELLO_25fps', 1): ('0b2a722a680791ea9c6632e6a888edb00daa743a83f5971ff598583fa8ed896d',
+        '09416fafdc2ed02d06e51e686c083eb151ce9a9f7b918c1c0c4ce489b5ead0e7'),
+    ('ase_HELLO_25fps', 6): ('cadb43c1039eeddf92219df1b3c7cccc872bb4ecbe4b1e98697105c2af1e26ab',
+        'cd12373b1e50b72a5a7be0912202ae4be29c5b32aeabcd45372f01920d15ad1d'),
+    ('ase_HELLO_25fps', 11): ('70ce2c49bf2f9630298b027608451e4015d0185a5451485e73b245dbf68b8707',
+        'af3f2156dd9bf73b39deb9978204df9b404953942e8d0f9e3023a7a8f6482228'),
+    ('ase_J_10fps', 1): ('6183b51f0ca001272cfdde943876b4ba5e5459eae7c9f4afd636f6d49adfb87f',
+        'b2a46b10ef5f84e5bef5b58900af79ea6486de5d6accdf91400bcb63ce36d608'),
+    ('ase_J_10fps', 6): ('270ae7508775f44fe7025c86cb54874a38096d2d196e1707df0d03bd85b0e2d6',
+        '8e805b4b86eb10fd366ea49ab2f159029ed9b04219d8919e4d47c3f7b5897d24'),
+    ('ase_J_10fps', 11): ('1c61d93bf4869773c92dd4343ea712d38574814d7ecaab43848f31177df25def',
+        '2654c12d6098a35bf2e4f3487279909a58cadd672833f82f84fb71e21d96385e'),
+}
+
+
+@pytest.mark.parametrize("clip, q", sorted(CONTEXT_WAVELET_REFERENCE))
+def test_context_wavelet_streams_match_the_stored_references(clip, q):
+    from comparisons.lab_codecs import dof_ranges
+    from comparisons.waveform_coders import ContextWaveletCoder
+    lower, upper = dof_ranges()
+    dofs = DOFS[clip]
+    active = np.any(dofs != 0, axis=0)
+    coder = ContextWaveletCoder(lower[active], upper[active])
+    data, _ = coder.encode(dofs[:, active], MOTION_CLIPS[clip].fps, q - 1)
+    assert (_sha(data), _sha(coder.decode(data))) == CONTEXT_WAVELET_REFERENCE[(clip, q)]

@@ -351,7 +351,7 @@ def records(data: bytes) -> None:
 
 # ------------------------------------------------------------------------------------ registry
 
-MOTION_CODERS = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavelet", "svq", "tvq",
+MOTION_CODERS = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavelet", "wavelet-cx", "svq", "tvq",
                  "posture", "gesture", "hybrid")   # = lab_codecs.LAB_CODEC_NAMES (tested), without importing it
 
 TARGETS: dict[str, Target] = {t.name: t for t in [
