@@ -1,4 +1,9 @@
-"""Argument checks and a small cache of device buffers shared by the kernels."""
+"""Argument checks and a small cache of device buffers shared by the kernels.
+
+Static inputs (mesh topology, part labels, skin weights) come back unchanged every frame, so their
+costlier checks (index ranges, monotone row starts) run once per distinct array object and content
+(`checked_once`), the way UploadCache uploads them once; per-frame inputs keep their checks.
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -9,10 +14,13 @@ from kernels.errors import KernelError
 
 def as_array(name: str, value, dtype, shape: tuple) -> np.ndarray:
     """C-contiguous array of `dtype`; `shape` uses None for free sizes. Raises KernelError if it does not fit."""
-    try:
-        array = np.ascontiguousarray(value, dtype=dtype)
-    except (TypeError, ValueError) as error:
-        raise KernelError(f"{name}: cannot convert to {np.dtype(dtype).name} array ({error})") from None
+    if type(value) is np.ndarray and value.dtype == dtype and value.flags.c_contiguous:
+        array = value                          # the common case, without a conversion call
+    else:
+        try:
+            array = np.ascontiguousarray(value, dtype=dtype)
+        except (TypeError, ValueError) as error:
+            raise KernelError(f"{name}: cannot convert to {np.dtype(dtype).name} array ({error})") from None
     if array.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, array.shape)):
         wanted = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
         raise KernelError(f"{name}: expected shape {wanted}, got {array.shape}")
@@ -20,31 +28,70 @@ def as_array(name: str, value, dtype, shape: tuple) -> np.ndarray:
 
 
 def check_indices(name: str, indices: np.ndarray, upper: int) -> None:
+    """Raises KernelError unless every entry of `indices` lies in [0, upper)."""
     if indices.size and (indices.min() < 0 or indices.max() >= upper):
         raise KernelError(f"{name}: indices must lie in [0, {upper}), got [{indices.min()}, {indices.max()}]")
+
+
+class _Passed:
+    """Inputs that passed a check: per key, the array objects and a host snapshot of their content."""
+
+    def __init__(self, size: int = 32):
+        self._size = size
+        self._entries: dict[tuple, tuple] = {}
+
+    def seen(self, key: tuple, arrays: tuple) -> bool:
+        hit = self._entries.get(key)
+        return (hit is not None and all(a is b for a, b in zip(hit[0], arrays))
+                and all(np.array_equal(copy, a) for copy, a in zip(hit[1], arrays)))
+
+    def add(self, key: tuple, arrays: tuple) -> None:
+        if key not in self._entries and len(self._entries) >= self._size:
+            self._entries.pop(next(iter(self._entries)))
+        self._entries[key] = (arrays, tuple(a.copy() for a in arrays))
+
+
+_PASSED = _Passed()
+
+
+def checked_once(key: tuple, arrays: tuple, check) -> None:
+    """Calls `check()` (which raises KernelError on bad input) unless the same array objects with the same
+    content passed it under `key` before; `key` names the check and every bound it depends on."""
+    if not _PASSED.seen(key, arrays):
+        check()
+        _PASSED.add(key, arrays)
+
+
+def check_indices_once(name: str, indices: np.ndarray, upper: int) -> None:
+    """check_indices for a static input: the range is checked once per array object and content."""
+    checked_once(("indices", name, upper), (indices,), lambda: check_indices(name, indices, upper))
 
 
 class UploadCache:
     """Device copies of inputs that rarely change (rest mesh, weights, triangles).
 
     An entry is reused only while the caller passes the same array object with the same content
-    (a comparison against a host snapshot, much cheaper than an upload to a GPU).
+    (a comparison against a host snapshot, much cheaper than an upload to a GPU). With
+    `snapshot=False` the upload must alias the caller's memory (a Warp-CPU array made with copy=False):
+    content changes then show through by themselves, and an entry is reused for the same array object
+    without a comparison (the entry keeps the object, hence its memory, alive).
     """
 
-    def __init__(self, upload, size: int = 16):
+    def __init__(self, upload, size: int = 16, *, snapshot: bool = True):
         self._upload = upload
         self._size = size
+        self._snapshot = snapshot
         self._entries: dict[tuple, tuple] = {}
 
     def get(self, key: str, array: np.ndarray):
         slot = (key, id(array), array.shape, array.dtype.str)
         hit = self._entries.get(slot)
-        if hit is not None and hit[0] is array and np.array_equal(hit[1], array):
+        if hit is not None and hit[0] is array and (hit[1] is None or np.array_equal(hit[1], array)):
             return hit[2]
         device_array = self._upload(array)
         if len(self._entries) >= self._size:
             self._entries.pop(next(iter(self._entries)))
-        self._entries[slot] = (array, array.copy(), device_array)
+        self._entries[slot] = (array, array.copy() if self._snapshot else None, device_array)
         return device_array
 
 

@@ -41,7 +41,7 @@ from typing import NamedTuple
 import numpy as np
 
 from kernels import backends
-from kernels._arrays import UploadCache, as_array, check_indices
+from kernels._arrays import UploadCache, as_array, check_indices_once
 from kernels.errors import KernelError
 
 LOOKS = ("shaded", "flat")
@@ -62,6 +62,8 @@ SHADED_ALBEDO = np.array([[0, 0, 0], [46, 52, 70], [226, 176, 146], [226, 176, 1
 STUDIO_BACKGROUND = np.array([92, 112, 128], dtype=np.uint8)
 KEY_LIGHT = np.array([0.35, 0.45, 1.0])            # direction towards the light, world (avatar faces +Z)
 AMBIENT, DIFFUSE = 0.30, 0.75
+_LIGHT = np.array([*(KEY_LIGHT / np.linalg.norm(KEY_LIGHT)), AMBIENT, DIFFUSE], dtype=np.float32)   # unit l, a, d
+_LIGHT.flags.writeable = False
 
 
 def rasterize(positions, triangles, triangle_part, camera, width: int, height: int, *, look: str = "shaded",
@@ -88,11 +90,11 @@ def rasterize(positions, triangles, triangle_part, camera, width: int, height: i
     triangles = as_array("triangles", triangles, np.int32, (None, 3))
     triangle_part = as_array("triangle_part", triangle_part, np.uint8, (len(triangles),))
     camera = as_array("camera", camera, np.float32, (4, 4))
-    check_indices("triangles", triangles, len(positions))
+    check_indices_once("triangles", triangles, len(positions))
     if not np.all(np.isfinite(positions)):
         raise KernelError("positions hold NaN or infinite values")
     palette = as_array("palette", FLAT_PALETTE if palette is None else palette, np.uint8, (None, 3))
-    check_indices("triangle_part", triangle_part, len(palette))
+    check_indices_once("triangle_part", triangle_part, len(palette))
     if look == "shaded":
         colour = SHADED_ALBEDO[np.minimum(triangle_part, len(SHADED_ALBEDO) - 1)] if triangle_colour is None else triangle_colour
         colour = as_array("triangle_colour", colour, np.uint8, (len(triangles), 3))
@@ -100,9 +102,8 @@ def rasterize(positions, triangles, triangle_part, camera, width: int, height: i
     else:
         colour = np.zeros((len(triangles), 3), np.uint8)
         background = palette[0].copy()
-    light = np.array([*(KEY_LIGHT / np.linalg.norm(KEY_LIGHT)), AMBIENT, DIFFUSE], dtype=np.float32)
     scene = _Scene(positions, triangles, triangle_part, camera, int(width), int(height), look == "shaded",
-                   colour, palette, background, light, bool(cull_back_faces))
+                   colour, palette, background, _LIGHT, bool(cull_back_faces))
     return _IMPLEMENTATIONS[backends.resolve(backend)].render(scene)
 
 
@@ -276,7 +277,9 @@ def _resolve(s: _Scene, keys, shade):
 class _WarpRaster:
     """Device buffers and recorded launches are kept per mesh and image size, so a frame packs no kernel
     arguments again (and sets the camera, light and look only when they change); the mesh topology,
-    parts and colours upload only when they change (UploadCache).
+    parts and colours upload only when they change (UploadCache; on the CPU device the kernels read the
+    caller's arrays in place, so nothing is copied or compared). The projection writes one 16-byte record
+    a vertex (kernels/raster_warp.py), so the triangle pass reads a vertex with one load.
 
     On the CPU device each thread takes a run of items (kernels/raster_warp.py says why) and the
     positions and the background colour are written through NumPy views of the device buffers; on
@@ -293,12 +296,12 @@ class _WarpRaster:
 
     def _frame(self, s: _Scene, triangles, part, colour, palette):
         """The buffers and recorded launches for this mesh and image size (built on first use)."""
-        from kernels import raster_warp
-        wp, device = backends.warp(), backends.warp_device()
         V, F, W, H = len(s.positions), len(s.triangles), s.width, s.height
         slot = (V, F, W, H)
         frame = self._frames.get(slot)
         if frame is None:
+            from kernels import raster_warp
+            wp, device = self._wp, backends.warp_device()
             on_cpu = device == "cpu"
             chunk = self.CPU_CHUNK if on_cpu else 1
             n = W * H
@@ -308,8 +311,7 @@ class _WarpRaster:
                                                    (8 * n, n, wp.float32))]
             frame = types.SimpleNamespace(
                 positions=wp.empty(V, dtype=wp.vec3, device=device),
-                fixed_x=wp.empty(V, dtype=wp.int64, device=device), fixed_y=wp.empty(V, dtype=wp.int64, device=device),
-                depth=wp.empty(V, dtype=wp.float32, device=device), valid=wp.empty(V, dtype=wp.int32, device=device),
+                vertices=wp.empty(V, dtype=wp.vec4, device=device),
                 keys=wp.full(n, int(EMPTY_KEY), dtype=wp.int64, device=device),
                 face_rgb=wp.zeros(3 * F, dtype=wp.uint8, device=device),
                 background=wp.zeros(3, dtype=wp.uint8, device=device), out=out, outputs=outputs,
@@ -319,12 +321,10 @@ class _WarpRaster:
                 frame.positions_host, frame.background_host = frame.positions.numpy(), frame.background.numpy()
                 frame.out_host = out.numpy()
             frame.project = wp.launch(raster_warp.project, dim=-(-V // chunk), device=device, record_cmd=True,
-                                      inputs=[frame.positions, wp.mat44(), float(W), float(H), chunk, frame.fixed_x,
-                                              frame.fixed_y, frame.depth, frame.valid])
+                                      inputs=[frame.positions, wp.mat44(), float(W), float(H), chunk, frame.vertices])
             frame.raster = wp.launch(raster_warp.raster, dim=-(-F // chunk), device=device, record_cmd=True,
-                                     inputs=[triangles, frame.positions, frame.fixed_x, frame.fixed_y, frame.depth,
-                                             frame.valid, W, H, 0, 0, wp.vec3(), 0.0, 0.0, colour, chunk, frame.keys,
-                                             frame.face_rgb, *frame.spans[:2]])
+                                     inputs=[triangles, frame.positions, frame.vertices, W, H, 0, 0, wp.vec3(), 0.0,
+                                             0.0, colour, chunk, frame.keys, frame.face_rgb, *frame.spans[:2]])
             frame.resolve = wp.launch(raster_warp.resolve, dim=H, device=device, record_cmd=True,
                                       inputs=[frame.keys, part, frame.face_rgb, palette, frame.background, 0, 1, W,
                                               *frame.spans, *outputs])
@@ -335,16 +335,22 @@ class _WarpRaster:
         return frame
 
     def render(self, s: _Scene):
-        wp, device = backends.warp(), backends.warp_device()
-        if self._uploads is None:
-            self._uploads = UploadCache(lambda a: wp.array(a.reshape(-1), device=device))
+        if self._uploads is None:       # Warp and its device, once (backends.warp() redirects file descriptors)
+            wp, device = backends.warp(), backends.warp_device()
+            self._wp = wp
+            if device == "cpu":     # the kernels read the caller's arrays in place (no copy, no comparison)
+                self._uploads = UploadCache(lambda a: wp.array(a.reshape(-1), device=device, copy=False),
+                                            snapshot=False)
+            else:
+                self._uploads = UploadCache(lambda a: wp.array(a.reshape(-1), device=device))
+        wp = self._wp
         W, H = s.width, s.height
         inputs = (self._uploads.get("triangles", s.triangles), self._uploads.get("part", s.triangle_part),
                   self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette))
         frame = self._frame(s, *inputs)
         if any(a is not b for a, b in zip(inputs, frame.inputs)):     # the mesh or its colours changed
             frame.raster.set_param_at_index(0, inputs[0])
-            frame.raster.set_param_at_index(13, inputs[2])
+            frame.raster.set_param_at_index(10, inputs[2])
             frame.resolve.set_param_at_index(1, inputs[1])
             frame.resolve.set_param_at_index(3, inputs[3])
             frame.inputs = inputs
@@ -355,14 +361,14 @@ class _WarpRaster:
         settings = (s.camera.tobytes(), s.cull, s.shaded, s.light.tobytes())
         if settings != frame.settings:
             frame.project.set_param_at_index(1, wp.mat44(s.camera))
-            frame.raster.set_param_at_index(8, int(s.cull))
-            frame.raster.set_param_at_index(9, int(s.shaded))
-            frame.raster.set_param_at_index(10, wp.vec3(*s.light[:3]))
-            frame.raster.set_param_at_index(11, float(s.light[3]))
-            frame.raster.set_param_at_index(12, float(s.light[4]))
+            frame.raster.set_param_at_index(5, int(s.cull))
+            frame.raster.set_param_at_index(6, int(s.shaded))
+            frame.raster.set_param_at_index(7, wp.vec3(*s.light[:3]))
+            frame.raster.set_param_at_index(8, float(s.light[3]))
+            frame.raster.set_param_at_index(9, float(s.light[4]))
             frame.resolve.set_param_at_index(5, int(s.shaded))
             frame.settings = settings
-        if frame.drawn_background is None or not np.array_equal(background, frame.drawn_background):
+        if background.tobytes() != frame.drawn_background:
             frame.fresh = True
         if frame.on_cpu:
             frame.positions_host[:] = s.positions
@@ -379,7 +385,7 @@ class _WarpRaster:
         frame.clean = True
         if frame.fresh:
             frame.resolve.set_param_at_index(6, 0)
-            frame.drawn_background = background.copy()
+            frame.drawn_background = background.tobytes()
             frame.fresh = False
         # CPU: a copy of the buffer's NumPy view (the next frame overwrites it); CUDA: .numpy() copies already
         host = frame.out_host.copy() if frame.on_cpu else frame.out.numpy()

@@ -77,10 +77,13 @@ def face_shade(p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, flipped: wp.int32, light: 
 
 @wp.kernel
 def project(positions: wp.array(dtype=wp.vec3), m: wp.mat44, width: wp.float32, height: wp.float32,
-            chunk: wp.int32, fixed_x: wp.array(dtype=wp.int64), fixed_y: wp.array(dtype=wp.int64),
-            depth: wp.array(dtype=wp.float32), valid: wp.array(dtype=wp.int32)):
-    """Vertices [tid * chunk, (tid + 1) * chunk) to window coordinates in 1/SUBPIXEL pixel, depth in [0, 1],
-    and whether each may be drawn."""
+            chunk: wp.int32, vertices: wp.array(dtype=wp.vec4)):
+    """Vertices [tid * chunk, (tid + 1) * chunk) to (window x, window y, depth, valid): x and y in 1/SUBPIXEL
+    pixel, whole numbers held exactly in float32 (|x|, |y| < GUARD_PIXELS * SUBPIXEL = 2^23 < 2^24), depth in
+    [0, 1], valid 1 where the vertex may be drawn, else 0 (and x = y = 0).
+
+    One 16-byte record a vertex, so the triangle pass reads a vertex with one load (chosen here: four
+    separate arrays cost four scattered loads a vertex, and the triangle setup was bound by them)."""
     first = wp.tid() * chunk
     for v in range(first, wp.min(first + chunk, positions.shape[0])):
         p = positions[v]
@@ -94,43 +97,43 @@ def project(positions: wp.array(dtype=wp.vec3), m: wp.mat44, width: wp.float32, 
             w = cw
         wx = (cx / w * 0.5 + 0.5) * width
         wy = (0.5 - cy / w * 0.5) * height
-        depth[v] = cz / w * 0.5 + 0.5
+        z = cz / w * 0.5 + 0.5
         if wp.abs(wx) >= GUARD_PIXELS or wp.abs(wy) >= GUARD_PIXELS:
             ok = False
         if ok:
-            fixed_x[v] = wp.int64(wp.floor(wx * wp.float32(SUBPIXEL) + 0.5))
-            fixed_y[v] = wp.int64(wp.floor(wy * wp.float32(SUBPIXEL) + 0.5))
-            valid[v] = 1
+            vertices[v] = wp.vec4(wp.floor(wx * wp.float32(SUBPIXEL) + 0.5), wp.floor(wy * wp.float32(SUBPIXEL) + 0.5),
+                                  z, 1.0)
         else:
-            fixed_x[v] = wp.int64(0)
-            fixed_y[v] = wp.int64(0)
-            valid[v] = 0
+            vertices[v] = wp.vec4(0.0, 0.0, z, 0.0)
 
 
 @wp.kernel
 def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec3),
-           fixed_x: wp.array(dtype=wp.int64), fixed_y: wp.array(dtype=wp.int64), depth: wp.array(dtype=wp.float32),
-           valid: wp.array(dtype=wp.int32), width: wp.int32, height: wp.int32, cull: wp.int32, shaded: wp.int32,
+           vertices: wp.array(dtype=wp.vec4), width: wp.int32, height: wp.int32, cull: wp.int32, shaded: wp.int32,
            light: wp.vec3, ambient: wp.float32, diffuse: wp.float32, colour: wp.array(dtype=wp.uint8), chunk: wp.int32,
            keys: wp.array(dtype=wp.int64), face_rgb: wp.array(dtype=wp.uint8), row_lo: wp.array(dtype=wp.int32),
            row_hi: wp.array(dtype=wp.int32)):
     """Triangles [tid * chunk, (tid + 1) * chunk): per-triangle setup (shaded look: the lit colour of the face
     into face_rgb, 3 bytes a triangle), edge functions with the top-left rule over the pixel centres inside
-    the bounding box, depth test. Each image row's span of drawn bounding boxes widens [row_lo, row_hi]."""
+    the bounding box, depth test. Each image row's span of drawn bounding boxes widens [row_lo, row_hi].
+    vertices: the records of `project`."""
     first = wp.tid() * chunk
     for t in range(first, wp.min(first + chunk, triangles.shape[0] / 3)):
         # per-triangle setup: drop triangles with a vertex off limits, degenerate ones, culled back faces
         i0 = triangles[3 * t]
         i1 = triangles[3 * t + 1]
         i2 = triangles[3 * t + 2]
-        if valid[i0] == 0 or valid[i1] == 0 or valid[i2] == 0:
+        v0 = vertices[i0]
+        v1 = vertices[i1]
+        v2 = vertices[i2]
+        if v0[3] == 0.0 or v1[3] == 0.0 or v2[3] == 0.0:
             continue
-        x0 = fixed_x[i0]
-        y0 = fixed_y[i0]
-        x1 = fixed_x[i1]
-        y1 = fixed_y[i1]
-        x2 = fixed_x[i2]
-        y2 = fixed_y[i2]
+        x0 = wp.int64(v0[0])
+        y0 = wp.int64(v0[1])
+        x1 = wp.int64(v1[0])
+        y1 = wp.int64(v1[1])
+        x2 = wp.int64(v2[0])
+        y2 = wp.int64(v2[1])
         area = edge(x0, y0, x1, y1, x2, y2)
         if area == wp.int64(0) or (area > wp.int64(0) and cull != 0):
             continue
@@ -146,21 +149,19 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
             continue
         # window y points down: front faces turn clockwise, area < 0; a back face drawn anyway takes its
         # vertices 1 and 2 swapped, so it turns clockwise like a front face
-        j1 = i1
-        j2 = i2
+        z0 = v0[2]
+        z1 = v1[2]
+        z2 = v2[2]
         flipped = int(0)  # noqa: UP018, RUF046 - Warp: a typed variable that the branch below may change
         if area > wp.int64(0):
-            j1 = i2
-            j2 = i1
             area = -area
             flipped = 1
-            x1 = fixed_x[j1]
-            y1 = fixed_y[j1]
-            x2 = fixed_x[j2]
-            y2 = fixed_y[j2]
-        z0 = depth[i0]
-        z1 = depth[j1]
-        z2 = depth[j2]
+            x1 = wp.int64(v2[0])
+            y1 = wp.int64(v2[1])
+            x2 = wp.int64(v1[0])
+            y2 = wp.int64(v1[1])
+            z1 = v2[2]
+            z2 = v1[2]
         if shaded != 0:
             s = face_shade(positions[i0], positions[i1], positions[i2], flipped, light, ambient, diffuse)
             face_rgb[3 * t] = wp.uint8(wp.min(wp.float32(colour[3 * t]) * s + 0.5, 255.0))
@@ -191,13 +192,21 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
         step_y0 = (cx - bx) * SUBPIXEL
         step_y1 = (ax - cx) * SUBPIXEL
         step_y2 = (bx - ax) * SUBPIXEL
-        for py in range(wp.int32(ymin), wp.int32(ymax) + 1):
-            wp.atomic_min(row_lo, py, wp.int32(xmin))
-            wp.atomic_max(row_hi, py, wp.int32(xmax))
+        # while loops, not range(): a range's step may be negative, and testing for that in the inner loop cost
+        # 11% of this kernel's time (chosen here, measured on Warp-CPU)
+        row_end = wp.int32(ymax)
+        px_start = wp.int32(xmin)
+        px_end = wp.int32(xmax)
+        py = wp.int32(ymin)
+        while py <= row_end:
+            wp.atomic_min(row_lo, py, px_start)
+            wp.atomic_max(row_hi, py, px_end)
             e0 = row0
             e1 = row1
             e2 = row2
-            for px in range(wp.int32(xmin), wp.int32(xmax) + 1):
+            base = py * width
+            px = px_start
+            while px <= px_end:
                 if e0 >= b0 and e1 >= b1 and e2 >= b2:
                     # depth test: interpolate, keep [0, 1], atomic minimum of the key depth * ID_SCALE + triangle
                     l1 = wp.float32(e2) * inverse_area
@@ -205,14 +214,15 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
                     z = z0 + l1 * dz1 + l2 * dz2
                     if z >= 0.0 and z <= 1.0:
                         key = wp.int64(z * DEPTH_SCALE) * ID_SCALE + wp.int64(t)
-                        wp.atomic_min(keys, py * width + px, key)
+                        wp.atomic_min(keys, base + px, key)
                 e0 += step_x0
                 e1 += step_x1
                 e2 += step_x2
+                px += 1
             row0 += step_y0
             row1 += step_y1
             row2 += step_y2
-
+            py += 1
 
 @wp.kernel
 def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uint8), face_rgb: wp.array(dtype=wp.uint8),

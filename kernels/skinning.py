@@ -11,7 +11,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from kernels import backends
-from kernels._arrays import OpenCLBuffers, UploadCache, as_array, check_indices
+from kernels._arrays import (
+    OpenCLBuffers,
+    UploadCache,
+    as_array,
+    check_indices,
+    check_indices_once,
+    checked_once,
+)
 from kernels.errors import KernelError
 
 
@@ -70,9 +77,14 @@ def _checked_weights(weights, n_vertices: int, n_bones: int) -> SkinWeights:
     indptr = as_array("weights.indptr", indptr, np.int32, (n_vertices + 1,))
     bones = as_array("weights.bones", bones, np.int32, (None,))
     values = as_array("weights.values", values, np.float32, (len(bones),))
-    if indptr[0] != 0 or indptr[-1] != len(bones) or np.any(np.diff(indptr) < 0):
-        raise KernelError("weights.indptr: must rise from 0 to the number of entries")
-    check_indices("weights.bones", bones, n_bones)
+
+
+    def check():
+        if indptr[0] != 0 or indptr[-1] != len(bones) or np.any(np.diff(indptr) < 0):
+            raise KernelError("weights.indptr: must rise from 0 to the number of entries")
+        check_indices("weights.bones", bones, n_bones)
+
+    checked_once(("weights", n_vertices, n_bones), (indptr, bones), check)   # static: once per content
     return SkinWeights(indptr, bones, values)
 
 
@@ -97,7 +109,7 @@ def skin_rigid(rest, dominant_bone, bone_matrices, *, backend: str = "auto") -> 
     """
     rest, bone_matrices = _checked(rest, bone_matrices)
     dominant_bone = as_array("dominant_bone", dominant_bone, np.int32, (len(rest),))
-    check_indices("dominant_bone", dominant_bone, len(bone_matrices))
+    check_indices_once("dominant_bone", dominant_bone, len(bone_matrices))
     return _IMPLEMENTATIONS[backends.resolve(backend)].skin_rigid(rest, dominant_bone, bone_matrices)
 
 
@@ -127,7 +139,8 @@ class _NumpySkinning:
 class _WarpSkinning:
     """Device buffers and recorded launches live as long as the process, one set per kernel, vertex count
     and bone count; the rest mesh and weights upload once (UploadCache), the bone matrices go into a kept
-    buffer (on the CPU device through its NumPy view), so a frame packs no kernel arguments again."""
+    buffer (on the CPU device through its NumPy view, made once), so a frame packs no kernel arguments
+    again. Warp and its device are looked up once (backends.warp() redirects file descriptors each call)."""
 
     CPU_CHUNK = 256          # vertices per thread on the CPU device (kernels/skinning_warp.py says why)
 
@@ -136,34 +149,45 @@ class _WarpSkinning:
         self._launches = {}
 
     def _launch(self, name, rest, arguments, bone_matrices):
-        from kernels import skinning_warp
-        wp, device = backends.warp(), backends.warp_device()
         if self._uploads is None:
-            self._uploads = UploadCache(lambda a: wp.array(a, device=device))
-            self._points = UploadCache(lambda a: wp.array(a, dtype=wp.vec3, device=device))
+            wp, device = backends.warp(), backends.warp_device()
+            self._wp, self._device = wp, device
+            # CPU: the kernels read the caller's arrays in place (no copy, no comparison, see UploadCache)
+            alias = {"copy": False} if device == "cpu" else {}
+            self._uploads = UploadCache(lambda a: wp.array(a, device=device, **alias), snapshot=not alias)
+            self._points = UploadCache(lambda a: wp.array(a, dtype=wp.vec3, device=device, **alias),
+                                       snapshot=not alias)
         inputs = [self._points.get("rest", rest), *(self._uploads.get(key, a) for key, a in arguments)]
-        n, slot = len(rest), (name, len(rest), len(bone_matrices))
+        slot = (name, len(rest), len(bone_matrices))
         job = self._launches.get(slot)
         if job is None:
-            on_cpu = device == "cpu"
-            chunk = self.CPU_CHUNK if on_cpu else 1
-            matrices = wp.empty(len(bone_matrices), dtype=wp.mat44, device=device)
-            posed = wp.empty(n, dtype=wp.vec3, device=device)
-            command = wp.launch(getattr(skinning_warp, name), dim=-(-n // chunk), device=device, record_cmd=True,
-                                inputs=[*inputs, matrices, chunk, posed])
-            job = self._launches[slot] = types.SimpleNamespace(command=command, inputs=inputs, matrices=matrices,
-                                                               posed=posed, on_cpu=on_cpu)
+            job = self._launches[slot] = self._job(name, inputs, len(rest), len(bone_matrices))
         for index, (new, old) in enumerate(zip(inputs, job.inputs)):
             if new is not old:               # the rest mesh or the weights changed: uploaded again
                 job.command.set_param_at_index(index, new)
                 job.inputs[index] = new
         if job.on_cpu:
-            job.matrices.numpy()[:] = bone_matrices
+            job.matrices_host[:] = bone_matrices
         else:
             job.matrices.assign(bone_matrices)
         job.command.launch()
         # CPU: a copy of the buffer's NumPy view (the next frame overwrites it); CUDA: .numpy() copies already
-        return job.posed.numpy().copy() if job.on_cpu else job.posed.numpy()
+        return job.posed_host.copy() if job.on_cpu else job.posed.numpy()
+
+    def _job(self, name, inputs, n, n_bones):
+        """Output and matrix buffers and the recorded launch of kernel `name` for n vertices and n_bones."""
+        from kernels import skinning_warp
+        wp, device = self._wp, self._device
+        on_cpu = device == "cpu"
+        chunk = self.CPU_CHUNK if on_cpu else 1
+        matrices = wp.empty(n_bones, dtype=wp.mat44, device=device)
+        posed = wp.empty(n, dtype=wp.vec3, device=device)
+        command = wp.launch(getattr(skinning_warp, name), dim=-(-n // chunk), device=device, record_cmd=True,
+                            inputs=[*inputs, matrices, chunk, posed])
+        job = types.SimpleNamespace(command=command, inputs=list(inputs), matrices=matrices, posed=posed, on_cpu=on_cpu)
+        if on_cpu:
+            job.matrices_host, job.posed_host = matrices.numpy(), posed.numpy()
+        return job
 
     def skin(self, rest, weights, bone_matrices):
         arguments = [("indptr", weights.indptr), ("bones", weights.bones), ("values", weights.values)]

@@ -202,3 +202,23 @@ def test_frames_that_change_pose_look_and_background_each_match_the_oracle_and_s
         kept.append(([r.copy() for r in result], result))
     for copies, result in kept:
         assert all(np.array_equal(c, r) for c, r in zip(copies, result))
+
+
+def test_static_inputs_changed_in_place_are_checked_and_drawn_again(any_backend):
+    # Index checks of the mesh run once per array object and content (kernels/_arrays.py), and the
+    # Warp-CPU body reads the caller's arrays in place: a change in place must be seen by both.
+    positions, triangles = square()
+    parts = np.array([1, 2], np.uint8)
+    first = rasterize(positions, triangles, parts, IDENTITY_CAMERA, 16, 16, look="flat", backend=any_backend)
+    assert set(np.unique(first[1])) == {0, 1, 2}
+    parts[:] = 3
+    second = rasterize(positions, triangles, parts, IDENTITY_CAMERA, 16, 16, look="flat", backend=any_backend)
+    assert set(np.unique(second[1])) == {0, 3} and np.array_equal(second[2], first[2])
+    assert set(np.unique(first[1])) == {0, 1, 2}                       # the earlier frame stays as returned
+    triangles[1] = [0, 2, 9]
+    with pytest.raises(KernelError, match=r"^triangles: indices must lie in \[0, 4\), got \[0, 9\]$"):
+        rasterize(positions, triangles, parts, IDENTITY_CAMERA, 16, 16, backend=any_backend)
+    triangles[1] = [0, 2, 3]
+    parts[0] = 7
+    with pytest.raises(KernelError, match=r"^triangle_part: indices must lie in \[0, 5\), got \[3, 7\]$"):
+        rasterize(positions, triangles, parts, IDENTITY_CAMERA, 16, 16, look="flat", backend=any_backend)

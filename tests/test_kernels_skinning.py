@@ -89,3 +89,22 @@ def test_returned_poses_stay_as_returned_when_meshes_and_kernels_alternate(avata
             references.append(function(rest, weights, matrices, backend="numpy"))
     for result, reference in zip(results, references):
         assert result.shape == reference.shape and relative_error(result, reference) < 1e-4
+
+
+def test_weights_changed_in_place_are_checked_and_used_again(avatar, signing_matrices, any_backend):
+    # The weights' checks run once per array object and content (kernels/_arrays.py), and the Warp-CPU
+    # body reads the caller's arrays in place: a change in place must be seen by both.
+    weights = SkinWeights(avatar.weights.indptr.copy(), avatar.weights.bones.copy(), avatar.weights.values.copy())
+    matrices = signing_matrices[1]
+    before = skin(avatar.vertices, weights, matrices, backend=any_backend)
+    weights.bones[:] = weights.bones[::-1]
+    after = skin(avatar.vertices, weights, matrices, backend=any_backend)
+    reference = skin(avatar.vertices, weights, matrices, backend="numpy")
+    assert relative_error(after, reference) < 1e-4 and not np.allclose(after, before)
+    weights.bones[0] = 999
+    with pytest.raises(KernelError, match=r"^weights.bones: indices must lie in \[0, 163\), got \[\d+, 999\]$"):
+        skin(avatar.vertices, weights, matrices, backend=any_backend)
+    weights.bones[0] = 0
+    weights.indptr[1] = weights.indptr[2] + 1
+    with pytest.raises(KernelError, match=r"^weights.indptr: must rise from 0 to the number of entries$"):
+        skin(avatar.vertices, weights, matrices, backend=any_backend)
