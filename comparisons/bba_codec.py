@@ -86,6 +86,8 @@ from comparisons import keyframes as kf
 from comparisons import param_coding as pc
 from comparisons.bitstream import BitReader, BitWriter, crc8_bits, find_start_codes
 from comparisons.fba_mapping import avatar_bap_map
+from kernels import bba_euler as split_kernel
+from kernels import bba_header as header_kernel
 from kernels import bba_levels as level_kernel
 from kernels import bba_masks as mask_kernel
 from kernels import bba_rotations as euler_kernel
@@ -862,19 +864,29 @@ def _read_header(data: bytes, position: int) -> _DecoderState:
         raise SigncastError("truncated stream: it ends inside a field")
     if status == mask_kernel.EMPTY_TYPE:
         raise SigncastError("corrupt BBA stream: an announced motion type has no elementary motion")
-    ids, masks, steps = ids.tolist(), masks.tolist(), steps.tolist()
-    bones, exponents = dict(zip(ids, masks)), dict(zip(ids, steps))
-    keys = [(b, k) for b in sorted(bones) for k in _bits(bones[b])]
+    id_list, mask_list = ids.tolist(), masks.tolist()
+    bones, exponents = dict(zip(id_list, mask_list)), dict(zip(id_list, steps.tolist()))
+    if len(bones) == n_bones:                   # no boneID twice: the keys in one kernel call
+        keys = list(zip(*(a.tolist() for a in header_kernel.header_keys(ids, masks))))
+    else:
+        keys = [(b, k) for b in sorted(bones) for k in _bits(bones[b])]
     fields = None
-    if coding == 0:
-        fields = pc.read_range_fields(reader, len(keys)) if tight else np.full((4, len(keys)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64)
+    if coding == 0 and tight:                   # param_coding.read_range_fields, on local reader state
+        fields = np.zeros((4, len(keys)), dtype=np.int64)
+        status = header_kernel.read_range_fields(reader.array, reader.end_bit, reader.registers, fields, pc.RANGE_BITS)
+        if status == header_kernel.END_OF_DATA:
+            raise SigncastError("truncated stream: it ends inside a field")
+        if status:
+            raise SigncastError("corrupt stream: missing marker bit in the range fields")
+    elif coding == 0:
+        fields = np.full((4, len(keys)), pc.DEFAULT_RANGE_FIELD, dtype=np.int64)
     _check_crc(reader, 8 * (position + 3), "the header")
     if not reader.at_start_code():
         raise SigncastError("corrupt BBA stream: header does not end at a start code")
     header = BBAHeader("", fps, "pred" if coding == 0 else "dct", q, intra_period, keyframes, order, header_period)
     animatable = np.full(1024, -1, dtype=np.int64)
     animatable[list(bones)] = list(bones.values())
-    alphabets = None if fields is None else (*pc.alphabet(fields[0], fields[1], q), *pc.alphabet(fields[2], fields[3], q))
+    alphabets = None if fields is None else pc.pf.alphabets(fields, q, pc.RANGE_DELTA)   # pc.alphabet of I, P
     return _DecoderState(header, n_frames, bones, exponents, keys, fields, animatable=animatable, alphabets=alphabets)
 
 
@@ -1272,6 +1284,21 @@ def encode_motion(motion: Motion, q: int, coding: str = "pred", *, keyframes: bo
     return _write_arrays(header, mask, kfi, values, skeleton)
 
 
+def _to_euler(q: np.ndarray, order: str) -> np.ndarray:
+    """rotations.to_euler(q, order) of quaternions (..., 4), bitwise, by kernels/bba_euler.py (scipy where the
+    kernel declines: a zero quaternion, which scipy reports)."""
+    sequence = rotations.scipy_sequence(order)
+    extrinsic = sequence.islower()
+    axes = ["xyz".index(axis) for axis in sequence.lower()]
+    i, j, k = axes if extrinsic else axes[::-1]
+    flat = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 4)
+    stride = q.shape[-2] if q.ndim >= 3 else 0              # rows of one frame: a held bone repeats its angles
+    angles, ok = split_kernel.euler_angles(flat, flat.view(np.int64), stride, i, j, k, extrinsic)
+    if not ok:
+        return rotations.to_euler(q, order)
+    return angles.reshape(q.shape[:-1] + (3,))
+
+
 def _motion_arrays(motion: Motion, q: int, coding: str, keyframes: bool, threshold_rad: float | None,
                    intra_period: int | None, rotation_order: int, header_period: int, name: str,
                    skeleton: Skeleton) -> tuple[BBAHeader, dict[int, int], np.ndarray, np.ndarray]:
@@ -1282,15 +1309,15 @@ def _motion_arrays(motion: Motion, q: int, coding: str, keyframes: bool, thresho
         raise SigncastError("key frames are coded with the predictive BBA coder only")
     order = ORDER_NAMES[rotation_order]
     columns, source, steps, is_angle, first_of = _column_plan(tuple(motion.bone_names), skeleton)
-    angles = rotations.to_euler(motion.rotations, order)                  # (T, B, 3)
-    rot = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
-    trans = np.round(motion.root_translation / bap_table.TRANSLATION_UNIT_M).astype(np.int64)
     keys_frames = np.arange(motion.n_frames)
     if keyframes:
         keys_frames = kf.key_frames(motion, threshold_rad if threshold_rad is not None else kf.default_threshold_rad(q))
+    # Only the key frames' angles are needed (each frame's are its own: the same numbers as all frames' rows).
+    angles = _to_euler(motion.rotations[keys_frames] if keyframes else motion.rotations, order)    # (K, B, 3)
+    rot = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
+    trans = np.round(motion.root_translation[keys_frames] / bap_table.TRANSLATION_UNIT_M).astype(np.int64)
     # value columns (boneID, bit) (_column_plan) from [root translation, each bone's three angles]
-    values = np.concatenate([trans[keys_frames], rot[keys_frames].reshape(len(keys_frames), 3 * rot.shape[1])],
-                            axis=1)[:, source]
+    values = np.concatenate([trans, rot.reshape(len(keys_frames), 3 * rot.shape[1])], axis=1)[:, source]
     if intra_period is None:
         intra_period = DEFAULT_INTRA_PERIOD if coding == "pred" else DEFAULT_INTRA_SEGMENTS
     # Every frame carries every value that is ever sent (not only those changing in its intra
@@ -1439,9 +1466,12 @@ def _read_uniform(data: bytes) -> tuple[_DecoderState, dict[int, int], np.ndarra
     dc = np.zeros((n_units, len(idx)), dtype=np.int64)
     ac = np.zeros((n_units, pc.SEGMENT - 1, len(idx)), dtype=np.int64)
     sizes, unit_kfi = np.empty(n_units, dtype=np.int64), np.empty(n_units, dtype=np.int64)
-    if unit_kernel.read_dct_units(array, starts, ends, _GROUP_START, state.animatable, ids, masks,
-                                  tables["dc_intra"].arrays()[2:], tables["dc_inter"].arrays()[2:],
-                                  tables["ac"].arrays()[2:], pc.N_CATEGORIES, state.n_frames, dc, ac, sizes, unit_kfi):
+    readers = tuple(tables[name].arrays()[2:] for name in ("dc_intra", "dc_inter", "ac"))
+    luts = _VLC_LUTS.get(id(tables))            # keyed on the fixed tables, not on the stream
+    if luts is None or luts[0] is not tables:
+        luts = _VLC_LUTS[id(tables)] = (tables, tuple(unit_kernel.huffman_lut(*reader) for reader in readers))
+    if unit_kernel.read_dct_units(array, starts, ends, _GROUP_START, state.animatable, ids, masks, *readers, luts[1],
+                                  pc.N_CATEGORIES, state.n_frames, dc, ac, sizes, unit_kfi):
         return None
     dc_step, ac_step = pc.dct_steps(layout.steps, h.q)
     segments = [pc.dct_reconstruct(dc[u], ac[u, :n - 1], dc_step, ac_step) for u, n in enumerate(sizes.tolist())]
@@ -1467,8 +1497,11 @@ def _uniform_layout(state: _DecoderState, bones: dict[int, int]) -> tuple[_Layou
     cached = state.uniform.get(masks)
     if cached is None:
         layout = _layout(masks, tuple(sorted(state.exponents.items())))
-        index = {key: j for j, key in enumerate(state.keys)}
-        idx = np.array([index[key] for key in layout.keys], dtype=np.int64)
+        if bones == state.bones:                # the header's bones: layout.keys is state.keys
+            idx = np.arange(len(state.keys), dtype=np.int64)
+        else:
+            index = {key: j for j, key in enumerate(state.keys)}
+            idx = np.array([index[key] for key in layout.keys], dtype=np.int64)
         alphabets = None
         if state.alphabets is not None:
             low_i, high_i, low_p, high_p = (np.ascontiguousarray(a[idx], dtype=np.int64) for a in state.alphabets)
@@ -1501,28 +1534,32 @@ def _motion_of_runs(header: BBAHeader, runs: list[tuple[dict[int, int], np.ndarr
         block[:, target] = flat[:, source]
         held = block[-1]
         start = stop
-    angles = table[:, :3 * len(rotated)].reshape(len(table), len(rotated), 3)
-    sequence = rotations.scipy_sequence(order)
-    key_q = euler_kernel.from_euler(np.ascontiguousarray((angles * bap_table.ROTATION_UNIT_RAD).reshape(-1, 3)),
-                                    np.array(["xyz".index(c) for c in sequence.lower()], dtype=np.int64),
-                                    sequence.isupper()).reshape(len(table), len(rotated), 4)     # (F, R, 4)
+    axes = _EULER_AXES.get(order)
+    if axes is None:
+        sequence = rotations.scipy_sequence(order)
+        axes = _EULER_AXES[order] = (np.array(["xyz".index(c) for c in sequence.lower()], dtype=np.int64),
+                                     sequence.isupper())
+    key_q = euler_kernel.from_euler_table(table, len(rotated), bap_table.ROTATION_UNIT_RAD, *axes)   # (F, R, 4)
     key_t = table[:, 3 * len(rotated):] * bap_table.TRANSLATION_UNIT_M                 # (F, 3)
     if not kfi[1:].any():
         quats, trans = key_q, key_t
-    else:
-        q_parts, t_parts = [], []
-        for f, gap in enumerate(kfi.tolist()):
-            if gap and f:
-                q_mid, t_mid = kf.expand(key_q[f - 1], key_t[f - 1], key_q[f], key_t[f], gap)
-                q_parts.append(q_mid)
-                t_parts.append(t_mid)
-            q_parts.append(key_q[f:f + 1])
-            t_parts.append(key_t[f:f + 1])
-        quats, trans = np.concatenate(q_parts), np.concatenate(t_parts)
+    else:                                       # the gaps before frames 1.., expanded in one batch
+        gaps = kfi.copy()
+        gaps[0] = 0                             # a first frame's KeyFrameIndex regenerates nothing
+        place = np.arange(n_frames) + np.cumsum(gaps)      # each decoded frame's display frame
+        quats, trans = np.empty((place[-1] + 1, len(rotated), 4)), np.empty((place[-1] + 1, 3))
+        quats[place], trans[place] = key_q, key_t
+        f = np.flatnonzero(gaps)
+        q_mid, t_mid = kf.expand(key_q[f - 1], key_t[f - 1], key_q[f], key_t[f], gaps[f])
+        inner = np.ones(len(quats), dtype=bool)
+        inner[place] = False
+        quats[inner], trans[inner] = q_mid, t_mid
     return Motion(header.fps, names, quats, trans)
 
 
 _PLANS: dict[tuple, tuple] = {}      # _runs_plan's cache: (masks of the runs, id(skeleton)) -> (skeleton, plan)
+_EULER_AXES: dict[str, tuple] = {}   # rotation order name -> (axes (3,) int64, intrinsic) of from_euler_table
+_VLC_LUTS: dict[int, tuple] = {}     # id(pc.vlc_tables()) -> (those tables, their huffman_lut (dc_intra, dc_inter, ac))
 
 
 def _runs_plan(masks: tuple[tuple[tuple[int, int], ...], ...], skeleton: Skeleton) -> tuple:
@@ -1550,7 +1587,7 @@ def _runs_plan(masks: tuple[tuple[tuple[int, int], ...], ...], skeleton: Skeleto
     for mask in masks:
         keys = [(b, bit) for b, bits in mask for bit in _bits(bits)]
         source = [k for k, key in enumerate(keys) if key in column]
-        columns.append((source, [column[keys[k]] for k in source]))
+        columns.append((np.array(source, dtype=np.int64), np.array([column[keys[k]] for k in source], dtype=np.int64)))
     plan = (rotated, sum(bits.bit_count() for bits in animatable.values()), tuple(skeleton.names[b] for b in rotated),
             columns)
     if len(_PLANS) >= 256:

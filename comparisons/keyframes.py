@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from kernels import bba_keyframes as key_kernel
+from kernels import bba_slerp as slerp_kernel
 from media import rotations
 from media.motion import Motion
 
@@ -61,7 +63,37 @@ def _moving(quaternions: np.ndarray) -> np.ndarray:
 
 def key_frames(motion: Motion, threshold_rad: float, threshold_m: float = 0.002) -> np.ndarray:
     """Indices of the key frames (always the first and the last frame). Greedy: from each key, the next
-    is the last frame before the first candidate (at most MAX_KFI + 1 frames on) that fails. Candidates
+    is the last frame before the first candidate (at most MAX_KFI + 1 frames on) that fails.
+
+    Compiled (kernels/bba_keyframes.search) where the thresholds are at least 1e-3 rad and 1e-6 m: the
+    kernel decides a candidate only where every tested value is clear of its threshold by far more than
+    its ulp-level differences from NumPy's arithmetic, and hands the rest (rare) to `_within_each`, the
+    NumPy reference, one candidate at a time; so the keys are `_key_frames_numpy`'s, bit for bit."""
+    n = motion.n_frames
+    if n == 0 or not (threshold_rad >= 1e-3 and threshold_m >= 1e-6):
+        return _key_frames_numpy(motion, threshold_rad, threshold_m)
+    quaternions = np.ascontiguousarray(motion.rotations, dtype=np.float64)
+    quaternions = np.ascontiguousarray(quaternions[:, _moving(quaternions)])
+    translation = np.ascontiguousarray(motion.root_translation, dtype=np.float64)
+    decided = np.zeros((n, MAX_KFI + 2), dtype=np.int8)
+    keys = np.empty(n, dtype=np.int64)
+    while True:
+        count, first, last = key_kernel.search(quaternions, translation, float(threshold_rad), float(threshold_m),
+                                               _MARGIN_RAD, _MARGIN_M, MAX_KFI, decided, keys)
+        if count > 0:
+            return keys[:count].copy()
+        ok = _within_each(quaternions, translation, np.array([first]), np.array([last]), threshold_rad, threshold_m)
+        decided[first, last - first] = key_kernel.PASS if ok[0] else key_kernel.FAIL
+
+
+# Clearances beyond which the kernel's decisions cannot differ from NumPy's: its angles differ by at most
+# ~2 eps / sin(threshold / 2) (< 1e-11 rad at 1e-3 rad), its distances by a few ulps of millimetres.
+_MARGIN_RAD = 1e-9
+_MARGIN_M = 1e-12
+
+
+def _key_frames_numpy(motion: Motion, threshold_rad: float, threshold_m: float = 0.002) -> np.ndarray:
+    """key_frames in NumPy: the reference the compiled search reproduces (tests compare the two). Candidates
     are tried in batches of 2, 4, 8, ... (a batch costs about as much as one candidate, and most gaps
     are short); the first batch of every possible key is tried in one call up front. Bones that never move
     are left out of the angle test (_moving)."""
@@ -101,12 +133,21 @@ def key_frames(motion: Motion, threshold_rad: float, threshold_m: float = 0.002)
 
 
 def expand(previous_q: np.ndarray, previous_t: np.ndarray, key_q: np.ndarray, key_t: np.ndarray,
-           kfi: int) -> tuple[np.ndarray, np.ndarray]:
-    """The kfi frames a decoder regenerates before a key frame: (kfi, B, 4) rotations (slerp)
-    and (kfi, 3) translations (linear), at x = k / (kfi + 1), k = 1..kfi."""
-    x = np.arange(1, kfi + 1) / (kfi + 1)
-    q0 = np.broadcast_to(previous_q, (kfi,) + previous_q.shape)
-    q1 = np.broadcast_to(key_q, q0.shape)
-    q = rotations.slerp(q0, q1, np.broadcast_to(x[:, None], q0.shape[:2]))
-    t = (1 - x)[:, None] * previous_t + x[:, None] * key_t
-    return q, t
+           kfi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The frames a decoder regenerates before each of G key frames, all gaps in one batch: previous_q, key_q
+    (G, B, 4) the rotations of the key frames around each gap, previous_t, key_t (G, 3) their root
+    translations, kfi (G,) int64 frames dropped in each gap. Returns (sum kfi, B, 4) rotations (slerp) and
+    (sum kfi, 3) translations (linear), gap after gap, at x = k / (kfi + 1), k = 1..kfi. rotations.slerp's
+    operations element for element (its arithmetic compiled in kernels/bba_slerp.py, its arccos and sin
+    NumPy's), so the batch is bitwise slerp gap by gap (tests/test_bba_decode_speed.py)."""
+    kfi = np.asarray(kfi, dtype=np.int64)
+    owner = np.repeat(np.arange(len(kfi)), kfi)
+    starts = np.cumsum(kfi) - kfi
+    x = (np.arange(len(owner)) - starts[owner] + 1) / (kfi[owner] + 1)
+    n_bones = previous_q.shape[1]
+    q0 = previous_q[owner].reshape(-1, 4)
+    t = np.repeat(x, n_bones)                  # rotations.slerp(q0, q1, x per frame), its NumPy transcendentals
+    cosines, q1 = slerp_kernel.prepare(q0, key_q[owner].reshape(-1, 4))
+    alpha = np.arccos(cosines)
+    q = slerp_kernel.combine(q0, q1, t, np.sin(alpha), np.sin((1.0 - t) * alpha), np.sin(t * alpha))
+    return q.reshape(len(owner), n_bones, 4), (1 - x)[:, None] * previous_t[owner] + x[:, None] * key_t[owner]

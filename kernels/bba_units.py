@@ -15,26 +15,43 @@ Predictive units: the levels are arithmetic-coded with one adaptive model per va
 intra unit (kernels/entropy_coding.py decode_frame_window, the bits of comparisons/entropy.decode_frame; the
 bank is int32 here: its totals stay at most the limit, at most WINDOW_MAX_TOTAL, else FALLBACK);
 an intra value is level x step x Q, a predicted one the previous value plus that, angles folded into
-(-period / 2, period / 2]. DCT units: kernels/entropy_coding.read_dct_blocks per segment, the inter DC
-levels added to the previous segment's; the caller applies the inverse DCT (NumPy, as the per-unit reader).
+(-period / 2, period / 2]. The predicted models are sparse while they hold few symbols (read_predictive_units:
+at Q 1 the alphabets hold thousands of levels, a Fenwick bank of them costs its initialisation and cache misses).
+DCT units: kernels/entropy_coding.read_dct_blocks per segment (its codes through LUT_BITS look-up tables where
+no emulation-prevention bit can intervene), the inter DC levels added to the previous segment's; the caller
+applies the inverse DCT (NumPy, as the per-unit reader).
 Imports nothing of signcast's Python modules.
 """
 import numpy as np
 from numba import njit
 
+from kernels.bba_header import _bits_local as _bits_at_once
 from kernels.bba_levels import _fold
 from kernels.bba_masks import read_unit_bones
 from kernels.entropy_coding import (
+    HALF,
+    HISTORY,
+    MAX_ZERO_RUN,
+    PRECISION,
+    TOP,
     TOTAL,
     WINDOW_MAX_TOTAL,
+    _clz32,
+    _get_code_local,
+    _has_stuffing,
+    _refill,
+    _scale,
+    _state_at,
+    _strip,
     crc8_bytes,
     decode_frame_window,
     get_local,
     init_bank,
-    read_dct_blocks,
 )
+from kernels.param_frames import _sparse_add, new_sparse
 
 OK, FALLBACK = 0, 1
+SPARSE_CAPACITY = 32                               # chosen here: keys a sparse model holds (param_frames' reader's)
 FRAME_NUMBER_BITS, P_FRAME_NUMBER_BITS, KFI_BITS, MUSCLE_COUNT_BITS, CRC_BITS = 24, 8, 5, 10, 8
 
 
@@ -123,9 +140,101 @@ def _read_tail(data, end_bit: int, start: int, pos: int, run: int, intra: int, n
 
 
 @njit(cache=True)
-def _reset_bank(sizes, offsets, counts, tree, scalars, limit: int) -> None:
+def _dense_of_sparse(sizes, offsets, counts, tree, scalars, limit: int, totals, keys, extra, used) -> None:
+    """Loads sparse models (kernels/param_frames.py: count 1 + extra of each key, 1 elsewhere) into the bank
+    (entropy_coding's form: all-ones Fenwick trees, then each key's extra added)."""
     counts[:] = 1
     init_bank(sizes, offsets, tree, scalars, limit)
+    for m in range(len(sizes)):
+        base = offsets[m]
+        tbase = base + m
+        n = sizes[m]
+        for s in range(used[m]):
+            symbol, e = keys[m, s], extra[m, s]
+            counts[base + symbol] += e
+            i = symbol + 1
+            while i <= n:
+                tree[tbase + i] += e
+                i += i & -i
+        scalars[m, TOTAL] = totals[m]
+
+
+@njit(cache=True)
+def _sparse_window(data, end_bit: int, pos: int, run: int, sizes, totals, keys, extra, used, limit: int,
+                   out) -> tuple[int, int, int]:
+    """entropy_coding.decode_frame_window (not fresh, model p for value p, over 0) with sparse models
+    (kernels/param_frames.py: the same counts, so the same symbols, model updates and reader state after):
+    (status, pos, run), status as decode_frame_window's, or -4 for a zero run it would hand to
+    decode_frame_local."""
+    if not 0 <= run < MAX_ZERO_RUN:
+        return -4, pos, run
+    pos0, run0 = pos, run
+    n_clean = max(end_bit - pos, 0)
+    stuffed = np.zeros(1, dtype=np.int64)
+    n_stuffed = 0
+    if _has_stuffing(data, end_bit, pos, run):
+        clean = np.zeros(n_clean // 8 + 1, dtype=np.uint8)
+        stuffed = np.zeros(n_clean // MAX_ZERO_RUN + 1, dtype=np.int64)
+        n_clean, n_stuffed = _strip(data, end_bit, pos, run, clean, stuffed)
+        source, source_start, source_end = clean, 0, n_clean
+    else:
+        source, source_start, source_end = data, pos, end_bit
+    byte_at = source_start >> 3
+    buf, n_buf, byte_at = _refill(source, source_end, 0, 0, byte_at)
+    n_buf -= source_start & 7
+    value = (buf >> (n_buf - PRECISION)) & TOP
+    n_buf -= PRECISION
+    n_read = PRECISION
+    low, high = 0, TOP
+    status = 0
+    for m in range(len(sizes)):
+        span = high - low + 1
+        total = totals[m]
+        if value < low:                        # a negative target
+            status = -1
+            break
+        target = np.int64((np.uint64(value - low + 1) * np.uint64(total) - np.uint64(1)) // np.uint64(span))
+        if target >= total:
+            status = -1
+            break
+        below = 0                              # extra counts of the keys below the target's symbol
+        slot = used[m]
+        symbol, sym_low, excess = -1, 0, 0
+        for s in range(used[m]):
+            key_low = keys[m, s] + below
+            if target < key_low:
+                slot = s
+                break
+            if target <= key_low + extra[m, s]:
+                slot = s
+                symbol, sym_low, excess = keys[m, s], key_low, extra[m, s]
+                break
+            below += extra[m, s]
+        if symbol < 0:
+            symbol, sym_low = target - below, target
+        high = low + _scale(span, sym_low + 1 + excess, total) - 1
+        low = low + _scale(span, sym_low, total)
+        shifts = _clz32(low ^ high)            # renormalisation as decode_frame_window's
+        out_bits = (low >> (PRECISION - shifts)) << PRECISION
+        low = (low << shifts) - out_bits
+        high = (high << shifts) - out_bits + ((1 << shifts) - 1)
+        follow = _clz32(~(low & ~high) & (HALF - 1)) - 1
+        if n_buf < shifts + follow:
+            buf, n_buf, byte_at = _refill(source, source_end, buf, n_buf, byte_at)
+        n_buf -= shifts
+        value = (value << shifts) - out_bits + ((buf >> n_buf) & ((1 << shifts) - 1))
+        n_buf -= follow
+        low = (low << follow) & (HALF - 1)
+        high = (((high << follow) | ((1 << follow) - 1)) & TOP) | HALF
+        value = (value << follow) - ((1 << follow) - 1) * HALF + ((buf >> n_buf) & ((1 << follow) - 1))
+        n_read += shifts + follow
+        _sparse_add(keys, extra, used, totals, limit, sizes[m], m, slot, symbol)
+        out[m] = symbol
+    j = n_read - HISTORY if status == 0 else n_read
+    pos, run, _ = _state_at(source, source_start, source_end, n_clean, stuffed, n_stuffed, pos0, run0, 0, j)
+    if status == 0 and pos > end_bit:
+        status = -2
+    return status, pos, run
 
 
 @njit(cache=True)
@@ -134,7 +243,11 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
                           n_total: int, rows, kfi_out) -> int:
     """Every predictive unit: values into rows (U, P) int64, KeyFrameIndex into kfi_out (U,). low_*, sizes_*
     (P,) int64: the intra and predicted alphabets (first level, number of levels) of each value; limit: the
-    models' frequency limit. Returns OK or FALLBACK."""
+    models' frequency limit. Returns OK or FALLBACK.
+
+    The predicted models start each intra period as sparse models (kernels/param_frames.py: only the symbols
+    coded so far, the same counts and bits as the Fenwick bank); when one of them holds SPARSE_CAPACITY keys
+    they are loaded into a Fenwick bank, decoded by decode_frame_window until the next intra unit."""
     if not 1 <= limit <= WINDOW_MAX_TOTAL:            # the int32 bank's bound
         return FALLBACK
     n_values = len(steps)
@@ -144,10 +257,12 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
         offsets_p[p + 1] = offsets_p[p] + sizes_p[p]
         coded_i = coded_i or sizes_i[p] != 1
         coded_p = coded_p or sizes_p[p] != 1
-    counts_p = np.ones(offsets_p[-1], dtype=np.int32)
-    tree_p = np.empty(offsets_p[-1] + n_values, dtype=np.int32)
+    counts_p = np.ones(0, dtype=np.int32)          # the Fenwick bank, made when a sparse model fills up
+    tree_p = np.empty(0, dtype=np.int32)
     scalars_i, scalars_p = np.zeros((n_values, 5), dtype=np.int64), np.empty((n_values, 5), dtype=np.int64)
     scalars_i[:, TOTAL] = sizes_i                  # all the fresh intra models need
+    totals, keys, extra, used = new_sparse(sizes_p, SPARSE_CAPACITY)
+    sparse = True
     members = np.arange(n_values)
     held = np.zeros(n_values, dtype=np.int64)
     levels = np.empty(n_values, dtype=np.int64)
@@ -162,13 +277,29 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
         if status:
             return FALLBACK
         if intra:
-            _reset_bank(sizes_p, offsets_p, counts_p, tree_p, scalars_p, limit)
+            sparse = True                          # fresh predicted models
+            for p in range(n_values):
+                totals[p], used[p] = sizes_p[p], 0
             if coded_i:                            # fresh intra models, each coding one level
                 status, pos, run, _ = decode_frame_window(data, end_bit, pos, run, 0, counts_p, tree_p, scalars_i,
                                                          offsets_p, members, levels, 0, True)
         elif coded_p:
-            status, pos, run, _ = decode_frame_window(data, end_bit, pos, run, 0, counts_p, tree_p, scalars_p,
-                                                     offsets_p, members, levels, 0, False)
+            if sparse:
+                for p in range(n_values):
+                    if used[p] >= SPARSE_CAPACITY:
+                        sparse = False
+                        break
+                if not sparse:
+                    if len(counts_p) == 0:
+                        counts_p = np.ones(offsets_p[-1], dtype=np.int32)
+                        tree_p = np.empty(offsets_p[-1] + n_values, dtype=np.int32)
+                    _dense_of_sparse(sizes_p, offsets_p, counts_p, tree_p, scalars_p, limit, totals, keys, extra, used)
+            if sparse:
+                status, pos, run = _sparse_window(data, end_bit, pos, run, sizes_p, totals, keys, extra, used, limit,
+                                                  levels)
+            else:
+                status, pos, run, _ = decode_frame_window(data, end_bit, pos, run, 0, counts_p, tree_p, scalars_p,
+                                                         offsets_p, members, levels, 0, False)
         if status:
             return FALLBACK
         if not (coded_i if intra else coded_p):
@@ -192,16 +323,103 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
     return OK if display_end == n_total else FALLBACK
 
 
+LUT_BITS = 10                                      # chosen here: bits a Huffman look-up table decodes at once
+
+
+@njit(cache=True)
+def huffman_lut(first_code, count, start, symbols):
+    """Look-up table of a canonical Huffman table (entropy_coding's reading arrays): (symbol, code length)
+    (2^LUT_BITS,) int64 each by the next LUT_BITS bits; length 0 where no code of at most LUT_BITS bits is
+    their prefix. Where codes are not prefix-free the shortest wins, as in the bit-by-bit reader."""
+    size = 1 << LUT_BITS
+    lut_symbol, lut_length = np.zeros(size, dtype=np.int64), np.zeros(size, dtype=np.int64)
+    for length in range(1, min(len(count) - 1, LUT_BITS) + 1):
+        for index in range(count[length]):
+            code = first_code[length] + index
+            for e in range(max(code << (LUT_BITS - length), 0), min((code + 1) << (LUT_BITS - length), size)):
+                if lut_length[e] == 0:
+                    lut_symbol[e], lut_length[e] = symbols[start[length] + index], length
+    return lut_symbol, lut_length
+
+
+@njit(cache=True, inline="always")
+def _code(data, end_bit: int, pos: int, run: int, lut_symbol, lut_length, first_code, count, start,
+          symbols) -> tuple[int, int, int]:
+    """entropy_coding._get_code_local: (symbol or status, pos, run). When the next LUT_BITS bits hold no
+    emulation-prevention bit (the zero run cannot reach MAX_ZERO_RUN in them) and a code of at most
+    LUT_BITS bits, that code from the table; else bit by bit."""
+    byte = pos >> 3
+    if run + LUT_BITS < MAX_ZERO_RUN and pos + LUT_BITS <= end_bit and byte + 2 < len(data):
+        window = (np.int64(data[byte]) << 16) | (np.int64(data[byte + 1]) << 8) | np.int64(data[byte + 2])
+        peek = (window >> (24 - (pos & 7) - LUT_BITS)) & ((1 << LUT_BITS) - 1)
+        length = lut_length[peek]
+        if length:
+            bits = peek >> (LUT_BITS - length)
+            if bits == 0:
+                run += length
+            else:
+                run = 0
+                while not (bits >> run) & 1:
+                    run += 1
+            return lut_symbol[peek], pos + length, run
+    return _get_code_local(data, end_bit, pos, run, first_code, count, start, symbols)
+
+
+@njit(cache=True, inline="always")
+def _value(data, end_bit: int, pos: int, run: int, cat: int) -> tuple[bool, int, int, int]:
+    """entropy_coding._get_value_local (sign, then cat - 1 low bits) with the cat bits read at once."""
+    if not cat:
+        return True, 0, pos, run
+    bits, pos, run = _bits_at_once(data, end_bit, pos, run, cat)
+    if bits < 0:
+        return False, 0, pos, run
+    magnitude = (1 << (cat - 1)) + (bits & ((1 << (cat - 1)) - 1))
+    return True, -magnitude if bits >> (cat - 1) else magnitude, pos, run
+
+
+@njit(cache=True)
+def _read_dct_blocks(data, end_bit: int, pos: int, run: int, dc, dc_lut, ac, ac_lut, n_categories: int, dc_out,
+                     ac_out) -> tuple[int, int, int]:
+    """entropy_coding.read_dct_blocks (its statuses) with table look-ups: (status, pos, run). dc, ac: a table's
+    (first code, count, start, symbols); dc_lut, ac_lut: their huffman_lut."""
+    n_ac = ac_out.shape[0]
+    status = 0
+    for p in range(len(dc_out)):
+        cat, pos, run = _code(data, end_bit, pos, run, dc_lut[0], dc_lut[1], dc[0], dc[1], dc[2], dc[3])
+        if cat < 0:
+            return cat, pos, run
+        ok, dc_out[p], pos, run = _value(data, end_bit, pos, run, cat)
+        if not ok:
+            return -1, pos, run
+        k = 0
+        while k < n_ac:
+            symbol, pos, run = _code(data, end_bit, pos, run, ac_lut[0], ac_lut[1], ac[0], ac[1], ac[2], ac[3])
+            if symbol < 0:
+                return symbol, pos, run
+            if symbol == 0:
+                break
+            zeros = (symbol - 1) // (n_categories - 1)
+            cat = (symbol - 1) % (n_categories - 1)
+            k += zeros
+            if k >= n_ac:
+                return -3, pos, run
+            ok, ac_out[k, p], pos, run = _value(data, end_bit, pos, run, cat + 1)
+            if not ok:
+                return -1, pos, run
+            k += 1
+    return status, pos, run
+
+
 @njit(cache=True)
 def read_dct_units(data, starts, ends, group_start, animatable, bone_ids, bone_masks, dc_intra, dc_inter, ac_table,
-                   n_categories: int, n_total: int, dc_out, ac_out, sizes, kfi_out) -> int:
+                   luts, n_categories: int, n_total: int, dc_out, ac_out, sizes, kfi_out) -> int:
     """Every DCT unit (segment): DC levels (DC differences of inter segments added up) into dc_out (U, P),
     AC levels into ac_out (U, 15, P) (zero-filled), frames into sizes (U,), KeyFrameIndex into kfi_out (U,).
     dc_intra, dc_inter, ac_table: the canonical Huffman tables as tuples (first code, count, start, symbols)
-    of int64 arrays (comparisons/entropy.CanonicalHuffman.arrays()[2:]). Returns OK or FALLBACK."""
+    of int64 arrays (comparisons/entropy.CanonicalHuffman.arrays()[2:]); luts: their huffman_lut, in that
+    order. Returns OK or FALLBACK."""
     registers = np.zeros(3, dtype=np.int64)
     ids, masks, result = np.empty(1023, dtype=np.int64), np.empty(1023, dtype=np.int64), np.zeros(2, dtype=np.int64)
-    state = np.zeros(2, dtype=np.int64)
     display_end = 0
     for u in range(len(starts)):
         start, end_bit = starts[u], ends[u]
@@ -210,12 +428,14 @@ def read_dct_units(data, starts, ends, group_start, animatable, bone_ids, bone_m
                                                                    ids, masks, result)
         if status:
             return FALLBACK
-        state[0], state[1] = pos, run
-        table = dc_intra if intra else dc_inter
-        if read_dct_blocks(data, end_bit, state, table[0], table[1], table[2], table[3], ac_table[0], ac_table[1],
-                           ac_table[2], ac_table[3], n_categories, dc_out[u], ac_out[u, :n - 1]):
+        if intra:
+            status, pos, run = _read_dct_blocks(data, end_bit, pos, run, dc_intra, luts[0], ac_table, luts[2],
+                                                n_categories, dc_out[u], ac_out[u, :n - 1])
+        else:
+            status, pos, run = _read_dct_blocks(data, end_bit, pos, run, dc_inter, luts[1], ac_table, luts[2],
+                                                n_categories, dc_out[u], ac_out[u, :n - 1])
+        if status:
             return FALLBACK
-        pos, run = state[0], state[1]
         if not intra:
             for p in range(dc_out.shape[1]):
                 dc_out[u, p] += dc_out[u - 1, p]

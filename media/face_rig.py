@@ -50,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kernels import bba_face_rig as face_kernel
+from kernels import face_bones as bones_kernel
 from media import rotations
 from media.avatar import Avatar, Skeleton, load_avatar
 from media.errors import SigncastError
@@ -229,7 +230,7 @@ def _turned_bones(face: _Displacements, skeleton: Skeleton) -> dict[str, np.ndar
     turned = dict(zip(names, _turns(_turned_arms(skeleton, fapu), np.stack(displacements))))
     # Per eye: yaw about +Y, then pitch about +X; all four turns in one call, then both products.
     axes = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]] * len(SIDES))[:, None]           # (4, 1, 3)
-    turns = rotations.from_axis_angle(axes, np.stack(eye_angles))                         # (4, T, 4)
+    turns = _from_axis_angle(axes, np.stack(eye_angles))                         # (4, T, 4)
     eyes = rotations.multiply(turns[0::2], turns[1::2])
     result = {"jaw": turned["jaw"]}
     for k, side in enumerate(SIDES):
@@ -239,7 +240,67 @@ def _turned_bones(face: _Displacements, skeleton: Skeleton) -> dict[str, np.ndar
 
 
 def _carried_bones(face: _Displacements, skeleton: Skeleton) -> dict[str, np.ndarray]:
-    """(T, 4) rotations of the lips, mouth corners, cheeks, nose wings and brows and of their carriers."""
+    """(T, 4) rotations of the lips, mouth corners, cheeks, nose wings and brows and of their carriers.
+
+    The targets of both sides are made together, (T, 2) arrays (L, R), each entry by the same operations
+    in the same order as one side alone (`_carried_bones_by_side`, the readable form; elementwise IEEE
+    operations: the same numbers), and written straight into the (T, S, 3) arrays the carry takes."""
+    fapu, values = face.fapu, face.values
+    n_frames = len(values)
+
+    def pair(name: str) -> np.ndarray:                 # (T, 2) a FAP's values, name with {s} for the side
+        return values[:, [FAP_IDS[name.format(s=s)] - 1 for s in SIDES.values()]]
+
+    def lip_pair(name: str) -> np.ndarray:
+        return (pair(name) + pair(name + "_o")) / 2
+
+    outward = np.array([OUTWARD[side] for side in SIDES])
+    shares = _corner_shares(skeleton)
+    share_upper = np.array([shares[f"oris03.{side}"] for side in SIDES])
+    share_lower = np.array([shares[f"oris07.{side}"] for side in SIDES])
+    corner_x = outward * lip_pair("stretch_{s}_cornerlip") * fapu.mw
+    corner_y = lip_pair("raise_{s}_cornerlip") * fapu.mns
+    lift_x, lift_y, lift_z = corner_x * 0.0, corner_y * 1.0, 0.0 * 0.0      # corner * [0, 1, 0]
+    push_t = face.value("push_t_lip") * fapu.mns
+    push_b = face.value("push_b_lip") * fapu.mns
+    squeeze = -outward * pair("squeeze_{s}_eyebrow") * fapu.es
+    nose_lift = face.value("raise_nose") * fapu.ens
+    # head: per side levator05, risorius03, oculi01, levator06 (L at 0..3, R at 4..7); oris05, oris03.L/R
+    head = np.zeros((n_frames, 11, 3))
+    tail = np.zeros((n_frames, 11, 3))
+    sides = np.array([0, 4])
+    for moved in (head, tail):
+        moved[:, sides, 0], moved[:, sides, 1] = corner_x, corner_y
+        moved[:, sides + 1, 0] = outward * pair("puff_{s}_cheek") * fapu.es
+        moved[:, sides + 1, 1] = np.maximum(pair("lift_{s}_cheek"), 0.0) * fapu.ens
+        moved[:, sides + 2, 0] = squeeze
+        moved[:, 8, 1], moved[:, 8, 2] = -face.lip("lower_t_midlip") * fapu.mns, push_t
+        moved[:, 9:11, 0] = 0.0 + share_upper * lift_x
+        moved[:, 9:11, 1] = -lip_pair("lower_t_lip_{s}m") * fapu.mns + share_upper * lift_y
+        moved[:, 9:11, 2] = push_t[:, None] + share_upper * lift_z
+    head[:, sides + 2, 1] = pair("raise_{s}_m_eyebrow") * fapu.ens
+    tail[:, sides + 2, 1] = pair("raise_{s}_i_eyebrow") * fapu.ens
+    head[:, sides + 3, 1] = nose_lift[:, None]
+    tail[:, sides + 3, 0] = 0.0 + outward * pair("stretch_{s}_nose") * fapu.ens
+    tail[:, sides + 3, 1] = nose_lift[:, None] + 0.0
+    tail[:, sides + 3, 2] = 0.0 + 0.0
+    # jaw: oris01, oris07.L/R
+    jaw = np.zeros((n_frames, 3, 3))
+    jaw[:, 0, 1], jaw[:, 0, 2] = face.lip("raise_b_midlip") * fapu.mns, push_b
+    jaw[:, 1:3, 0] = 0.0 + share_lower * lift_x
+    jaw[:, 1:3, 1] = lip_pair("raise_b_lip_{s}m") * fapu.mns + share_lower * lift_y
+    jaw[:, 1:3, 2] = push_b[:, None] + share_lower * lift_z
+    return (_carry_arrays(skeleton, "head", _HEAD_CARRIED, head, tail)
+            | _carry_arrays(skeleton, "jaw", _JAW_CARRIED, jaw, jaw))
+
+
+_HEAD_CARRIED = tuple(f"{bone}.{side}" for side in SIDES for bone in ("levator05", "risorius03", "oculi01", "levator06")
+                      ) + ("oris05", "oris03.L", "oris03.R")
+_JAW_CARRIED = ("oris01", "oris07.L", "oris07.R")
+
+
+def _carried_bones_by_side(face: _Displacements, skeleton: Skeleton) -> dict[str, np.ndarray]:
+    """`_carried_bones` side by side and bone by bone (its reference; tests compare the two): (T, 4) rotations of the lips, mouth corners, cheeks, nose wings and brows and of their carriers."""
     fapu, value, lip, vector = face.fapu, face.value, face.lip, face.vector
     upper_lip = {"oris05": vector(y=-lip("lower_t_midlip") * fapu.mns, z=value("push_t_lip") * fapu.mns)}
     lower_lip = {"oris01": vector(y=lip("raise_b_midlip") * fapu.mns, z=value("push_b_lip") * fapu.mns)}
@@ -282,8 +343,9 @@ def with_face_bones(motion: Motion, avatar: Avatar | None = None) -> Motion:
     q = np.zeros((motion.n_frames, len(names), 4))
     q[..., 0] = 1.0
     q[:, :len(motion.bone_names)] = motion.rotations
+    position = {name: k for k, name in reversed(list(enumerate(names)))}     # first of each name, as list.index
     for name, rotation in face.items():
-        q[:, names.index(name)] = rotation
+        q[:, position[name]] = rotation
     return Motion(motion.fps, tuple(names), q, motion.root_translation.copy(), motion.faps.copy())
 
 
@@ -297,7 +359,16 @@ def _turn(arm: np.ndarray, displacement: np.ndarray) -> np.ndarray:
     across = np.linalg.norm(arm - along[:, None] * direction, axis=-1)
     reach = np.linalg.norm(arm)
     angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
-    return rotations.from_axis_angle(np.cross(arm, direction), angle)
+    return _from_axis_angle(np.cross(arm, direction), angle)
+
+
+def _from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """media/rotations.py `from_axis_angle`, bitwise: its NumPy unit axis times angle, then scipy's from_rotvec
+    compiled (kernels/face_bones.py). axis (..., 3), angle (...) radians (broadcast) -> (..., 4) (w, x, y, z)."""
+    axis = np.asarray(axis, dtype=np.float64)
+    unit = axis / np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-300)
+    rotvec = unit * np.asarray(angle, dtype=np.float64)[..., None]
+    return bones_kernel.from_rotvec(np.ascontiguousarray(rotvec.reshape(-1, 3))).reshape(rotvec.shape[:-1] + (4,))
 
 
 def _turns(arms: np.ndarray, displacements: np.ndarray) -> np.ndarray:
@@ -309,7 +380,7 @@ def _turns(arms: np.ndarray, displacements: np.ndarray) -> np.ndarray:
     across = np.linalg.norm(arms[:, None] - along[..., None] * direction, axis=-1)
     reach = np.array([np.linalg.norm(arm) for arm in arms])[:, None]
     angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
-    return rotations.from_axis_angle(np.cross(arms[:, None], direction), angle)
+    return _from_axis_angle(np.cross(arms[:, None], direction), angle)
 
 
 _ARMS: dict[tuple[int, Fapu], tuple[Skeleton, np.ndarray]] = {}
@@ -441,12 +512,19 @@ def _carry(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray,
     same solve in NumPy; a frame equal to the one before it is not solved again). Each skinned bone then
     turns so that its tail moves by its own displacement relative to its head.
     """
-    plan = _carry_plan(skeleton, anchor, tuple(targets))
     head_moved = np.stack([head for head, _ in targets.values()], axis=1)          # (T, S, 3)
     tail_moved = np.stack([tail for _, tail in targets.values()], axis=1)
+    return _carry_arrays(skeleton, anchor, tuple(targets), head_moved, tail_moved, iterations, damping, max_turn)
+
+
+def _carry_arrays(skeleton: Skeleton, anchor: str, names: tuple[str, ...], head_moved: np.ndarray,
+                  tail_moved: np.ndarray, iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3
+                  ) -> dict[str, np.ndarray]:
+    """`_carry` of the skinned bones `names` with their head and tail displacements as (T, S, 3) arrays."""
+    plan = _carry_plan(skeleton, anchor, names)
     # Frames are solved independently by the same operations, so a frame whose targets equal the previous
     # frame's bit for bit (a held face) has the same solution: solve the first of each run, copy it.
-    rows = np.ascontiguousarray(head_moved, dtype=np.float64).reshape(len(head_moved), 3 * len(targets))
+    rows = np.ascontiguousarray(head_moved, dtype=np.float64).reshape(len(head_moved), 3 * len(names))
     rows = rows.view(np.int64)
     changed = np.ones(len(rows), dtype=bool)
     changed[1:] = np.any(rows[1:] != rows[:-1], axis=1)

@@ -126,3 +126,33 @@ def test_face_rig_takes_empty_and_single_frame_tracks(avatar, n_frames):
     for rotation in result.values():
         assert rotation.shape == (n_frames, 4)
         assert np.array_equal(rotation, np.broadcast_to([1.0, 0.0, 0.0, 0.0], rotation.shape))
+
+
+def test_compiled_from_axis_angle_is_bitwise_rotations_from_axis_angle():
+    """kernels/face_bones.from_rotvec (behind face_rig._from_axis_angle) against scipy's from_rotvec, across
+    the small-angle series' switch (1e-3 rad), zero axes and broadcast shapes."""
+    rng = np.random.default_rng(11)
+    for scale in (0.0, 1e-7, 1e-4, 5e-4, 1e-3, 2e-3, 0.1, 1.0, 3.0, 7.0):
+        axis = rng.normal(size=(500, 3))
+        axis[::50] = 0.0
+        angle = rng.normal(size=500) * scale
+        assert np.array_equal(_bits(face_rig._from_axis_angle(axis, angle)), _bits(rotations.from_axis_angle(axis, angle)))
+    axes = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]] * 2)[:, None]
+    angles = rng.normal(size=(4, 30)) * 0.3
+    assert np.array_equal(_bits(face_rig._from_axis_angle(axes, angles)), _bits(rotations.from_axis_angle(axes, angles)))
+    rotvec = np.array([[1e-3, 0.0, 0.0], [0.0, -1e-3, 0.0], [np.pi, 0.0, 0.0]])
+    expected = Rotation.from_rotvec(rotvec).as_quat()[:, [3, 0, 1, 2]]
+    assert np.array_equal(_bits(face_rig.bones_kernel.from_rotvec(rotvec)), _bits(expected))
+
+
+def test_both_sides_at_once_are_bitwise_side_by_side(avatar):
+    """face_rig._carried_bones (both sides' targets as (T, 2) arrays) against _carried_bones_by_side."""
+    fapu = avatar_fapu(avatar)
+    cases = [letter_motion("ase", letter, 25.0).faps for letter in "ABC"]
+    cases += [synthetic_faps(60, 25.0, seed=5), _wild_faps(), -_wild_faps()]
+    for faps in cases:
+        face = face_rig._Displacements(np.asarray(faps), fapu)
+        fast, reference = face_rig._carried_bones(face, avatar.skeleton), face_rig._carried_bones_by_side(face, avatar.skeleton)
+        assert list(fast) == list(reference)
+        for name in reference:
+            assert np.array_equal(_bits(fast[name]), _bits(reference[name])), name

@@ -1,0 +1,175 @@
+"""The BBA decoder's fast paths against the plain code they replace, bitwise: sparse predicted models
+(kernels/bba_units.py), the header's range-field reader (kernels/bba_header.py), the held-table Euler
+conversion (kernels/bba_rotations.from_euler_table) and the batched key-frame expansion (keyframes.expand)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from comparisons import bap_table, bba_codec
+from comparisons import keyframes as kf
+from comparisons.bitstream import BitReader, BitWriter
+from kernels import bba_header, bba_rotations
+from kernels import param_frames as pf
+from media import rotations
+from media.fingerspelling import letter_motion
+from media.motion import Motion
+
+
+def _per_gap_expand(previous_q, previous_t, key_q, key_t, kfi: int):
+    """keyframes.expand as it was, one gap per call."""
+    x = np.arange(1, kfi + 1) / (kfi + 1)
+    q0 = np.broadcast_to(previous_q, (kfi,) + previous_q.shape)
+    q1 = np.broadcast_to(key_q, q0.shape)
+    q = rotations.slerp(q0, q1, np.broadcast_to(x[:, None], q0.shape[:2]))
+    t = (1 - x)[:, None] * previous_t + x[:, None] * key_t
+    return q, t
+
+
+def _check_expand(previous_q, previous_t, key_q, key_t, gaps) -> None:
+    q, t = kf.expand(previous_q, previous_t, key_q, key_t, np.array(gaps, dtype=np.int64))
+    parts = [_per_gap_expand(previous_q[g], previous_t[g], key_q[g], key_t[g], gap) for g, gap in enumerate(gaps)]
+    assert np.array_equal(q, np.concatenate([p[0] for p in parts]))     # bitwise: NaN-free, -0.0 == 0.0 aside
+    assert np.array_equal(t, np.concatenate([p[1] for p in parts]))
+    assert q.tobytes() == np.concatenate([p[0] for p in parts]).tobytes()
+    assert t.tobytes() == np.concatenate([p[1] for p in parts]).tobytes()
+
+
+@pytest.mark.parametrize("fps", [10.0, 25.0])
+def test_batched_expand_is_bitwise_the_per_gap_expansion_on_real_key_frames(fps):
+    for letter in "ABCDEFGHIJKLMN":
+        motion = letter_motion("ase", letter, fps)
+        keys = kf.key_frames(motion, kf.default_threshold_rad(8))
+        gaps = (np.diff(keys) - 1).tolist()
+        if not any(gaps):
+            continue
+        r, t = motion.rotations, motion.root_translation
+        _check_expand(r[keys[:-1]], t[keys[:-1]], r[keys[1:]], t[keys[1:]], gaps)
+
+
+def test_batched_expand_is_bitwise_on_long_gaps_opposite_signs_and_equal_rotations():
+    rng = np.random.default_rng(3)
+    n_gaps, n_bones = 12, 81
+    q0 = rotations.normalize(rng.normal(size=(n_gaps, n_bones, 4)))
+    q1 = rotations.normalize(q0 + rng.normal(scale=0.3, size=q0.shape))
+    q1[:, ::3] *= -1                                          # the shorter arc through -q1
+    q1[:, 1::7] = q0[:, 1::7]                                 # sin(alpha) ~ 0: the linear fallback
+    gaps = [31, 1, 2, 0, 30, 5, 31, 3, 17, 1, 8, 29]
+    _check_expand(q0, rng.normal(size=(n_gaps, 3)), q1, rng.normal(size=(n_gaps, 3)), gaps)
+
+
+@pytest.mark.parametrize("order", range(24))
+def test_held_table_euler_conversion_is_bitwise_from_euler(order):
+    rng = np.random.default_rng(order)
+    n_frames, n_rotated = 40, 9
+    table = rng.integers(-400000, 400000, size=(n_frames, 3 * n_rotated + 3)).astype(np.float64)
+    table[rng.random(table.shape) < 0.4] = 0.0
+    held = rng.random(n_frames) < 0.5
+    for f in np.flatnonzero(held[1:]) + 1:                    # held values: a frame repeating the one before
+        table[f, : 3 * n_rotated : 2] = table[f - 1, : 3 * n_rotated : 2]
+    sequence = rotations.scipy_sequence(bba_codec.ORDER_NAMES[order])
+    axes = np.array(["xyz".index(c) for c in sequence.lower()], dtype=np.int64)
+    got = bba_rotations.from_euler_table(table, n_rotated, bap_table.ROTATION_UNIT_RAD, axes, sequence.isupper())
+    angles = np.ascontiguousarray((table[:, :3 * n_rotated] * bap_table.ROTATION_UNIT_RAD).reshape(-1, 3))
+    expected = bba_rotations.from_euler(angles, axes, sequence.isupper()).reshape(n_frames, n_rotated, 4)
+    assert got.tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_range_field_reader_matches_param_frames(seed):
+    """Fields with long zero runs (emulation-prevention bits inside them), then truncated and with a marker
+    bit flipped: the same fields, statuses and reader state as param_frames.read_range_fields."""
+    rng = np.random.default_rng(seed)
+    fields = rng.integers(0, 128, size=(4, 61))
+    fields[:, rng.random(61) < 0.5] = 0
+    writer = BitWriter()
+    writer.write(0, 5)
+    pf.write_range_fields(writer.buffer, writer.state, fields, 7)
+    writer.write(1, 1)
+    data = writer.getvalue()
+    cases = [(data, 8 * len(data)), (data, 8 * len(data) // 2)]
+    flipped = bytearray(data)
+    flipped[len(data) // 3] ^= 0xFF
+    cases.append((bytes(flipped), 8 * len(data)))
+    for stream, end_bit in cases:
+        reader = BitReader(stream)
+        array = reader.array
+        expected_fields, got_fields = np.zeros((4, 61), dtype=np.int64), np.zeros((4, 61), dtype=np.int64)
+        expected_state, got_state = np.array([5, 0, 0]), np.array([5, 0, 0])
+        expected = pf.read_range_fields(array, end_bit, expected_state, expected_fields, 7)
+        got = bba_header.read_range_fields(array, end_bit, got_state, got_fields, 7)
+        assert got == expected
+        if expected == 0:
+            assert np.array_equal(got_fields, fields)
+            assert np.array_equal(got_fields, expected_fields)
+            assert got_state[:2].tolist() == expected_state[:2].tolist()
+
+
+def _noisy_long_motion(letters: str, seed: int) -> Motion:
+    """Letters one after the other, every rotation jittered (many distinct predicted levels per value)."""
+    parts = [letter_motion("ase", letter, 25.0) for letter in letters]
+    quaternions = np.concatenate([p.rotations for p in parts])
+    noise = np.random.default_rng(seed).normal(scale=0.02, size=quaternions.shape)
+    return Motion(25.0, parts[0].bone_names, rotations.normalize(quaternions + noise),
+                  np.concatenate([p.root_translation for p in parts]))
+
+
+@pytest.mark.parametrize("q", [1, 8])
+def test_sparse_models_filling_up_decode_what_the_unit_by_unit_reader_decodes(avatar, q):
+    """A value coding more distinct levels than a sparse model holds (SPARSE_CAPACITY) after an intra unit
+    (intra period 63): the whole-stream kernel moves its models to the Fenwick bank and still decodes the
+    unit-by-unit reader's values."""
+    from kernels.bba_units import SPARSE_CAPACITY
+
+    data = bba_codec.write_stream(bba_codec.motion_to_stream(_noisy_long_motion("ABC", q), q, "pred", intra_period=63,
+                                                             skeleton=avatar.skeleton), avatar.skeleton)
+    fast = bba_codec._read_uniform(data)
+    assert fast is not None
+    _, records, lost = bba_codec._read_units(data, False, False)
+    assert lost == []
+    rows = np.concatenate([unit.rows for unit in records])
+    assert np.array_equal(fast[2], rows)
+    deltas = np.diff(rows[:63], axis=0)                 # the levels of the first intra period's predicted units
+    assert max(len(np.unique(deltas[:, p])) for p in range(deltas.shape[1])) > SPARSE_CAPACITY
+    decoded = bba_codec.decode_motion(data, avatar.skeleton)
+    expected = bba_codec.stream_to_motion(bba_codec.read_stream(data)[0], avatar.skeleton)
+    assert decoded.rotations.tobytes() == expected.rotations.tobytes()
+    assert decoded.root_translation.tobytes() == expected.root_translation.tobytes()
+
+
+@pytest.mark.parametrize("codec", ["bba-pred", "bba-dct", "bba-key"])
+def test_decode_motion_is_bitwise_the_stream_reader_motion(avatar, codec):
+    from comparisons.param_codecs import get_codec
+
+    for letter, q, fps in (("B", 1, 25.0), ("F", 31, 10.0), ("H", 8, 50.0)):
+        data = get_codec(codec).encode(letter_motion("ase", letter, fps), q)
+        decoded = bba_codec.decode_motion(data, avatar.skeleton)
+        expected = bba_codec.stream_to_motion(bba_codec.read_stream(data)[0], avatar.skeleton)
+        assert decoded.n_frames == expected.n_frames
+        assert decoded.rotations.tobytes() == expected.rotations.tobytes()
+        assert decoded.root_translation.tobytes() == expected.root_translation.tobytes()
+
+
+def test_huffman_table_look_ups_read_what_the_bit_by_bit_reader_reads():
+    """kernels/bba_units._code against entropy_coding._get_code_local on random bits with long zero runs
+    (emulation-prevention bits, codes longer than the table, the data's end): the same symbols, statuses
+    and reader states, code after code."""
+    from comparisons import param_coding as pc
+    from kernels import bba_units, entropy_coding
+
+    rng = np.random.default_rng(11)
+    tables = pc.vlc_tables()
+    for name in ("dc_intra", "dc_inter", "ac"):
+        reader = tables[name].arrays()[2:]
+        lut = bba_units.huffman_lut(*reader)
+        for _ in range(20):
+            data = rng.integers(0, 256, 64).astype(np.uint8)
+            data[rng.random(64) < 0.3] = 0
+            end_bit = int(rng.integers(1, 8 * 64))
+            pos, run = 0, 0
+            while True:
+                expected = entropy_coding._get_code_local(data, end_bit, pos, run, *reader)
+                assert bba_units._code(data, end_bit, pos, run, *lut, *reader) == expected
+                if expected[0] < 0:
+                    break
+                _, pos, run = expected

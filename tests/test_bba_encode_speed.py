@@ -1,0 +1,68 @@
+"""The BBA encoder's compiled paths give the reference's results bit for bit: the Euler split
+(kernels/bba_euler.py against scipy's as_euler, every rotation order, gimbal lock included) and the key-frame
+search (kernels/bba_keyframes.py against keyframes._key_frames_numpy, on real clips, with the kernel's
+undecided candidates handed back to NumPy)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from comparisons import bba_codec
+from comparisons import keyframes as kf
+from media import rotations
+from media.face_rig import with_face_bones
+from media.fingerspelling import letter_motion
+
+
+def _quaternions() -> np.ndarray:
+    """(N, 4) random quaternions (not unit), rotations about one axis (gimbal lock of some orders), Euler
+    angles at the +-pi/2 locks, the axes and their negatives, and rows repeated (the kernel's skip)."""
+    rng = np.random.default_rng(7)
+    single = [rotations.from_axis_angle(np.eye(3)[axis], angle) for axis in range(3) for angle in np.linspace(-np.pi, np.pi, 41)]
+    locked = rotations.from_euler(rng.uniform(-3, 3, (500, 3)) * [1.0, 0.0, 1.0], "XYZs")
+    at_pi_2 = rotations.from_euler(np.array([[0.3, np.pi / 2, 0.2], [0.1, -np.pi / 2, 0.5], [0.0, np.pi / 2 + 1e-9, 1.0]]),
+                                   "ZXYr")
+    q = np.concatenate([rng.normal(size=(3000, 4)), np.array(single), locked, at_pi_2, np.eye(4), -np.eye(4)])
+    q = q[len(q) % 40:]                     # whole frames of 40 bones; the single-axis and locked rows kept
+    return np.concatenate([q, q[:40], q[:40]])
+
+
+@pytest.mark.parametrize("order", bba_codec.ORDER_NAMES)
+def test_euler_split_is_scipys_bitwise(order):
+    q = _quaternions()
+    expected = rotations.to_euler(q, order)
+    for shaped in (q, q.reshape(-1, 40, 4)):              # flat, and as (T, B, 4) frames (held bones skipped)
+        got = bba_codec._to_euler(shaped, order).reshape(-1, 3)
+        assert np.array_equal(got.view(np.int64), expected.view(np.int64))
+
+
+@pytest.fixture(scope="module")
+def clips():
+    """Face-played ASL and DGS letters (the motions bba-key codes)."""
+    return [with_face_bones(letter_motion(language, letter, 25.0)).without_face()
+            for language, letters in (("ase", "ABCDEFGHIJKLMNO"), ("gsg", "ABC")) for letter in letters]
+
+
+@pytest.mark.parametrize("threshold", [1e-3, 0.01, kf.default_threshold_rad(1), kf.default_threshold_rad(31), 0.3])
+def test_key_frames_are_the_numpy_searchs(clips, threshold):
+    for motion in clips:
+        expected = kf._key_frames_numpy(motion, threshold)
+        assert np.array_equal(kf.key_frames(motion, threshold), expected)
+        assert np.array_equal(kf.key_frames(motion, threshold, 0.0005), kf._key_frames_numpy(motion, threshold, 0.0005))
+
+
+def test_undecided_candidates_are_decided_by_numpy(clips, monkeypatch):
+    # Margins wider than any value: the kernel decides nothing, every candidate goes back to _within_each.
+    monkeypatch.setattr(kf, "_MARGIN_RAD", 10.0)
+    monkeypatch.setattr(kf, "_MARGIN_M", 10.0)
+    for motion in clips[:6]:
+        assert np.array_equal(kf.key_frames(motion, 0.05), kf._key_frames_numpy(motion, 0.05))
+
+
+def test_key_frames_edge_cases(clips):
+    motion = clips[0]
+    for n in (1, 2, 3, 4):
+        part = motion.frames(0, n)
+        assert np.array_equal(kf.key_frames(part, 0.05), kf._key_frames_numpy(part, 0.05))
+    # below the compiled path's thresholds: the NumPy search itself
+    assert np.array_equal(kf.key_frames(motion, 1e-4), kf._key_frames_numpy(motion, 1e-4))
