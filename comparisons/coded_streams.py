@@ -12,6 +12,9 @@ Each section is one of
     b"C" varint(count) varint(n_bytes) bytes                    wavelet coefficients (D, n_blocks, 16), context
                                                                 coded (kernels/lab_context.py), count = their number
 
+A second, compact layout (write_compact / read_compact, at the end of this module) frames a coder whose stream is
+one self-delimiting payload (wavelet-cx): magic b"Sc", coder id, q, varint T, varint fps code, payload, CRC-32.
+
 Writer and reader are used in the same order by a coder's encoder and decoder. The reader checks
 every length and the CRC, so corrupt or truncated input raises SigncastError instead of decoding
 to wrong motion. Both ends bound the header before anything is allocated: T <= MAX_FRAMES,
@@ -501,3 +504,88 @@ class StreamReader:
     def finish(self) -> None:
         if self.pos != len(self.body):
             raise self._fail(f"{len(self.body) - self.pos} unexpected bytes after the last section")
+
+
+# ---------------------------------------------------------------- compact framing (one payload, one CRC)
+# A second container layout, for coders whose whole stream is one self-delimiting payload (ContextWaveletCoder,
+# `framing = "compact"`; comparisons/lab_codecs.LabCodec writes it instead of its SCL1 wrapper around SCM1). On a
+# one-second clip at 10 fps the SCL1 + SCM1 framing (two magics, fixed-width header, raw 183-bit DOF mask, section
+# header, two CRCs: ~58 bytes) is ~10 % of the stream; this one is 10 bytes plus what the payload spends:
+#
+#     magic "Sc" | coder id (u8) | q (u8) | varint(T) | varint(fps code) | payload | CRC-32 of everything before
+#
+# fps code (chosen here): 2 fps when fps is a whole number, else 2 round(1000 fps) + 1, so 10 and 25 fps take one
+# byte. The payload runs to the CRC: the coder's own entropy coder says where it ends, and the coder checks it.
+# Integrity: CRC-32 (ISO 3309 / ITU-T V.42 polynomial, zlib.crc32) as in the SCM1 layout, kept rather than a CRC-16:
+# 2 more bytes per clip buy a 1-in-4e9 rather than 1-in-65536 chance that a damaged stream decodes to wrong motion
+# unnoticed, and the payload's own end check catches most damage only when it is in the range coder's last bytes.
+# Bounds: T <= MAX_FRAMES, 0.001 <= fps <= MAX_FPS, varints of at most 9 bytes, all before anything is allocated.
+
+COMPACT_MAGIC = b"Sc"
+_COMPACT_MIN = len(COMPACT_MAGIC) + 2 + 1 + 1 + 4
+_MAX_VARINT_BYTES = 9
+
+
+@dataclass(frozen=True)
+class CompactStream:
+    """A compact stream's header and payload: q (operating point index), n_frames T, fps, payload bytes."""
+    q: int
+    n_frames: int
+    fps: float
+    payload: bytes
+
+
+def fps_code(fps: float) -> int:
+    """The compact header's frame-rate code (see above); SigncastError outside 0.001 .. MAX_FPS."""
+    if not (np.isfinite(fps) and 0.001 <= fps <= MAX_FPS):
+        raise SigncastError(f"cannot code motion at {fps} fps (0.001 to {MAX_FPS:g})")
+    milli = round(fps * 1000)
+    return 2 * (milli // 1000) if milli % 1000 == 0 else 2 * milli + 1
+
+
+def _fps_of_code(code: int) -> float | None:
+    milli = 1000 * (code >> 1) if code % 2 == 0 else code >> 1
+    return milli / 1000.0 if 1 <= milli <= 1000 * MAX_FPS else None
+
+
+def write_compact(coder_id: int, q: int, n_frames: int, fps: float, payload: bytes) -> bytes:
+    """The compact stream of a payload (the coder's whole coded clip)."""
+    if not (0 <= coder_id < 256 and 0 <= q < 256):
+        raise SigncastError(f"coder id {coder_id} / quality index {q} out of range 0..255")
+    if not 0 < n_frames <= MAX_FRAMES:
+        raise SigncastError(f"cannot code {n_frames} frames (1 to {MAX_FRAMES})")
+    body = COMPACT_MAGIC + bytes([coder_id, q]) + _varint(n_frames) + _varint(fps_code(fps)) + bytes(payload)
+    return body + struct.pack("<I", zlib.crc32(body))
+
+
+def read_compact(data: bytes, coder_id: int, coder_name: str) -> CompactStream:
+    """Checks magic, CRC, coder id and header bounds of a compact stream; SigncastError on any damage."""
+    data = bytes(data)
+    if len(data) < _COMPACT_MIN or data[:len(COMPACT_MAGIC)] != COMPACT_MAGIC:
+        raise SigncastError(f"not a compact {coder_name} stream (bad magic or truncated, {len(data)} bytes)")
+    body, (crc,) = data[:-4], struct.unpack("<I", data[-4:])
+    if zlib.crc32(body) != crc:
+        raise SigncastError(f"corrupt {coder_name} stream: checksum mismatch (damaged or truncated)")
+    pos = len(COMPACT_MAGIC)
+    if body[pos] != coder_id:
+        raise SigncastError(f"{coder_name} decoder got a stream of coder id {body[pos]}")
+    q = body[pos + 1]
+    pos += 2
+    fields = []
+    for _ in range(2):
+        value, shift = 0, 0
+        while True:
+            if pos >= len(body) or shift >= 7 * _MAX_VARINT_BYTES:
+                raise SigncastError(f"corrupt {coder_name} stream: bad header field")
+            byte = body[pos]
+            pos += 1
+            value |= (byte & 0x7F) << shift
+            shift += 7
+            if not byte & 0x80:
+                break
+        fields.append(value)
+    n_frames, code = fields
+    fps = _fps_of_code(code)
+    if not 0 < n_frames <= MAX_FRAMES or fps is None:
+        raise SigncastError(f"corrupt {coder_name} stream: impossible header ({n_frames} frames, fps code {code})")
+    return CompactStream(q, n_frames, fps, body[pos:])

@@ -9,6 +9,9 @@ comparisons/tables/lab_dof_ranges.npz with the codebooks.
 
 A coded clip is b"SCL1" | coder id (u8) | active-DOF mask (ceil(D/8) bytes) | inner stream | CRC-32:
 DOFs that stay exactly 0 (the rest pose) in the clip are not coded, the others go to the coder.
+A coder whose class says `framing = "compact"` (wavelet-cx) writes the whole clip itself instead, mask included,
+in the compact layout of comparisons/coded_streams.write_compact (b"Sc" ... CRC-32, ~10 bytes of framing in
+place of ~58): `encode_compact(active dofs, fps, index, mask)` and `decode_compact(bytes, D)`.
 Both ends bound the clip to T x D <= coded_streams.MAX_VALUES with D the whole layout (the decoder's
 output size), before coding or allocating anything.
 """
@@ -176,6 +179,7 @@ class LabCodec:
         self.stage = stage
         self.description = f"seed 002: {DESCRIPTIONS[name]}"
         self.quality_measure = "vpsnr" if name in MODEL_NAMES else "psnr"
+        self.compact = getattr(CODER_CLASSES[name], "framing", "container") == "compact"
 
     def settings(self) -> tuple:
         """The coder's operating points, q = 1 .. len()."""
@@ -198,7 +202,13 @@ class LabCodec:
         active = np.any(dofs != 0.0, axis=0)
         if not active.any():
             active[0] = True  # a clip of pure rest pose still needs one coded DOF to carry T and fps
-        inner, recon_active = make_coder(self.name, active, self.stage).encode(dofs[:, active], fps, index)
+        coder = make_coder(self.name, active, self.stage)
+        if self.compact:
+            data, recon_active = coder.encode_compact(dofs[:, active], fps, index, active)
+            recon = np.zeros_like(dofs)
+            recon[:, active] = recon_active
+            return data, recon
+        inner, recon_active = coder.encode(dofs[:, active], fps, index)
         body = MAGIC + bytes([CODER_IDS[self.name]]) + np.packbits(active).tobytes() + inner
         recon = np.zeros_like(dofs)
         recon[:, active] = recon_active
@@ -207,6 +217,11 @@ class LabCodec:
     def decode_dofs(self, data: bytes) -> tuple[np.ndarray, float]:
         data = bytes(data)
         layout = dof_layout()
+        if self.compact:
+            recon_active, active, fps = CODER_CLASSES[self.name].decode_compact(data, layout.n_dofs)
+            recon = np.zeros((len(recon_active), layout.n_dofs))
+            recon[:, active] = recon_active
+            return recon, fps
         mask_bytes = -(-layout.n_dofs // 8)
         if len(data) < 5 + mask_bytes + 4 or data[:4] != MAGIC:
             raise SigncastError(f"not a {self.name} motion stream (bad magic or truncated)")

@@ -31,12 +31,16 @@ the NumPy formulation's arithmetic operation for operation (the streams are bitw
 """
 from __future__ import annotations
 
+import functools
 import struct
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.fft import dct, idct
 
-from comparisons.coded_streams import StreamReader, StreamWriter
+from comparisons import coded_streams
+from comparisons.coded_streams import StreamReader, StreamWriter, check_size
 from kernels import lab_context, lab_predictive
 from media.errors import SigncastError
 
@@ -488,6 +492,43 @@ class WaveletCoder(DofCoder):
         return from_blocks(haar_inverse([index * step for index in indices]), n_frames)
 
 
+PRIORS_PATH = Path(__file__).resolve().parent / "tables" / "context_priors.npz"
+
+
+@dataclass(frozen=True)
+class ContextPriors:
+    """Initial model states of the compact wavelet-cx stream (kernels/lab_context.py): per operating point q,
+    coeff_probs / coeff_counts (n_settings, N_CONTEXTS) int64 (P(bit = 0) x 65536, bits already seen), and of
+    the active-DOF mask mask_probs / mask_counts (2 D,) for the D DOFs of the signing layout."""
+    coeff_probs: np.ndarray
+    coeff_counts: np.ndarray
+    mask_probs: np.ndarray
+    mask_counts: np.ndarray
+
+    @property
+    def n_layout(self) -> int:
+        return len(self.mask_probs) // 2
+
+
+@functools.lru_cache(maxsize=1)
+def context_priors(path: Path = PRIORS_PATH) -> ContextPriors:
+    """The shipped trained model states (tools/train_context_priors.py), checked against the kernel's layout."""
+    try:
+        with np.load(path, allow_pickle=False) as table:
+            arrays = [table[k].astype(np.int64) for k in ("coeff_probs", "coeff_counts", "mask_probs", "mask_counts")]
+    except (OSError, KeyError):
+        raise SigncastError(f"context priors missing ({path}): run tools/train_context_priors.py") from None
+    priors = ContextPriors(*arrays)
+    n_settings = len(ContextWaveletCoder.settings)
+    if priors.coeff_probs.shape != (n_settings, lab_context.N_CONTEXTS) or \
+            priors.coeff_counts.shape != priors.coeff_probs.shape or priors.mask_counts.shape != priors.mask_probs.shape:
+        raise SigncastError("the shipped context priors do not match the context coder: retrain them")
+    for probs in (priors.coeff_probs, priors.mask_probs):
+        if probs.min() < lab_context.PROB_MIN or probs.max() > lab_context.PROB_ONE - lab_context.PROB_MIN:
+            raise SigncastError("the shipped context priors hold impossible probabilities: retrain them")
+    return priors
+
+
 class ContextWaveletCoder(DofCoder):
     """The wavelet coder (§7.8.2) with context-modelled entropy coding, chosen here: the seed names a wavelet
     coder but not how its coefficients are entropy coded. As H.264's CABAC and JPEG 2000's EBCOT do, each
@@ -497,19 +538,34 @@ class ContextWaveletCoder(DofCoder):
     (kernels/lab_context.py). A still DOF then costs a fraction of a bit per coefficient. Transform, blocks,
     steps and the approximation's prediction (from the previous block; the first from 0) are `wavelet`'s;
     the indices are the coefficients rounded to the nearest step multiple (halves away from zero).
-    One b"C" section (comparisons/coded_streams.py) holds every coefficient."""
+
+    Two stream layouts:
+    - `encode` / `decode`: the SCM1 container (comparisons/coded_streams.py), one b"C" section holding every
+      coefficient, models starting at P = 1/2;
+    - `encode_compact` / `decode_compact` (`framing = "compact"`: what comparisons/lab_codecs.LabCodec sends):
+      the compact layout of coded_streams.write_compact, whose payload is one range-coded run of the active-DOF
+      mask of the signing layout (one bin per DOF, kernels/lab_context.code_mask) and then the coefficients of
+      the active DOFs, every model starting from the state trained offline on other sign languages' clips
+      (comparisons/tables/context_priors.npz, tools/train_context_priors.py; per q): on a one-second clip the
+      models otherwise spend a good part of the stream learning what every clip looks like."""
 
     name, coder_id, unit = "wavelet-cx", 13, "step (rad)"
     settings = WaveletCoder.settings
     rounding = 0.5  # index = sign(c) floor(|c| / step + rounding)
+    framing = "compact"
 
-    def _encode(self, writer, dofs, fps, step):
+    def _coded(self, dofs: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+        """(T, D) radians -> (indices (D, n_blocks, 16), the coded values: approximation differenced)."""
         coeffs = np.concatenate(haar_forward(to_blocks(dofs)), axis=-1) / step
         if not np.all(np.abs(coeffs) < 2.0 ** (lab_context.MAX_CLASS - 1)):
             raise SigncastError(f"{self.name}: DOF values too large for step {step} rad")
         indices = (np.sign(coeffs) * np.floor(np.abs(coeffs) + self.rounding)).astype(np.int64)
         coded = indices.copy()
         coded[..., 0] = np.diff(indices[..., 0], axis=1, prepend=0)
+        return indices, coded
+
+    def _encode(self, writer, dofs, fps, step):
+        indices, coded = self._coded(dofs, step)
         writer.context_coded(coded)
         return self._reconstruct(indices, step, len(dofs))
 
@@ -525,6 +581,58 @@ class ContextWaveletCoder(DofCoder):
         indices = reader.context_coded(self.n_dofs, -(-n_frames // BLOCK))
         indices[..., 0] = np.cumsum(indices[..., 0], axis=1)
         return self._reconstruct(indices, step, n_frames)
+
+    # ------------------------------------------------------------ compact layout
+
+    def encode_compact(self, dofs: np.ndarray, fps: float, q: int, active: np.ndarray) -> tuple[bytes, np.ndarray]:
+        """(T, D) radians of the active DOFs, `active` the (n_layout,) bool mask of the signing layout they are
+        (D = its count, the coder's DOFs) -> (compact stream, reconstruction (T, D))."""
+        dofs = self.check(dofs, fps, q)
+        active = np.asarray(active, dtype=bool)
+        priors = context_priors()
+        if active.shape != (priors.n_layout,) or int(active.sum()) != self.n_dofs:
+            raise SigncastError(f"{self.name}: the active mask must be ({priors.n_layout},) with {self.n_dofs} set")
+        indices, coded = self._coded(dofs, self.settings[q])
+        mask = active.astype(np.int64)
+        size = lab_context.payload_capacity(coded.size) + len(mask)
+        while True:
+            out = np.zeros(size, dtype=np.uint8)
+            n_bytes = lab_context.encode_payload(mask, coded, priors.mask_probs.copy(), priors.mask_counts.copy(),
+                                                 priors.coeff_probs[q].copy(), priors.coeff_counts[q].copy(), out)
+            if n_bytes <= len(out):  # else a noise-like input: code again into the size this pass measured
+                break
+            size = n_bytes
+        if n_bytes < 0:
+            raise SigncastError(f"{self.name}: coefficient too large for the context coder")
+        stream = coded_streams.write_compact(self.coder_id, int(q), len(dofs), fps, out[:n_bytes].tobytes())
+        return stream, self._reconstruct(indices, self.settings[q], len(dofs))
+
+    @classmethod
+    def decode_compact(cls, data: bytes, n_layout: int) -> tuple[np.ndarray, np.ndarray, float]:
+        """Compact stream -> (reconstruction (T, D) radians of the active DOFs, active mask (n_layout,) bool, fps).
+        Every size is bounded before allocation (T by the header, D <= n_layout); SigncastError on any damage."""
+        stream = coded_streams.read_compact(data, cls.coder_id, cls.name)
+        priors = context_priors()
+        if n_layout != priors.n_layout:
+            raise SigncastError(f"{cls.name}: the context priors are for {priors.n_layout} DOFs, not {n_layout}")
+        q = stream.q
+        if q >= len(cls.settings):
+            raise SigncastError(f"corrupt {cls.name} stream: operating point {q} out of range")
+        check_size(stream.n_frames, n_layout, f"corrupt {cls.name} stream")
+        payload = np.frombuffer(stream.payload, dtype=np.uint8).copy()  # the kernel's buffer is writable
+        state = lab_context.decoder_state(payload)
+        mask = np.zeros(n_layout, dtype=np.int64)
+        lab_context.decode_mask(state, payload, mask, priors.mask_probs.copy(), priors.mask_counts.copy())
+        n_active = int(mask.sum())
+        if n_active == 0:
+            raise SigncastError(f"corrupt {cls.name} stream: no active DOF")
+        coeffs = np.zeros((n_active, -(-stream.n_frames // BLOCK), BLOCK), dtype=np.int64)
+        lab_context.decode_coefficients(state, payload, coeffs, priors.coeff_probs[q].copy(), priors.coeff_counts[q].copy())
+        if lab_context.finish_decoder(state, payload) != 0:
+            raise SigncastError(f"corrupt {cls.name} stream: payload undecodable (damaged or truncated)")
+        coeffs[..., 0] = np.cumsum(coeffs[..., 0], axis=1)
+        recon = cls._reconstruct(coeffs, cls.settings[q], stream.n_frames)
+        return recon, mask.astype(bool), stream.fps
 
 
 WAVEFORM_CODERS = {cls.name: cls for cls in (UniformQuantizer, CompandedQuantizer, DpcmCoder, AdpcmCoder,

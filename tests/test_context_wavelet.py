@@ -1,13 +1,16 @@
-"""The context-modelled wavelet coder (wavelet-cx): exact decoding, fewer bytes than wavelet, damage handling."""
+"""The context-modelled wavelet coder (wavelet-cx): exact decoding, fewer bytes than wavelet, damage handling, and
+its compact framing with trained priors (what LabCodec sends)."""
 from __future__ import annotations
 
 import struct
 import zlib
+from pathlib import Path
 
 import numpy as np
 import pytest
 from motion_samples import FPS, signing_like
 
+from comparisons import coded_streams, waveform_coders
 from comparisons.coded_streams import StreamReader, StreamWriter
 from comparisons.waveform_coders import ContextWaveletCoder, WaveletCoder
 from kernels import lab_context
@@ -111,3 +114,137 @@ def test_a_section_claiming_another_count_is_rejected_before_allocating():
     reader = StreamReader(writer.finish(), ContextWaveletCoder.coder_id, "wavelet-cx")
     with pytest.raises(SigncastError, match="coefficients"):
         reader.context_coded(5, 2)
+
+
+# ---------------------------------------------------------------- compact framing (what LabCodec sends)
+
+def _layout_clip(n_frames: int, seed: int = 0) -> np.ndarray:
+    """(T, 183) layout DOFs: a signing-like clip on a few DOFs of each group, the rest at rest (0)."""
+    from comparisons.lab_codecs import dof_layout
+    dofs = np.zeros((n_frames, dof_layout().n_dofs))
+    moving = signing_like(n_frames, seed)[:, :4] * 0.5
+    columns = np.random.default_rng(seed).choice(dof_layout().n_dofs, size=(12, 4), replace=False)
+    for k, cols in enumerate(columns):
+        dofs[:, cols] = np.roll(moving, 3 * k, axis=0)
+    return dofs
+
+
+@pytest.mark.parametrize("n_frames, fps", [(1, 25.0), (10, 10.0), (33, 25.0), (40, 12.5)])
+def test_lab_codec_sends_the_compact_layout_and_decodes_it_exactly(n_frames, fps):
+    from comparisons.lab_codecs import LabCodec
+    codec = LabCodec("wavelet-cx")
+    dofs = _layout_clip(n_frames)
+    for index in (0, 5, 10):
+        data, recon = codec.encode_dofs(dofs, fps, index)
+        assert data[:2] == coded_streams.COMPACT_MAGIC and data[2] == ContextWaveletCoder.coder_id
+        decoded, got_fps = codec.decode_dofs(data)
+        assert got_fps == fps and np.array_equal(decoded, recon)
+        assert np.all(decoded[:, ~np.any(dofs != 0, axis=0)] == 0)
+
+
+def _stored_clip(name: str = "ase_J_10fps") -> np.ndarray:
+    """(T, 183) signing DOFs of a real clip (tests/data/param_codec_clips.npz, see tests/test_stream_identity.py)."""
+    with np.load(Path(__file__).resolve().parent / "data" / "param_codec_clips.npz") as stored:
+        return stored[f"{name}/dofs"]
+
+
+def test_compact_framing_saves_the_container_bytes():
+    """The SCL1 wrapper (magic, id, 23-byte mask, CRC) around the SCM1 stream (17-byte header, section header,
+    CRC) against the compact stream on a real one-second 10 fps clip (ASL "J", 10 frames): 40 bytes fewer."""
+    from comparisons.lab_codecs import LabCodec, dof_ranges
+    dofs = _stored_clip()
+    active = np.any(dofs != 0, axis=0)
+    lower, upper = dof_ranges()
+    for index in (0, 8):
+        compact, _ = LabCodec("wavelet-cx").encode_dofs(dofs, 10.0, index)
+        container, _ = ContextWaveletCoder(lower[active], upper[active]).encode(dofs[:, active], 10.0, index)
+        assert len(compact) + 40 <= len(container) + 5 + 23 + 4
+
+
+def test_fps_codes_round_trip_and_whole_rates_take_one_byte():
+    for fps in (0.001, 1.0, 10.0, 12.5, 25.0, 29.97, 59.94, 1000.0):
+        code = coded_streams.fps_code(fps)
+        assert coded_streams._fps_of_code(code) == round(fps * 1000) / 1000
+    assert coded_streams.fps_code(10.0) < 128 and coded_streams.fps_code(25.0) < 128
+    for bad in (0.0, -1.0, 1000.5, float("nan")):
+        with pytest.raises(SigncastError):
+            coded_streams.fps_code(bad)
+
+
+def test_compact_random_damage_raises_signcast_error_or_decodes_to_the_layout():
+    """Bit flips and truncations anywhere (header and payload), the CRC made to match again so that the header
+    bounds and the payload's end check see them: SigncastError or a (T, 183) finite array, nothing else."""
+    from comparisons.lab_codecs import LabCodec, dof_layout
+    codec = LabCodec("wavelet-cx")
+    data, _ = codec.encode_dofs(_layout_clip(30, seed=2), 10.0, 7)
+    body = data[:-4]
+    rng = np.random.default_rng(11)
+    rejected = 0
+    for trial in range(400):
+        damaged = bytearray(body)
+        if trial % 3 == 0:
+            damaged = damaged[:rng.integers(1, len(damaged))]
+        else:
+            for _ in range(rng.integers(1, 4)):
+                damaged[rng.integers(0, len(damaged))] ^= 1 << int(rng.integers(0, 8))
+        try:
+            with np.errstate(all="ignore"):
+                decoded, fps = codec.decode_dofs(_with_crc(bytes(damaged)))
+        except SigncastError:
+            rejected += 1
+            continue
+        assert decoded.ndim == 2 and decoded.shape[1] == dof_layout().n_dofs and np.all(np.isfinite(decoded))
+        assert 0.001 <= fps <= coded_streams.MAX_FPS
+    assert rejected > 200
+    for bad in (data[:-1], data[:len(data) // 2], b"", b"Sc", bytes(data[:-5]) + bytes([data[-5] ^ 1]) + data[-4:]):
+        with pytest.raises(SigncastError):
+            codec.decode_dofs(bad)
+
+
+def test_a_compact_header_claiming_huge_sizes_is_rejected_before_allocating():
+    from comparisons.lab_codecs import LabCodec
+    codec = LabCodec("wavelet-cx")
+    for frames_field in (b"\xff\xff\xff\xff\xff\xff\xff\xff\x7f", b"\x80\x80\x80\x80\x80\x80\x80\x80\x80\x01",
+                         coded_streams._varint(coded_streams.MAX_FRAMES + 1), b"\x00"):
+        head = coded_streams.COMPACT_MAGIC + bytes([ContextWaveletCoder.coder_id, 3]) + frames_field + b"\x14"
+        with pytest.raises(SigncastError, match="header|frames"):
+            codec.decode_dofs(_with_crc(head + b"\x00" * 8))
+    head = coded_streams.COMPACT_MAGIC + bytes([ContextWaveletCoder.coder_id, 11, 10, 20])   # q 11 of 0..10
+    with pytest.raises(SigncastError, match="operating point"):
+        codec.decode_dofs(_with_crc(head + b"\x00" * 8))
+    head = coded_streams.COMPACT_MAGIC + bytes([ContextWaveletCoder.coder_id - 1, 3, 10, 20])
+    with pytest.raises(SigncastError, match="coder id"):
+        codec.decode_dofs(_with_crc(head + b"\x00" * 8))
+
+
+def test_shipped_priors_match_the_layout_and_help_on_short_clips():
+    """The trained table is for the signing layout, and on a short clip its models beat untrained ones."""
+    from comparisons.lab_codecs import dof_layout
+    priors = waveform_coders.context_priors()
+    with np.load(waveform_coders.PRIORS_PATH) as table:
+        assert tuple(str(n) for n in table["dof_names"]) == dof_layout().names
+        assert "training languages" in str(table["provenance"])
+    dofs = signing_like(10)
+    coded = ContextWaveletCoder(LOWER, UPPER)._coded(dofs, ContextWaveletCoder.settings[8])[1]
+    sizes = []
+    for probs, counts in ((priors.coeff_probs[8], priors.coeff_counts[8]),
+                          lab_context.uniform_models(lab_context.N_CONTEXTS)):
+        out = np.zeros(lab_context.payload_capacity(coded.size), dtype=np.uint8)
+        state = lab_context.encoder_state()
+        lab_context.code_coefficients(False, state, out, coded, probs.copy(), counts.copy(), np.zeros((0, 2), np.int64))
+        sizes.append(lab_context.finish_encoder(state, out))
+    assert sizes[0] < sizes[1]
+
+
+@pytest.mark.parametrize("payload", [b"", b"\x07\xa4\xa2\x1bb", bytes(range(40))])
+def test_decoding_stops_soon_after_the_payload_runs_out(payload):
+    """A header may claim ~4 M coefficients for a 20-byte payload (a fuzzer found one): the decoder must stop
+    once it has read MAX_OVERRUN bytes past the end instead of decoding the padding, and report damage."""
+    data = np.frombuffer(payload, dtype=np.uint8).copy()
+    coeffs = np.zeros((183, 1400, lab_context.BLOCK), dtype=np.int64)
+    assert lab_context.decode(data, coeffs) == -1
+    state = lab_context.decoder_state(data)
+    probs, counts = lab_context.uniform_models(lab_context.N_CONTEXTS)
+    lab_context.decode_coefficients(state, data, coeffs, probs, counts)
+    assert state[lab_context.POS] <= len(data) + lab_context.MAX_OVERRUN + 1
+    assert lab_context.finish_decoder(state, data) == -1

@@ -343,6 +343,20 @@ REFERENCE = {
         '1be307dfc6a67aa5b03671c7aeb0108a34d5316fa4ca13fb228f8b422c4c382e'),
     ('lab', ('ase_J_10fps', 'hybrid', 8)): ('e721bbfd5593c738a9748fe9792e0464afbc3e503f4fd86996dc658043d9aabd',
         'ec853600f0c988e4e5d4d4347782db31477f7d853b1b182f3041073d21be023a'),
+    # wavelet-cx through LabCodec: its compact framing (comparisons/coded_streams.write_compact) and the shipped
+    # context priors (comparisons/tables/context_priors.npz); retraining those changes these streams
+    ('lab', ('ase_HELLO_25fps', 'wavelet-cx', 1)): ('7d2b2243152892091bbc11910fdef7e2eb21e77e7838341d0fbda7f6f231c2db',
+        'a3f30ff05e52e061c8113e26415097408e79fe7d0b3022629211bd5f1f216970'),
+    ('lab', ('ase_HELLO_25fps', 'wavelet-cx', 6)): ('3bd3a6f604935b0c3b8e489a9b04319c986ad1523c3be999a65ef81c046c1d83',
+        'fa0e8945e3bdb7973342d4902c0a6e1bb6e17bc6a55ba81792365e7f27fa0b85'),
+    ('lab', ('ase_HELLO_25fps', 'wavelet-cx', 11)): ('9d323b2205b4b7e94d6fede61e44137797ba6ea529ffb7e3553796e5918dea1f',
+        '8c1236b15300a249fa39d55d2e1e5e5754396ca3253d6826a2c3515b4538713a'),
+    ('lab', ('ase_J_10fps', 'wavelet-cx', 1)): ('8c2237b04c98545ca8f60685f328d7740cebe09db0bebc79582e162f0b08f0de',
+        '8be84e44f7dedc18021574c5cbefbb05447e91817b42774daf6ad5b8d6d27ee2'),
+    ('lab', ('ase_J_10fps', 'wavelet-cx', 6)): ('fa2eda8211a4fb82068af780bc0ec4856d031c1027f68346830e899f5a3b95c1',
+        '037b41c4179aaba8d246426bc458bceedfbd8d2db5edef8ded4f3a2c6dd51e21'),
+    ('lab', ('ase_J_10fps', 'wavelet-cx', 11)): ('5e19ad996ec61c5a5568958ce46cb3f91b4f685946f395c4b7be1e7d647ec241',
+        '304673a955b8ac8891845fb44096a8245df3f4aeff22b3a483da1f8ab86f9836'),
 }
 
 

@@ -266,9 +266,13 @@ def shape(data: bytes) -> None:
 # ------------------------------------------------------------------------------- motion coders
 
 def seal_motion(data: bytes) -> bytes:
-    """A motion-coder clip with both CRC-32s repaired: the inner stream's and the clip's (lab_codecs layout)."""
+    """A motion-coder clip with its CRC-32s repaired: the compact layout's one (coded_streams.write_compact), or the
+    inner stream's and the clip's (lab_codecs layout)."""
+    from comparisons.coded_streams import COMPACT_MAGIC
     from comparisons.lab_codecs import dof_layout
 
+    if data.startswith(COMPACT_MAGIC):
+        return data[:-4] + struct.pack("<I", zlib.crc32(data[:-4])) if len(data) > 4 else data
     head = 5 + -(-dof_layout().n_dofs // 8)       # magic, coder id, active-DOF mask
     if len(data) < head + 8:
         return data
