@@ -25,46 +25,31 @@ Imports nothing of signcast's Python modules.
 import numpy as np
 from numba import njit
 
-from kernels.bba_header import _bits_local as _bits_at_once
+from kernels.bba_header import _bits_local
 from kernels.bba_levels import _fold
 from kernels.bba_masks import read_unit_bones
 from kernels.entropy_coding import (
-    HALF,
     HISTORY,
     MAX_ZERO_RUN,
     PRECISION,
     TOP,
     TOTAL,
     WINDOW_MAX_TOTAL,
-    _clz32,
     _get_code_local,
-    _has_stuffing,
-    _refill,
+    _open_window,
+    _renormalise_window,
     _scale,
     _state_at,
-    _strip,
     crc8_bytes,
     decode_frame_window,
     get_local,
     init_bank,
 )
-from kernels.param_frames import _sparse_add, new_sparse
+from kernels.param_frames import _sparse_add, _sparse_find, new_sparse
 
 OK, FALLBACK = 0, 1
 SPARSE_CAPACITY = 32                               # chosen here: keys a sparse model holds (param_frames' reader's)
 FRAME_NUMBER_BITS, P_FRAME_NUMBER_BITS, KFI_BITS, MUSCLE_COUNT_BITS, CRC_BITS = 24, 8, 5, 10, 8
-
-
-@njit(cache=True)
-def _bits_local(data, end_bit: int, pos: int, run: int, n_bits: int) -> tuple[int, int, int]:
-    """get_bits on local state: (value or -1, pos, run)."""
-    value = 0
-    for _ in range(n_bits):
-        bit, pos, run = get_local(data, end_bit, pos, run)
-        if bit < 0:
-            return -1, pos, run
-        value = (value << 1) | bit
-    return value, pos, run
 
 
 @njit(cache=True)
@@ -169,21 +154,8 @@ def _sparse_window(data, end_bit: int, pos: int, run: int, sizes, totals, keys, 
     if not 0 <= run < MAX_ZERO_RUN:
         return -4, pos, run
     pos0, run0 = pos, run
-    n_clean = max(end_bit - pos, 0)
-    stuffed = np.zeros(1, dtype=np.int64)
-    n_stuffed = 0
-    if _has_stuffing(data, end_bit, pos, run):
-        clean = np.zeros(n_clean // 8 + 1, dtype=np.uint8)
-        stuffed = np.zeros(n_clean // MAX_ZERO_RUN + 1, dtype=np.int64)
-        n_clean, n_stuffed = _strip(data, end_bit, pos, run, clean, stuffed)
-        source, source_start, source_end = clean, 0, n_clean
-    else:
-        source, source_start, source_end = data, pos, end_bit
-    byte_at = source_start >> 3
-    buf, n_buf, byte_at = _refill(source, source_end, 0, 0, byte_at)
-    n_buf -= source_start & 7
-    value = (buf >> (n_buf - PRECISION)) & TOP
-    n_buf -= PRECISION
+    source, source_start, source_end, n_clean, stuffed, n_stuffed, buf, n_buf, byte_at, value = _open_window(
+        data, end_bit, pos, run)
     n_read = PRECISION
     low, high = 0, TOP
     status = 0
@@ -197,37 +169,12 @@ def _sparse_window(data, end_bit: int, pos: int, run: int, sizes, totals, keys, 
         if target >= total:
             status = -1
             break
-        below = 0                              # extra counts of the keys below the target's symbol
-        slot = used[m]
-        symbol, sym_low, excess = -1, 0, 0
-        for s in range(used[m]):
-            key_low = keys[m, s] + below
-            if target < key_low:
-                slot = s
-                break
-            if target <= key_low + extra[m, s]:
-                slot = s
-                symbol, sym_low, excess = keys[m, s], key_low, extra[m, s]
-                break
-            below += extra[m, s]
-        if symbol < 0:
-            symbol, sym_low = target - below, target
+        slot, symbol, sym_low, excess = _sparse_find(keys, extra, used, m, target)
         high = low + _scale(span, sym_low + 1 + excess, total) - 1
         low = low + _scale(span, sym_low, total)
-        shifts = _clz32(low ^ high)            # renormalisation as decode_frame_window's
-        out_bits = (low >> (PRECISION - shifts)) << PRECISION
-        low = (low << shifts) - out_bits
-        high = (high << shifts) - out_bits + ((1 << shifts) - 1)
-        follow = _clz32(~(low & ~high) & (HALF - 1)) - 1
-        if n_buf < shifts + follow:
-            buf, n_buf, byte_at = _refill(source, source_end, buf, n_buf, byte_at)
-        n_buf -= shifts
-        value = (value << shifts) - out_bits + ((buf >> n_buf) & ((1 << shifts) - 1))
-        n_buf -= follow
-        low = (low << follow) & (HALF - 1)
-        high = (((high << follow) | ((1 << follow) - 1)) & TOP) | HALF
-        value = (value << follow) - ((1 << follow) - 1) * HALF + ((buf >> n_buf) & ((1 << follow) - 1))
-        n_read += shifts + follow
+        low, high, value, buf, n_buf, byte_at, n_bits = _renormalise_window(low, high, value, buf, n_buf, byte_at,
+                                                                             source, source_end)
+        n_read += n_bits
         _sparse_add(keys, extra, used, totals, limit, sizes[m], m, slot, symbol)
         out[m] = symbol
     j = n_read - HISTORY if status == 0 else n_read
@@ -370,7 +317,7 @@ def _value(data, end_bit: int, pos: int, run: int, cat: int) -> tuple[bool, int,
     """entropy_coding._get_value_local (sign, then cat - 1 low bits) with the cat bits read at once."""
     if not cat:
         return True, 0, pos, run
-    bits, pos, run = _bits_at_once(data, end_bit, pos, run, cat)
+    bits, pos, run = _bits_local(data, end_bit, pos, run, cat)
     if bits < 0:
         return False, 0, pos, run
     magnitude = (1 << (cat - 1)) + (bits & ((1 << (cat - 1)) - 1))

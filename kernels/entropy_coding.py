@@ -894,20 +894,12 @@ def _update_inline(counts, tree, scalars, offsets, m: int, symbol: int) -> None:
         i += i & -i
 
 
-@njit(cache=True)
-def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, counts, tree, scalars, offsets, members,
-                        out, out_start: int, fresh: bool) -> tuple[int, int, int, int]:
-    """decode_frame_local (same arguments, results and model updates) on a bit window."""
-    if not 0 <= run < MAX_ZERO_RUN:
-        return decode_frame_local(data, end_bit, pos, run, over, counts, tree, scalars, offsets, members, out,
-                                  out_start, fresh)
-    for k in range(len(members)):
-        m = members[k]
-        if not 1 <= scalars[m, TOTAL] <= WINDOW_MAX_TOTAL or (not fresh and not (
-                scalars[m, LIMIT] <= WINDOW_MAX_TOTAL and 0 <= scalars[m, INCREMENT] <= WINDOW_MAX_INCREMENT)):
-            return decode_frame_local(data, end_bit, pos, run, over, counts, tree, scalars, offsets, members, out,
-                                      out_start, fresh)
-    pos0, run0, over0 = pos, run, over
+@njit(cache=True, inline="always")
+def _open_window(data, end_bit: int, pos: int, run: int):
+    """The bit window of a decoder reading data from bit pos (zero run `run`) up to end_bit: the emulation-
+    prevention bits stripped once when there are any (_strip), the window filled and the first PRECISION bits
+    read. Returns (source, source_start, source_end, n_clean, stuffed, n_stuffed, buf, n_buf, byte_at, value);
+    _state_at maps bits consumed from source back to a position in data."""
     n_clean = max(end_bit - pos, 0)
     stuffed = np.zeros(1, dtype=np.int64)
     n_stuffed = 0
@@ -923,6 +915,47 @@ def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, count
     n_buf -= source_start & 7
     value = (buf >> (n_buf - PRECISION)) & TOP
     n_buf -= PRECISION
+    return source, source_start, source_end, n_clean, stuffed, n_stuffed, buf, n_buf, byte_at, value
+
+
+@njit(cache=True, inline="always")
+def _renormalise_window(low: int, high: int, value: int, buf: int, n_buf: int, byte_at: int, source,
+                        source_end: int):
+    """The decoder's renormalisation after a symbol, on the bit window: E1/E2, the leading bits low and high
+    share; then E3, after the top bit, the bits where low is 1 and high is 0 (no branches: a count of 0 changes
+    nothing). Returns (low, high, value, buf, n_buf, byte_at, bits consumed)."""
+    shifts = _clz32(low ^ high)
+    out_bits = (low >> (PRECISION - shifts)) << PRECISION
+    low = (low << shifts) - out_bits
+    high = (high << shifts) - out_bits + ((1 << shifts) - 1)
+    follow = _clz32(~(low & ~high) & (HALF - 1)) - 1
+    if n_buf < shifts + follow:
+        buf, n_buf, byte_at = _refill(source, source_end, buf, n_buf, byte_at)
+    n_buf -= shifts
+    value = (value << shifts) - out_bits + ((buf >> n_buf) & ((1 << shifts) - 1))
+    n_buf -= follow
+    low = (low << follow) & (HALF - 1)
+    high = (((high << follow) | ((1 << follow) - 1)) & TOP) | HALF
+    value = (value << follow) - ((1 << follow) - 1) * HALF + ((buf >> n_buf) & ((1 << follow) - 1))
+    return low, high, value, buf, n_buf, byte_at, shifts + follow
+
+
+@njit(cache=True)
+def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, counts, tree, scalars, offsets, members,
+                        out, out_start: int, fresh: bool) -> tuple[int, int, int, int]:
+    """decode_frame_local (same arguments, results and model updates) on a bit window."""
+    if not 0 <= run < MAX_ZERO_RUN:
+        return decode_frame_local(data, end_bit, pos, run, over, counts, tree, scalars, offsets, members, out,
+                                  out_start, fresh)
+    for k in range(len(members)):
+        m = members[k]
+        if not 1 <= scalars[m, TOTAL] <= WINDOW_MAX_TOTAL or (not fresh and not (
+                scalars[m, LIMIT] <= WINDOW_MAX_TOTAL and 0 <= scalars[m, INCREMENT] <= WINDOW_MAX_INCREMENT)):
+            return decode_frame_local(data, end_bit, pos, run, over, counts, tree, scalars, offsets, members, out,
+                                      out_start, fresh)
+    pos0, run0, over0 = pos, run, over
+    source, source_start, source_end, n_clean, stuffed, n_stuffed, buf, n_buf, byte_at, value = _open_window(
+        data, end_bit, pos, run)
     n_read = PRECISION
     low, high = 0, TOP
     status = 0
@@ -955,22 +988,9 @@ def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, count
             sym_high = sym_low + counts[np.uint64(base + position)]
         high = low + _scale(span, sym_high, total) - 1
         low = low + _scale(span, sym_low, total)
-        # E1/E2: the leading bits low and high share; then E3: after the top bit, the bits where low is 1 and
-        # high is 0 (no branches: a count of 0 changes nothing)
-        shifts = _clz32(low ^ high)
-        out_bits = (low >> (PRECISION - shifts)) << PRECISION
-        low = (low << shifts) - out_bits
-        high = (high << shifts) - out_bits + ((1 << shifts) - 1)
-        follow = _clz32(~(low & ~high) & (HALF - 1)) - 1
-        if n_buf < shifts + follow:
-            buf, n_buf, byte_at = _refill(source, source_end, buf, n_buf, byte_at)
-        n_buf -= shifts
-        value = (value << shifts) - out_bits + ((buf >> n_buf) & ((1 << shifts) - 1))
-        n_buf -= follow
-        low = (low << follow) & (HALF - 1)
-        high = (((high << follow) | ((1 << follow) - 1)) & TOP) | HALF
-        value = (value << follow) - ((1 << follow) - 1) * HALF + ((buf >> n_buf) & ((1 << follow) - 1))
-        n_read += shifts + follow
+        low, high, value, buf, n_buf, byte_at, n_bits = _renormalise_window(low, high, value, buf, n_buf, byte_at,
+                                                                             source, source_end)
+        n_read += n_bits
         if not fresh:
             _update_inline(counts, tree, scalars, offsets, m, symbol)
         out[out_start + k] = symbol

@@ -595,6 +595,22 @@ def _sparse_add(keys, extra, used, totals, limit: int, size: int, m: int, slot: 
         totals[m] = total
 
 
+@njit(cache=True, inline="always")
+def _sparse_find(keys, extra, used, m: int, target: int) -> tuple[int, int, int, int]:
+    """The symbol of sparse model m whose cumulative interval holds target (0 <= target < its total):
+    (slot: where the symbol is or would be inserted among the keys, symbol, its cumulative count, its
+    extra count)."""
+    below = 0                                  # extra counts of the keys below the target's symbol
+    for s in range(used[m]):
+        start = keys[m, s] + below
+        if target < start:
+            return s, target - below, target, 0
+        if target <= start + extra[m, s]:
+            return s, keys[m, s], start, extra[m, s]
+        below += extra[m, s]
+    return used[m], target - below, target, 0
+
+
 @njit(cache=True)
 def new_sparse(sizes, capacity: int):
     """Fresh all-ones sparse models of these alphabet sizes (M,): (totals (M,), keys (M, capacity),
@@ -716,21 +732,7 @@ def _sparse_decode_track(data, end_bit: int, state, a: int, b: int, sizes, total
         target = ((value - low + 1) * total - 1) // span
         if not 0 <= target < total:
             return CORRUPT_CODE
-        below = 0                                  # excess of the keys below
-        slot = used[p]
-        symbol, cumulative, excess = -1, 0, 0
-        for s in range(used[p]):
-            start = keys[p, s] + below
-            if target < start:
-                slot = s
-                break
-            if target <= start + extra[p, s]:
-                slot = s
-                symbol, cumulative, excess = keys[p, s], start, extra[p, s]
-                break
-            below += extra[p, s]
-        if symbol < 0:
-            symbol, cumulative = target - below, target
+        slot, symbol, cumulative, excess = _sparse_find(keys, extra, used, p, target)
         high = low + span * (cumulative + 1 + excess) // total - 1
         low = low + span * cumulative // total
         while True:
