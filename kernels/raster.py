@@ -458,9 +458,9 @@ __kernel void project(__global const float *positions, float16 m, float width, f
     }
 }
 
-/* Triangles [g * chunk, (g + 1) * chunk) of n: per-triangle setup (shaded look: the lit colour of the face
+/* Triangles [g * chunk, (g + 1) * chunk) of n: per-triangle setup (shaded look: the lit colour of a face that wrote a key
    into face_rgb, 3 bytes a triangle), edge functions with the top-left rule over the pixel centres inside the
-   bounding box, depth test. Each image row's span of drawn bounding boxes widens [row_lo, row_hi]. */
+   bounding box, depth test. Each image row's span of covered pixel centres widens [row_lo, row_hi]. */
 __kernel void raster(__global const int *triangles, __global const float *positions,
                      __global const long *fixed_x, __global const long *fixed_y,
                      __global const float *depth, __global const int *valid, int width, int height, int cull,
@@ -490,12 +490,6 @@ __kernel void raster(__global const int *triangles, __global const float *positi
         area = -area;
         flipped = 1;
     }
-    if (shaded) {
-        float s = face_shade(vload3(i0, positions), vload3(i1, positions), vload3(i2, positions), flipped,
-                             lx, ly, lz, ambient, diffuse);
-        for (int k = 0; k < 3; ++k)
-            face_rgb[3 * t + k] = (uchar)fmin((float)colour[3 * t + k] * s + 0.5f, 255.0f);
-    }
     /* walking order a, b, c = v0, v2, v1 turns counter-clockwise: edge functions are positive inside */
     long ax = x0, ay = y0, bx = x2, by = y2, cx = x1, cy = y1;
     /* edge functions at the pixel centres, with the top-left rule, stepped incrementally across the box */
@@ -503,29 +497,44 @@ __kernel void raster(__global const int *triangles, __global const float *positi
     float inverse_area = 1.0f / (float)(-area);
     float dz1 = z1 - z0, dz2 = z2 - z0;
     long start_x = xmin * SUBPIXEL + HALF_SUBPIXEL, start_y = ymin * SUBPIXEL + HALF_SUBPIXEL;
-    long row0 = edge(bx, by, cx, cy, start_x, start_y);
-    long row1 = edge(cx, cy, ax, ay, start_x, start_y);
-    long row2 = edge(ax, ay, bx, by, start_x, start_y);
+    /* biased: covered where all three are >= 0, that is where their bitwise or is (one branch, not three) */
+    long row0 = edge(bx, by, cx, cy, start_x, start_y) - b0;
+    long row1 = edge(cx, cy, ax, ay, start_x, start_y) - b1;
+    long row2 = edge(ax, ay, bx, by, start_x, start_y) - b2;
     long step_x0 = -(cy - by) * SUBPIXEL, step_x1 = -(ay - cy) * SUBPIXEL, step_x2 = -(by - ay) * SUBPIXEL;
     long step_y0 = (cx - bx) * SUBPIXEL, step_y1 = (ax - cx) * SUBPIXEL, step_y2 = (bx - ax) * SUBPIXEL;
+    int drew = 0;
     for (int py = (int)ymin; py <= (int)ymax; ++py) {
-        atomic_min(&row_lo[py], (int)xmin);
-        atomic_max(&row_hi[py], (int)xmax);
         long e0 = row0, e1 = row1, e2 = row2;
+        int run_end = -1;
         for (int px = (int)xmin; px <= (int)xmax; ++px) {
-            if (e0 >= b0 && e1 >= b1 && e2 >= b2) {
+            if ((e0 | e1 | e2) >= 0) {
+                if (run_end < 0) atomic_min(&row_lo[py], px);
+                run_end = px;
                 /* depth test: interpolate, keep [0, 1], atomic minimum of the key depth * ID_SCALE + triangle */
-                float l1 = (float)e2 * inverse_area;
-                float l2 = (float)e1 * inverse_area;
+                float l1 = (float)(e2 + b2) * inverse_area;
+                float l2 = (float)(e1 + b1) * inverse_area;
                 float z = z0 + l1 * dz1 + l2 * dz2;
                 if (z >= 0.0f && z <= 1.0f) {
                     long key = (long)(z * DEPTH_SCALE) * ID_SCALE + (long)t;
                     atom_min(&keys[py * width + px], key);
+                    drew = 1;
                 }
+            } else if (run_end >= 0) {
+                break;  /* a row's covered pixels are one run (the triangle is convex): none is left */
             }
             e0 += step_x0; e1 += step_x1; e2 += step_x2;
         }
+        if (run_end >= 0) atomic_max(&row_hi[py], run_end);
         row0 += step_y0; row1 += step_y1; row2 += step_y2;
+    }
+    /* shaded look: the lit colour only of a triangle that wrote a key (resolve reads face_rgb only for the
+       triangle of a pixel's key; many small triangles cover no pixel centre) */
+    if (shaded && drew) {
+        float s = face_shade(vload3(i0, positions), vload3(i1, positions), vload3(i2, positions), flipped,
+                             lx, ly, lz, ambient, diffuse);
+        for (int k = 0; k < 3; ++k)
+            face_rgb[3 * t + k] = (uchar)fmin((float)colour[3 * t + k] * s + 0.5f, 255.0f);
     }
   }
 }
@@ -540,7 +549,7 @@ __kernel void clear(__global long *keys, int width, __global int *row_lo, __glob
 /* Image row y: each key -> triangle id, label, depth and colour, into one output buffer read back in one
    copy: rgb (3n bytes), labels (n), triangle ids (4n), depth (4n) for n pixels. The key is reset to
    EMPTY_KEY for the next frame. The output is kept from frame to frame: unless `fresh`, only the pixels
-   inside this frame's span of drawn boxes [row_lo, row_hi] or the last frame's [drawn_lo, drawn_hi] are
+   inside this frame's span of covered pixels [row_lo, row_hi] or the last frame's [drawn_lo, drawn_hi] are
    visited (the others were empty then and are empty now, so they hold the background already), and an empty
    pixel that was empty in the last frame (triangle id -1) is not written again. The row's spans then move
    on: drawn = this frame's, this frame's = empty for the next raster pass. */

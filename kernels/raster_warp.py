@@ -113,9 +113,9 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
            light: wp.vec3, ambient: wp.float32, diffuse: wp.float32, colour: wp.array(dtype=wp.uint8), chunk: wp.int32,
            keys: wp.array(dtype=wp.int64), face_rgb: wp.array(dtype=wp.uint8), row_lo: wp.array(dtype=wp.int32),
            row_hi: wp.array(dtype=wp.int32)):
-    """Triangles [tid * chunk, (tid + 1) * chunk): per-triangle setup (shaded look: the lit colour of the face
+    """Triangles [tid * chunk, (tid + 1) * chunk): per-triangle setup (shaded look: the lit colour of a face that wrote a key
     into face_rgb, 3 bytes a triangle), edge functions with the top-left rule over the pixel centres inside
-    the bounding box, depth test. Each image row's span of drawn bounding boxes widens [row_lo, row_hi].
+    the bounding box, depth test. Each image row's span of covered pixel centres widens [row_lo, row_hi].
     vertices: the records of `project`."""
     first = wp.tid() * chunk
     for t in range(first, wp.min(first + chunk, triangles.shape[0] / 3)):
@@ -162,11 +162,6 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
             y2 = wp.int64(v1[1])
             z1 = v2[2]
             z2 = v1[2]
-        if shaded != 0:
-            s = face_shade(positions[i0], positions[i1], positions[i2], flipped, light, ambient, diffuse)
-            face_rgb[3 * t] = wp.uint8(wp.min(wp.float32(colour[3 * t]) * s + 0.5, 255.0))
-            face_rgb[3 * t + 1] = wp.uint8(wp.min(wp.float32(colour[3 * t + 1]) * s + 0.5, 255.0))
-            face_rgb[3 * t + 2] = wp.uint8(wp.min(wp.float32(colour[3 * t + 2]) * s + 0.5, 255.0))
         # walking order a, b, c = v0, v2, v1 turns counter-clockwise: edge functions are positive inside
         ax = x0
         ay = y0
@@ -183,9 +178,10 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
         b2 = top_left_bias(ax, ay, bx, by)
         start_x = xmin * SUBPIXEL + HALF_SUBPIXEL
         start_y = ymin * SUBPIXEL + HALF_SUBPIXEL
-        row0 = edge(bx, by, cx, cy, start_x, start_y)
-        row1 = edge(cx, cy, ax, ay, start_x, start_y)
-        row2 = edge(ax, ay, bx, by, start_x, start_y)
+        # biased: covered where all three are >= 0, that is where their bitwise or is (one branch, not three)
+        row0 = edge(bx, by, cx, cy, start_x, start_y) - b0
+        row1 = edge(cx, cy, ax, ay, start_x, start_y) - b1
+        row2 = edge(ax, ay, bx, by, start_x, start_y) - b2
         step_x0 = -(cy - by) * SUBPIXEL
         step_x1 = -(ay - cy) * SUBPIXEL
         step_x2 = -(by - ay) * SUBPIXEL
@@ -194,35 +190,50 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
         step_y2 = (bx - ax) * SUBPIXEL
         # while loops, not range(): a range's step may be negative, and testing for that in the inner loop cost
         # 11% of this kernel's time (chosen here, measured on Warp-CPU)
+        drew = int(0)  # noqa: UP018, RUF046 - Warp: a typed variable that the pixel loop below may change
         row_end = wp.int32(ymax)
         px_start = wp.int32(xmin)
         px_end = wp.int32(xmax)
         py = wp.int32(ymin)
         while py <= row_end:
-            wp.atomic_min(row_lo, py, px_start)
-            wp.atomic_max(row_hi, py, px_end)
             e0 = row0
             e1 = row1
             e2 = row2
             base = py * width
             px = px_start
+            run_end = int(-1)  # noqa: UP018, RUF046 - Warp: a typed variable that the loop below may change
             while px <= px_end:
-                if e0 >= b0 and e1 >= b1 and e2 >= b2:
+                if (e0 | e1 | e2) >= wp.int64(0):
+                    if run_end < 0:
+                        wp.atomic_min(row_lo, py, px)
+                    run_end = px
                     # depth test: interpolate, keep [0, 1], atomic minimum of the key depth * ID_SCALE + triangle
-                    l1 = wp.float32(e2) * inverse_area
-                    l2 = wp.float32(e1) * inverse_area
+                    l1 = wp.float32(e2 + b2) * inverse_area
+                    l2 = wp.float32(e1 + b1) * inverse_area
                     z = z0 + l1 * dz1 + l2 * dz2
                     if z >= 0.0 and z <= 1.0:
                         key = wp.int64(z * DEPTH_SCALE) * ID_SCALE + wp.int64(t)
                         wp.atomic_min(keys, base + px, key)
+                        drew = 1
+                elif run_end >= 0:
+                    break   # a row's covered pixels are one run (the triangle is convex): none is left
                 e0 += step_x0
                 e1 += step_x1
                 e2 += step_x2
                 px += 1
+            if run_end >= 0:
+                wp.atomic_max(row_hi, py, run_end)
             row0 += step_y0
             row1 += step_y1
             row2 += step_y2
             py += 1
+        # shaded look: the lit colour only of a triangle that wrote a key (resolve reads face_rgb only for the
+        # triangle of a pixel's key; many small triangles cover no pixel centre)
+        if shaded != 0 and drew != 0:
+            s = face_shade(positions[i0], positions[i1], positions[i2], flipped, light, ambient, diffuse)
+            face_rgb[3 * t] = wp.uint8(wp.min(wp.float32(colour[3 * t]) * s + 0.5, 255.0))
+            face_rgb[3 * t + 1] = wp.uint8(wp.min(wp.float32(colour[3 * t + 1]) * s + 0.5, 255.0))
+            face_rgb[3 * t + 2] = wp.uint8(wp.min(wp.float32(colour[3 * t + 2]) * s + 0.5, 255.0))
 
 @wp.kernel
 def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uint8), face_rgb: wp.array(dtype=wp.uint8),
@@ -235,7 +246,7 @@ def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uin
     next frame.
 
     The outputs are kept from frame to frame. Unless `fresh`, only the pixels of the row inside this
-    frame's span of drawn boxes [row_lo, row_hi] or the last frame's [drawn_lo, drawn_hi] are visited (the
+    frame's span of covered pixels [row_lo, row_hi] or the last frame's [drawn_lo, drawn_hi] are visited (the
     others were empty then and are empty now, so they hold the background already), and an empty pixel
     that was empty in the last frame (triangle id -1) is not written again. The row's spans then move on:
     drawn = this frame's, this frame's = empty for the next raster pass."""
