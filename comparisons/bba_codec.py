@@ -84,7 +84,7 @@ import numpy as np
 from comparisons import bap_table
 from comparisons import keyframes as kf
 from comparisons import param_coding as pc
-from comparisons.bitstream import BitReader, BitWriter, crc8_bits, find_start_codes
+from comparisons.bitstream import BitReader, BitWriter, find_start_codes
 from comparisons.fba_mapping import avatar_bap_map
 from kernels import bba_euler as split_kernel
 from kernels import bba_header as header_kernel
@@ -527,16 +527,25 @@ def _write_levels(header: BBAHeader, plan: _UnitPlan, intra_flags, levels, bones
     return _write(header, plan, intra_flags, levels, bones, animatable, None, False, skeleton)
 
 
-def _range_choice(by_key: np.ndarray, carried: np.ndarray, intra: np.ndarray, q: int) -> tuple[np.ndarray, bool]:
+def _range_choice(by_key: np.ndarray, carried: np.ndarray | None, intra: np.ndarray, q: int) -> tuple[np.ndarray, bool]:
     """(fields (4, K) int64, tight) of a predictive stream: by_key (U, K) int64 levels by unit and stream key
-    (0 where not carried), carried (U, K) bool, intra (U,) bool. Tight ranges unless the default alphabets
-    are estimated (log2 of alphabet sizes per coded level) to cost less than the range fields they save."""
-    fields = np.zeros((4, by_key.shape[1]), dtype=np.int64)
-    fields[0], fields[1] = pc.range_fields(by_key[intra], q)
-    fields[2], fields[3] = pc.range_fields(by_key[~intra], q)
+    (0 where not carried), carried (U, K) bool (None: every unit carries every key; the fields are then
+    kernels/bba_writer.range_fields', the same numbers), intra (U,) bool. Tight ranges unless the default
+    alphabets are estimated (log2 of alphabet sizes per coded level) to cost less than the range fields they save."""
+    if carried is None:
+        fields = writer_kernel.range_fields(by_key, intra, q, pc.RANGE_DELTA)
+    else:
+        fields = np.zeros((4, by_key.shape[1]), dtype=np.int64)
+        fields[0], fields[1] = pc.range_fields(by_key[intra], q)
+        fields[2], fields[3] = pc.range_fields(by_key[~intra], q)
     if np.all(fields <= pc.DEFAULT_RANGE_FIELD):
         default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
-        counts = np.array([carried[intra].sum(axis=0), carried[~intra].sum(axis=0)], dtype=np.int64)
+        if carried is None:
+            n_intra = int(np.count_nonzero(intra))
+            counts = np.empty((2, by_key.shape[1]), dtype=np.int64)
+            counts[0], counts[1] = n_intra, len(intra) - n_intra
+        else:
+            counts = np.array([carried[intra].sum(axis=0), carried[~intra].sum(axis=0)], dtype=np.int64)
 
         def estimate(f: np.ndarray) -> float:
             i_low, i_high = pc.alphabet(f[0], f[1], q)
@@ -575,10 +584,9 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
         raise SigncastError(f"KeyFrameIndex {int(kfi[bad[0]])} outside 0..31")
     if header.coding == "dct" and np.any(kfi):
         raise SigncastError("the DCT BBA coder carries neither key frames nor muscles")
-    for bone in bones:
-        if not 0 <= bone <= 1023:
-            raise SigncastError(f"boneID {bone} outside 0..1023")
-    numbers = np.cumsum(np.concatenate([[0], kfi[1:] + 1])).astype(np.int64)
+    if bones and (min(bones) < 0 or max(bones) > 1023):
+        raise SigncastError(f"boneID {next(b for b in bones if not 0 <= b <= 1023)} outside 0..1023")
+    numbers = np.cumsum(kfi + 1, dtype=np.int64) - 1     # display frames: 0, then KeyFrameIndex + 1 later each
     _check_size(int(numbers[-1]) + 1, sum(mask.bit_count() for mask in bones.values()))
     largest = int(np.abs(values).max(initial=0))
     if largest > VALUE_LIMIT:
@@ -592,7 +600,7 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
     if header.coding == "pred":
         intra = np.arange(n) % header.intra_period == 0
         levels = _predictive_levels(q, layout, values, intra)
-        fields, tight = _range_choice(levels, np.ones(levels.shape, dtype=bool), intra, q)
+        fields, tight = _range_choice(levels, None, intra, q)
         low_i, high_i = pc.alphabet(fields[0], fields[1], q)
         low_p, high_p = pc.alphabet(fields[2], fields[3], q)
         sizes_i, sizes_p = high_i - low_i + 1, high_p - low_p + 1
@@ -812,7 +820,7 @@ def _write_crc(writer: BitWriter, start_bit: int) -> None:
 
 
 def _check_crc(reader: BitReader, start_bit: int, what: str) -> None:
-    expected = crc8_bits(reader.data, start_bit, reader.pos)
+    expected = int(crc_kernel.crc8_bytes(reader.array, start_bit, reader.pos))   # crc8_bits, a byte at a time
     if reader.read(8) != expected:
         raise SigncastError(f"corrupt BBA stream: {what} fails its CRC check")
 
@@ -839,25 +847,29 @@ class _DecoderState:
     uniform: dict = field(default_factory=dict)   # _uniform_layout's cache
 
 
+# version, frame_rate, seconds, frequency_offset, coding, keyframes, Q, intra period, header period, frames,
+# rotationOrder, tight_ranges, number of bones: the header's fixed fields, bits each
+_HEADER_WIDTHS = np.array([8, 8, 4, 1, 2, 1, 5, 6, 6, FRAME_NUMBER_BITS, 5, 1, 10], dtype=np.int64)
+
+
 def _read_header(data: bytes, position: int) -> _DecoderState:
     """The header after the BBA start code whose 00 00 01 prefix is at byte `position`."""
     reader = BitReader(data, start_byte=position + 4)
-    if reader.read(8) != VERSION:
+    values = np.zeros(len(_HEADER_WIDTHS), dtype=np.int64)    # the fixed fields in one call, checked in order
+    n_read = header_kernel.read_fields(reader.array, reader.end_bit, reader.registers, _HEADER_WIDTHS, values)
+    version, rate, seconds, offset, coding, keyframes, q, intra_period, header_period, n_frames, order, tight, \
+        n_bones = values.tolist()
+    if n_read >= 1 and version != VERSION:
         raise SigncastError("unsupported BBA stream version")
-    fps = pc.fps_from_fields(reader.read(8), reader.read(4), reader.read_bit())
-    coding = reader.read(2)
-    if coding > 1:
+    if n_read >= 4:
+        fps = pc.fps_from_fields(rate, seconds, offset)
+    if n_read >= 5 and coding > 1:
         raise SigncastError(f"corrupt BBA stream: coding type {coding}")
-    keyframes = bool(reader.read_bit())
-    q = reader.read(5)
-    intra_period = reader.read(6)
-    header_period = reader.read(6)
-    n_frames = reader.read(FRAME_NUMBER_BITS)
-    order = reader.read(5)
-    if q == 0 or intra_period == 0 or n_frames == 0 or order >= 24:
+    if n_read >= 11 and (q == 0 or intra_period == 0 or n_frames == 0 or order >= 24):
         raise SigncastError("corrupt BBA stream header")
-    tight = reader.read_bit()
-    n_bones = reader.read(10)
+    if n_read < len(_HEADER_WIDTHS):
+        raise SigncastError("truncated stream: it ends inside a field")
+    keyframes = bool(keyframes)
     ids, masks, steps = (np.zeros(n_bones, dtype=np.int64) for _ in range(3))
     status = mask_kernel.read_bone_table(reader.array, reader.end_bit, reader.registers, _GROUP_START, ids, masks, steps)
     if status == mask_kernel.TRUNCATED:
@@ -885,7 +897,10 @@ def _read_header(data: bytes, position: int) -> _DecoderState:
         raise SigncastError("corrupt BBA stream: header does not end at a start code")
     header = BBAHeader("", fps, "pred" if coding == 0 else "dct", q, intra_period, keyframes, order, header_period)
     animatable = np.full(1024, -1, dtype=np.int64)
-    animatable[list(bones)] = list(bones.values())
+    if len(bones) == n_bones:                   # no boneID twice: the arrays as read
+        animatable[ids] = masks
+    else:
+        animatable[list(bones)] = list(bones.values())
     alphabets = None if fields is None else pc.pf.alphabets(fields, q, pc.RANGE_DELTA)   # pc.alphabet of I, P
     return _DecoderState(header, n_frames, bones, exponents, keys, fields, animatable=animatable, alphabets=alphabets)
 
@@ -1303,12 +1318,42 @@ def _motion_arrays(motion: Motion, q: int, coding: str, keyframes: bool, thresho
                    intra_period: int | None, rotation_order: int, header_period: int, name: str,
                    skeleton: Skeleton) -> tuple[BBAHeader, dict[int, int], np.ndarray, np.ndarray]:
     """motion_to_stream's analysis as arrays: (header, boneID -> mask of every frame, kfi (K,) int64,
-    values (K, P) int64 in stream order: bones sorted, bits ascending)."""
+    values (K, P) int64 in stream order: bones sorted, bits ascending). The values and the mask are
+    kernels/bba_euler.py `motion_values` (`_motion_arrays_numpy` is the same in NumPy; tests compare them)."""
+    q = pc.check_q(q)
+    if keyframes and coding != "pred":
+        raise SigncastError("key frames are coded with the predictive BBA coder only")
+    plan = _column_plan(tuple(motion.bone_names), skeleton)
+    if keyframes:
+        keys_frames = kf.key_frames(motion, threshold_rad if threshold_rad is not None else kf.default_threshold_rad(q))
+        angles = _to_euler(motion.rotations[keys_frames], ORDER_NAMES[rotation_order])    # (K, B, 3)
+        translation = motion.root_translation[keys_frames]
+        gaps = np.diff(keys_frames, prepend=keys_frames[0] - 1) - 1       # KeyFrameIndex; 0 for the first
+    else:
+        angles = _to_euler(motion.rotations, ORDER_NAMES[rotation_order])
+        translation = motion.root_translation
+        gaps = np.zeros(motion.n_frames, dtype=np.int64)
+    values, bones, masks, first_sent = split_kernel.motion_values(
+        angles, np.ascontiguousarray(translation, dtype=np.float64), plan[1], plan[2], plan[3], q,
+        bap_table.ROTATION_UNIT_RAD, bap_table.TRANSLATION_UNIT_M, ANGLE_PERIOD, *plan[5:])
+    # the mask dict in the order the NumPy form fills it (by each bone's first sent column)
+    ranked = np.argsort(first_sent, kind="stable")
+    mask = dict(zip(bones[ranked].tolist(), masks[ranked].tolist()))
+    if intra_period is None:
+        intra_period = DEFAULT_INTRA_PERIOD if coding == "pred" else DEFAULT_INTRA_SEGMENTS
+    header = BBAHeader(name, motion.fps, coding, q, intra_period, keyframes, rotation_order, header_period)
+    return header, mask, gaps.astype(np.int64), values
+
+
+def _motion_arrays_numpy(motion: Motion, q: int, coding: str, keyframes: bool, threshold_rad: float | None,
+                         intra_period: int | None, rotation_order: int, header_period: int, name: str,
+                         skeleton: Skeleton) -> tuple[BBAHeader, dict[int, int], np.ndarray, np.ndarray]:
+    """`_motion_arrays` in NumPy: its readable reference (tests compare the two)."""
     q = pc.check_q(q)
     if keyframes and coding != "pred":
         raise SigncastError("key frames are coded with the predictive BBA coder only")
     order = ORDER_NAMES[rotation_order]
-    columns, source, steps, is_angle, first_of = _column_plan(tuple(motion.bone_names), skeleton)
+    columns, source, steps, is_angle, first_of = _column_plan(tuple(motion.bone_names), skeleton)[:5]
     keys_frames = np.arange(motion.n_frames)
     if keyframes:
         keys_frames = kf.key_frames(motion, threshold_rad if threshold_rad is not None else kf.default_threshold_rad(q))
@@ -1340,7 +1385,9 @@ _COLUMN_PLANS: dict[tuple, tuple] = {}     # _column_plan's cache: (bone names, 
 def _column_plan(bone_names: tuple[str, ...], skeleton: Skeleton) -> tuple:
     """The candidate value columns of a Motion with these bones, cached: (columns: (boneID, bit) of each,
     source (C,) int64: each column's index in [root translation (3), angles of bone j axis a (3 j + a)],
-    steps (C,) int64 base steps, is_angle (C,) bool, first_of: (boneID, bit) -> its first column). The
+    steps (C,) int64 base steps, is_angle (C,) bool, first_of: (boneID, bit) -> its first column; and as
+    kernels/bba_euler.py `motion_values` takes them: first (C,) int64 each column's first_of, key_order (U,)
+    int64 the first columns sorted by (boneID, bit), key_bone and key_bit (U,) int64 theirs). The
     columns: per bone in the Motion's order, the root's translation before the root's angles, then the
     three angles; the root's translation last when the Motion does not carry the root."""
     cached = _COLUMN_PLANS.get((bone_names, id(skeleton)))
@@ -1364,8 +1411,12 @@ def _column_plan(bone_names: tuple[str, ...], skeleton: Skeleton) -> tuple:
     exponents = _rotation_step_exponents(skeleton)
     steps = np.array([2 if bit in TRANSLATION_BITS else 1 << exponents.get(b, 7) for b, bit in columns], dtype=np.int64)
     first_of = {key: c for c, key in reversed(list(enumerate(columns)))}
-    plan = (columns, np.array(source, dtype=np.int64), steps, _is_angle(columns), first_of)
-    for array in plan[1:4]:
+    keys = sorted(first_of)
+    plan = (columns, np.array(source, dtype=np.int64), steps, _is_angle(columns), first_of,
+            np.array([first_of[key] for key in columns], dtype=np.int64),
+            np.array([first_of[key] for key in keys], dtype=np.int64),
+            np.array([b for b, _ in keys], dtype=np.int64), np.array([bit for _, bit in keys], dtype=np.int64))
+    for array in plan[1:4] + plan[5:]:
         array.flags.writeable = False
     if len(_COLUMN_PLANS) >= 64:
         _COLUMN_PLANS.clear()
@@ -1544,16 +1595,7 @@ def _motion_of_runs(header: BBAHeader, runs: list[tuple[dict[int, int], np.ndarr
     if not kfi[1:].any():
         quats, trans = key_q, key_t
     else:                                       # the gaps before frames 1.., expanded in one batch
-        gaps = kfi.copy()
-        gaps[0] = 0                             # a first frame's KeyFrameIndex regenerates nothing
-        place = np.arange(n_frames) + np.cumsum(gaps)      # each decoded frame's display frame
-        quats, trans = np.empty((place[-1] + 1, len(rotated), 4)), np.empty((place[-1] + 1, 3))
-        quats[place], trans[place] = key_q, key_t
-        f = np.flatnonzero(gaps)
-        q_mid, t_mid = kf.expand(key_q[f - 1], key_t[f - 1], key_q[f], key_t[f], gaps[f])
-        inner = np.ones(len(quats), dtype=bool)
-        inner[place] = False
-        quats[inner], trans[inner] = q_mid, t_mid
+        quats, trans = kf.regenerate(key_q, key_t, kfi)
     return Motion(header.fps, names, quats, trans)
 
 

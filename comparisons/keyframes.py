@@ -151,3 +151,14 @@ def expand(previous_q: np.ndarray, previous_t: np.ndarray, key_q: np.ndarray, ke
     alpha = np.arccos(cosines)
     q = slerp_kernel.combine(q0, q1, t, np.sin(alpha), np.sin((1.0 - t) * alpha), np.sin(t * alpha))
     return q.reshape(len(owner), n_bones, 4), (1 - x)[:, None] * previous_t[owner] + x[:, None] * key_t[owner]
+
+
+def regenerate(key_q: np.ndarray, key_t: np.ndarray, kfi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The display frames of decoded key frames: key_q (F, B, 4) rotations, key_t (F, 3) root translations,
+    kfi (F,) int64 KeyFrameIndex of each (frames dropped before it; kfi[0] is ignored). Returns (D, B, 4)
+    rotations and (D, 3) translations, D = F + sum kfi[1:]: each key frame at its display frame and `expand`'s
+    frames between them, bitwise (the same operations in one compiled pass, NumPy's arccos and sin between)."""
+    quats, trans, q0, q1, cosines, t = slerp_kernel.gap_setup(key_q, key_t, kfi)
+    alpha = np.arccos(cosines)
+    slerp_kernel.combine_into(quats, kfi, q0, q1, t, np.sin(alpha), np.sin((1.0 - t) * alpha), np.sin(t * alpha))
+    return quats, trans

@@ -84,3 +84,20 @@ def header_keys(ids, masks):
                 key_ids[j], key_bits[j] = ids[b], k
                 j += 1
     return key_ids, key_bits
+
+
+@njit(cache=True)
+def read_fields(data, end_bit: int, state, widths, out) -> int:
+    """Fields of widths (N,) int64 bits each (at most 62) one after the other, as get_bits reads them, into out
+    (N,) int64; state (3,) int64 the reader (position, zero run, bits read past the end), left after the
+    last field read. Returns how many were read: N, or fewer where the data end inside the next one."""
+    pos, run = state[0], state[1]
+    n = 0
+    for k in range(len(widths)):
+        value, new_pos, new_run = _bits_local(data, end_bit, pos, run, widths[k])
+        if value < 0:
+            break
+        out[k], pos, run = value, new_pos, new_run
+        n += 1
+    state[0], state[1] = pos, run
+    return n

@@ -258,3 +258,24 @@ def write_dct_stream(buffer, header_bits, list_bits, header_period: int, numbers
             return STATUS_DCT_LEVEL if status == 1 else STATUS_DCT_CODE
         pos = _unit_tail(buffer, state[0], state[1], start)
     return _start_code(buffer, pos, END_CODE)
+
+
+@njit(cache=True)
+def range_fields(levels, intra, q, delta):
+    """(4, K) int64 range fields of a predictive stream whose units all carry every key: rows I max, I min,
+    P max, P min, each the smallest field whose alphabet holds the levels (F, K) of the intra units (intra
+    (F,) bool) or of the others: ceil(max(top, 0) q / delta) with top the largest level (the smallest's
+    negation for a min field), 0 where there is no such unit (comparisons/param_coding.range_fields)."""
+    n, k = levels.shape
+    top = np.zeros((4, k), np.int64)
+    for t in range(n):
+        row = 0 if intra[t] else 2
+        for c in range(k):
+            v = levels[t, c]
+            top[row, c] = max(top[row, c], v)
+            top[row + 1, c] = max(top[row + 1, c], -v)
+    fields = np.empty((4, k), np.int64)
+    for r in range(4):
+        for c in range(k):
+            fields[r, c] = -(-top[r, c] * q // delta)
+    return fields

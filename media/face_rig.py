@@ -185,13 +185,47 @@ def face_bone_rotations(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dic
 
     faps: (T, 68) integers, index = FAP id - 1, in FAPU (or 1e-5 rad). skeleton: the MakeHuman rig at rest.
     fapu: this face's units (`avatar_fapu`). Returns bone name -> (T, 4) float64 unit quaternions (w, x, y, z);
-    all-zero FAPs give identity rotations.
+    all-zero FAPs give identity rotations. The displacements, turns and eyes are compiled (kernels/face_bones.py;
+    arctan2, arccos and the arms' products stay NumPy's); `_face_bone_rotations_numpy` is the NumPy form.
     """
     faps = np.asarray(faps)
     if faps.ndim != 2 or faps.shape[1] != N_FAPS or not np.issubdtype(faps.dtype, np.integer):
         raise SigncastError(f"FAPs must be (T, {N_FAPS}) integers, got {faps.shape} {faps.dtype}")
-    face = _Displacements(faps, fapu)
+    values = np.ascontiguousarray(faps, dtype=np.float64)          # integers: exact
+    shares = _corner_shares(skeleton)
+    turned, eye_angles, head, tail, jaw = bones_kernel.face_targets(
+        values, _TARGET_COLUMNS, np.array([fapu.irisd, fapu.es, fapu.ens, fapu.mns, fapu.mw]),
+        np.array([shares[f"oris0{k}.{side}"] for k in (3, 7) for side in SIDES]), ANGLE_UNIT_RAD)
+    arms, reach = _turned_arms(skeleton, fapu), _REACH[(id(skeleton), fapu)]
+    distance, direction = bones_kernel.turn_directions(turned)
+    along = np.stack([d @ arm for d, arm in zip(direction, arms)])         # NumPy's (BLAS) products, as `_turns`
+    across, ratio = bones_kernel.turn_sides(arms, direction, along, distance, reach)
+    lids = bones_kernel.turn_quaternions(arms, direction, np.arctan2(across, along) - np.arccos(ratio))
+    eyes = bones_kernel.eye_rotations(eye_angles)
+    result = {"jaw": lids[0]}
+    for k, side in enumerate(SIDES):
+        result |= {f"orbicularis03.{side}": lids[1 + 2 * k], f"orbicularis04.{side}": lids[2 + 2 * k], f"eye.{side}": eyes[k]}
+    return (result | _carry_arrays(skeleton, "head", _HEAD_CARRIED, head, tail)
+            | _carry_arrays(skeleton, "jaw", _JAW_CARRIED, jaw, jaw))
+
+
+def _face_bone_rotations_numpy(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dict[str, np.ndarray]:
+    """`face_bone_rotations` with the displacements and the eyes in NumPy (`_turned_bones`, `_carried_bones`):
+    the readable reference of kernels/face_bones.py `face_targets` and `eye_rotations`; tests compare the two."""
+    face = _Displacements(np.asarray(faps), fapu)
     return _turned_bones(face, skeleton) | _carried_bones(face, skeleton)
+
+
+# The FAPs kernels/face_bones.py `face_targets` reads, in its order; {s}: the side (L then R; one-sided names repeat).
+_TARGET_FAPS = (
+    "open_jaw", "shift_jaw", "close_t_{s}_eyelid", "close_b_{s}_eyelid", "yaw_{s}_eyeball", "pitch_{s}_eyeball",
+    "squeeze_{s}_eyebrow", "puff_{s}_cheek", "lift_{s}_cheek", "raise_{s}_m_eyebrow", "push_t_lip", "push_b_lip",
+    "raise_nose", "stretch_{s}_cornerlip", "stretch_{s}_cornerlip_o", "raise_{s}_cornerlip", "raise_{s}_cornerlip_o",
+    "lower_t_midlip", "lower_t_midlip_o", "lower_t_lip_{s}m", "lower_t_lip_{s}m_o", "raise_{s}_i_eyebrow",
+    "stretch_{s}_nose", "raise_b_lip_{s}m", "raise_b_lip_{s}m_o", "raise_b_midlip", "raise_b_midlip_o")
+_TARGET_COLUMNS = np.array([[FAP_IDS[name.format(s=s)] - 1 for s in SIDES.values()] for name in _TARGET_FAPS],
+                           dtype=np.int64)
+_TARGET_COLUMNS.flags.writeable = False
 
 
 class _Displacements:
@@ -339,14 +373,29 @@ def with_face_bones(motion: Motion, avatar: Avatar | None = None) -> Motion:
         return motion
     avatar = avatar or load_avatar()
     face = face_bone_rotations(motion.faps, avatar.skeleton, avatar_fapu(avatar))
-    names = list(motion.bone_names) + [name for name in face if name not in motion.bone_names]
-    q = np.zeros((motion.n_frames, len(names), 4))
-    q[..., 0] = 1.0
-    q[:, :len(motion.bone_names)] = motion.rotations
-    position = {name: k for k, name in reversed(list(enumerate(names)))}     # first of each name, as list.index
-    for name, rotation in face.items():
-        q[:, position[name]] = rotation
-    return Motion(motion.fps, tuple(names), q, motion.root_translation.copy(), motion.faps.copy())
+    names, position = _bone_plan(tuple(motion.bone_names), tuple(face))
+    q = np.empty((motion.n_frames, len(names), 4))
+    q[:, :len(motion.bone_names)] = motion.rotations          # the appended columns are all face bones
+    for k, rotation in zip(position, face.values()):
+        q[:, k] = rotation
+    return Motion(motion.fps, names, q, motion.root_translation.copy(), motion.faps.copy())
+
+
+_BONE_PLANS: dict[tuple[tuple[str, ...], tuple[str, ...]], tuple[tuple[str, ...], list[int]]] = {}
+
+
+def _bone_plan(bone_names: tuple[str, ...], face_names: tuple[str, ...]) -> tuple[tuple[str, ...], list[int]]:
+    """with_face_bones' layout for a motion's bones and the face bones (names only, cached): the names
+    (the motion's, then the face bones it lacks) and each face bone's column (the first of its name)."""
+    plan = _BONE_PLANS.get((bone_names, face_names))
+    if plan is None:
+        names = list(bone_names) + [name for name in face_names if name not in bone_names]
+        first = {name: k for k, name in reversed(list(enumerate(names)))}     # first of each name, as list.index
+        plan = (tuple(names), [first[name] for name in face_names])
+        if len(_BONE_PLANS) >= 64:
+            _BONE_PLANS.clear()
+        _BONE_PLANS[(bone_names, face_names)] = plan
+    return plan
 
 
 def _turn(arm: np.ndarray, displacement: np.ndarray) -> np.ndarray:
@@ -385,6 +434,7 @@ def _turns(arms: np.ndarray, displacements: np.ndarray) -> np.ndarray:
 
 _ARMS: dict[tuple[int, Fapu], tuple[Skeleton, np.ndarray]] = {}
 _SHARES: dict[int, tuple[Skeleton, dict[str, float]]] = {}
+_REACH: dict[tuple[int, Fapu], np.ndarray] = {}      # _ARMS' lengths, (5,), made with them
 
 
 def _turned_arms(skeleton: Skeleton, fapu: Fapu) -> np.ndarray:
@@ -400,6 +450,7 @@ def _turned_arms(skeleton: Skeleton, fapu: Fapu) -> np.ndarray:
     result = np.array(arms)
     result.flags.writeable = False
     _ARMS[(id(skeleton), fapu)] = (skeleton, result)
+    _REACH[(id(skeleton), fapu)] = np.array([np.linalg.norm(arm) for arm in result])     # as `_turns`
     return result
 
 

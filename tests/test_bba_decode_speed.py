@@ -173,3 +173,34 @@ def test_huffman_table_look_ups_read_what_the_bit_by_bit_reader_reads():
                 if expected[0] < 0:
                     break
                 _, pos, run = expected
+
+
+def _regenerate_reference(key_q, key_t, kfi):
+    """The display frames as _motion_of_runs built them before keyframes.regenerate: keys placed, expand between."""
+    gaps = kfi.copy()
+    gaps[0] = 0
+    place = np.arange(len(kfi)) + np.cumsum(gaps)
+    quats, trans = np.empty((place[-1] + 1,) + key_q.shape[1:]), np.empty((place[-1] + 1, 3))
+    quats[place], trans[place] = key_q, key_t
+    f = np.flatnonzero(gaps)
+    q_mid, t_mid = kf.expand(key_q[f - 1], key_t[f - 1], key_q[f], key_t[f], gaps[f])
+    inner = np.ones(len(quats), dtype=bool)
+    inner[place] = False
+    quats[inner], trans[inner] = q_mid, t_mid
+    return quats, trans
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_regenerate_is_bitwise_the_placed_batched_expansion(seed):
+    rng = np.random.default_rng(seed)
+    n_keys, n_bones = 12, 7
+    key_q = rng.normal(size=(n_keys, n_bones, 4))
+    key_q /= np.linalg.norm(key_q, axis=-1, keepdims=True)
+    key_q[3] = key_q[2]                         # equal rotations: sin(alpha) below 1e-9
+    key_q[5] = -key_q[4]                        # opposite signs
+    key_t = rng.normal(size=(n_keys, 3))
+    kfi = rng.integers(0, 32, size=n_keys).astype(np.int64)
+    kfi[1] = 0
+    q, t = kf.regenerate(key_q, key_t, kfi)
+    q_ref, t_ref = _regenerate_reference(key_q, key_t, kfi)
+    assert q.tobytes() == q_ref.tobytes() and t.tobytes() == t_ref.tobytes()

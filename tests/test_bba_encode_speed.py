@@ -66,3 +66,55 @@ def test_key_frames_edge_cases(clips):
         assert np.array_equal(kf.key_frames(part, 0.05), kf._key_frames_numpy(part, 0.05))
     # below the compiled path's thresholds: the NumPy search itself
     assert np.array_equal(kf.key_frames(motion, 1e-4), kf._key_frames_numpy(motion, 1e-4))
+
+
+def _shifted(motion, offset_m: float):
+    """The motion with its root moved by offset_m (metres) on every axis: translations at half-millimetre
+    ties (np.round's half to even) and beyond the coded range."""
+    return type(motion)(motion.fps, motion.bone_names, motion.rotations, motion.root_translation + offset_m)
+
+
+@pytest.mark.parametrize("coding, keyframes", [("pred", False), ("dct", False), ("pred", True)])
+def test_compiled_values_and_mask_are_the_numpy_analysis(clips, coding, keyframes):
+    """_motion_arrays (kernels/bba_euler.py motion_values) against _motion_arrays_numpy: the same header,
+    the same mask dict (its order included), KeyFrameIndex and values, at several Q and rotation orders."""
+    skeleton = bba_codec.load_avatar().skeleton
+    motions = clips[::2] + [_shifted(clips[1], 0.0005), _shifted(clips[3], -0.0025), _shifted(clips[5], 40.0),
+                            clips[0].frames(0, 1)]
+    for k, motion in enumerate(motions):
+        for q in (1, 8, 31):
+            order = (0, 5, 13)[k % 3]
+            args = (motion, q, coding, keyframes, None, None, order, 0, "clip", skeleton)
+            header, mask, kfi, values = bba_codec._motion_arrays(*args)
+            header_ref, mask_ref, kfi_ref, values_ref = bba_codec._motion_arrays_numpy(*args)
+            assert header == header_ref
+            assert list(mask.items()) == list(mask_ref.items())
+            assert np.array_equal(kfi, kfi_ref) and kfi.dtype == kfi_ref.dtype
+            assert np.array_equal(values, values_ref) and values.dtype == values_ref.dtype
+
+
+def test_a_motion_without_moving_values_sends_nothing(clips):
+    skeleton = bba_codec.load_avatar().skeleton
+    still = clips[0].frames(0, 3)
+    still = type(still)(still.fps, still.bone_names, np.broadcast_to([1.0, 0.0, 0.0, 0.0], still.rotations.shape),
+                        still.root_translation * 0.0)
+    _, mask, _, values = bba_codec._motion_arrays(still, 8, "pred", False, None, None, 0, 0, "s", skeleton)
+    assert mask == {} and values.shape == (3, 0)
+    assert list(bba_codec._motion_arrays_numpy(still, 8, "pred", False, None, None, 0, 0, "s", skeleton)[1]) == []
+
+
+def test_dense_range_choice_is_the_masked_one():
+    """_range_choice of units that carry every key (carried None: compiled fields, counted units) against the
+    masked form with an all-true mask: the same fields and choice, also where the default alphabets win."""
+    rng = np.random.default_rng(3)
+    choices = set()
+    for n, k, scale in ((1, 5, 3), (24, 217, 40), (30, 12, 2000), (7, 3, 0), (40, 60, 1)):
+        levels = np.round(rng.laplace(size=(n, k)) * scale).astype(np.int64)
+        for period in (1, 5, 60):
+            intra = np.arange(n) % period == 0
+            for q in (1, 8, 31):
+                fields, tight = bba_codec._range_choice(levels, None, intra, q)
+                fields_ref, tight_ref = bba_codec._range_choice(levels, np.ones(levels.shape, dtype=bool), intra, q)
+                assert tight == tight_ref and np.array_equal(fields, fields_ref) and fields.dtype == fields_ref.dtype
+                choices.add(tight)
+    assert choices == {True, False}

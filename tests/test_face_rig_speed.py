@@ -15,6 +15,7 @@ from kernels import bba_face_rig as face_kernel
 from media import face_rig, rotations
 from media.face_rig import avatar_fapu, face_bone_rotations
 from media.fingerspelling import letter_motion
+from media.motion import Motion
 
 # face_bone_rotations of the cases below, hashed with the frame-by-frame solve and scipy's conversions.
 _RIG_DIGEST = "1b22d77515672ddf201236f051863e2b3c73544e6d3197632cd6b11749aefdb6"
@@ -156,3 +157,42 @@ def test_both_sides_at_once_are_bitwise_side_by_side(avatar):
         assert list(fast) == list(reference)
         for name in reference:
             assert np.array_equal(_bits(fast[name]), _bits(reference[name])), name
+
+
+@pytest.fixture(scope="module")
+def real_faps():
+    """FAPs of real fingerspelled letters in several sign languages (the motions the BBA encoder plays)."""
+    return [letter_motion(language, letter, 25.0).faps
+            for language, letters in (("ase", "KLMNO"), ("gsg", "ABCD"), ("fsl", "EFG"), ("ssp", "HI")) for letter in letters]
+
+
+def test_compiled_displacements_and_eyes_are_bitwise_the_numpy_rig(avatar, real_faps):
+    """face_bone_rotations (kernels/face_bones.py face_targets, turn_*, eye_rotations; arctan2 / arccos and the
+    arm products still NumPy's) against _face_bone_rotations_numpy (the displacements and eyes in NumPy), on
+    real FAPs of many clips and languages, synthetic tracks and FAPs far beyond the rig's reach."""
+    fapu = avatar_fapu(avatar)
+    cases = real_faps + [synthetic_faps(80, 25.0, seed=seed) for seed in range(4)] + [_wild_faps(), -_wild_faps()]
+    for faps in cases:
+        fast = face_bone_rotations(faps, avatar.skeleton, fapu)
+        reference = face_rig._face_bone_rotations_numpy(faps, avatar.skeleton, fapu)
+        assert list(fast) == list(reference)
+        for name in reference:
+            assert np.array_equal(_bits(fast[name]), _bits(reference[name])), name
+
+
+def test_with_face_bones_places_the_face_after_the_body_and_replaces_face_bones_it_has(avatar):
+    motion = letter_motion("ase", "B", 25.0)
+    face = face_bone_rotations(motion.faps, avatar.skeleton, avatar_fapu(avatar))
+    played = face_rig.with_face_bones(motion, avatar)
+    assert played.bone_names == motion.bone_names + tuple(name for name in face if name not in motion.bone_names)
+    assert np.array_equal(played.rotations[:, :len(motion.bone_names)][:, [n not in face for n in motion.bone_names]],
+                          motion.rotations[:, [n not in face for n in motion.bone_names]])
+    for name, rotation in face.items():
+        assert np.array_equal(_bits(played.rotations[:, played.bone_names.index(name)]), _bits(rotation))
+    # a motion that already carries some face bones keeps their places, with the face's rotations
+    rest_face = played.rotations.copy()
+    rest_face[:, len(motion.bone_names):] = [1.0, 0.0, 0.0, 0.0]
+    again = face_rig.with_face_bones(Motion(played.fps, played.bone_names, rest_face, played.root_translation, played.faps),
+                                     avatar)
+    assert again.bone_names == played.bone_names
+    assert np.array_equal(_bits(again.rotations), _bits(played.rotations))
