@@ -40,6 +40,7 @@ from kernels.entropy_coding import (
     _renormalise_window,
     _scale,
     _state_at,
+    _window_target,
     crc8_bytes,
     decode_frame_window,
     get_local,
@@ -162,11 +163,8 @@ def _sparse_window(data, end_bit: int, pos: int, run: int, sizes, totals, keys, 
     for m in range(len(sizes)):
         span = high - low + 1
         total = totals[m]
-        if value < low:                        # a negative target
-            status = -1
-            break
-        target = np.int64((np.uint64(value - low + 1) * np.uint64(total) - np.uint64(1)) // np.uint64(span))
-        if target >= total:
+        target = _window_target(value, low, span, total)
+        if target < 0:
             status = -1
             break
         slot, symbol, sym_low, excess = _sparse_find(keys, extra, used, m, target)

@@ -919,6 +919,16 @@ def _open_window(data, end_bit: int, pos: int, run: int):
 
 
 @njit(cache=True, inline="always")
+def _window_target(value: int, low: int, span: int, total: int) -> int:
+    """The cumulative count the decoder's value points at in the interval [low, low + span) of a model with this
+    total, or -1 for a value outside it (damage)."""
+    if value < low:
+        return -1
+    target = np.int64((np.uint64(value - low + 1) * np.uint64(total) - np.uint64(1)) // np.uint64(span))
+    return target if target < total else -1
+
+
+@njit(cache=True, inline="always")
 def _renormalise_window(low: int, high: int, value: int, buf: int, n_buf: int, byte_at: int, source,
                         source_end: int):
     """The decoder's renormalisation after a symbol, on the bit window: E1/E2, the leading bits low and high
@@ -963,11 +973,8 @@ def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, count
         m = members[k]
         span = high - low + 1
         total = scalars[m, TOTAL]
-        if value < low:                        # a negative target
-            status = -1
-            break
-        target = np.int64((np.uint64(value - low + 1) * np.uint64(total) - np.uint64(1)) // np.uint64(span))
-        if target >= total:
+        target = _window_target(value, low, span, total)
+        if target < 0:
             status = -1
             break
         if fresh:

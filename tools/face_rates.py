@@ -46,8 +46,8 @@ def lexicon_rows(fps: float) -> list[str]:
                 alone[q].append(bits["face_only_kbps"])
                 body[q].append(8 * bits["body_bytes"] / bits["duration_s"] / 1000)
         rows.append(f"| ASL A–J, {fps:g} fps | fba-{coding} | body | " + " | ".join(f"{np.mean(body[q]):.2f}" for q in QS) + " |")
-        rows.append(f"| | | face adds | " + " | ".join(f"{np.mean(added[q]):.2f}" for q in QS) + " |")
-        rows.append(f"| | | face alone | " + " | ".join(f"{np.mean(alone[q]):.2f}" for q in QS) + " |")
+        rows.append("| | | face adds | " + " | ".join(f"{np.mean(added[q]):.2f}" for q in QS) + " |")
+        rows.append("| | | face alone | " + " | ".join(f"{np.mean(alone[q]):.2f}" for q in QS) + " |")
     return rows
 
 
