@@ -532,7 +532,7 @@ def context_priors(path: Path = PRIORS_PATH) -> ContextPriors:
 class ContextWaveletCoder(DofCoder):
     """The wavelet coder (§7.8.2) with context-modelled entropy coding, chosen here: the seed names a wavelet
     coder but not how its coefficients are entropy coded. As H.264's CABAC and JPEG 2000's EBCOT do, each
-    coefficient is binarised (magnitude class in unary, sign, top mantissa bit, remaining bits) and every bin is
+    coefficient is binarised (magnitude class in unary, sign, top two mantissa bits, remaining bits) and every bin is
     coded by a binary range coder with an adaptive probability chosen by its context: the band, and the
     magnitude of the same DOF's previous coefficient of that band in time and of its parent in the coarser band
     (kernels/lab_context.py). A still DOF then costs a fraction of a bit per coefficient. Transform, blocks,

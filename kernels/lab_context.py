@@ -16,10 +16,12 @@ n + 2 < 2^RATE_SHIFT (the running average of the first bits, fast on short clips
 Coefficients: (D, n_blocks, 16) int64 in the dyadic layout [approximation, level 1 (1), level 2 (2),
 level 3 (4), level 4 (8)], the approximation already differenced along the blocks. Per DOF, per block,
 position 0..15: class k = bit length of |v| (0..MAX_CLASS) in unary ("k > j?" for j = 0, 1, ...; no stop
-bit at MAX_CLASS), then for k > 0 the sign, the top bit below the leading one (context: k), the rest at
-P = 1/2. Class contexts: the band (approximation of the first block, later approximations, levels 1..4),
-the predicted class pc = bit length of 2 |previous coefficient of the band in time| + |parent| (the
-approximation: of the previous block's difference), and j relative to pc (clamped to -3..3), pc = 0, j = 0.
+bit at MAX_CLASS), then for k > 0 the sign, the top bit below the leading one (context: k), for k >= 3 the
+second bit below it (context: k; inside a class a Laplacian's values are not flat), the rest at P = 1/2. Class
+contexts: the band (approximation of the first block, later approximations, levels 1..4), the predicted class
+pc = bit length of 2 |previous coefficient of the band in time| + |parent| (the approximation: of the previous
+block's difference), j relative to pc (clamped to -3..3), pc's bucket (0, 1-2, 3-5, 6+: how far the relative
+j is to be trusted differs between small and large coefficients) and j = 0.
 
 Two ways in: `encode` / `decode` code one b"C" section of the SCM1 container with every model at P = 1/2; the
 compact stream (ContextWaveletCoder.encode_compact) codes the active-DOF mask (one bin per DOF of the signing
@@ -42,11 +44,13 @@ MAX_OVERRUN = 4
 BLOCK = 16
 N_BANDS = 6                   # first approximation, approximation, levels 1..4
 REL = 7                       # j - pc clamped to -3..3
-CLASS_CONTEXTS = N_BANDS * REL * 2 * 2
+PCB = 4                       # buckets of pc: 0, 1-2, 3-5, 6+
+CLASS_CONTEXTS = N_BANDS * REL * PCB * 2
 SIGN_BASE = CLASS_CONTEXTS
 SIGN_CONTEXTS = N_BANDS * 9          # band x sign of the previous coefficient x sign of the parent (-, 0, +)
 MANTISSA_BASE = SIGN_BASE + SIGN_CONTEXTS
-N_CONTEXTS = MANTISSA_BASE + MAX_CLASS + 1
+MANTISSA2_BASE = MANTISSA_BASE + MAX_CLASS + 1
+N_CONTEXTS = MANTISSA2_BASE + MAX_CLASS + 1
 # coder state (int64): encoder low, range, cache, pending, bytes out, first; decoder code, range, pos, overrun
 LOW, RANGE, CACHE, PENDING, OUT, FIRST = range(6)
 CODE, DRANGE, POS, OVER = range(4)
@@ -165,7 +169,8 @@ def _code_value(decoding: bool, state, buf, probs, counts, tally, band: int, pc:
     got = 0
     for j in range(MAX_CLASS):
         rel = min(max(j - pc, -3), 3) + 3
-        ctx = ((band * REL + rel) * 2 + (1 if pc > 0 else 0)) * 2 + (1 if j > 0 else 0)
+        pcb = 0 if pc == 0 else (1 if pc < 3 else (2 if pc < 6 else 3))
+        ctx = ((band * REL + rel) * PCB + pcb) * 2 + (1 if j > 0 else 0)
         if _code_bit(decoding, state, buf, probs, counts, tally, ctx, 1 if k > j else 0) == 0:
             break
         got = j + 1
@@ -177,7 +182,7 @@ def _code_value(decoding: bool, state, buf, probs, counts, tally, band: int, pc:
                            1 if value < 0 else 0)
     result = 1
     for i in range(k - 2, -1, -1):
-        ctx = MANTISSA_BASE + k if i == k - 2 else -1
+        ctx = MANTISSA_BASE + k if i == k - 2 else (MANTISSA2_BASE + k if i == k - 3 else -1)
         result = (result << 1) | _code_bit(decoding, state, buf, probs, counts, tally, ctx, (magnitude >> i) & 1)
     return -result if negative else result
 
