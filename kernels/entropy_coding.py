@@ -597,27 +597,7 @@ def look_local(data, end_bit: int, pos: int, run: int, over: int) -> tuple[int, 
 @njit(cache=True)
 def update_member(counts, tree, scalars, offsets, m: int, symbol: int) -> None:
     """update() of model m of a bank (counts at offsets[m], tree at offsets[m] + m)."""
-    base = offsets[m]
-    tbase = base + m
-    increment, n = scalars[m, INCREMENT], scalars[m, N]
-    counts[base + symbol] += increment
-    scalars[m, TOTAL] += increment
-    if scalars[m, TOTAL] > scalars[m, LIMIT]:
-        total = 0
-        for k in range(n):
-            counts[base + k] = (counts[base + k] + 1) // 2
-            total += counts[base + k]
-            tree[tbase + k + 1] = counts[base + k]
-        for i in range(1, n + 1):
-            parent = i + (i & -i)
-            if parent <= n:
-                tree[tbase + parent] += tree[tbase + i]
-        scalars[m, TOTAL] = total
-        return
-    i = symbol + 1
-    while i <= n:
-        tree[tbase + i] += increment
-        i += i & -i
+    _update_inline(counts, tree, scalars, offsets, m, symbol)
 
 
 @njit(cache=True)
