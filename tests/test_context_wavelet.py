@@ -23,6 +23,20 @@ def _with_crc(body: bytes) -> bytes:
     return body + struct.pack("<I", zlib.crc32(body))
 
 
+def _damaged(body: bytes, seed: int, trials: int = 400):
+    """`trials` damaged copies of body, each with its CRC-32 made to match again: every third one truncated,
+    the others with 1-3 flipped bits."""
+    rng = np.random.default_rng(seed)
+    for trial in range(trials):
+        damaged = bytearray(body)
+        if trial % 3 == 0:
+            damaged = damaged[:rng.integers(1, len(damaged))]
+        else:
+            for _ in range(rng.integers(1, 4)):
+                damaged[rng.integers(0, len(damaged))] ^= 1 << int(rng.integers(0, 8))
+        yield _with_crc(bytes(damaged))
+
+
 @pytest.mark.parametrize("n_frames", [1, 7, 16, 33, 150])
 def test_decoder_reproduces_the_encoder_reconstruction_at_every_step(n_frames):
     dofs = signing_like(n_frames)
@@ -87,17 +101,10 @@ def test_random_damage_raises_signcast_error_or_decodes_to_the_declared_shape():
     coder = ContextWaveletCoder(LOWER, UPPER)
     data, _ = coder.encode(signing_like(60), FPS, 6)
     body = data[:-4]
-    rng = np.random.default_rng(7)
     rejected = 0
-    for trial in range(400):
-        damaged = bytearray(body)
-        if trial % 3 == 0:
-            damaged = damaged[:rng.integers(1, len(damaged))]
-        else:
-            for _ in range(rng.integers(1, 4)):
-                damaged[rng.integers(0, len(damaged))] ^= 1 << int(rng.integers(0, 8))
+    for damaged in _damaged(body, seed=7):
         try:
-            decoded = coder.decode(_with_crc(bytes(damaged)))
+            decoded = coder.decode(damaged)
         except SigncastError:
             rejected += 1
             continue
@@ -178,18 +185,11 @@ def test_compact_random_damage_raises_signcast_error_or_decodes_to_the_layout():
     codec = LabCodec("wavelet-cx")
     data, _ = codec.encode_dofs(_layout_clip(30, seed=2), 10.0, 7)
     body = data[:-4]
-    rng = np.random.default_rng(11)
     rejected = 0
-    for trial in range(400):
-        damaged = bytearray(body)
-        if trial % 3 == 0:
-            damaged = damaged[:rng.integers(1, len(damaged))]
-        else:
-            for _ in range(rng.integers(1, 4)):
-                damaged[rng.integers(0, len(damaged))] ^= 1 << int(rng.integers(0, 8))
+    for damaged in _damaged(body, seed=11):
         try:
             with np.errstate(all="ignore"):
-                decoded, fps = codec.decode_dofs(_with_crc(bytes(damaged)))
+                decoded, fps = codec.decode_dofs(damaged)
         except SigncastError:
             rejected += 1
             continue
