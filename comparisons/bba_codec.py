@@ -853,7 +853,28 @@ _HEADER_WIDTHS = np.array([8, 8, 4, 1, 2, 1, 5, 6, 6, FRAME_NUMBER_BITS, 5, 1, 1
 
 
 def _read_header(data: bytes, position: int) -> _DecoderState:
-    """The header after the BBA start code whose 00 00 01 prefix is at byte `position`."""
+    """The header after the BBA start code whose 00 00 01 prefix is at byte `position`: a good header in one
+    kernel call (kernels/bba_header.read_header), anything else by `_read_header_checked`, which raises the
+    error. Both give the same state for a good header."""
+    values = np.zeros(len(_HEADER_WIDTHS), dtype=np.int64)
+    status, ids, masks, steps, key_ids, key_bits, fields, alphabets, animatable = header_kernel.read_header(
+        np.frombuffer(data, dtype=np.uint8), 8 * (position + 4), 8 * (position + 3), _HEADER_WIDTHS, _GROUP_START,
+        pc.RANGE_BITS, pc.DEFAULT_RANGE_FIELD, pc.RANGE_DELTA, values)
+    version, rate, seconds, offset, coding, keyframes, q, intra_period, header_period, n_frames, order, tight, \
+        _ = values.tolist()
+    if status or version != VERSION or rate == 0 or intra_period == 0 or n_frames == 0 or order >= 24:
+        return _read_header_checked(data, position)
+    id_list = ids.tolist()
+    header = BBAHeader("", pc.fps_from_fields(rate, seconds, offset), "pred" if coding == 0 else "dct", q,
+                       intra_period, bool(keyframes), order, header_period)
+    pred = coding == 0
+    return _DecoderState(header, n_frames, dict(zip(id_list, masks.tolist())), dict(zip(id_list, steps.tolist())),
+                         list(zip(key_ids.tolist(), key_bits.tolist())), fields if pred else None,
+                         animatable=animatable, alphabets=tuple(alphabets) if pred else None)
+
+
+def _read_header_checked(data: bytes, position: int) -> _DecoderState:
+    """`_read_header` field by field, with an error for each way a header can be wrong."""
     reader = BitReader(data, start_byte=position + 4)
     values = np.zeros(len(_HEADER_WIDTHS), dtype=np.int64)    # the fixed fields in one call, checked in order
     n_read = header_kernel.read_fields(reader.array, reader.end_bit, reader.registers, _HEADER_WIDTHS, values)

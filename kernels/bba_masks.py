@@ -4,8 +4,8 @@ Two loops of many one-bit fields: the header's bone table (per bone its boneID u
 5 level-1 bits then, for each announced motion type, one bit per elementary motion of the type; the
 rotation step exponent u4) and a unit's bone list (boneID u10 and the hierarchical mask: per motion
 type the bone may carry, a used bit, then one bit per elementary motion it may carry). They read
-through kernels/entropy_coding's bit reader (emulation prevention included) on the BitReader's state
-arrays; comparisons/bba_codec.py raises SigncastError from the status codes.
+through kernels/entropy_coding's bit reader (emulation prevention included) with the position and zero run
+in locals, taken from and left in the BitReader's state array (registers); comparisons/bba_codec.py raises SigncastError from the status codes.
 
 Motion types are given as group_start (6,) int64: the elementary-motion bits of type g are
 group_start[g] .. group_start[g + 1] - 1 (MASK_TYPES: 0-2, 3-5, 6-8, 9-12, 13-15).
@@ -13,7 +13,7 @@ group_start[g] .. group_start[g + 1] - 1 (MASK_TYPES: 0-2, 3-5, 6-8, 9-12, 13-15
 import numpy as np
 from numba import njit
 
-from kernels.entropy_coding import get_bit, get_bits
+from kernels.entropy_coding import _bits_local, get_local
 
 OK, TRUNCATED, EMPTY_TYPE, UNKNOWN_BONE = 0, -1, -2, -3
 
@@ -25,31 +25,45 @@ def read_bone_table(data: np.ndarray, end_bit: int, registers: np.ndarray, group
     Returns OK, TRUNCATED, or EMPTY_TYPE (a motion type announced without any elementary motion)."""
     n_types = len(group_start) - 1
     present = np.zeros(n_types, dtype=np.int64)
+    pos, run = registers[0], registers[1]
+    status = OK
     for k in range(len(ids)):
-        bone = get_bits(data, end_bit, registers, 10)
+        bone, pos, run = _bits_local(data, end_bit, pos, run, 10)
         if bone < 0:
-            return TRUNCATED
+            status = TRUNCATED
+            break
         any_present = False
         for g in range(n_types):
-            present[g] = get_bit(data, end_bit, registers, False)
+            present[g], pos, run = get_local(data, end_bit, pos, run)
             if present[g] < 0:
-                return TRUNCATED
+                status = TRUNCATED
+                break
             any_present = any_present or present[g] == 1
+        if status:
+            break
         mask = 0
         for g in range(n_types):
             if present[g]:
                 for b in range(group_start[g], group_start[g + 1]):
-                    bit = get_bit(data, end_bit, registers, False)
+                    bit, pos, run = get_local(data, end_bit, pos, run)
                     if bit < 0:
-                        return TRUNCATED
+                        status = TRUNCATED
+                        break
                     mask |= bit << b
+            if status:
+                break
+        if status:
+            break
         if any_present and mask == 0:
-            return EMPTY_TYPE
-        exponent = get_bits(data, end_bit, registers, 4)
+            status = EMPTY_TYPE
+            break
+        exponent, pos, run = _bits_local(data, end_bit, pos, run, 4)
         if exponent < 0:
-            return TRUNCATED
+            status = TRUNCATED
+            break
         ids[k], masks[k], exponents[k] = bone, mask, exponent
-    return OK
+    registers[0], registers[1] = pos, run
+    return status
 
 
 @njit(cache=True)
@@ -61,18 +75,23 @@ def read_unit_bones(data: np.ndarray, end_bit: int, registers: np.ndarray, group
     ids, masks: (1023,) int64 filled with the entries in stream order; result[0] = their number
     (NSBB), result[1] = the boneID not in the header (status UNKNOWN_BONE). Returns OK, TRUNCATED or
     UNKNOWN_BONE."""
-    n = get_bits(data, end_bit, registers, 10)
+    pos, run = registers[0], registers[1]
+    status = OK
+    n, pos, run = _bits_local(data, end_bit, pos, run, 10)
     if n < 0:
-        return TRUNCATED
-    result[0] = n
-    for k in range(n):
-        bone = get_bits(data, end_bit, registers, 10)
+        status = TRUNCATED
+    else:
+        result[0] = n
+    for k in range(max(n, 0)):
+        bone, pos, run = _bits_local(data, end_bit, pos, run, 10)
         if bone < 0:
-            return TRUNCATED
+            status = TRUNCATED
+            break
         allowed_mask = animatable[bone]
         if allowed_mask < 0:
             result[1] = bone
-            return UNKNOWN_BONE
+            status = UNKNOWN_BONE
+            break
         mask = 0
         for g in range(len(group_start) - 1):
             allowed = False
@@ -80,15 +99,22 @@ def read_unit_bones(data: np.ndarray, end_bit: int, registers: np.ndarray, group
                 allowed = allowed or (allowed_mask >> b) & 1 == 1
             if not allowed:
                 continue
-            used = get_bit(data, end_bit, registers, False)
+            used, pos, run = get_local(data, end_bit, pos, run)
             if used < 0:
-                return TRUNCATED
+                status = TRUNCATED
+                break
             if used:
                 for b in range(group_start[g], group_start[g + 1]):
                     if (allowed_mask >> b) & 1:
-                        bit = get_bit(data, end_bit, registers, False)
+                        bit, pos, run = get_local(data, end_bit, pos, run)
                         if bit < 0:
-                            return TRUNCATED
+                            status = TRUNCATED
+                            break
                         mask |= bit << b
+            if status:
+                break
+        if status:
+            break
         ids[k], masks[k] = bone, mask
-    return OK
+    registers[0], registers[1] = pos, run
+    return status

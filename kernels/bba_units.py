@@ -25,7 +25,6 @@ Imports nothing of signcast's Python modules.
 import numpy as np
 from numba import njit
 
-from kernels.bba_header import _bits_local
 from kernels.bba_levels import _fold
 from kernels.bba_masks import read_unit_bones
 from kernels.entropy_coding import (
@@ -35,6 +34,7 @@ from kernels.entropy_coding import (
     TOP,
     TOTAL,
     WINDOW_MAX_TOTAL,
+    _bits_local,
     _get_code_local,
     _open_window,
     _renormalise_window,

@@ -496,6 +496,32 @@ def get_local(data, end_bit: int, pos: int, run: int) -> tuple[int, int, int]:
 
 
 @njit(cache=True)
+def _bits_local(data, end_bit: int, pos: int, run: int, n_bits: int) -> tuple[int, int, int]:
+    """n_bits (at most 62) data bits as get_local reads them one by one: (value or -1, pos, run). When the
+    zero run cannot reach MAX_ZERO_RUN inside them (run + n_bits below it), no emulation-prevention bit can
+    lie among them: they are the raw bits, read at once."""
+    byte = pos >> 3
+    if run + n_bits < MAX_ZERO_RUN and (pos & 7) + n_bits <= 24 and pos + n_bits <= end_bit and byte + 2 < len(data):
+        window = (np.int64(data[byte]) << 16) | (np.int64(data[byte + 1]) << 8) | np.int64(data[byte + 2])
+        value = (window >> (24 - (pos & 7) - n_bits)) & ((1 << n_bits) - 1)
+        if value == 0:
+            run += n_bits
+        else:
+            trailing = 0
+            while not (value >> trailing) & 1:
+                trailing += 1
+            run = trailing
+        return value, pos + n_bits, run
+    value = 0
+    for _ in range(n_bits):
+        bit, pos, run = get_local(data, end_bit, pos, run)
+        if bit < 0:
+            return -1, pos, run
+        value = (value << 1) | bit
+    return value, pos, run
+
+
+@njit(cache=True)
 def _get_code_local(data, end_bit: int, pos: int, run: int, first_code, count, start,
                     symbols) -> tuple[int, int, int]:
     code = 0

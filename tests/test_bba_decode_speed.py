@@ -1,5 +1,5 @@
 """The BBA decoder's fast paths against the plain code they replace, bitwise: sparse predicted models
-(kernels/bba_units.py), the header's range-field reader (kernels/bba_header.py), the held-table Euler
+(kernels/bba_units.py), the header's one-call and range-field readers (kernels/bba_header.py), the held-table Euler
 conversion (kernels/bba_rotations.from_euler_table) and the batched key-frame expansion (keyframes.expand)."""
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from kernels import bba_header, bba_rotations
 from kernels import param_frames as pf
 from media import rotations
 from media.fingerspelling import letter_motion
+from media.errors import SigncastError
 from media.motion import Motion
 
 
@@ -204,3 +205,41 @@ def test_regenerate_is_bitwise_the_placed_batched_expansion(seed):
     q, t = kf.regenerate(key_q, key_t, kfi)
     q_ref, t_ref = _regenerate_reference(key_q, key_t, kfi)
     assert q.tobytes() == q_ref.tobytes() and t.tobytes() == t_ref.tobytes()
+
+
+def _states_equal(a, b) -> None:
+    assert (a.header, a.n_frames, a.keys) == (b.header, b.n_frames, b.keys)
+    assert list(a.bones.items()) == list(b.bones.items()) and a.exponents == b.exponents
+    assert np.array_equal(a.animatable, b.animatable)
+    assert (a.fields is None) == (b.fields is None) and (a.alphabets is None) == (b.alphabets is None)
+    if a.fields is not None:
+        assert np.array_equal(a.fields, b.fields)
+        assert all(np.array_equal(x, y) and x.dtype == y.dtype for x, y in zip(a.alphabets, b.alphabets))
+
+
+@pytest.mark.parametrize("codec", ["pred", "dct", "key"])
+def test_one_call_header_reader_gives_the_checked_readers_state_and_errors(codec):
+    """kernels/bba_header.read_header (bba_codec._read_header) against the field-by-field reader: the same
+    state on good headers (tight and default ranges, every coding), and on damaged ones the same outcome (the
+    same state, or the same SigncastError message)."""
+    rng = np.random.default_rng(11)
+    coding, keyframes = ("pred", True) if codec == "key" else (codec, False)
+    for letter, q in zip("AFKPTZ", (1, 2, 4, 8, 16, 31)):
+        data = bba_codec.encode_motion(letter_motion("ase", letter, 25.0), q, coding, keyframes=keyframes)
+        _states_equal(bba_codec._read_header(data, 1), bba_codec._read_header_checked(data, 1))
+        end = bba_codec.find_start_codes(data)[1][0]          # the header: bytes 1 .. the first unit's start code
+        for _ in range(40):
+            damaged = bytearray(data)
+            damaged[rng.integers(5, end)] ^= 1 << int(rng.integers(8))
+            if rng.random() < 0.3:
+                damaged = damaged[:int(rng.integers(6, end))]
+            outcomes = []
+            for read in (bba_codec._read_header, bba_codec._read_header_checked):
+                try:
+                    outcomes.append(read(bytes(damaged), 1))
+                except SigncastError as error:
+                    outcomes.append(str(error))
+            if isinstance(outcomes[0], str) or isinstance(outcomes[1], str):
+                assert outcomes[0] == outcomes[1]
+            else:
+                _states_equal(*outcomes)
