@@ -74,7 +74,7 @@ def from_euler_table(table: np.ndarray, n_rotated: int, unit: float, axes: np.nd
     """from_euler of the angles table[:, :3 R] x unit (R = n_rotated; table (F, C) float64 in angle units,
     column 3 r + k angle k of bone r) -> (F, R, 4). The cosine and sine of an angle equal (and non-zero) to
     the same column's in the frame before are that frame's (the same function of the same value), not
-    computed again: held values cost no transcendentals."""
+    computed again, and zero angles take cos 1 and sin +-0: held and zero values cost no transcendentals."""
     n_frames = table.shape[0]
     out = np.empty((n_frames * n_rotated, 4))
     n_columns = 3 * n_rotated
@@ -83,7 +83,11 @@ def from_euler_table(table: np.ndarray, n_rotated: int, unit: float, axes: np.nd
     for f in range(n_frames):
         for c in range(n_columns):
             angle = table[f, c] * unit
-            if angle != last[c] or angle == 0.0:
+            if angle == 0.0:                   # cos(+-0) = 1 and sin(+-0) = +-0 exactly: no libm call
+                cos_half[c] = 1.0
+                sin_half[c] = angle / 2.0
+                last[c] = 0.0
+            elif angle != last[c]:
                 cos_half[c] = math.cos(angle / 2.0)
                 sin_half[c] = math.sin(angle / 2.0)
                 last[c] = angle

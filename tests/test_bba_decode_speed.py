@@ -65,6 +65,7 @@ def test_held_table_euler_conversion_is_bitwise_from_euler(order):
     n_frames, n_rotated = 40, 9
     table = rng.integers(-400000, 400000, size=(n_frames, 3 * n_rotated + 3)).astype(np.float64)
     table[rng.random(table.shape) < 0.4] = 0.0
+    table[rng.random(table.shape) < 0.05] = -0.0                  # sin(-0) = -0: the sign must survive
     held = rng.random(n_frames) < 0.5
     for f in np.flatnonzero(held[1:]) + 1:                    # held values: a frame repeating the one before
         table[f, : 3 * n_rotated : 2] = table[f - 1, : 3 * n_rotated : 2]
