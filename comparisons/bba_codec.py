@@ -239,9 +239,17 @@ def step_of(bone_id: int, bit: int, skeleton: Skeleton) -> int:
     return 1 << _rotation_step_exponents(skeleton).get(bone_id, 7)
 
 
+_EXPONENT_ITEMS: dict[int, tuple[Skeleton, tuple[tuple[int, int], ...]]] = {}
+
+
 def _exponent_items(skeleton: Skeleton) -> tuple[tuple[int, int], ...]:
-    """_rotation_step_exponents as a hashable key for _layout."""
-    return tuple(sorted(_rotation_step_exponents(skeleton).items()))
+    """_rotation_step_exponents as a hashable key for _layout (cached per skeleton)."""
+    cached = _EXPONENT_ITEMS.get(id(skeleton))
+    if cached and cached[0] is skeleton:
+        return cached[1]
+    items = tuple(sorted(_rotation_step_exponents(skeleton).items()))
+    _EXPONENT_ITEMS[id(skeleton)] = (skeleton, items)
+    return items
 
 
 @dataclass(frozen=True)
