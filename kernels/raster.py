@@ -335,7 +335,7 @@ class _WarpRaster:
         return frame
 
     def render(self, s: _Scene):
-        if self._uploads is None:       # Warp and its device, once (backends.warp() redirects file descriptors)
+        if self._uploads is None:       # Warp and its device, once per renderer (two cached look-ups per frame add up)
             wp, device = backends.warp(), backends.warp_device()
             self._wp = wp
             if device == "cpu":     # the kernels read the caller's arrays in place (no copy, no comparison)

@@ -140,7 +140,7 @@ class _WarpSkinning:
     """Device buffers and recorded launches live as long as the process, one set per kernel, vertex count
     and bone count; the rest mesh and weights upload once (UploadCache), the bone matrices go into a kept
     buffer (on the CPU device through its NumPy view, made once), so a frame packs no kernel arguments
-    again. Warp and its device are looked up once (backends.warp() redirects file descriptors each call)."""
+    again. Warp and its device are looked up once (cached in kernels.backends; the look-ups add up per frame)."""
 
     CPU_CHUNK = 256          # vertices per thread on the CPU device (kernels/skinning_warp.py says why)
 
