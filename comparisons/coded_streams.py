@@ -14,6 +14,8 @@ Each section is one of
 
 A second, compact layout (write_compact / read_compact, at the end of this module) frames a coder whose stream is
 one self-delimiting payload (wavelet-cx): magic b"Sc", coder id, q, varint T, varint fps code, payload, CRC-32.
+The CRC-32 starts from the coder's model tag (0 for none; wavelet-cx: a CRC of its trained priors), so a stream
+coded with other trained tables fails the check instead of decoding to wrong motion, at no extra byte.
 
 Writer and reader are used in the same order by a coder's encoder and decoder. The reader checks
 every length and the CRC, so corrupt or truncated input raises SigncastError instead of decoding
@@ -548,24 +550,27 @@ def _fps_of_code(code: int) -> float | None:
     return milli / 1000.0 if 1 <= milli <= 1000 * MAX_FPS else None
 
 
-def write_compact(coder_id: int, q: int, n_frames: int, fps: float, payload: bytes) -> bytes:
-    """The compact stream of a payload (the coder's whole coded clip)."""
+def write_compact(coder_id: int, q: int, n_frames: int, fps: float, payload: bytes, model_tag: int = 0) -> bytes:
+    """The compact stream of a payload (the coder's whole coded clip); model_tag (uint32) identifies the tables
+    both ends must share: the CRC-32 starts from it."""
     if not (0 <= coder_id < 256 and 0 <= q < 256):
         raise SigncastError(f"coder id {coder_id} / quality index {q} out of range 0..255")
     if not 0 < n_frames <= MAX_FRAMES:
         raise SigncastError(f"cannot code {n_frames} frames (1 to {MAX_FRAMES})")
     body = COMPACT_MAGIC + bytes([coder_id, q]) + _varint(n_frames) + _varint(fps_code(fps)) + bytes(payload)
-    return body + struct.pack("<I", zlib.crc32(body))
+    return body + struct.pack("<I", zlib.crc32(body, model_tag))
 
 
-def read_compact(data: bytes, coder_id: int, coder_name: str) -> CompactStream:
-    """Checks magic, CRC, coder id and header bounds of a compact stream; SigncastError on any damage."""
+def read_compact(data: bytes, coder_id: int, coder_name: str, model_tag: int = 0) -> CompactStream:
+    """Checks magic, CRC (started from model_tag, as write_compact), coder id and header bounds of a compact
+    stream; SigncastError on any damage, and on a stream coded with other tables."""
     data = bytes(data)
     if len(data) < _COMPACT_MIN or data[:len(COMPACT_MAGIC)] != COMPACT_MAGIC:
         raise SigncastError(f"not a compact {coder_name} stream (bad magic or truncated, {len(data)} bytes)")
     body, (crc,) = data[:-4], struct.unpack("<I", data[-4:])
-    if zlib.crc32(body) != crc:
-        raise SigncastError(f"corrupt {coder_name} stream: checksum mismatch (damaged or truncated)")
+    if zlib.crc32(body, model_tag) != crc:
+        other = ", or coded with other trained tables" if model_tag else ""
+        raise SigncastError(f"corrupt {coder_name} stream: checksum mismatch (damaged or truncated{other})")
     pos = len(COMPACT_MAGIC)
     if body[pos] != coder_id:
         raise SigncastError(f"{coder_name} decoder got a stream of coder id {body[pos]}")

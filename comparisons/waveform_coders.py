@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import functools
 import struct
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -493,17 +494,33 @@ class WaveletCoder(DofCoder):
 
 
 PRIORS_PATH = Path(__file__).resolve().parent / "tables" / "context_priors.npz"
+PREDICTION_SHIFT = 6            # inter-DOF prediction weights in 1/64
+MAX_PREDICTION_WEIGHT = 3 << PREDICTION_SHIFT
 
 
 @dataclass(frozen=True)
 class ContextPriors:
     """Initial model states of the compact wavelet-cx stream (kernels/lab_context.py): per operating point q,
     coeff_probs / coeff_counts (n_settings, N_CONTEXTS) int64 (P(bit = 0) x 65536, bits already seen), and of
-    the active-DOF mask mask_probs / mask_counts (2 D,) for the D DOFs of the signing layout."""
+    the active-DOF mask mask_probs / mask_counts (2 D,) for the D DOFs of the signing layout; the inter-DOF
+    prediction predictor (D,) int64 (the layout DOF that predicts DOF d, always < d; -1: none) and weight (D,) int64
+    (its multiplier x 2^PREDICTION_SHIFT)."""
     coeff_probs: np.ndarray
     coeff_counts: np.ndarray
     mask_probs: np.ndarray
     mask_counts: np.ndarray
+    predictor: np.ndarray
+    weight: np.ndarray
+
+    @functools.cached_property
+    def tag(self) -> int:
+        """CRC-32 of every table (int64 bytes, in field order): the compact stream's model tag
+        (coded_streams.write_compact), so a decoder with other priors rejects the stream."""
+        tag = 0
+        for table in (self.coeff_probs, self.coeff_counts, self.mask_probs, self.mask_counts, self.predictor,
+                      self.weight):
+            tag = zlib.crc32(np.ascontiguousarray(table, dtype="<i8").tobytes(), tag)
+        return tag
 
     @property
     def n_layout(self) -> int:
@@ -515,18 +532,55 @@ def context_priors(path: Path = PRIORS_PATH) -> ContextPriors:
     """The shipped trained model states (tools/train_context_priors.py), checked against the kernel's layout."""
     try:
         with np.load(path, allow_pickle=False) as table:
-            arrays = [table[k].astype(np.int64) for k in ("coeff_probs", "coeff_counts", "mask_probs", "mask_counts")]
+            arrays = [table[k].astype(np.int64) for k in ("coeff_probs", "coeff_counts", "mask_probs", "mask_counts",
+                                                          "predictor", "weight")]
     except (OSError, KeyError):
         raise SigncastError(f"context priors missing ({path}): run tools/train_context_priors.py") from None
     priors = ContextPriors(*arrays)
     n_settings = len(ContextWaveletCoder.settings)
     if priors.coeff_probs.shape != (n_settings, lab_context.N_CONTEXTS) or \
-            priors.coeff_counts.shape != priors.coeff_probs.shape or priors.mask_counts.shape != priors.mask_probs.shape:
+            priors.coeff_counts.shape != priors.coeff_probs.shape or priors.mask_counts.shape != priors.mask_probs.shape \
+            or priors.predictor.shape != (priors.n_layout,) or priors.weight.shape != priors.predictor.shape:
         raise SigncastError("the shipped context priors do not match the context coder: retrain them")
+    if np.any((priors.predictor < -1) | (priors.predictor >= np.arange(priors.n_layout))) or \
+            np.any(np.abs(priors.weight) > MAX_PREDICTION_WEIGHT):
+        raise SigncastError("the shipped inter-DOF predictors are not causal or too large: retrain them")
     for probs in (priors.coeff_probs, priors.mask_probs):
         if probs.min() < lab_context.PROB_MIN or probs.max() > lab_context.PROB_ONE - lab_context.PROB_MIN:
             raise SigncastError("the shipped context priors hold impossible probabilities: retrain them")
     return priors
+
+
+def prediction_pairs(active: np.ndarray, predictor: np.ndarray, weight: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The inter-DOF predictions (ContextPriors.predictor, .weight (D,)) among the active DOFs (bool (D,) of the
+    layout): (targets, sources, weights) int64 (P,), targets and sources as positions among the active DOFs, by
+    rising target (a source precedes its target, so it is complete before its target is rebuilt)."""
+    position = np.cumsum(active) - 1
+    targets = np.flatnonzero(active & (predictor >= 0))
+    targets = targets[active[predictor[targets]]]
+    return position[targets], position[predictor[targets]], weight[targets]
+
+
+def _prediction(weight: int, source: np.ndarray) -> np.ndarray:
+    """round(weight / 2^PREDICTION_SHIFT x source) in integers (halves up): both ends compute it bit for bit."""
+    return (weight * source + (1 << (PREDICTION_SHIFT - 1))) >> PREDICTION_SHIFT
+
+
+def predict_dofs(coded: np.ndarray, pairs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """Coded coefficients (n_active, n_blocks, 16) int64 -> the residuals the compact stream carries: a
+    predicted DOF's coefficients less its weighted source DOF's (the source's own values, not its residual)."""
+    residual = coded.copy()
+    for target, source, weight in zip(*pairs):
+        residual[target] -= _prediction(weight, coded[source])
+    return residual
+
+
+def unpredict_dofs(residual: np.ndarray, pairs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """The inverse of predict_dofs, in place: targets by rising position, so every source is complete first."""
+    for target, source, weight in zip(*pairs):
+        residual[target] += _prediction(weight, residual[source])
+    return residual
 
 
 class ContextWaveletCoder(DofCoder):
@@ -547,7 +601,11 @@ class ContextWaveletCoder(DofCoder):
       mask of the signing layout (one bin per DOF, kernels/lab_context.code_mask) and then the coefficients of
       the active DOFs, every model starting from the state trained offline on other sign languages' clips
       (comparisons/tables/context_priors.npz, tools/train_context_priors.py; per q): on a one-second clip the
-      models otherwise spend a good part of the stream learning what every clip looks like."""
+      models otherwise spend a good part of the stream learning what every clip looks like. Joints of a finger
+      and of neighbouring fingers, and the spine's and neck's joints, move together, so in this layout a DOF may be
+      predicted from one earlier DOF of the layout (a fixed table trained with the priors: the source and a weight
+      in 1/64): when both are active, the stream carries the DOF's coded coefficients less round(weight x the
+      source's), in integers (predict_dofs). The indices, and so the reconstruction, are those of `encode`."""
 
     name, coder_id, unit = "wavelet-cx", 13, "step (rad)"
     settings = WaveletCoder.settings
@@ -593,6 +651,7 @@ class ContextWaveletCoder(DofCoder):
         if active.shape != (priors.n_layout,) or int(active.sum()) != self.n_dofs:
             raise SigncastError(f"{self.name}: the active mask must be ({priors.n_layout},) with {self.n_dofs} set")
         indices, coded = self._coded(dofs, self.settings[q])
+        coded = predict_dofs(coded, prediction_pairs(active, priors.predictor, priors.weight))
         mask = active.astype(np.int64)
         size = lab_context.payload_capacity(coded.size) + len(mask)
         while True:
@@ -604,15 +663,16 @@ class ContextWaveletCoder(DofCoder):
             size = n_bytes
         if n_bytes < 0:
             raise SigncastError(f"{self.name}: coefficient too large for the context coder")
-        stream = coded_streams.write_compact(self.coder_id, int(q), len(dofs), fps, out[:n_bytes].tobytes())
+        stream = coded_streams.write_compact(self.coder_id, int(q), len(dofs), fps, out[:n_bytes].tobytes(),
+                                             priors.tag)
         return stream, self._reconstruct(indices, self.settings[q], len(dofs))
 
     @classmethod
     def decode_compact(cls, data: bytes, n_layout: int) -> tuple[np.ndarray, np.ndarray, float]:
         """Compact stream -> (reconstruction (T, D) radians of the active DOFs, active mask (n_layout,) bool, fps).
         Every size is bounded before allocation (T by the header, D <= n_layout); SigncastError on any damage."""
-        stream = coded_streams.read_compact(data, cls.coder_id, cls.name)
         priors = context_priors()
+        stream = coded_streams.read_compact(data, cls.coder_id, cls.name, priors.tag)
         if n_layout != priors.n_layout:
             raise SigncastError(f"{cls.name}: the context priors are for {priors.n_layout} DOFs, not {n_layout}")
         q = stream.q
@@ -630,6 +690,7 @@ class ContextWaveletCoder(DofCoder):
         lab_context.decode_coefficients(state, payload, coeffs, priors.coeff_probs[q].copy(), priors.coeff_counts[q].copy())
         if lab_context.finish_decoder(state, payload) != 0:
             raise SigncastError(f"corrupt {cls.name} stream: payload undecodable (damaged or truncated)")
+        unpredict_dofs(coeffs, prediction_pairs(mask.astype(bool), priors.predictor, priors.weight))
         coeffs[..., 0] = np.cumsum(coeffs[..., 0], axis=1)
         recon = cls._reconstruct(coeffs, cls.settings[q], stream.n_frames)
         return recon, mask.astype(bool), stream.fps

@@ -25,7 +25,8 @@ j is to be trusted differs between small and large coefficients) and j = 0.
 
 Two ways in: `encode` / `decode` code one b"C" section of the SCM1 container with every model at P = 1/2; the
 compact stream (ContextWaveletCoder.encode_compact) codes the active-DOF mask (one bin per DOF of the signing
-layout, context: the DOF and the previous DOF's bit) and then the coefficients in one payload, its models starting
+layout, context: the DOF and the previous DOF's bit) and then the coefficients in one payload (there, the inter-DOF
+prediction residuals of comparisons/waveform_coders.predict_dofs: these kernels code any integers), its models starting
 from trained states (encode_payload; decode_mask then decode_coefficients on one decoder state, since the decoder
 sizes the coefficients from the mask). `code_mask` / `code_coefficients` with a tally (n_contexts, 2) count the
 bits each context codes: tools/train_context_priors.py trains the states from that.

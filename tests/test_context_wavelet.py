@@ -2,6 +2,7 @@
 its compact framing with trained priors (what LabCodec sends)."""
 from __future__ import annotations
 
+import dataclasses
 import struct
 import zlib
 from pathlib import Path
@@ -20,7 +21,8 @@ LOWER, UPPER = np.full(5, -1.6), np.full(5, 1.6)
 
 
 def _with_crc(body: bytes) -> bytes:
-    return body + struct.pack("<I", zlib.crc32(body))
+    """A compact wavelet-cx body sealed as write_compact seals it: CRC-32 from the shipped priors' tag."""
+    return body + struct.pack("<I", zlib.crc32(body, waveform_coders.context_priors().tag))
 
 
 def _damaged(body: bytes, seed: int, trials: int = 400):
@@ -248,3 +250,95 @@ def test_decoding_stops_soon_after_the_payload_runs_out(payload):
     lab_context.decode_coefficients(state, data, coeffs, probs, counts)
     assert state[lab_context.POS] <= len(data) + lab_context.MAX_OVERRUN + 1
     assert lab_context.finish_decoder(state, data) == -1
+
+
+# ---------------------------------------------------------------- inter-DOF prediction (compact framing)
+
+def _coupled_clip(n_frames: int, seed: int = 0) -> np.ndarray:
+    """(T, 183) layout DOFs in which every DOF the shipped priors predict moves with its source as the trained
+    weight says (plus a small independent motion), and the sources move like signing."""
+    priors = waveform_coders.context_priors()
+    dofs = np.zeros((n_frames, priors.n_layout))
+    moving = signing_like(n_frames, seed)
+    rng = np.random.default_rng(seed)
+    for d in range(priors.n_layout):
+        source = priors.predictor[d]
+        if source >= 0:
+            if not dofs[:, source].any():
+                dofs[:, source] = 0.5 * moving[:, source % moving.shape[1]]
+            scale = priors.weight[d] / (1 << waveform_coders.PREDICTION_SHIFT)
+            dofs[:, d] = scale * dofs[:, source] + 0.02 * np.roll(moving[:, d % moving.shape[1]], int(rng.integers(9)))
+    return dofs
+
+
+def test_prediction_is_undone_exactly_along_chains_and_only_among_active_dofs():
+    priors = waveform_coders.context_priors()
+    assert np.all(priors.predictor < np.arange(priors.n_layout)) and (priors.predictor >= 0).sum() > 10
+    chained = [d for d in range(priors.n_layout) if priors.predictor[d] >= 0 and priors.predictor[priors.predictor[d]] >= 0]
+    assert chained  # a predicted DOF that predicts another: its source must be rebuilt first
+    rng = np.random.default_rng(3)
+    for trial in range(20):
+        active = rng.random(priors.n_layout) < 0.6
+        active[chained[0]] = active[priors.predictor[chained[0]]] = active[priors.predictor[priors.predictor[chained[0]]]] = True
+        pairs = waveform_coders.prediction_pairs(active, priors.predictor, priors.weight)
+        targets, sources = pairs[0], pairs[1]
+        assert np.all(sources < targets) and np.all(targets < active.sum())
+        coded = rng.integers(-5000, 5000, size=(int(active.sum()), 3, 16)) >> rng.integers(0, 12)
+        residual = waveform_coders.predict_dofs(coded, pairs)
+        assert not np.array_equal(residual, coded)
+        assert np.array_equal(waveform_coders.unpredict_dofs(residual.copy(), pairs), coded)
+    none = np.zeros(priors.n_layout, dtype=bool)
+    none[priors.predictor[chained[0]]] = True      # a source alone: nothing to predict
+    assert len(waveform_coders.prediction_pairs(none, priors.predictor, priors.weight)[0]) == 0
+
+
+def test_prediction_saves_bytes_on_coupled_dofs_without_changing_the_reconstruction():
+    from comparisons.lab_codecs import LabCodec
+    codec = LabCodec("wavelet-cx")
+    dofs = _coupled_clip(40)
+    priors = waveform_coders.context_priors()
+    for index in (4, 10):
+        data, recon = codec.encode_dofs(dofs, 10.0, index)
+        decoded, _ = codec.decode_dofs(data)
+        assert np.array_equal(decoded, recon)
+        active = np.any(dofs != 0, axis=0)
+        coded = ContextWaveletCoder(np.zeros(active.sum()), np.ones(active.sum()))._coded(
+            dofs[:, active], ContextWaveletCoder.settings[index])[1]
+        unpredicted = np.zeros(lab_context.payload_capacity(coded.size) + len(active), dtype=np.uint8)
+        n_unpredicted = lab_context.encode_payload(active.astype(np.int64), coded, priors.mask_probs.copy(),
+                                                   priors.mask_counts.copy(), priors.coeff_probs[index].copy(),
+                                                   priors.coeff_counts[index].copy(), unpredicted)
+        assert len(data) - 10 < 0.9 * n_unpredicted
+
+
+def test_compact_damage_with_predicted_dofs_raises_signcast_error_or_decodes_to_the_layout():
+    from comparisons.lab_codecs import LabCodec, dof_layout
+    codec = LabCodec("wavelet-cx")
+    data, _ = codec.encode_dofs(_coupled_clip(30, seed=4), 10.0, 9)
+    rejected = 0
+    for damaged in _damaged(data[:-4], seed=13, trials=200):
+        try:
+            with np.errstate(all="ignore"):
+                decoded, _ = codec.decode_dofs(damaged)
+        except SigncastError:
+            rejected += 1
+            continue
+        assert decoded.ndim == 2 and decoded.shape[1] == dof_layout().n_dofs and np.all(np.isfinite(decoded))
+    assert rejected > 100
+
+
+def test_a_stream_coded_with_other_priors_is_rejected_not_misdecoded(monkeypatch):
+    """The compact CRC starts from the priors' tag: a decoder whose trained tables differ (here one predictor
+    weight) rejects the stream with a one-line error instead of decoding it to other motion."""
+    from comparisons.lab_codecs import LabCodec
+    codec = LabCodec("wavelet-cx")
+    data, recon = codec.encode_dofs(_layout_clip(40), FPS, 8)
+    assert np.array_equal(codec.decode_dofs(data)[0], recon)
+    priors = waveform_coders.context_priors()
+    weight = priors.weight.copy()
+    weight[np.flatnonzero(priors.predictor >= 0)[0]] += 1
+    other = dataclasses.replace(priors, weight=weight)
+    assert other.tag != priors.tag
+    monkeypatch.setattr(waveform_coders, "context_priors", lambda: other)
+    with pytest.raises(SigncastError, match="checksum mismatch .*other trained tables"):
+        codec.decode_dofs(data)

@@ -271,8 +271,9 @@ def seal_motion(data: bytes) -> bytes:
     from comparisons.coded_streams import COMPACT_MAGIC
     from comparisons.lab_codecs import dof_layout
 
-    if data.startswith(COMPACT_MAGIC):
-        return data[:-4] + struct.pack("<I", zlib.crc32(data[:-4])) if len(data) > 4 else data
+    if data.startswith(COMPACT_MAGIC):              # its CRC starts from wavelet-cx's model tag
+        from comparisons.waveform_coders import context_priors
+        return data[:-4] + struct.pack("<I", zlib.crc32(data[:-4], context_priors().tag)) if len(data) > 4 else data
     head = 5 + -(-dof_layout().n_dofs // 8)       # magic, coder id, active-DOF mask
     if len(data) < head + 8:
         return data
