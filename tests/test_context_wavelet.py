@@ -183,12 +183,17 @@ def test_fps_codes_round_trip_and_whole_rates_take_one_byte():
 def test_compact_random_damage_raises_signcast_error_or_decodes_to_the_layout():
     """Bit flips and truncations anywhere (header and payload), the CRC made to match again so that the header
     bounds and the payload's end check see them: SigncastError or a (T, 183) finite array, nothing else."""
+    assert _compact_damage_rejected(_layout_clip(30, seed=2), 7, seed=11, trials=400) > 200
+
+
+def _compact_damage_rejected(dofs: np.ndarray, q: int, seed: int, trials: int) -> int:
+    """Codes dofs (T, 183) at 10 fps and q, damages the stream `trials` times (CRC resealed): each decodes to a
+    (T', 183) finite array at a valid fps or raises SigncastError. Returns how many raised."""
     from comparisons.lab_codecs import LabCodec, dof_layout
     codec = LabCodec("wavelet-cx")
-    data, _ = codec.encode_dofs(_layout_clip(30, seed=2), 10.0, 7)
-    body = data[:-4]
+    data, _ = codec.encode_dofs(dofs, 10.0, q)
     rejected = 0
-    for damaged in _damaged(body, seed=11):
+    for damaged in _damaged(data[:-4], seed=seed, trials=trials):
         try:
             with np.errstate(all="ignore"):
                 decoded, fps = codec.decode_dofs(damaged)
@@ -197,7 +202,7 @@ def test_compact_random_damage_raises_signcast_error_or_decodes_to_the_layout():
             continue
         assert decoded.ndim == 2 and decoded.shape[1] == dof_layout().n_dofs and np.all(np.isfinite(decoded))
         assert 0.001 <= fps <= coded_streams.MAX_FPS
-    assert rejected > 200
+    return rejected
     for bad in (data[:-1], data[:len(data) // 2], b"", b"Sc", bytes(data[:-5]) + bytes([data[-5] ^ 1]) + data[-4:]):
         with pytest.raises(SigncastError):
             codec.decode_dofs(bad)
@@ -312,19 +317,7 @@ def test_prediction_saves_bytes_on_coupled_dofs_without_changing_the_reconstruct
 
 
 def test_compact_damage_with_predicted_dofs_raises_signcast_error_or_decodes_to_the_layout():
-    from comparisons.lab_codecs import LabCodec, dof_layout
-    codec = LabCodec("wavelet-cx")
-    data, _ = codec.encode_dofs(_coupled_clip(30, seed=4), 10.0, 9)
-    rejected = 0
-    for damaged in _damaged(data[:-4], seed=13, trials=200):
-        try:
-            with np.errstate(all="ignore"):
-                decoded, _ = codec.decode_dofs(damaged)
-        except SigncastError:
-            rejected += 1
-            continue
-        assert decoded.ndim == 2 and decoded.shape[1] == dof_layout().n_dofs and np.all(np.isfinite(decoded))
-    assert rejected > 100
+    assert _compact_damage_rejected(_coupled_clip(30, seed=4), 9, seed=13, trials=200) > 100
 
 
 def test_a_stream_coded_with_other_priors_is_rejected_not_misdecoded(monkeypatch):
