@@ -38,6 +38,7 @@ from kernels.entropy_coding import (
     _get_code_local,
     _open_window,
     _renormalise_window,
+    _run_after,
     _scale,
     _state_at,
     _window_target,
@@ -299,14 +300,7 @@ def _code(data, end_bit: int, pos: int, run: int, lut_symbol, lut_length, first_
         peek = (window >> (24 - (pos & 7) - LUT_BITS)) & ((1 << LUT_BITS) - 1)
         length = lut_length[peek]
         if length:
-            bits = peek >> (LUT_BITS - length)
-            if bits == 0:
-                run += length
-            else:
-                run = 0
-                while not (bits >> run) & 1:
-                    run += 1
-            return lut_symbol[peek], pos + length, run
+            return lut_symbol[peek], pos + length, _run_after(peek >> (LUT_BITS - length), length, run)
     return _get_code_local(data, end_bit, pos, run, first_code, count, start, symbols)
 
 

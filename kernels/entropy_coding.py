@@ -495,6 +495,18 @@ def get_local(data, end_bit: int, pos: int, run: int) -> tuple[int, int, int]:
     return 0, pos, run
 
 
+@njit(cache=True, inline="always")
+def _run_after(bits: int, n_bits: int, run: int) -> int:
+    """The zero run after reading the n_bits raw bits `bits` (MSB first) on a zero run of `run`: its trailing
+    zeros, or run + n_bits when all are zero."""
+    if bits == 0:
+        return run + n_bits
+    trailing = 0
+    while not (bits >> trailing) & 1:
+        trailing += 1
+    return trailing
+
+
 @njit(cache=True)
 def _bits_local(data, end_bit: int, pos: int, run: int, n_bits: int) -> tuple[int, int, int]:
     """n_bits (at most 62) data bits as get_local reads them one by one: (value or -1, pos, run). When the
@@ -504,14 +516,7 @@ def _bits_local(data, end_bit: int, pos: int, run: int, n_bits: int) -> tuple[in
     if run + n_bits < MAX_ZERO_RUN and (pos & 7) + n_bits <= 24 and pos + n_bits <= end_bit and byte + 2 < len(data):
         window = (np.int64(data[byte]) << 16) | (np.int64(data[byte + 1]) << 8) | np.int64(data[byte + 2])
         value = (window >> (24 - (pos & 7) - n_bits)) & ((1 << n_bits) - 1)
-        if value == 0:
-            run += n_bits
-        else:
-            trailing = 0
-            while not (value >> trailing) & 1:
-                trailing += 1
-            run = trailing
-        return value, pos + n_bits, run
+        return value, pos + n_bits, _run_after(value, n_bits, run)
     value = 0
     for _ in range(n_bits):
         bit, pos, run = get_local(data, end_bit, pos, run)
