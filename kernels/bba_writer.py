@@ -25,17 +25,15 @@ from numba import njit
 
 from kernels.entropy_coding import (
     MAX_ZERO_RUN,
+    PRECISION,
+    TOP,
     crc8_bytes,
+    finish_encoder,
     put_bit_local,
     renormalise_encoder,
     write_dct_blocks,
 )
 
-PRECISION = 32
-TOP = (1 << PRECISION) - 1
-HALF = 1 << (PRECISION - 1)
-QUARTER = 1 << (PRECISION - 2)
-THREE_QUARTERS = HALF + QUARTER
 BBA_START_CODE, FRAME_START_CODE, END_CODE = 0xD0, 0xD1, 0xD3
 FRAME_NUMBER_BITS, P_FRAME_NUMBER_BITS, KFI_BITS, MUSCLE_COUNT_BITS, CRC_BITS = 24, 8, 5, 10, 8
 STATUS_FULL = -1            # the buffer is too small
@@ -152,11 +150,7 @@ def _encode_levels(buffer, pos: int, run: int, levels, u: int, low, sizes, fresh
         high = low_ + np.int64(span * np.uint64(cumulative + count) // np.uint64(total)) - 1
         low_ = low_ + np.int64(span * np.uint64(cumulative) // np.uint64(total))
         pos, run, low_, high, pending = renormalise_encoder(buffer, pos, run, low_, high, pending)
-    bit = 0 if low_ < QUARTER else 1
-    pos, run = put_bit_local(buffer, pos, run, bit)
-    for _ in range(pending + 1):
-        pos, run = put_bit_local(buffer, pos, run, 1 - bit)
-    return pos, run
+    return finish_encoder(buffer, pos, run, low_, pending)
 
 
 @njit(cache=True)

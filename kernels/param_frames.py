@@ -33,6 +33,7 @@ from kernels.entropy_coding import (
     TOP_BIT,
     TOTAL,
     N,
+    finish_encoder,
     get_bit,
     get_bits,
     put_bit,
@@ -365,11 +366,7 @@ def _encode_track(buffer, pos: int, run: int, symbols, a: int, b: int, offsets, 
         pos, run, low, high, pending = renormalise_encoder(buffer, pos, run, low, high, pending)
         if not fresh:
             _update(counts, tree, scalars, m, base, symbol)
-    bit = 0 if low < QUARTER else 1
-    pos, run = put_bit_local(buffer, pos, run, bit)
-    for _ in range(pending + 1):
-        pos, run = put_bit_local(buffer, pos, run, 1 - bit)
-    return pos, run
+    return finish_encoder(buffer, pos, run, low, pending)
 
 
 @njit(cache=True)
@@ -664,11 +661,7 @@ def _sparse_encode_track(buffer, pos: int, run: int, symbols, a: int, b: int, si
         low = low + span * cumulative // total
         pos, run, low, high, pending = renormalise_encoder(buffer, pos, run, low, high, pending)
         _sparse_add(keys, extra, used, totals, limit, sizes[p], p, slot, symbol)
-    bit = 0 if low < QUARTER else 1
-    pos, run = put_bit_local(buffer, pos, run, bit)
-    for _ in range(pending + 1):
-        pos, run = put_bit_local(buffer, pos, run, 1 - bit)
-    return pos, run
+    return finish_encoder(buffer, pos, run, low, pending)
 
 
 @njit(cache=True)
