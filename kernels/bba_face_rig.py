@@ -7,7 +7,8 @@ turns (a 3 x 3 block -[head - pivot]x per carrier on the bone's chain), takes th
 the linearised targets with damping (J^T (J J^T + d^2 I)^-1 r), caps the largest turn at max_turn and
 applies the turns about the carriers' posed heads. J is mostly zero: the blocks of J J^T are summed over
 the shared carriers only, and skinned bones that share no carrier (the two corners, the cheeks, the
-brows, the nose, the upper lip) are solved as separate small systems. The result equals the dense
+brows, the nose, the upper lip) are solved as separate small systems; a bone alone in its group has
+its 3 x 3 system built and solved in one loop (`_solve_alone`). The result equals the dense
 NumPy reference (media/face_rig.py `_carry_numpy`) to rounding (~1e-14).
 
 `carry` takes the frames together (chosen here for speed, ~2x): no frame's operations depend on its
@@ -30,11 +31,22 @@ through views (a view costs reference counting) and avoid slice assignments.
 (media/rotations.py from_matrix, to_matrix and between), operation for operation: bitwise theirs,
 checked on random and edge-case inputs by tests/test_face_rig_speed.py.
 
+`carry_into` is what media/face_rig.py calls per anchor and clip: the held frames (`held_runs`), the solve
+with the rig's index tables made once (`carry_tables`), the carriers' quaternions written into the caller's
+array (`quaternions_into`) and `bone_turns`, in one call; the same operations as `carry`, `from_matrix` and
+`bone_turns` called one by one, so the same numbers.
+
 All geometry is in the anchor's rest frame, metres. Compiled nopython with cache=True; imports nothing
 of signcast.
 """
 import numpy as np
 from numba import njit
+
+# Below this many frames (measured on the head rig: about where the two cross) the carriers' posing and turning
+# run as one loop per carrier with each frame's matrices in registers (`_pose_child`, `_turn_carrier`; not
+# vectorised): there the vectorised form's nine loops per matrix product cost more than their vectors save. Both
+# forms are the same operations in the same order (tests/test_face_rig_speed.py runs both).
+FEW_FRAMES = 40
 
 
 @njit(cache=True)
@@ -308,39 +320,119 @@ def from_matrix(matrix):
     out = np.empty((n, 4))
     ok = True
     for k in range(n):
-        m = matrix[k]
-        for r in range(3):
-            for c in range(3):
-                g = m[r, 0] * m[c, 0] + m[r, 1] * m[c, 1] + m[r, 2] * m[c, 2]
-                if r == c:
-                    if not abs(g - 1.0) <= 0.9e-5:
-                        ok = False
-                elif not abs(g) <= 0.9e-12:
-                    ok = False
-        trace = m[0, 0] + m[1, 1] + m[2, 2]
-        choice = 0
-        best = m[0, 0]
-        if m[1, 1] > best:
-            choice, best = 1, m[1, 1]
-        if m[2, 2] > best:
-            choice, best = 2, m[2, 2]
-        if trace > best:
-            choice = 3
-        # (x, y, z, w) as scipy keeps them, in scalars (a small array per matrix would cost an allocation)
-        if choice == 3:
-            q0, q1, q2, q3 = m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], 1.0 + trace
-        elif choice == 0:
-            q0, q1, q2, q3 = 1.0 - trace + 2.0 * m[0, 0], m[1, 0] + m[0, 1], m[2, 0] + m[0, 2], m[2, 1] - m[1, 2]
-        elif choice == 1:
-            q0, q1, q2, q3 = m[0, 1] + m[1, 0], 1.0 - trace + 2.0 * m[1, 1], m[2, 1] + m[1, 2], m[0, 2] - m[2, 0]
-        else:
-            q0, q1, q2, q3 = m[0, 2] + m[2, 0], m[1, 2] + m[2, 1], 1.0 - trace + 2.0 * m[2, 2], m[1, 0] - m[0, 1]
-        norm = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-        x, y, z, w = q0 / norm, q1 / norm, q2 / norm, q3 / norm
-        if w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0))))):
-            w, x, y, z = -w, -x, -y, -z
+        w, x, y, z, inside = _quaternion(matrix[k, 0, 0], matrix[k, 0, 1], matrix[k, 0, 2], matrix[k, 1, 0], matrix[k, 1, 1],
+                                         matrix[k, 1, 2], matrix[k, 2, 0], matrix[k, 2, 1], matrix[k, 2, 2])
+        ok = ok and inside
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = w, x, y, z
     return out, ok
+
+
+@njit(cache=True)
+def quaternions_into(matrices, out, column):
+    """`from_matrix` of matrices (T, K, 3, 3) written to out[:, column:column + K] ((T, F, 4) float64, w, x, y, z);
+    returns ok (False: some matrix is one scipy would orthogonalise, and out's values for them are not scipy's)."""
+    ok = True
+    for t in range(matrices.shape[0]):
+        for k in range(matrices.shape[1]):
+            w, x, y, z, inside = _quaternion(
+                matrices[t, k, 0, 0], matrices[t, k, 0, 1], matrices[t, k, 0, 2], matrices[t, k, 1, 0], matrices[t, k, 1, 1],
+                matrices[t, k, 1, 2], matrices[t, k, 2, 0], matrices[t, k, 2, 1], matrices[t, k, 2, 2])
+            ok = ok and inside
+            out[t, column + k, 0], out[t, column + k, 1], out[t, column + k, 2], out[t, column + k, 3] = w, x, y, z
+    return ok
+
+
+@njit(cache=True)
+def _quaternion(m00, m01, m02, m10, m11, m12, m20, m21, m22):
+    """`from_matrix` of one matrix, its entries m[r, c] given as mrc (scalars: a view of each matrix would cost
+    reference counting): (w, x, y, z, inside scipy's tolerances)."""
+    # M M^T, row by row (m[r, 0] m[c, 0] + m[r, 1] m[c, 1] + m[r, 2] m[c, 2])
+    ok = (abs((m00 * m00 + m01 * m01 + m02 * m02) - 1.0) <= 0.9e-5
+          and abs(m00 * m10 + m01 * m11 + m02 * m12) <= 0.9e-12
+          and abs(m00 * m20 + m01 * m21 + m02 * m22) <= 0.9e-12
+          and abs(m10 * m00 + m11 * m01 + m12 * m02) <= 0.9e-12
+          and abs((m10 * m10 + m11 * m11 + m12 * m12) - 1.0) <= 0.9e-5
+          and abs(m10 * m20 + m11 * m21 + m12 * m22) <= 0.9e-12
+          and abs(m20 * m00 + m21 * m01 + m22 * m02) <= 0.9e-12
+          and abs(m20 * m10 + m21 * m11 + m22 * m12) <= 0.9e-12
+          and abs((m20 * m20 + m21 * m21 + m22 * m22) - 1.0) <= 0.9e-5)
+    trace = m00 + m11 + m22
+    choice = 0
+    best = m00
+    if m11 > best:
+        choice, best = 1, m11
+    if m22 > best:
+        choice, best = 2, m22
+    if trace > best:
+        choice = 3
+    # (x, y, z, w) as scipy keeps them
+    if choice == 3:
+        q0, q1, q2, q3 = m21 - m12, m02 - m20, m10 - m01, 1.0 + trace
+    elif choice == 0:
+        q0, q1, q2, q3 = 1.0 - trace + 2.0 * m00, m10 + m01, m20 + m02, m21 - m12
+    elif choice == 1:
+        q0, q1, q2, q3 = m01 + m10, 1.0 - trace + 2.0 * m11, m21 + m12, m02 - m20
+    else:
+        q0, q1, q2, q3 = m02 + m20, m12 + m21, 1.0 - trace + 2.0 * m22, m10 - m01
+    norm = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    x, y, z, w = q0 / norm, q1 / norm, q2 / norm, q3 / norm
+    if w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0))))):
+        w, x, y, z = -w, -x, -y, -z
+    return w, x, y, z, ok
+
+
+@njit(cache=True)
+def held_runs(head_moved):
+    """Frames whose targets equal the previous frame's bit for bit (a held face) have the same solution:
+    head_moved (T, S, 3) float64 -> (run (T,) int64 each frame's index among the distinct frames, first (U,)
+    int64 the frame each distinct one starts at)."""
+    bits = head_moved.view(np.int64)
+    n_frames = bits.shape[0]
+    run = np.empty(n_frames, np.int64)
+    first = np.empty(n_frames, np.int64)
+    u = -1
+    for t in range(n_frames):
+        changed = t == 0
+        if not changed:
+            for i in range(bits.shape[1]):
+                for r in range(3):
+                    if bits[t, i, r] != bits[t - 1, i, r]:
+                        changed = True
+        if changed:
+            u += 1
+            first[u] = t
+        run[t] = u
+    return run, first[:u + 1].copy()
+
+
+@njit(cache=True)
+def carry_into(head_moved, tail_moved, carrier_heads, carrier_parents, skinned_heads, skinned_parents, group_members,
+               group_start, chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry, arms,
+               iterations, damping, max_turn, out, column):
+    """The face rig's carry of one anchor in one call: `carry` of the distinct frames (`held_runs`; the rig's
+    tables from `carry_tables`), the carriers' local turns as quaternions (`from_matrix`) written to
+    out[:, column:column + C] ((T, F, 4)), and `bone_turns`.
+
+    head_moved, tail_moved (T, S, 3) metres; arms (S, 3). Returns local (T, C, 3, 3) and parent (T, S, 3, 3) as
+    `carry` gives them for every frame, turned (T, S, 3, 3) (`bone_turns`) and ok (`from_matrix`'s, for the
+    local turns). The skinned bones' rotations are parent^T turned, a NumPy product the caller takes.
+    """
+    n_frames, n_skinned, n_carriers = head_moved.shape[0], head_moved.shape[1], carrier_heads.shape[0]
+    run, first = held_runs(head_moved)
+    target = np.empty((n_skinned, 3, len(first)))
+    for u in range(len(first)):
+        for i in range(n_skinned):
+            for r in range(3):
+                target[i, r, u] = head_moved[first[u], i, r]
+    current, rotation = _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned_parents,
+                                      group_members, group_start, chain_start, chain_index, carried_start,
+                                      carried_index, pair_start, pair_index, entry, iterations, damping, max_turn)
+    local = np.empty((n_frames, n_carriers, 3, 3))
+    parent = np.zeros((n_frames, n_skinned, 3, 3))
+    for t in range(n_frames):
+        _frame_out(current, rotation, skinned_parents, run[t], t, local, parent)
+    ok = quaternions_into(local, out, column)
+    return local, parent, bone_turns(arms, head_moved, tail_moved), ok
 
 
 @njit(cache=True, error_model="numpy")
@@ -365,20 +457,66 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
     turns into vector instructions (exact IEEE operations, no contraction into fused multiply-adds, sin
     and cos still one libm call per value), the same numbers as frame by frame.
     """
-    n_frames, n_skinned = wanted.shape[0], wanted.shape[1]
-    n_carriers = carrier_heads.shape[0]
-    chain_start, chain_index, carried_start, carried_index, pair_start, pair_index = _layout(
+    chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry = carry_tables(
         on_chain, group_members, group_start)
-    entry = np.full((n_skinned, n_carriers), -1, np.int64)        # (i, j) -> its block in `blocks`
-    for i in range(n_skinned):
-        for n in range(chain_start[i], chain_start[i + 1]):
-            entry[i, chain_index[n]] = n
-    T = n_frames
-    target = np.empty((n_skinned, 3, T))
-    for t in range(T):
+    n_frames, n_skinned, n_carriers = wanted.shape[0], wanted.shape[1], carrier_heads.shape[0]
+    target = np.empty((n_skinned, 3, n_frames))
+    for t in range(n_frames):
         for i in range(n_skinned):
             for r in range(3):
                 target[i, r, t] = wanted[t, i, r]
+    current, rotation = _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned_parents,
+                                      group_members, group_start, chain_start, chain_index, carried_start,
+                                      carried_index, pair_start, pair_index, entry, iterations, damping, max_turn)
+    local = np.empty((n_frames, n_carriers, 3, 3))
+    parent_out = np.zeros((n_frames, n_skinned, 3, 3))
+    for t in range(n_frames):
+        _frame_out(current, rotation, skinned_parents, t, t, local, parent_out)
+    return local, parent_out
+
+
+@njit(cache=True)
+def carry_tables(on_chain, group_members, group_start):
+    """The index tables of `carry`'s sparse J, which depend on the rig only (a caller carrying many clips
+    makes them once): `_layout`'s six lists, then entry (S, C) int64, (skinned i, carrier j) -> the row of
+    their block in chain_index's order (-1: j does not carry i)."""
+    chain_start, chain_index, carried_start, carried_index, pair_start, pair_index = _layout(
+        on_chain, group_members, group_start)
+    n_skinned, n_carriers = on_chain.shape
+    entry = np.full((n_skinned, n_carriers), -1, np.int64)
+    for i in range(n_skinned):
+        for n in range(chain_start[i], chain_start[i + 1]):
+            entry[i, chain_index[n]] = n
+    return chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry
+
+
+@njit(cache=True)
+def _frame_out(current, rotation, skinned_parents, u, t, local, parent_out):
+    """Frame t of `carry`'s results from solved frame u of the state: local[t] (C, 3, 3) the carriers' turns,
+    parent_out[t] (S, 3, 3) each skinned bone's posed parent (identity for the anchor; parent_out is zeroed)."""
+    for j in range(current.shape[0]):
+        for r in range(3):
+            for c in range(3):
+                local[t, j, r, c] = current[j, r, c, u]
+    for i in range(len(skinned_parents)):
+        p = skinned_parents[i]
+        for r in range(3):
+            if p < 0:
+                parent_out[t, i, r, r] = 1.0
+            else:
+                for c in range(3):
+                    parent_out[t, i, r, c] = rotation[p, r, c, u]
+
+
+@njit(cache=True, error_model="numpy")
+def _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned_parents, group_members, group_start,
+                  chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry, iterations,
+                  damping, max_turn):
+    """`carry`'s solve with the frame last: target (S, 3, T) head displacements and the rig's tables
+    (`carry_tables`) -> current (C, 3, 3, T) the carriers' local turns and rotation (C, 3, 3, T) their final
+    posed rotations."""
+    n_skinned, T = target.shape[0], target.shape[2]
+    n_carriers = carrier_heads.shape[0]
     current = np.zeros((n_carriers, 3, 3, T))
     for j in range(n_carriers):
         for r in range(3):
@@ -438,6 +576,17 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
         for g in range(len(group_start) - 1):
             first, last = group_start[g], group_start[g + 1]
             m = last - first
+            if m == 1:                  # a bone alone: its 3 x 3 block built and solved in one loop
+                i = group_members[first]
+                for t in range(T):
+                    for e in range(9):
+                        totals[e, t] = 0.0
+                for n in range(pair_start[pair], pair_start[pair + 1]):
+                    j = pair_index[n]
+                    _add_block_product(lever, entry[i, j], entry[i, j], totals)
+                pair += 1
+                _solve_alone(totals, residual, i, damping2, solved)
+                continue
             for a in range(m):
                 i = group_members[first + a]
                 for b_ in range(a, m):
@@ -501,9 +650,12 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
             for t in range(T):              # libm, one call per value (kept out of the vectorised loops)
                 versine[t] = 1.0 - np.cos(sine[t])
                 sine[t] = np.sin(sine[t])
-            _rodrigues_frames(axis, sine, versine, turn)
             # local = parent^T turn parent local, parent: the carrier's parent posed at this iteration's start
             p = carrier_parents[j]
+            if T < FEW_FRAMES:          # one loop, the turn and the products in registers
+                _turn_carrier(axis, sine, versine, rotation, p, current, j)
+                continue
+            _rodrigues_frames(axis, sine, versine, turn)
             if p < 0:
                 _matmul_frames(turn, 0, current, j, product, False)
             else:
@@ -515,22 +667,7 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
                     for t in range(T):
                         current[j, r, c, t] = product[0, r, c, t]
     _pose_frames(current, carrier_heads, carrier_parents, rotation, offset)
-    local = np.empty((T, n_carriers, 3, 3))
-    parent_out = np.zeros((T, n_skinned, 3, 3))
-    for t in range(T):
-        for j in range(n_carriers):
-            for r in range(3):
-                for c in range(3):
-                    local[t, j, r, c] = current[j, r, c, t]
-        for i in range(n_skinned):
-            p = skinned_parents[i]
-            for r in range(3):
-                if p < 0:
-                    parent_out[t, i, r, r] = 1.0
-                else:
-                    for c in range(3):
-                        parent_out[t, i, r, c] = rotation[p, r, c, t]
-    return local, parent_out
+    return current, rotation
 
 
 @njit(cache=True, error_model="numpy")
@@ -582,6 +719,58 @@ def _matmul_frames(a, ja, b, jb, out, transpose):
 
 
 @njit(cache=True, error_model="numpy")
+def _turn_carrier(axis, sine, versine, rotation, p, current, j):
+    """current[j] = turn current[j] (p < 0) or (rotation[p]^T turn) rotation[p] current[j], turn the Rodrigues
+    matrix of `_rodrigues_frames` (axis (3, T), sine and versine (T,)), arrays (n, 3, 3, T): those entries and the
+    `_matmul_frames` products, each summed as there, in one loop with each frame's numbers in registers."""
+    for t in range(current.shape[3]):
+        x, y, z, s, v = axis[0, t], axis[1, t], axis[2, t], sine[t], versine[t]
+        b00 = 1.0 - v * (z * z + y * y)
+        b11 = 1.0 - v * (z * z + x * x)
+        b22 = 1.0 - v * (y * y + x * x)
+        b01 = (0.0 - s * z) + v * (y * x)
+        b10 = (0.0 + s * z) + v * (y * x)
+        b02 = (0.0 + s * y) + v * (z * x)
+        b20 = (0.0 - s * y) + v * (z * x)
+        b12 = (0.0 - s * x) + v * (z * y)
+        b21 = (0.0 + s * x) + v * (z * y)
+        if p >= 0:
+            a00, a01, a02 = rotation[p, 0, 0, t], rotation[p, 0, 1, t], rotation[p, 0, 2, t]
+            a10, a11, a12 = rotation[p, 1, 0, t], rotation[p, 1, 1, t], rotation[p, 1, 2, t]
+            a20, a21, a22 = rotation[p, 2, 0, t], rotation[p, 2, 1, t], rotation[p, 2, 2, t]
+            l00 = a00 * b00 + a10 * b10 + a20 * b20          # left = rotation^T turn
+            l01 = a00 * b01 + a10 * b11 + a20 * b21
+            l02 = a00 * b02 + a10 * b12 + a20 * b22
+            l10 = a01 * b00 + a11 * b10 + a21 * b20
+            l11 = a01 * b01 + a11 * b11 + a21 * b21
+            l12 = a01 * b02 + a11 * b12 + a21 * b22
+            l20 = a02 * b00 + a12 * b10 + a22 * b20
+            l21 = a02 * b01 + a12 * b11 + a22 * b21
+            l22 = a02 * b02 + a12 * b12 + a22 * b22
+            b00 = l00 * a00 + l01 * a10 + l02 * a20          # middle = left rotation, in the turn's place
+            b01 = l00 * a01 + l01 * a11 + l02 * a21
+            b02 = l00 * a02 + l01 * a12 + l02 * a22
+            b10 = l10 * a00 + l11 * a10 + l12 * a20
+            b11 = l10 * a01 + l11 * a11 + l12 * a21
+            b12 = l10 * a02 + l11 * a12 + l12 * a22
+            b20 = l20 * a00 + l21 * a10 + l22 * a20
+            b21 = l20 * a01 + l21 * a11 + l22 * a21
+            b22 = l20 * a02 + l21 * a12 + l22 * a22
+        c00, c01, c02 = current[j, 0, 0, t], current[j, 0, 1, t], current[j, 0, 2, t]
+        c10, c11, c12 = current[j, 1, 0, t], current[j, 1, 1, t], current[j, 1, 2, t]
+        c20, c21, c22 = current[j, 2, 0, t], current[j, 2, 1, t], current[j, 2, 2, t]
+        current[j, 0, 0, t] = b00 * c00 + b01 * c10 + b02 * c20
+        current[j, 0, 1, t] = b00 * c01 + b01 * c11 + b02 * c21
+        current[j, 0, 2, t] = b00 * c02 + b01 * c12 + b02 * c22
+        current[j, 1, 0, t] = b10 * c00 + b11 * c10 + b12 * c20
+        current[j, 1, 1, t] = b10 * c01 + b11 * c11 + b12 * c21
+        current[j, 1, 2, t] = b10 * c02 + b11 * c12 + b12 * c22
+        current[j, 2, 0, t] = b20 * c00 + b21 * c10 + b22 * c20
+        current[j, 2, 1, t] = b20 * c01 + b21 * c11 + b22 * c21
+        current[j, 2, 2, t] = b20 * c02 + b21 * c12 + b22 * c22
+
+
+@njit(cache=True, error_model="numpy")
 def _add_block_product(lever, nu, nw, totals):
     """totals (9, T) += B_u B_w^T row-major, for J's blocks B_u = -[u]x and B_w = -[w]x, u = lever[nu] and
     w = lever[nw] (3, T).
@@ -606,6 +795,35 @@ def _add_block_product(lever, nu, nw, totals):
 
 
 @njit(cache=True, error_model="numpy")
+def _solve_alone(totals, residual, i, damping2, solved):
+    """solved[3 i:3 i + 3] (T frames) for a skinned bone that shares no carrier: its block of J J^T, totals (9, T)
+    row-major, plus damping2 on the diagonal, solved against residual[3 i:3 i + 3] as the group solve does it
+    (the block written symmetric from totals, so its lower triangle is totals' lower triangle, then
+    `_solve_spd_frames` with n = 3), operation for operation, each frame in registers."""
+    for t in range(totals.shape[1]):
+        m00 = totals[0, t] + damping2
+        m10 = totals[3, t]
+        m11 = totals[4, t] + damping2
+        m20 = totals[6, t]
+        m21 = totals[7, t]
+        m22 = totals[8, t] + damping2
+        l00 = np.sqrt(m00)
+        l10 = m10 / l00
+        l20 = m20 / l00
+        l11 = np.sqrt(m11 - l10 * l10)
+        l21 = (m21 - l20 * l10) / l11
+        l22 = np.sqrt((m22 - l20 * l20) - l21 * l21)
+        y0 = residual[3 * i, t] / l00
+        y1 = (residual[3 * i + 1, t] - l10 * y0) / l11
+        y2 = ((residual[3 * i + 2, t] - l20 * y0) - l21 * y1) / l22
+        x2 = y2 / l22
+        x1 = (y1 - l21 * x2) / l11
+        solved[3 * i, t] = ((y0 - l10 * x1) - l20 * x2) / l00
+        solved[3 * i + 1, t] = x1
+        solved[3 * i + 2, t] = x2
+
+
+@njit(cache=True, error_model="numpy")
 def _pose_frames(local, carrier_heads, carrier_parents, rotation, offset):
     """_pose for all frames: local (C, 3, 3, T) -> rotation (C, 3, 3, T), offset (C, 3, T)."""
     n_frames = local.shape[3]
@@ -622,6 +840,8 @@ def _pose_frames(local, carrier_heads, carrier_parents, rotation, offset):
                 for t in range(n_frames):
                     moved = local[j, r, 0, t] * h0 + local[j, r, 1, t] * h1 + local[j, r, 2, t] * h2
                     offset[j, r, t] = hr - moved
+        elif n_frames < FEW_FRAMES:     # one loop, as `_turn_carrier`
+            _pose_child(local, j, p, h0, h1, h2, rotation, offset)
         else:
             for r in range(3):
                 for c in range(3):
@@ -633,6 +853,34 @@ def _pose_frames(local, carrier_heads, carrier_parents, rotation, offset):
                     point = rotation[p, r, 0, t] * h0 + rotation[p, r, 1, t] * h1 + rotation[p, r, 2, t] * h2
                     moved = rotation[j, r, 0, t] * h0 + rotation[j, r, 1, t] * h1 + rotation[j, r, 2, t] * h2
                     offset[j, r, t] = offset[p, r, t] + point - moved
+
+
+@njit(cache=True, error_model="numpy")
+def _pose_child(local, j, p, h0, h1, h2, rotation, offset):
+    """`_pose_frames` of carrier j whose parent is carrier p, head (h0, h1, h2): the same sums, one loop over the
+    frames with each frame's rotation in registers."""
+    for t in range(local.shape[3]):
+        a00, a01, a02 = rotation[p, 0, 0, t], rotation[p, 0, 1, t], rotation[p, 0, 2, t]
+        a10, a11, a12 = rotation[p, 1, 0, t], rotation[p, 1, 1, t], rotation[p, 1, 2, t]
+        a20, a21, a22 = rotation[p, 2, 0, t], rotation[p, 2, 1, t], rotation[p, 2, 2, t]
+        b00, b01, b02 = local[j, 0, 0, t], local[j, 0, 1, t], local[j, 0, 2, t]
+        b10, b11, b12 = local[j, 1, 0, t], local[j, 1, 1, t], local[j, 1, 2, t]
+        b20, b21, b22 = local[j, 2, 0, t], local[j, 2, 1, t], local[j, 2, 2, t]
+        r00 = a00 * b00 + a01 * b10 + a02 * b20
+        r01 = a00 * b01 + a01 * b11 + a02 * b21
+        r02 = a00 * b02 + a01 * b12 + a02 * b22
+        r10 = a10 * b00 + a11 * b10 + a12 * b20
+        r11 = a10 * b01 + a11 * b11 + a12 * b21
+        r12 = a10 * b02 + a11 * b12 + a12 * b22
+        r20 = a20 * b00 + a21 * b10 + a22 * b20
+        r21 = a20 * b01 + a21 * b11 + a22 * b21
+        r22 = a20 * b02 + a21 * b12 + a22 * b22
+        rotation[j, 0, 0, t], rotation[j, 0, 1, t], rotation[j, 0, 2, t] = r00, r01, r02
+        rotation[j, 1, 0, t], rotation[j, 1, 1, t], rotation[j, 1, 2, t] = r10, r11, r12
+        rotation[j, 2, 0, t], rotation[j, 2, 1, t], rotation[j, 2, 2, t] = r20, r21, r22
+        offset[j, 0, t] = offset[p, 0, t] + (a00 * h0 + a01 * h1 + a02 * h2) - (r00 * h0 + r01 * h1 + r02 * h2)
+        offset[j, 1, t] = offset[p, 1, t] + (a10 * h0 + a11 * h1 + a12 * h2) - (r10 * h0 + r11 * h1 + r12 * h2)
+        offset[j, 2, t] = offset[p, 2, t] + (a20 * h0 + a21 * h1 + a22 * h2) - (r20 * h0 + r21 * h1 + r22 * h2)
 
 
 @njit(cache=True, error_model="numpy")
@@ -711,9 +959,8 @@ def bone_turns(arms, head_moved, tail_moved):
             x, y, z, w = x / norm, y / norm, z / norm, w / norm
             x2, y2, z2, w2 = x * x, y * y, z * z, w * w
             xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
-            m = out[t, i]
-            m[0, 0], m[0, 1], m[0, 2] = x2 - y2 - z2 + w2, 2.0 * (xy - zw), 2.0 * (xz + yw)
-            m[1, 0], m[1, 1], m[1, 2] = 2.0 * (xy + zw), -x2 + y2 - z2 + w2, 2.0 * (yz - xw)
-            m[2, 0], m[2, 1], m[2, 2] = 2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2
+            out[t, i, 0, 0], out[t, i, 0, 1], out[t, i, 0, 2] = x2 - y2 - z2 + w2, 2.0 * (xy - zw), 2.0 * (xz + yw)
+            out[t, i, 1, 0], out[t, i, 1, 1], out[t, i, 1, 2] = 2.0 * (xy + zw), -x2 + y2 - z2 + w2, 2.0 * (yz - xw)
+            out[t, i, 2, 0], out[t, i, 2, 1], out[t, i, 2, 2] = 2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2
     return out
 

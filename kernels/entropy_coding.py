@@ -1036,96 +1036,41 @@ def put_bit_local(buffer, pos: int, run: int, bit: int) -> tuple[int, int]:
 
 
 @njit(cache=True, inline="always")
-def put_bits_local(buffer, pos: int, run: int, value: int, n_bits: int) -> tuple[int, int]:
-    """put_bit_local of value's n_bits low bits, MSB first (buffer zero-filled): the same bits and state, written
-    a chunk at a time where no emulation-prevention bit can fall inside it (the zero run plus the chunk stays
-    below MAX_ZERO_RUN), bit by bit where one might."""
-    while n_bits > 0:
-        size = min(n_bits, MAX_ZERO_RUN - 1 - run, 16)
-        if size < 1:
-            pos, run = put_bit_local(buffer, pos, run, (value >> (n_bits - 1)) & 1)
-            n_bits -= 1
-            continue
-        chunk = (value >> (n_bits - size)) & ((1 << size) - 1)
-        if chunk:
-            shifted = chunk << (24 - (pos & 7) - size)
-            byte = pos >> 3
-            buffer[byte] |= np.uint8(shifted >> 16)
-            if (pos & 7) + size > 8:
-                buffer[byte + 1] |= np.uint8((shifted >> 8) & 0xFF)
-                if (pos & 7) + size > 16:
-                    buffer[byte + 2] |= np.uint8(shifted & 0xFF)
-            run = 0
-            while not (chunk >> run) & 1:
-                run += 1
-        else:
-            run += size
-        pos += size
-        n_bits -= size
-    return pos, run
-
-
-@njit(cache=True, inline="always")
-def put_repeated_local(buffer, pos: int, run: int, bit: int, count: int) -> tuple[int, int]:
-    """count copies of bit through put_bits_local."""
-    while count > 0:
-        size = min(count, 16)
-        pos, run = put_bits_local(buffer, pos, run, (1 << size) - 1 if bit else 0, size)
-        count -= size
-    return pos, run
-
-
-@njit(cache=True, inline="always")
 def finish_encoder(buffer, pos: int, run: int, low: int, pending: int) -> tuple[int, int]:
     """The coder's flush: the bit that selects the final quarter (0 below QUARTER, else 1), then pending + 1
     copies of its complement; (position, zero run)."""
     bit = 0 if low < QUARTER else 1
     pos, run = put_bit_local(buffer, pos, run, bit)
-    return put_repeated_local(buffer, pos, run, 1 - bit, pending + 1)
-
-
-@njit(cache=True, inline="always")
-def _bit_length32(x: int) -> int:
-    """Bits needed for 0 <= x < 2^32 (0 for 0)."""
-    n = 0
-    if x >> 16:
-        x >>= 16
-        n += 16
-    if x >> 8:
-        x >>= 8
-        n += 8
-    if x >> 4:
-        x >>= 4
-        n += 4
-    if x >> 2:
-        x >>= 2
-        n += 2
-    if x >> 1:
-        x >>= 1
-        n += 1
-    return n + x
+    for _ in range(pending + 1):
+        pos, run = put_bit_local(buffer, pos, run, 1 - bit)
+    return pos, run
 
 
 @njit(cache=True, inline="always")
 def renormalise_encoder(buffer, pos: int, run: int, low: int, high: int,
                         pending: int) -> tuple[int, int, int, int, int]:
     """encode_symbol's interval renormalisation on local state: emits the settled bits and their pending follow
-    bits; returns (position, zero run, low, high, pending). The bit-at-a-time loop (settle the top bit while
-    low and high share it, the first settled bit followed by the pending ones; then underflow steps while
-    low = 01..., high = 10...) in bulk: the k top bits low and high share settle at once, and after an
-    underflow step they still differ in their top bit, so no bit settles after one."""
-    shared = PRECISION - _bit_length32(low ^ high)
-    if shared:
-        top = low >> (PRECISION - 1)
-        pos, run = put_bit_local(buffer, pos, run, top)
-        pos, run = put_repeated_local(buffer, pos, run, 1 - top, pending)
+    bits; returns (position, zero run, low, high, pending)."""
+    while True:
+        if high < HALF:
+            bit = 0
+        elif low >= HALF:
+            bit = 1
+            low -= HALF
+            high -= HALF
+        elif low >= QUARTER and high < THREE_QUARTERS:
+            pending += 1
+            low -= QUARTER
+            high -= QUARTER
+            low <<= 1
+            high = (high << 1) | 1
+            continue
+        else:
+            break
+        pos, run = put_bit_local(buffer, pos, run, bit)
+        for _ in range(pending):
+            pos, run = put_bit_local(buffer, pos, run, 1 - bit)
         pending = 0
-        pos, run = put_bits_local(buffer, pos, run, (low >> (PRECISION - shared)) & ((1 << (shared - 1)) - 1),
-                               shared - 1)
-        low = (low << shared) & TOP
-        high = ((high << shared) & TOP) | ((1 << shared) - 1)
-    while low >= QUARTER and high < THREE_QUARTERS:
-        pending += 1
-        low = (low - QUARTER) << 1
-        high = ((high - QUARTER) << 1) | 1
+        low <<= 1
+        high = (high << 1) | 1
     return pos, run, low, high, pending

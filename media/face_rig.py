@@ -188,25 +188,82 @@ def face_bone_rotations(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dic
     all-zero FAPs give identity rotations. The displacements, turns and eyes are compiled (kernels/face_bones.py;
     arctan2, arccos and the arms' products stay NumPy's); `_face_bone_rotations_numpy` is the NumPy form.
     """
+    names, quaternions = _face_bone_quaternions(faps, skeleton, fapu)
+    return {name: quaternions[:, k] for k, name in enumerate(names)}
+
+
+def _face_bone_quaternions(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> tuple[tuple[str, ...], np.ndarray]:
+    """`face_bone_rotations` as one array: (the bone names, (T, F, 4) float64 their quaternions in that order)."""
     faps = np.asarray(faps)
-    if faps.ndim != 2 or faps.shape[1] != N_FAPS or not np.issubdtype(faps.dtype, np.integer):
+    if faps.ndim != 2 or faps.shape[1] != N_FAPS or faps.dtype.kind not in "iu":
         raise SigncastError(f"FAPs must be (T, {N_FAPS}) integers, got {faps.shape} {faps.dtype}")
+    rig = _face_rig(skeleton, fapu)
     values = np.ascontiguousarray(faps, dtype=np.float64)          # integers: exact
-    shares = _corner_shares(skeleton)
     turned, eye_angles, head, tail, jaw = bones_kernel.face_targets(
-        values, _TARGET_COLUMNS, np.array([fapu.irisd, fapu.es, fapu.ens, fapu.mns, fapu.mw]),
-        np.array([shares[f"oris0{k}.{side}"] for k in (3, 7) for side in SIDES]), ANGLE_UNIT_RAD)
-    arms, reach = _turned_arms(skeleton, fapu), _REACH[(id(skeleton), fapu)]
+        values, _TARGET_COLUMNS, rig.units, rig.shares, ANGLE_UNIT_RAD)
     distance, direction = bones_kernel.turn_directions(turned)
-    along = np.stack([d @ arm for d, arm in zip(direction, arms)])         # NumPy's (BLAS) products, as `_turns`
-    across, ratio = bones_kernel.turn_sides(arms, direction, along, distance, reach)
-    lids = bones_kernel.turn_quaternions(arms, direction, np.arctan2(across, along) - np.arccos(ratio))
-    eyes = bones_kernel.eye_rotations(eye_angles)
-    result = {"jaw": lids[0]}
-    for k, side in enumerate(SIDES):
-        result |= {f"orbicularis03.{side}": lids[1 + 2 * k], f"orbicularis04.{side}": lids[2 + 2 * k], f"eye.{side}": eyes[k]}
-    return (result | _carry_arrays(skeleton, "head", _HEAD_CARRIED, head, tail)
-            | _carry_arrays(skeleton, "jaw", _JAW_CARRIED, jaw, jaw))
+    along = (direction @ rig.arms[:, :, None])[..., 0]      # NumPy's (BLAS) products, one per arm, as `_turns`
+    across, ratio = bones_kernel.turn_sides(rig.arms, direction, along, distance, rig.reach)
+    lids = bones_kernel.turn_quaternions(rig.arms, direction, np.arctan2(across, along) - np.arccos(ratio))
+    quaternions = np.empty((len(faps), len(rig.names), 4))
+    quaternions[:, _LID_COLUMNS] = lids.swapaxes(0, 1)
+    quaternions[:, _EYE_COLUMNS] = bones_kernel.eye_rotations(eye_angles).swapaxes(0, 1)
+    _carry_into(rig.head, head, tail, quaternions, len(_TURNED_NAMES))
+    _carry_into(rig.jaw, jaw, jaw, quaternions, len(_TURNED_NAMES) + len(rig.head.names))
+    return rig.names, quaternions
+
+
+# The turned bones' columns in `_face_bone_quaternions`: the jaw, then per side (L, R) the lids and the eye.
+_TURNED_NAMES = ("jaw",) + tuple(f"{bone}.{side}" for side in SIDES for bone in ("orbicularis03", "orbicularis04", "eye"))
+_LID_COLUMNS = np.array([0, 1, 2, 4, 5])          # kernels/face_bones.py turn_quaternions' order
+_EYE_COLUMNS = np.array([3, 6])
+
+
+@dataclass(frozen=True)
+class _FaceRig:
+    """What the face rig needs of a skeleton and FAPU, made once: the turned bones' arms and reach
+    (`_turned_arms`), the FAPU and corner shares as the kernels take them, the carry plans of the head and the
+    jaw, and all face bones' names in `_face_bone_quaternions`' order."""
+    arms: np.ndarray         # (5, 3) metres
+    reach: np.ndarray        # (5,) metres
+    units: np.ndarray        # (5,) irisd, es, ens, mns, mw, metres
+    shares: np.ndarray       # (4,) oris03.L/R, oris07.L/R
+    head: _CarryPlan
+    jaw: _CarryPlan
+    names: tuple[str, ...]
+
+
+_RIGS: dict[tuple[int, Fapu], tuple[Skeleton, _FaceRig]] = {}
+
+
+def _face_rig(skeleton: Skeleton, fapu: Fapu) -> _FaceRig:
+    """The `_FaceRig` of a skeleton object and FAPU (cached)."""
+    cached = _RIGS.get((id(skeleton), fapu))
+    if cached is not None and cached[0] is skeleton:
+        return cached[1]
+    shares = _corner_shares(skeleton)
+    arms = _turned_arms(skeleton, fapu)
+    head, jaw = _carry_plan(skeleton, "head", _HEAD_CARRIED), _carry_plan(skeleton, "jaw", _JAW_CARRIED)
+    rig = _FaceRig(arms, _REACH[(id(skeleton), fapu)], np.array([fapu.irisd, fapu.es, fapu.ens, fapu.mns, fapu.mw]),
+                   np.array([shares[f"oris0{k}.{side}"] for k in (3, 7) for side in SIDES]), head, jaw,
+                   _TURNED_NAMES + head.names + jaw.names)
+    _RIGS[(id(skeleton), fapu)] = (skeleton, rig)
+    return rig
+
+
+def _carry_into(plan: _CarryPlan, head_moved: np.ndarray, tail_moved: np.ndarray, quaternions: np.ndarray,
+                column: int, iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> None:
+    """`_carry_arrays` of a plan written to quaternions[:, column:column + C + S] ((T, F, 4)): the same
+    numbers, with the solve, the carriers' quaternions and the skinned bones' turns in one compiled call
+    (kernels/bba_face_rig.carry_into) and the products parent^T turned NumPy's, as there."""
+    local, parent, turned, ok = face_kernel.carry_into(
+        head_moved, tail_moved, plan.carrier_heads, plan.carrier_parents, plan.skinned_heads, plan.skinned_parents,
+        plan.group_members, plan.group_start, *plan.tables, plan.arms, iterations, damping, max_turn, quaternions, column)
+    products = np.swapaxes(parent, -1, -2) @ turned
+    ok = face_kernel.quaternions_into(products, quaternions, column + len(plan.carriers)) and ok
+    if not ok:                              # scipy orthogonalises first: ask it, as `_carry_arrays` does
+        matrices = np.concatenate([local, products], axis=1)
+        quaternions[:, column:column + matrices.shape[1]] = rotations.from_matrix(matrices)
 
 
 def _face_bone_rotations_numpy(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dict[str, np.ndarray]:
@@ -372,26 +429,26 @@ def with_face_bones(motion: Motion, avatar: Avatar | None = None) -> Motion:
     if motion.faps is None:
         return motion
     avatar = avatar or load_avatar()
-    face = face_bone_rotations(motion.faps, avatar.skeleton, avatar_fapu(avatar))
-    names, position = _bone_plan(tuple(motion.bone_names), tuple(face))
+    face_names, face = _face_bone_quaternions(motion.faps, avatar.skeleton, avatar_fapu(avatar))
+    names, position = _bone_plan(tuple(motion.bone_names), face_names)
     q = np.empty((motion.n_frames, len(names), 4))
     q[:, :len(motion.bone_names)] = motion.rotations          # the appended columns are all face bones
-    for k, rotation in zip(position, face.values()):
-        q[:, k] = rotation
-    return Motion(motion.fps, names, q, motion.root_translation.copy(), motion.faps.copy())
+    q[:, position] = face
+    return Motion(motion.fps, names, q, motion.root_translation.copy(), motion.faps)     # Motion copies the FAPs
 
 
-_BONE_PLANS: dict[tuple[tuple[str, ...], tuple[str, ...]], tuple[tuple[str, ...], list[int]]] = {}
+_BONE_PLANS: dict[tuple[tuple[str, ...], tuple[str, ...]], tuple[tuple[str, ...], np.ndarray]] = {}
 
 
-def _bone_plan(bone_names: tuple[str, ...], face_names: tuple[str, ...]) -> tuple[tuple[str, ...], list[int]]:
+def _bone_plan(bone_names: tuple[str, ...], face_names: tuple[str, ...]) -> tuple[tuple[str, ...], np.ndarray]:
     """with_face_bones' layout for a motion's bones and the face bones (names only, cached): the names
-    (the motion's, then the face bones it lacks) and each face bone's column (the first of its name)."""
+    (the motion's, then the face bones it lacks) and each face bone's column (the first of its name; (F,) int64,
+    distinct)."""
     plan = _BONE_PLANS.get((bone_names, face_names))
     if plan is None:
         names = list(bone_names) + [name for name in face_names if name not in bone_names]
         first = {name: k for k, name in reversed(list(enumerate(names)))}     # first of each name, as list.index
-        plan = (tuple(names), [first[name] for name in face_names])
+        plan = (tuple(names), np.array([first[name] for name in face_names], dtype=np.int64))
         if len(_BONE_PLANS) >= 64:
             _BONE_PLANS.clear()
         _BONE_PLANS[(bone_names, face_names)] = plan
@@ -515,6 +572,7 @@ class _CarryPlan:
     group_start: np.ndarray        # (G + 1,) ... group g: group_members[group_start[g]:group_start[g + 1]]
     arms: np.ndarray               # (S, 3) head -> tail of each skinned bone
     names: tuple[str, ...]         # the carriers' then the skinned bones' names, as _carry returns them
+    tables: tuple[np.ndarray, ...]  # kernels/bba_face_rig.carry_tables of on_chain and the groups
 
 
 _PLANS: dict[tuple[int, str, tuple[str, ...]], tuple[Skeleton, _CarryPlan]] = {}
@@ -546,7 +604,8 @@ def _carry_plan(skeleton: Skeleton, anchor: str, names: tuple[str, ...]) -> _Car
         np.array([position.get(int(skeleton.parents[bone]), -1) for bone in skinned], dtype=np.int64),
         on_chain, np.array(members, dtype=np.int64), starts.astype(np.int64),
         np.ascontiguousarray(skeleton.tails[skinned] - skeleton.heads[skinned], dtype=np.float64),
-        tuple(skeleton.names[bone] for bone in carriers + skinned))
+        tuple(skeleton.names[bone] for bone in carriers + skinned),
+        face_kernel.carry_tables(on_chain, np.array(members, dtype=np.int64), starts.astype(np.int64)))
     _PLANS[key] = (skeleton, plan)
     return plan
 

@@ -5,6 +5,7 @@ rotations taken before these changes."""
 from __future__ import annotations
 
 import hashlib
+import itertools
 
 import numpy as np
 import pytest
@@ -53,8 +54,8 @@ def test_face_bone_rotations_hash_as_before_the_faster_paths(avatar):
 def test_frame_vectorised_solve_is_bitwise_the_frame_by_frame_one(avatar, anchor, names):
     plan = face_rig._carry_plan(avatar.skeleton, anchor, names)
     rng = np.random.default_rng(len(names))
-    for scale in (0.0, 1e-4, 3e-3, 0.05):              # rest, small, typical, far beyond reach
-        wanted = rng.normal(size=(37, len(names), 3)) * scale
+    for scale, n_frames in itertools.product((0.0, 1e-4, 3e-3, 0.05), (37, face_kernel.FEW_FRAMES + 5)):
+        wanted = rng.normal(size=(n_frames, len(names), 3)) * scale     # rest, small, typical, far beyond reach
         wanted[5] = 0.0
         args = (plan.carrier_heads, plan.carrier_parents, plan.skinned_heads, plan.skinned_parents, plan.on_chain,
                 plan.group_members, plan.group_start, 10, 3e-3, 0.3)
@@ -100,24 +101,40 @@ def test_compiled_bone_turns_are_bitwise_between_then_to_matrix():
         assert np.array_equal(_bits(face_kernel.bone_turns(arms, head, tail)), _bits(expected))
 
 
-def test_held_frames_are_solved_once_and_give_each_frame_its_own_solution(avatar, monkeypatch):
+def test_held_frames_are_solved_once_and_give_each_frame_its_own_solution(avatar):
+    order = [0, 0, 0, 1, 2, 2, 3, 4, 5, 5, 5, 5, 6, 7, 8, 9, 10, 11, 11]
+    wanted = np.random.default_rng(4).normal(size=(12, 11, 3))
+    wanted[7] = 0.0
+    wanted[8] = -0.0                      # equal to frame 7 as numbers, not bit for bit: solved again
+    run, first = face_kernel.held_runs(wanted[order])
+    assert run.tolist() == [0, 0, 0, 1, 2, 2, 3, 4, 5, 5, 5, 5, 6, 7, 8, 9, 10, 11, 11]
+    assert first.tolist() == [0, 3, 4, 6, 7, 8, 12, 13, 14, 15, 16, 17]
+    assert face_kernel.held_runs(np.zeros((0, 3, 3)))[1].tolist() == []
     fapu = avatar_fapu(avatar)
     faps = synthetic_faps(12, 25.0, seed=4)
-    held = faps[[0, 0, 0, 1, 2, 2, 3, 4, 5, 5, 5, 5, 6, 7, 8, 9, 10, 11, 11]]
-    solved_frames = []
-    kernel = face_kernel.carry
-
-    def counting(wanted, *args):
-        solved_frames.append(len(wanted))
-        return kernel(wanted, *args)
-
-    monkeypatch.setattr(face_kernel, "carry", counting)
     once = face_bone_rotations(faps, avatar.skeleton, fapu)
-    with_holds = face_bone_rotations(held, avatar.skeleton, fapu)
-    assert solved_frames == [12, 12, 12, 12]          # head and jaw carriers, without and with the holds
+    with_holds = face_bone_rotations(faps[order], avatar.skeleton, fapu)
     for name, rotation in once.items():
-        assert np.array_equal(_bits(with_holds[name]), _bits(rotation[[0, 0, 0, 1, 2, 2, 3, 4, 5, 5, 5, 5, 6, 7, 8, 9,
-                                                                         10, 11, 11]])), name
+        assert np.array_equal(_bits(with_holds[name]), _bits(rotation[order])), name
+
+
+@pytest.mark.parametrize("anchor, names", [("head", face_rig._HEAD_CARRIED), ("jaw", face_rig._JAW_CARRIED)])
+def test_one_call_carry_into_is_bitwise_the_carry_arrays(avatar, anchor, names):
+    """face_rig._carry_into (kernels/bba_face_rig.carry_into: held frames, solve, quaternions and bone turns in
+    one call) against face_rig._carry_arrays, on random targets from rest to far beyond reach, with held frames."""
+    plan = face_rig._carry_plan(avatar.skeleton, anchor, names)
+    rng = np.random.default_rng(len(names) + 3)
+    for scale in (0.0, 1e-4, 3e-3, 0.05):
+        head = rng.normal(size=(30, len(names), 3)) * scale
+        head[4:7] = head[3]
+        head[9] = 0.0
+        tail = head + rng.normal(size=head.shape) * scale * (rng.random((30, len(names), 1)) < 0.5)
+        reference = face_rig._carry_arrays(avatar.skeleton, anchor, names, head, tail)
+        out = np.full((30, len(plan.names) + 2, 4), np.nan)
+        face_rig._carry_into(plan, head, tail, out, 1)
+        assert np.isnan(out[:, [0, -1]]).all()
+        for k, name in enumerate(plan.names):
+            assert np.array_equal(_bits(out[:, 1 + k]), _bits(reference[name])), (scale, name)
 
 
 @pytest.mark.parametrize("n_frames", [0, 1])
