@@ -417,20 +417,10 @@ def carry_into(head_moved, tail_moved, carrier_heads, carrier_parents, skinned_h
     `carry` gives them for every frame, turned (T, S, 3, 3) (`bone_turns`) and ok (`from_matrix`'s, for the
     local turns). The skinned bones' rotations are parent^T turned, a NumPy product the caller takes.
     """
-    n_frames, n_skinned, n_carriers = head_moved.shape[0], head_moved.shape[1], carrier_heads.shape[0]
     run, first = held_runs(head_moved)
-    target = np.empty((n_skinned, 3, len(first)))
-    for u in range(len(first)):
-        for i in range(n_skinned):
-            for r in range(3):
-                target[i, r, u] = head_moved[first[u], i, r]
-    current, rotation = _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned_parents,
-                                      group_members, group_start, chain_start, chain_index, carried_start,
-                                      carried_index, pair_start, pair_index, entry, iterations, damping, max_turn)
-    local = np.empty((n_frames, n_carriers, 3, 3))
-    parent = np.zeros((n_frames, n_skinned, 3, 3))
-    for t in range(n_frames):
-        _frame_out(current, rotation, skinned_parents, run[t], t, local, parent)
+    local, parent = _solve_rows(head_moved, first, run, carrier_heads, carrier_parents, skinned_heads,
+                                skinned_parents, group_members, group_start, chain_start, chain_index, carried_start,
+                                carried_index, pair_start, pair_index, entry, iterations, damping, max_turn)
     ok = quaternions_into(local, out, column)
     return local, parent, bone_turns(arms, head_moved, tail_moved), ok
 
@@ -459,20 +449,33 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
     """
     chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry = carry_tables(
         on_chain, group_members, group_start)
+    frames = np.arange(wanted.shape[0])
+    return _solve_rows(wanted, frames, frames, carrier_heads, carrier_parents, skinned_heads, skinned_parents,
+                       group_members, group_start, chain_start, chain_index, carried_start, carried_index, pair_start,
+                       pair_index, entry, iterations, damping, max_turn)
+
+
+@njit(cache=True, error_model="numpy")
+def _solve_rows(wanted, rows, source, carrier_heads, carrier_parents, skinned_heads, skinned_parents, group_members,
+                group_start, chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry,
+                iterations, damping, max_turn):
+    """Solves the frames `rows` (R,) int64 of wanted (T, S, 3) together (_solve_frames) and returns (local
+    (T, C, 3, 3), parent (T, S, 3, 3)) of every frame t from the solved frame source[t] (T,) int64 (an index
+    into rows)."""
     n_frames, n_skinned, n_carriers = wanted.shape[0], wanted.shape[1], carrier_heads.shape[0]
-    target = np.empty((n_skinned, 3, n_frames))
-    for t in range(n_frames):
+    target = np.empty((n_skinned, 3, len(rows)))
+    for u in range(len(rows)):
         for i in range(n_skinned):
             for r in range(3):
-                target[i, r, t] = wanted[t, i, r]
+                target[i, r, u] = wanted[rows[u], i, r]
     current, rotation = _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned_parents,
                                       group_members, group_start, chain_start, chain_index, carried_start,
                                       carried_index, pair_start, pair_index, entry, iterations, damping, max_turn)
     local = np.empty((n_frames, n_carriers, 3, 3))
-    parent_out = np.zeros((n_frames, n_skinned, 3, 3))
+    parent = np.zeros((n_frames, n_skinned, 3, 3))
     for t in range(n_frames):
-        _frame_out(current, rotation, skinned_parents, t, t, local, parent_out)
-    return local, parent_out
+        _frame_out(current, rotation, skinned_parents, source[t], t, local, parent)
+    return local, parent
 
 
 @njit(cache=True)
