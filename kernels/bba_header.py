@@ -3,47 +3,19 @@
 `read_header` is the whole header of a good stream in one call (the reader's pieces below, its CRC and the start
 code after it); it decides no error: on anything unusual it returns FALLBACK and the caller's checked reader
 (comparisons/bba_codec.py `_read_header_checked`) reads the header again and raises its error.
-`read_range_fields` is kernels/param_frames.read_range_fields (fields (R, P) row by row, each in n_bits, a
-marker bit 1 before every 4 parameters of a row; emulation-prevention bits dropped) with the reader's
-position and zero run in locals (entropy_coding.get_local) instead of the state array: the same bits, the
-same statuses, the same reader state after it. Imports nothing of signcast's Python modules.
+The range fields are kernels/param_frames.read_range_fields' (imported here for the header reader's callers).
+Imports nothing of signcast's Python modules.
 """
 import numpy as np
 from numba import njit
 
 from kernels.bba_masks import read_bone_table
-from kernels.entropy_coding import _bits_local, crc8_bytes, get_local
+from kernels.entropy_coding import _bits_local, crc8_bytes
 from kernels.param_frames import alphabets as field_alphabets
+from kernels.param_frames import read_range_fields
 
 OK, END_OF_DATA, MISSING_MARKER = 0, -1, -10        # param_frames' statuses
 FALLBACK = 1                                        # read_header: not a plain good header; ask the checked reader
-
-
-@njit(cache=True)
-def read_range_fields(data, end_bit: int, state, fields, n_bits: int) -> int:
-    """param_frames.read_range_fields into fields (R, P) int64; state (3,) int64 the reader (position, zero
-    run, bits read past the end). Returns OK, END_OF_DATA or MISSING_MARKER."""
-    pos, run = state[0], state[1]
-    status = OK
-    for r in range(fields.shape[0]):
-        for j in range(fields.shape[1]):
-            if j % 4 == 0:
-                marker, pos, run = get_local(data, end_bit, pos, run)
-                if marker < 0:
-                    status = END_OF_DATA
-                    break
-                if marker != 1:
-                    status = MISSING_MARKER
-                    break
-            value, pos, run = _bits_local(data, end_bit, pos, run, n_bits)
-            if value < 0:
-                status = END_OF_DATA
-                break
-            fields[r, j] = value
-        if status:
-            break
-    state[0], state[1] = pos, run
-    return status
 
 
 @njit(cache=True)

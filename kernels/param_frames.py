@@ -33,9 +33,11 @@ from kernels.entropy_coding import (
     TOP_BIT,
     TOTAL,
     N,
+    _bits_local,
     finish_encoder,
     get_bit,
     get_bits,
+    get_local,
     put_bit,
     put_bit_local,
     put_bits,
@@ -246,20 +248,31 @@ def write_range_fields(buffer, state, fields, n_bits: int) -> None:
 
 @njit(cache=True)
 def read_range_fields(data, end_bit, state, fields, n_bits: int) -> int:
-    """Inverse of write_range_fields into fields (R, P). Returns 0, END_OF_DATA or MISSING_MARKER."""
+    """Inverse of write_range_fields into fields (R, P); state (3,) int64 the reader (position, zero run, bits
+    read past the end), kept in locals while reading (entropy_coding.get_local, _bits_local: the bits get_bit
+    reads one by one, fields read at once where no emulation-prevention bit can lie among them) and left after
+    the last bit read. Returns 0, END_OF_DATA or MISSING_MARKER."""
+    pos, run = state[0], state[1]
+    status = 0
     for r in range(fields.shape[0]):
         for j in range(fields.shape[1]):
             if j % 4 == 0:
-                marker = get_bit(data, end_bit, state, False)
+                marker, pos, run = get_local(data, end_bit, pos, run)
                 if marker < 0:
-                    return END_OF_DATA
+                    status = END_OF_DATA
+                    break
                 if marker != 1:
-                    return MISSING_MARKER
-            value = get_bits(data, end_bit, state, n_bits)
+                    status = MISSING_MARKER
+                    break
+            value, pos, run = _bits_local(data, end_bit, pos, run, n_bits)
             if value < 0:
-                return END_OF_DATA
+                status = END_OF_DATA
+                break
             fields[r, j] = value
-    return 0
+        if status:
+            break
+    state[0], state[1] = pos, run
+    return status
 
 
 # ------------------------------------------------------------------ frames of arithmetic-coded levels
