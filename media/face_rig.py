@@ -253,15 +253,16 @@ def _face_rig(skeleton: Skeleton, fapu: Fapu) -> _FaceRig:
 
 def _carry_into(plan: _CarryPlan, head_moved: np.ndarray, tail_moved: np.ndarray, quaternions: np.ndarray,
                 column: int, iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> None:
-    """`_carry_arrays` of a plan written to quaternions[:, column:column + C + S] ((T, F, 4)): the same
-    numbers, with the solve, the carriers' quaternions and the skinned bones' turns in one compiled call
-    (kernels/bba_face_rig.carry_into) and the products parent^T turned NumPy's, as there."""
+    """The carry of a plan (`_carry`) written to quaternions[:, column:column + C + S] ((T, F, 4)): frames held
+    bit for bit solved once, the solve, the carriers' quaternions and the skinned bones' turns in one compiled
+    call (kernels/bba_face_rig.carry_into), the products parent^T turned NumPy's (their last bits are what the
+    stream hashes were taken with), quaternions bitwise scipy's from_matrix."""
     local, parent, turned, ok = face_kernel.carry_into(
         head_moved, tail_moved, plan.carrier_heads, plan.carrier_parents, plan.skinned_heads, plan.skinned_parents,
         plan.group_members, plan.group_start, *plan.tables, plan.arms, iterations, damping, max_turn, quaternions, column)
     products = np.swapaxes(parent, -1, -2) @ turned
     ok = face_kernel.quaternions_into(products, quaternions, column + len(plan.carriers)) and ok
-    if not ok:                              # scipy orthogonalises first: ask it, as `_carry_arrays` does
+    if not ok:                              # scipy orthogonalises first: ask it
         matrices = np.concatenate([local, products], axis=1)
         quaternions[:, column:column + matrices.shape[1]] = rotations.from_matrix(matrices)
 
@@ -560,7 +561,7 @@ def _skew(r: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class _CarryPlan:
     """The skeleton's part of a carry, the same for every motion: carriers (bone indices, parents first)
-    and skinned bones with the kernel's arrays (kernels/bba_face_rig.carry)."""
+    and skinned bones with the kernel's arrays (kernels/bba_face_rig.carry_into)."""
     carriers: list[int]
     skinned: list[int]
     carrier_heads: np.ndarray      # (C, 3)
@@ -618,7 +619,7 @@ def _carry(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray,
     rest frame. The carriers turn so that each skinned bone's head moves by its displacement: damped
     Gauss-Newton steps (damping in metres; no carrier turns more than max_turn radians a step), each
     the smallest turns that meet the linearised targets at the current pose; unreachable targets end
-    at the nearest reachable pose (kernels/bba_face_rig.carry, each frame alone; `_carry_numpy` is the
+    at the nearest reachable pose (kernels/bba_face_rig.carry_into, each frame alone; `_carry_numpy` is the
     same solve in NumPy; a frame equal to the one before it is not solved again). Each skinned bone then
     turns so that its tail moves by its own displacement relative to its head.
     """
@@ -632,26 +633,9 @@ def _carry_arrays(skeleton: Skeleton, anchor: str, names: tuple[str, ...], head_
                   ) -> dict[str, np.ndarray]:
     """`_carry` of the skinned bones `names` with their head and tail displacements as (T, S, 3) arrays."""
     plan = _carry_plan(skeleton, anchor, names)
-    # Frames are solved independently by the same operations, so a frame whose targets equal the previous
-    # frame's bit for bit (a held face) has the same solution: solve the first of each run, copy it.
-    rows = np.ascontiguousarray(head_moved, dtype=np.float64).reshape(len(head_moved), 3 * len(names))
-    rows = rows.view(np.int64)
-    changed = np.ones(len(rows), dtype=bool)
-    changed[1:] = np.any(rows[1:] != rows[:-1], axis=1)
-    solved = head_moved if changed.all() else head_moved[changed]
-    local, parent = face_kernel.carry(np.ascontiguousarray(solved, dtype=np.float64), plan.carrier_heads,
-                                      plan.carrier_parents, plan.skinned_heads, plan.skinned_parents,
-                                      plan.on_chain, plan.group_members, plan.group_start, iterations, damping,
-                                      max_turn)
-    if not changed.all():
-        run = np.cumsum(changed) - 1                     # frame -> its run's first frame among the solved
-        local, parent = local[run], parent[run]
-    turned = face_kernel.bone_turns(plan.arms, head_moved, tail_moved)     # bitwise to_matrix(between(...))
-    matrices = np.concatenate([local, np.swapaxes(parent, -1, -2) @ turned], axis=1)
-    quaternions, orthogonal = face_kernel.from_matrix(matrices.reshape(-1, 3, 3))     # bitwise scipy's ...
-    if not orthogonal:
-        quaternions = rotations.from_matrix(matrices)             # ... except where scipy orthogonalises first
-    quaternions = quaternions.reshape(matrices.shape[:2] + (4,))
+    quaternions = np.empty((len(head_moved), len(plan.names), 4))
+    _carry_into(plan, np.ascontiguousarray(head_moved, dtype=np.float64),
+                np.ascontiguousarray(tail_moved, dtype=np.float64), quaternions, 0, iterations, damping, max_turn)
     return {name: quaternions[:, k] for k, name in enumerate(plan.names)}
 
 
