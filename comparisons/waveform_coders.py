@@ -562,8 +562,9 @@ def prediction_pairs(active: np.ndarray, predictor: np.ndarray, weight: np.ndarr
     return position[targets], position[predictor[targets]], weight[targets]
 
 
-def _prediction(weight: int, source: np.ndarray) -> np.ndarray:
-    """round(weight / 2^PREDICTION_SHIFT x source) in integers (halves up): both ends compute it bit for bit."""
+def weighted_prediction(weight, source: np.ndarray) -> np.ndarray:
+    """round(weight / 2^PREDICTION_SHIFT x source) in integers (halves up), weight an int or an int array that
+    broadcasts with source: both ends (and tools/train_context_priors.py) compute it bit for bit."""
     return (weight * source + (1 << (PREDICTION_SHIFT - 1))) >> PREDICTION_SHIFT
 
 
@@ -572,14 +573,14 @@ def predict_dofs(coded: np.ndarray, pairs: tuple[np.ndarray, np.ndarray, np.ndar
     predicted DOF's coefficients less its weighted source DOF's (the source's own values, not its residual)."""
     residual = coded.copy()
     for target, source, weight in zip(*pairs):
-        residual[target] -= _prediction(weight, coded[source])
+        residual[target] -= weighted_prediction(weight, coded[source])
     return residual
 
 
 def unpredict_dofs(residual: np.ndarray, pairs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
     """The inverse of predict_dofs, in place: targets by rising position, so every source is complete first."""
     for target, source, weight in zip(*pairs):
-        residual[target] += _prediction(weight, residual[source])
+        residual[target] += weighted_prediction(weight, residual[source])
     return residual
 
 

@@ -30,8 +30,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from comparisons.lab_codecs import dof_layout, motion_dofs, training_languages
-from comparisons.waveform_coders import (MAX_PREDICTION_WEIGHT, PREDICTION_SHIFT, PRIORS_PATH, ContextWaveletCoder,
-                                         predict_dofs, prediction_pairs)
+from comparisons.waveform_coders import (MAX_PREDICTION_WEIGHT, PRIORS_PATH, ContextWaveletCoder, predict_dofs,
+                                         prediction_pairs, weighted_prediction)
 from kernels import lab_context
 
 CAPS = (4, 8, 12, 16, 24, 32, 62)
@@ -105,7 +105,7 @@ def train_predictors(clips: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         for source in np.argsort(-correlation, kind="stable")[:PREDICTOR_CANDIDATES]:
             if energy[source] == 0:
                 continue
-            predicted = (weights[:, None] * values[source] + (1 << (PREDICTION_SHIFT - 1))) >> PREDICTION_SHIFT
+            predicted = weighted_prediction(weights[:, None], values[source])
             residual_bits = _estimated_bits(values[d] - predicted)
             best = int(np.argmin(residual_bits))
             if residual_bits[best] < bits:
