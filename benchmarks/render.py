@@ -52,6 +52,7 @@ class Scene:
     """
 
     def __init__(self, word: str, width: int, height: int, frames: int, copies: int = 1):
+        from kernels._arrays import immutable
         from media.avatar import load_avatar
         from media.fingerspelling import fingerspell
         from media.kinematics import bone_matrices
@@ -72,9 +73,11 @@ class Scene:
             self.camera = (np.diag([1.0 / copies, 1, 1, 1]) @ single).astype(np.float32)
             self.offsets = np.array([[(2 * c - copies + 1) * half_width, 0, 0] for c in range(copies)], np.float32)
         V = len(avatar.vertices)
-        self.triangles = np.concatenate([avatar.triangles + c * V for c in range(copies)]).astype(np.int32)
-        self.triangle_part = np.tile(avatar.triangle_part, copies)
-        self.colours = np.tile(triangle_colours(avatar), (copies, 1))
+        # Immutable, like the renderer's own static arrays (media/render.py), so that the kernels upload
+        # and check them once, the way the peer keeps its index buffer.
+        self.triangles = immutable(np.concatenate([avatar.triangles + c * V for c in range(copies)]).astype(np.int32))
+        self.triangle_part = immutable(np.tile(avatar.triangle_part, copies))
+        self.colours = immutable(np.tile(triangle_colours(avatar), (copies, 1)))
         self.matrices = [[matrices[(i + c * n // copies) % n] for c in range(copies)] for i in range(frames)]
         self.positions = [self.pose(m, "numpy") for m in self.matrices]
 

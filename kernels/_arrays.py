@@ -3,6 +3,11 @@
 Static inputs (mesh topology, part labels, skin weights) come back unchanged every frame, so their
 costlier checks (index ranges, monotone row starts) run once per distinct array object and content
 (`checked_once`), the way UploadCache uploads them once; per-frame inputs keep their checks.
+
+Knowing that the content is unchanged costs a comparison with a snapshot every frame, unless the array
+is immutable: `immutable` copies an array into memory backed by a Python `bytes` object, which NumPy
+will not make writeable again, so the same object always holds the same content and a check or an
+upload is reused on identity alone. The loaded avatar's arrays are made this way.
 """
 from __future__ import annotations
 
@@ -27,6 +32,28 @@ def as_array(name: str, value, dtype, shape: tuple) -> np.ndarray:
     return array
 
 
+def immutable(array) -> np.ndarray:
+    """A read-only copy of `array` (same dtype and shape, C order) over a `bytes` buffer: its content
+    can never change, so checks and uploads of it are reused without comparing it again."""
+    array = np.ascontiguousarray(array)
+    return np.frombuffer(array.tobytes(), dtype=array.dtype).reshape(array.shape)
+
+
+def is_immutable(array: np.ndarray) -> bool:
+    """True if `array` and every array it views are read-only over a `bytes` buffer (see `immutable`)."""
+    while isinstance(array, np.ndarray):
+        if array.flags.writeable:
+            return False
+        array = array.base
+    return isinstance(array, bytes)
+
+
+def _unchanged(snapshot, array: np.ndarray) -> bool:
+    """Whether `array` (the object a snapshot was taken of) still holds the snapshot's content;
+    snapshot is None for an immutable array."""
+    return snapshot is None or np.array_equal(snapshot, array)
+
+
 def check_indices(name: str, indices: np.ndarray, upper: int) -> None:
     """Raises KernelError unless every entry of `indices` lies in [0, upper)."""
     if indices.size and (indices.min() < 0 or indices.max() >= upper):
@@ -43,12 +70,12 @@ class _Passed:
     def seen(self, key: tuple, arrays: tuple) -> bool:
         hit = self._entries.get(key)
         return (hit is not None and all(a is b for a, b in zip(hit[0], arrays))
-                and all(np.array_equal(copy, a) for copy, a in zip(hit[1], arrays)))
+                and all(_unchanged(copy, a) for copy, a in zip(hit[1], arrays)))
 
     def add(self, key: tuple, arrays: tuple) -> None:
         if key not in self._entries and len(self._entries) >= self._size:
             self._entries.pop(next(iter(self._entries)))
-        self._entries[key] = (arrays, tuple(a.copy() for a in arrays))
+        self._entries[key] = (arrays, tuple(None if is_immutable(a) else a.copy() for a in arrays))
 
 
 _PASSED = _Passed()
@@ -71,7 +98,8 @@ class UploadCache:
     """Device copies of inputs that rarely change (rest mesh, weights, triangles).
 
     An entry is reused only while the caller passes the same array object with the same content
-    (a comparison against a host snapshot, much cheaper than an upload to a GPU). With
+    (a comparison against a host snapshot, much cheaper than an upload to a GPU; none for an
+    immutable array, see `immutable`). With
     `snapshot=False` the upload must alias the caller's memory (a Warp-CPU array made with copy=False):
     content changes then show through by themselves, and an entry is reused for the same array object
     without a comparison (the entry keeps the object, hence its memory, alive).
@@ -86,12 +114,13 @@ class UploadCache:
     def get(self, key: str, array: np.ndarray):
         slot = (key, id(array), array.shape, array.dtype.str)
         hit = self._entries.get(slot)
-        if hit is not None and hit[0] is array and (hit[1] is None or np.array_equal(hit[1], array)):
+        if hit is not None and hit[0] is array and _unchanged(hit[1], array):
             return hit[2]
         device_array = self._upload(array)
         if len(self._entries) >= self._size:
             self._entries.pop(next(iter(self._entries)))
-        self._entries[slot] = (array, array.copy() if self._snapshot else None, device_array)
+        snapshot = array.copy() if self._snapshot and not is_immutable(array) else None
+        self._entries[slot] = (array, snapshot, device_array)
         return device_array
 
 

@@ -41,7 +41,7 @@ from typing import NamedTuple
 import numpy as np
 
 from kernels import backends
-from kernels._arrays import UploadCache, as_array, check_indices_once
+from kernels._arrays import UploadCache, as_array, check_indices_once, immutable
 from kernels.errors import KernelError
 
 LOOKS = ("shaded", "flat")
@@ -57,9 +57,10 @@ ID_SCALE = np.int64(2**32)             # key = depth code * ID_SCALE + triangle 
 EMPTY_KEY = np.int64(2**63 - 1)        # no triangle covers the pixel
 
 # Colours are indexed by part label (0 background, 1 body/clothes, 2 head, 3 left hand, 4 right hand).
-FLAT_PALETTE = np.array([[0, 0, 0], [0, 0, 255], [255, 0, 0], [0, 255, 0], [255, 255, 0]], dtype=np.uint8)
-SHADED_ALBEDO = np.array([[0, 0, 0], [46, 52, 70], [226, 176, 146], [226, 176, 146], [226, 176, 146]], dtype=np.uint8)
-STUDIO_BACKGROUND = np.array([92, 112, 128], dtype=np.uint8)
+FLAT_PALETTE = immutable(np.array([[0, 0, 0], [0, 0, 255], [255, 0, 0], [0, 255, 0], [255, 255, 0]], dtype=np.uint8))
+SHADED_ALBEDO = immutable(np.array([[0, 0, 0], [46, 52, 70], [226, 176, 146], [226, 176, 146], [226, 176, 146]],
+                                   dtype=np.uint8))
+STUDIO_BACKGROUND = immutable(np.array([92, 112, 128], dtype=np.uint8))
 KEY_LIGHT = np.array([0.35, 0.45, 1.0])            # direction towards the light, world (avatar faces +Z)
 AMBIENT, DIFFUSE = 0.30, 0.75
 _LIGHT = np.array([*(KEY_LIGHT / np.linalg.norm(KEY_LIGHT)), AMBIENT, DIFFUSE], dtype=np.float32)   # unit l, a, d
@@ -668,7 +669,7 @@ class _OpenCLRaster:
             k.resolve.set_arg(7, np.int32(s.shaded))
             frame.settings = settings
         background = s.background if s.shaded else s.palette[0]
-        if frame.drawn_background is None or not np.array_equal(background, frame.drawn_background):
+        if frame.drawn_background != background.tobytes():
             for index, value in enumerate(background):
                 k.resolve.set_arg(4 + index, np.uint8(value))
             frame.fresh = True
@@ -684,7 +685,7 @@ class _OpenCLRaster:
         frame.clean = True
         if frame.fresh:
             k.resolve.set_arg(8, np.int32(0))
-            frame.drawn_background = background.copy()
+            frame.drawn_background = background.tobytes()
             frame.fresh = False
         n = W * H
         return (host[:3 * n].reshape(H, W, 3), host[3 * n:4 * n].reshape(H, W),

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from kernels._arrays import immutable
 from kernels.skinning import SkinWeights
 from media import rotations
 from media.errors import SigncastError
@@ -170,22 +171,25 @@ def _load_avatar(path: str) -> Avatar:
         raise SigncastError(f"avatar file not found: {path}")
     try:
         data = np.load(path, allow_pickle=False)
+        # Immutable (bytes-backed) arrays: the avatar is cached and shared, and the kernels reuse their
+        # checks and uploads of immutable inputs without comparing them again every frame.
         skeleton = Skeleton(
             names=tuple(str(n) for n in data["bone_names"]),
-            parents=data["bone_parents"].astype(np.int32),
-            heads=data["bone_heads"].astype(np.float64),
-            tails=data["bone_tails"].astype(np.float64),
+            parents=immutable(data["bone_parents"].astype(np.int32)),
+            heads=immutable(data["bone_heads"].astype(np.float64)),
+            tails=immutable(data["bone_tails"].astype(np.float64)),
         )
         avatar = Avatar(
             name=Path(path).stem,
-            vertices=data["vertices"].astype(np.float32),
-            triangles=data["triangles"].astype(np.int32),
-            triangle_part=data["triangle_part"].astype(np.uint8),
-            triangle_shape=data["triangle_shape"].astype(np.uint8),
+            vertices=immutable(data["vertices"].astype(np.float32)),
+            triangles=immutable(data["triangles"].astype(np.int32)),
+            triangle_part=immutable(data["triangle_part"].astype(np.uint8)),
+            triangle_shape=immutable(data["triangle_shape"].astype(np.uint8)),
             shape_names=tuple(str(n) for n in data["shape_names"]),
             skeleton=skeleton,
-            weights=SkinWeights(data["weight_indptr"].astype(np.int32), data["weight_bones"].astype(np.int32),
-                                data["weight_values"].astype(np.float32)),
+            weights=SkinWeights(immutable(data["weight_indptr"].astype(np.int32)),
+                                immutable(data["weight_bones"].astype(np.int32)),
+                                immutable(data["weight_values"].astype(np.float32))),
         )
     except (KeyError, ValueError, OSError) as error:
         raise SigncastError(f"not a signcast avatar file: {path} ({error})") from None

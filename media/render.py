@@ -13,6 +13,7 @@ from typing import Iterator
 import numpy as np
 
 from kernels import backends, camera, muscles, raster, skinning
+from kernels._arrays import immutable
 from kernels.errors import KernelError
 from media.avatar import Avatar
 from media.domain import BODY, CLOTHES, DEFAULT_SIZE, EYE_WHITE, IRIS, SKIN_TONE
@@ -103,8 +104,8 @@ class AvatarRenderer:
         check_backend(settings.backend)
         self.avatar, self.settings = avatar, settings
         self.camera = signing_space_camera(avatar, settings.width, settings.height)
-        self.colours = triangle_colours(avatar)
-        self.dominant_bone = avatar.weights.dominant_bone()
+        self.colours = immutable(triangle_colours(avatar))
+        self.dominant_bone = immutable(avatar.weights.dominant_bone())
         self.use_muscles = settings.muscles and bool(avatar.muscles)
         if self.use_muscles:
             self.influence = muscle_influence(avatar)
