@@ -2,11 +2,13 @@
 
 Measures, in one run, on the default avatar (26,756 skin triangles + eyes) posed by real ASL
 fingerspelling, at 352x288 and 640x480 (change with --size, a comma-separated list), and a frame with
-two avatars side by side (two posed copies of the mesh, the second one half the word further on,
+two avatars side by side (two posed copies of the mesh, the second one half the word further on, skinned
+as one mesh with both copies' bones,
 54,072 triangles; at --two-avatars-size, default 352x288, empty to skip):
   * skinning alone (linear blend skinning of the rest mesh with one frame's bone matrices),
   * rasterization alone (pre-skinned positions -> rgb, labels, triangle ids, depth),
-  * skinning + rasterization,
+  * skinning + rasterization, in one call as the renderer makes it (kernels/skinned_raster.py: on OpenCL
+    the posed skin stays on the device),
 for each kernels backend (NumPy oracle, Warp on its device, OpenCL on its device); then the peer,
 Mesa llvmpipe through moderngl with an EGL surfaceless context, drawing the same pre-skinned
 meshes with the same camera (upload + draw with depth test and back-face culling + RGB readback),
@@ -44,15 +46,18 @@ PEER_PACKAGES = "libegl-mesa0 libegl1 libgl1-mesa-dri libgl1 libgles2 libglx-mes
 
 
 class Scene:
-    """What one benchmark frame draws: `copies` posed copies of the avatar side by side.
+    """What one benchmark frame draws: `copies` posed copies of the avatar side by side, as one skinned mesh.
 
-    triangles (F, 3) int32, triangle_part (F,) uint8, colours (F, 3) uint8 of all copies; camera (4, 4)
-    float32; matrices: per frame, one (B, 4, 4) float32 per copy; positions: per frame, the (V, 3)
-    float32 pre-skinned positions of all copies; offsets: (copies, 3) float32 world shift of each copy.
+    rest (copies * V, 3) float32 and weights (CSR, each copy's bones numbered after the last copy's): the
+    copies' skin; triangles (F, 3) int32, triangle_part (F,) uint8, colours (F, 3) uint8 of all copies;
+    camera (4, 4) float32; matrices: per frame, (copies * B, 4, 4) float32 bone matrices, copy c's shifted by
+    offsets[c] and posed c / copies of the word further on; positions: per frame, the (copies * V, 3) float32
+    skin posed by the NumPy oracle (what the peer draws); offsets: (copies, 3) float32 world shift of each copy.
     """
 
     def __init__(self, word: str, width: int, height: int, frames: int, copies: int = 1):
         from kernels._arrays import immutable
+        from kernels.skinning import SkinWeights
         from media.avatar import load_avatar
         from media.fingerspelling import fingerspell
         from media.kinematics import bone_matrices
@@ -72,23 +77,33 @@ class Scene:
             half_width = float(single[3] @ centre) / float(single[0, 0])
             self.camera = (np.diag([1.0 / copies, 1, 1, 1]) @ single).astype(np.float32)
             self.offsets = np.array([[(2 * c - copies + 1) * half_width, 0, 0] for c in range(copies)], np.float32)
-        V = len(avatar.vertices)
         # Immutable, like the renderer's own static arrays (media/render.py), so that the kernels upload
         # and check them once, the way the peer keeps its index buffer.
+        V, B, weights = len(avatar.vertices), matrices.shape[1], avatar.weights
+        if copies == 1:
+            self.rest, self.weights = avatar.vertices, weights
+        else:
+            nnz = len(weights.bones)
+            self.rest = immutable(np.tile(avatar.vertices, (copies, 1)))
+            self.weights = SkinWeights(
+                immutable(np.concatenate([weights.indptr[:-1] + c * nnz for c in range(copies)] + [[copies * nnz]])
+                          .astype(np.int32)),
+                immutable(np.concatenate([weights.bones + c * B for c in range(copies)]).astype(np.int32)),
+                immutable(np.tile(weights.values, copies)))
         self.triangles = immutable(np.concatenate([avatar.triangles + c * V for c in range(copies)]).astype(np.int32))
         self.triangle_part = immutable(np.tile(avatar.triangle_part, copies))
         self.colours = immutable(np.tile(triangle_colours(avatar), (copies, 1)))
-        self.matrices = [[matrices[(i + c * n // copies) % n] for c in range(copies)] for i in range(frames)]
+        self.matrices = []
+        for i in range(frames):
+            posed = np.concatenate([matrices[(i + c * n // copies) % n] for c in range(copies)])
+            posed[:, :3, 3] += np.repeat(self.offsets, B, axis=0)
+            self.matrices.append(posed)
         self.positions = [self.pose(m, "numpy") for m in self.matrices]
 
     def pose(self, matrices, backend: str) -> np.ndarray:
-        """(copies * V, 3) float32 skin of every copy, each skinned with its own bone matrices, then shifted."""
+        """(copies * V, 3) float32 skin of every copy, posed by one frame's bone matrices."""
         from kernels.skinning import skin
-        avatar = self.avatar
-        if len(self.offsets) == 1 and not self.offsets.any():
-            return skin(avatar.vertices, avatar.weights, matrices[0], backend=backend)
-        return np.concatenate([skin(avatar.vertices, avatar.weights, m, backend=backend) + offset
-                               for m, offset in zip(matrices, self.offsets)]).astype(np.float32)
+        return skin(self.rest, self.weights, matrices, backend=backend)
 
 
 def frames_per_second(step, frames: int, repeats: int, warmup: int = 5) -> float:
@@ -106,6 +121,7 @@ def frames_per_second(step, frames: int, repeats: int, warmup: int = 5) -> float
 def measure_backend(backend: str, scene: Scene, width, height, frames) -> dict:
     """One round of frames/s for skinning, rasterization, and both, on one backend."""
     from kernels.raster import rasterize
+    from kernels.skinned_raster import skin_and_rasterize
     n = len(scene.matrices)
 
     def skinning(i):
@@ -115,10 +131,9 @@ def measure_backend(backend: str, scene: Scene, width, height, frames) -> dict:
         rasterize(scene.positions[i % n], scene.triangles, scene.triangle_part, scene.camera, width, height,
                   triangle_colour=scene.colours, backend=backend)
 
-    def both(i):
-        posed = scene.pose(scene.matrices[i % n], backend)
-        rasterize(posed, scene.triangles, scene.triangle_part, scene.camera, width, height,
-                  triangle_colour=scene.colours, backend=backend)
+    def both(i):               # as the renderer draws a frame (media/render.py AvatarRenderer.render_pose)
+        skin_and_rasterize(scene.rest, scene.weights, scene.matrices[i % n], scene.triangles, scene.triangle_part,
+                           scene.camera, width, height, triangle_colour=scene.colours, backend=backend)
 
     count = max(frames // 6, 5) if backend == "numpy" else frames
     return {"skin": frames_per_second(skinning, count * 4, 1),

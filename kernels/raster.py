@@ -35,6 +35,7 @@ Looks: "shaded" (Lambert per face on a per-triangle albedo, uniform background) 
 be read back by colour). Labels are always hard (no anti-aliasing).
 """
 
+import functools
 import types
 from typing import NamedTuple
 
@@ -82,30 +83,63 @@ def rasterize(positions, triangles, triangle_part, camera, width: int, height: i
     Returns rgb (H, W, 3) uint8, labels (H, W) uint8 (0 where empty), triangle_id (H, W) int32
     (-1 where empty), depth (H, W) float32 window depth in [0, 1] (inf where empty).
     """
+    positions = as_array("positions", positions, np.float32, (None, 3))
+    scene = checked_scene(positions, triangles, triangle_part, camera, width, height, look=look,
+                          triangle_colour=triangle_colour, palette=palette, background=background,
+                          cull_back_faces=cull_back_faces)
+    if not np.all(np.isfinite(positions)):
+        raise KernelError(NOT_FINITE)
+    return _IMPLEMENTATIONS[backends.resolve(backend)].render(scene)
+
+
+NOT_FINITE = "positions hold NaN or infinite values"
+
+
+def checked_scene(positions: np.ndarray, triangles, triangle_part, camera, width: int, height: int, *,
+                  look: str = "shaded", triangle_colour=None, palette=None, background=None,
+                  cull_back_faces: bool = True) -> "_Scene":
+    """rasterize's arguments checked (raises KernelError) into a _Scene; positions: (V, 3) float32 array
+    whose values are not looked at (the caller checks them, or fills the device's copy itself)."""
     if look not in LOOKS:
         raise KernelError(f"unknown look {look!r}: choose shaded or flat")
     if not (isinstance(width, (int, np.integer)) and isinstance(height, (int, np.integer))
             and 1 <= width <= 8192 and 1 <= height <= 8192):
         raise KernelError(f"image size must be whole pixels in [1, 8192], got {width}x{height}")
-    positions = as_array("positions", positions, np.float32, (None, 3))
     triangles = as_array("triangles", triangles, np.int32, (None, 3))
     triangle_part = as_array("triangle_part", triangle_part, np.uint8, (len(triangles),))
     camera = as_array("camera", camera, np.float32, (4, 4))
     check_indices_once("triangles", triangles, len(positions))
-    if not np.all(np.isfinite(positions)):
-        raise KernelError("positions hold NaN or infinite values")
     palette = as_array("palette", FLAT_PALETTE if palette is None else palette, np.uint8, (None, 3))
     check_indices_once("triangle_part", triangle_part, len(palette))
     if look == "shaded":
-        colour = SHADED_ALBEDO[np.minimum(triangle_part, len(SHADED_ALBEDO) - 1)] if triangle_colour is None else triangle_colour
+        colour = (SHADED_ALBEDO[np.minimum(triangle_part, len(SHADED_ALBEDO) - 1)] if triangle_colour is None
+                  else triangle_colour)
         colour = as_array("triangle_colour", colour, np.uint8, (len(triangles), 3))
         background = as_array("background", STUDIO_BACKGROUND if background is None else background, np.uint8, (3,))
     else:
-        colour = np.zeros((len(triangles), 3), np.uint8)
+        colour = _unlit(len(triangles))
         background = palette[0].copy()
-    scene = _Scene(positions, triangles, triangle_part, camera, int(width), int(height), look == "shaded",
-                   colour, palette, background, _LIGHT, bool(cull_back_faces))
-    return _IMPLEMENTATIONS[backends.resolve(backend)].render(scene)
+    return _Scene(positions, triangles, triangle_part, camera, int(width), int(height), look == "shaded",
+                  colour, palette, background, _LIGHT, bool(cull_back_faces))
+
+
+@functools.lru_cache(maxsize=8)
+def _unlit(n_triangles: int) -> np.ndarray:
+    """(F, 3) uint8 zeros, the flat look's unused albedo: immutable, so the kernels upload it once."""
+    return immutable(np.zeros((n_triangles, 3), np.uint8))
+
+
+def render_scene(scene: "_Scene", backend: str = "auto", fill_positions=None):
+    """Draw a checked scene (`checked_scene`); rasterize's outputs. fill_positions (OpenCL only): a function
+    (queue, buffer) that enqueues the scene's positions into the device buffer in place of uploading
+    scene.positions (kernels/skinned_raster.py's skinning); positions that are not finite then raise
+    KernelError after the frame."""
+    name = backends.resolve(backend)
+    if fill_positions is None:
+        return _IMPLEMENTATIONS[name].render(scene)
+    if name != "opencl":
+        raise KernelError(f"fill_positions needs the opencl backend, not {name}")
+    return _IMPLEMENTATIONS[name].render(scene, fill_positions)
 
 
 class _Scene:
@@ -392,7 +426,7 @@ class _WarpRaster:
         host = frame.out_host.copy() if frame.on_cpu else frame.out.numpy()
         n = W * H
         return (host[:3 * n].reshape(H, W, 3), host[3 * n:4 * n].reshape(H, W),
-                host[4 * n:8 * n].view(np.int32).reshape(H, W), host[8 * n:].view(np.float32).reshape(H, W))
+                host[4 * n:8 * n].view(np.int32).reshape(H, W), host[8 * n:12 * n].view(np.float32).reshape(H, W))
 
 
 # --- OpenCL ---------------------------------------------------------------------------------------
@@ -436,13 +470,18 @@ inline float face_shade(float3 p0, float3 p1, float3 p2, int flipped, float lx, 
     return ambient + diffuse * fmax(cosine, 0.0f);
 }
 
-/* Vertices [g * chunk, (g + 1) * chunk) of n. m: the world -> clip matrix, row-major, as one kernel argument. */
+/* Vertices [g * chunk, (g + 1) * chunk) of n. m: the world -> clip matrix, row-major, as one kernel argument.
+   not_finite[g]: 1 if any of them has a coordinate that is NaN or infinite, else 0. */
 __kernel void project(__global const float *positions, float16 m, float width, float height, int n, int chunk,
                       __global long *fixed_x, __global long *fixed_y, __global float *depth,
-                      __global int *valid) {
-    int first = get_global_id(0) * chunk, last = min(first + chunk, n);
+                      __global int *valid, __global int *not_finite) {
+    int first = get_global_id(0) * chunk, last = min(first + chunk, n), bad = 0;
     for (int v = first; v < last; ++v) {
         float x = positions[3 * v], y = positions[3 * v + 1], z = positions[3 * v + 2];
+        /* positions the host did not check (filled on the device): flagged, and their triangles dropped */
+        int finite = isfinite(x) && isfinite(y) && isfinite(z);
+        bad |= !finite;
+        if (!finite) x = y = z = 0.0f;
         float cx = m.s0 * x + m.s1 * y + m.s2 * z + m.s3;
         float cy = m.s4 * x + m.s5 * y + m.s6 * z + m.s7;
         float cz = m.s8 * x + m.s9 * y + m.sa * z + m.sb;
@@ -455,8 +494,9 @@ __kernel void project(__global const float *positions, float16 m, float width, f
         if (fabs(wx) >= GUARD_PIXELS || fabs(wy) >= GUARD_PIXELS) ok = 0;
         fixed_x[v] = ok ? (long)floor(wx * (float)SUBPIXEL + 0.5f) : 0;
         fixed_y[v] = ok ? (long)floor(wy * (float)SUBPIXEL + 0.5f) : 0;
-        valid[v] = ok;
+        valid[v] = ok && finite;
     }
+    not_finite[get_global_id(0)] = bad;
 }
 
 /* Triangles [g * chunk, (g + 1) * chunk) of n: per-triangle setup (shaded look: the lit colour of a face that wrote a key
@@ -548,7 +588,8 @@ __kernel void clear(__global long *keys, int width, __global int *row_lo, __glob
 }
 
 /* Image row y: each key -> triangle id, label, depth and colour, into one output buffer read back in one
-   copy: rgb (3n bytes), labels (n), triangle ids (4n), depth (4n) for n pixels. The key is reset to
+   copy: rgb (3n bytes), labels (n), triangle ids (4n), depth (4n) for n pixels, then one int: whether any
+   position was not finite (row 0 gathers the project pass's flags). The key is reset to
    EMPTY_KEY for the next frame. The output is kept from frame to frame: unless `fresh`, only the pixels
    inside this frame's span of covered pixels [row_lo, row_hi] or the last frame's [drawn_lo, drawn_hi] are
    visited (the others were empty then and are empty now, so they hold the background already), and an empty
@@ -557,8 +598,13 @@ __kernel void clear(__global long *keys, int width, __global int *row_lo, __glob
 __kernel void resolve(__global long *keys, __global const uchar *triangle_part, __global const uchar *face_rgb,
                       __global const uchar *palette, uchar bg_r, uchar bg_g, uchar bg_b, int shaded, int fresh,
                       int width, int n, __global int *row_lo, __global int *row_hi, __global int *drawn_lo,
-                      __global int *drawn_hi, __global uchar *out) {
+                      __global int *drawn_hi, __global uchar *out, __global const int *not_finite, int n_groups) {
     int y = get_global_id(0);
+    if (y == 0) {              /* the project pass's flags, gathered into the int after the outputs */
+        int any = 0;
+        for (int g = 0; g < n_groups; ++g) any |= not_finite[g];
+        *(__global int *)(out + 12 * n) = any;
+    }
     __global uchar *rgb = out, *labels = out + 3 * n;
     __global int *triangle_id = (__global int *)(out + 4 * n);
     __global float *depth_out = (__global float *)(out + 8 * n);
@@ -618,25 +664,30 @@ class _OpenCLRaster:
         n, chunk = W * H, self.CHUNK
         frame = types.SimpleNamespace(
             kernels=kernels, positions=buffer(12 * V), fixed_x=buffer(8 * V), fixed_y=buffer(8 * V),
-            depth=buffer(4 * V), valid=buffer(4 * V), keys=buffer(8 * n), face_rgb=buffer(3 * F), out=buffer(12 * n),
-            spans=[buffer(4 * H) for _ in range(4)], clean=False, fresh=True, settings=None, drawn_background=None,
-            inputs=None, project_size=(max(-(-V // chunk), 1),), raster_size=(max(-(-F // chunk), 1),))
+            depth=buffer(4 * V), valid=buffer(4 * V), keys=buffer(8 * n), face_rgb=buffer(3 * F),
+            out=buffer(12 * n + 4), spans=[buffer(4 * H) for _ in range(4)], clean=False, fresh=True, settings=None,
+            drawn_background=None, inputs=None, project_size=(max(-(-V // chunk), 1),),
+            raster_size=(max(-(-F // chunk), 1),))
+        frame.not_finite = buffer(4 * frame.project_size[0])
         row_lo, row_hi, drawn_lo, drawn_hi = frame.spans
         kernels.project.set_args(frame.positions, np.zeros(1, cl.cltypes.float16)[0], np.float32(W), np.float32(H),
-                                 np.int32(V), np.int32(chunk), frame.fixed_x, frame.fixed_y, frame.depth, frame.valid)
+                                 np.int32(V), np.int32(chunk), frame.fixed_x, frame.fixed_y, frame.depth, frame.valid,
+                                 frame.not_finite)
         kernels.raster.set_args(triangles, frame.positions, frame.fixed_x, frame.fixed_y, frame.depth, frame.valid,
                                 np.int32(W), np.int32(H), np.int32(0), np.int32(0), *np.zeros(5, np.float32), colour,
                                 np.int32(F), np.int32(chunk), frame.keys, frame.face_rgb, row_lo, row_hi)
         kernels.clear.set_args(frame.keys, np.int32(W), row_lo, row_hi)
         kernels.resolve.set_args(frame.keys, part, frame.face_rgb, palette, *np.zeros(3, np.uint8), np.int32(0),
-                                 np.int32(1), np.int32(W), np.int32(n), row_lo, row_hi, drawn_lo, drawn_hi, frame.out)
+                                 np.int32(1), np.int32(W), np.int32(n), row_lo, row_hi, drawn_lo, drawn_hi, frame.out,
+                                 frame.not_finite, np.int32(frame.project_size[0]))
         frame.inputs = (triangles, part, colour, palette)
         if len(self._frames) >= 4:
             self._frames.pop(next(iter(self._frames)))
         self._frames[slot] = frame
         return frame
 
-    def render(self, s: _Scene):
+    def render(self, s: _Scene, fill_positions=None):
+        """rasterize's outputs; fill_positions: see render_scene (None: upload s.positions)."""
         import pyopencl as cl
         context, queue = backends.opencl_queue()
         if self._uploads is None:
@@ -675,21 +726,26 @@ class _OpenCLRaster:
             frame.fresh = True
         if frame.fresh:
             k.resolve.set_arg(8, np.int32(1))
-        cl.enqueue_copy(queue, frame.positions, s.positions, is_blocking=False)
+        if fill_positions is None:
+            cl.enqueue_copy(queue, frame.positions, s.positions, is_blocking=False)
+        else:
+            fill_positions(queue, frame.positions)
         cl.enqueue_nd_range_kernel(queue, k.project, frame.project_size, None)
         frame.clean = False
         cl.enqueue_nd_range_kernel(queue, k.raster, frame.raster_size, None)
         cl.enqueue_nd_range_kernel(queue, k.resolve, (H,), None)
-        host = np.empty(12 * W * H, np.uint8)
+        n = W * H
+        host = np.empty(12 * n + 4, np.uint8)
         cl.enqueue_copy(queue, host, frame.out, is_blocking=True)
         frame.clean = True
         if frame.fresh:
             k.resolve.set_arg(8, np.int32(0))
             frame.drawn_background = background.tobytes()
             frame.fresh = False
-        n = W * H
+        if host[12 * n:].any():          # only positions filled on the device can get here (rasterize checks)
+            raise KernelError(NOT_FINITE)
         return (host[:3 * n].reshape(H, W, 3), host[3 * n:4 * n].reshape(H, W),
-                host[4 * n:8 * n].view(np.int32).reshape(H, W), host[8 * n:].view(np.float32).reshape(H, W))
+                host[4 * n:8 * n].view(np.int32).reshape(H, W), host[8 * n:12 * n].view(np.float32).reshape(H, W))
 
 
 _IMPLEMENTATIONS = {"numpy": _NumpyRaster(), "warp": _WarpRaster(), "opencl": _OpenCLRaster()}

@@ -88,6 +88,12 @@ def _checked_weights(weights, n_vertices: int, n_bones: int) -> SkinWeights:
     return SkinWeights(indptr, bones, values)
 
 
+def checked_inputs(rest, weights, bone_matrices) -> tuple[np.ndarray, SkinWeights, np.ndarray]:
+    """skin's arguments checked (raises KernelError): rest (V, 3) float32, CSR weights, matrices (B, 4, 4) float32."""
+    rest, bone_matrices = _checked(rest, bone_matrices)
+    return rest, _checked_weights(weights, len(rest), len(bone_matrices)), bone_matrices
+
+
 def skin(rest, weights, bone_matrices, *, backend: str = "auto") -> np.ndarray:
     """Linear blend skinning.
 
@@ -96,9 +102,14 @@ def skin(rest, weights, bone_matrices, *, backend: str = "auto") -> np.ndarray:
     bone_matrices: (B, 4, 4) float32, rest-to-posed world transform of each bone.
     Returns (V, 3) float32 posed positions, metres.
     """
-    rest, bone_matrices = _checked(rest, bone_matrices)
-    weights = _checked_weights(weights, len(rest), len(bone_matrices))
+    rest, weights, bone_matrices = checked_inputs(rest, weights, bone_matrices)
     return _IMPLEMENTATIONS[backends.resolve(backend)].skin(rest, weights, bone_matrices)
+
+
+def enqueue_opencl(rest, weights, bone_matrices, posed_buffer) -> None:
+    """OpenCL skinning of `checked_inputs` into a device buffer of (V, 3) float32, enqueued on the process's
+    queue without waiting (kernels/skinned_raster.py passes the rasterizer's position buffer)."""
+    _IMPLEMENTATIONS["opencl"].enqueue(rest, weights, bone_matrices, posed_buffer)
 
 
 def skin_rigid(rest, dominant_bone, bone_matrices, *, backend: str = "auto") -> np.ndarray:
@@ -111,6 +122,11 @@ def skin_rigid(rest, dominant_bone, bone_matrices, *, backend: str = "auto") -> 
     dominant_bone = as_array("dominant_bone", dominant_bone, np.int32, (len(rest),))
     check_indices_once("dominant_bone", dominant_bone, len(bone_matrices))
     return _IMPLEMENTATIONS[backends.resolve(backend)].skin_rigid(rest, dominant_bone, bone_matrices)
+
+
+def _weight_arguments(weights: SkinWeights) -> list[tuple[str, np.ndarray]]:
+    """The CSR weights as the accelerated bodies upload them: (cache key, array) in kernel argument order."""
+    return [("indptr", weights.indptr), ("bones", weights.bones), ("values", weights.values)]
 
 
 # --- NumPy: the oracle ----------------------------------------------------------------------------
@@ -190,8 +206,7 @@ class _WarpSkinning:
         return job
 
     def skin(self, rest, weights, bone_matrices):
-        arguments = [("indptr", weights.indptr), ("bones", weights.bones), ("values", weights.values)]
-        return self._launch("linear_blend", rest, arguments, bone_matrices)
+        return self._launch("linear_blend", rest, _weight_arguments(weights), bone_matrices)
 
     def skin_rigid(self, rest, dominant_bone, bone_matrices):
         return self._launch("rigid", rest, [("dominant", dominant_bone)], bone_matrices)
@@ -233,7 +248,13 @@ class _OpenCLSkinning:
         self._uploads = None
         self._buffer = OpenCLBuffers().get
 
-    def _run(self, kernel, rest, arguments, bone_matrices):
+    def enqueue(self, rest, weights, bone_matrices, posed_buffer) -> None:
+        """Enqueue linear blend skinning of checked inputs into a device buffer of (V, 3) float32 (no wait):
+        kernels/skinned_raster.py hands it the rasterizer's position buffer."""
+        self._enqueue(backends.opencl_kernels(_OPENCL_SOURCE).linear_blend, rest, _weight_arguments(weights),
+                      bone_matrices, posed_buffer)
+
+    def _enqueue(self, kernel, rest, arguments, bone_matrices, posed_buffer) -> None:
         import pyopencl as cl
         context, queue = backends.opencl_queue()
         if self._uploads is None:
@@ -241,16 +262,21 @@ class _OpenCLSkinning:
             self._uploads = UploadCache(lambda a: cl.Buffer(context, flags, hostbuf=a))
         matrices = self._buffer("matrices", bone_matrices.nbytes)
         cl.enqueue_copy(queue, matrices, bone_matrices, is_blocking=False)
+        inputs = [self._uploads.get("rest", rest), *(self._uploads.get(name, a) for name, a in arguments)]
+        kernel(queue, (len(rest),), None, *inputs, matrices, posed_buffer)
+
+    def _run(self, kernel, rest, arguments, bone_matrices):
+        import pyopencl as cl
+        _, queue = backends.opencl_queue()
         posed = np.empty((len(rest), 3), dtype=np.float32)
         posed_d = self._buffer("posed", posed.nbytes)
-        inputs = [self._uploads.get("rest", rest), *(self._uploads.get(name, a) for name, a in arguments)]
-        kernel(queue, (len(rest),), None, *inputs, matrices, posed_d)
+        self._enqueue(kernel, rest, arguments, bone_matrices, posed_d)
         cl.enqueue_copy(queue, posed, posed_d, is_blocking=True)
         return posed
 
     def skin(self, rest, weights, bone_matrices):
-        arguments = [("indptr", weights.indptr), ("bones", weights.bones), ("values", weights.values)]
-        return self._run(backends.opencl_kernels(_OPENCL_SOURCE).linear_blend, rest, arguments, bone_matrices)
+        return self._run(backends.opencl_kernels(_OPENCL_SOURCE).linear_blend, rest, _weight_arguments(weights),
+                         bone_matrices)
 
     def skin_rigid(self, rest, dominant_bone, bone_matrices):
         return self._run(backends.opencl_kernels(_OPENCL_SOURCE).rigid, rest, [("dominant", dominant_bone)],

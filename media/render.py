@@ -14,6 +14,7 @@ import numpy as np
 
 from kernels import backends, camera, muscles, raster, skinning
 from kernels._arrays import immutable
+from kernels.skinned_raster import skin_and_rasterize
 from kernels.errors import KernelError
 from media.avatar import Avatar
 from media.domain import BODY, CLOTHES, DEFAULT_SIZE, EYE_WHITE, IRIS, SKIN_TONE
@@ -113,12 +114,8 @@ class AvatarRenderer:
 
     def pose_vertices(self, matrices: np.ndarray, activation: np.ndarray | None = None) -> np.ndarray:
         """(V, 3) float32 posed skin for bone matrices (B, 4, 4) and muscle activations (M,)."""
+        rest, matrices = self._rest_and_matrices(matrices, activation)
         backend = self.settings.backend
-        rest = self.avatar.vertices
-        if self.use_muscles and activation is not None and np.any(activation > 0):
-            posed_controls = stacked_control_points(self.avatar.muscles, activation)
-            rest = muscles.displace(rest, self.influence, self.rest_controls, posed_controls, backend=backend)
-        matrices = np.asarray(matrices, dtype=np.float32)
         if self.settings.segmented:
             return skinning.skin_rigid(rest, self.dominant_bone, matrices, backend=backend)
         return skinning.skin(rest, self.avatar.weights, matrices, backend=backend)
@@ -129,6 +126,27 @@ class AvatarRenderer:
         return raster.rasterize(vertices, self.avatar.triangles, self.avatar.triangle_part, self.camera,
                                 s.width, s.height, look=s.look, triangle_colour=self.colours, backend=s.backend)
 
+    def render_pose(self, matrices: np.ndarray, activation: np.ndarray | None = None):
+        """draw(pose_vertices(matrices, activation)) in one kernels call where the skin is blended
+        (kernels/skinned_raster.py: on OpenCL the posed skin stays on the device)."""
+        if self.settings.segmented:
+            return self.draw(self.pose_vertices(matrices, activation))
+        rest, matrices = self._rest_and_matrices(matrices, activation)
+        s = self.settings
+        return skin_and_rasterize(rest, self.avatar.weights, matrices, self.avatar.triangles,
+                                  self.avatar.triangle_part, self.camera, s.width, s.height, look=s.look,
+                                  triangle_colour=self.colours, backend=s.backend)
+
+    def _rest_and_matrices(self, matrices: np.ndarray, activation: np.ndarray | None):
+        """The skin before the bones move ((V, 3) float32: the rest mesh, displaced by the muscles that
+        contract) and the bone matrices as float32 (B, 4, 4)."""
+        rest = self.avatar.vertices
+        if self.use_muscles and activation is not None and np.any(activation > 0):
+            posed_controls = stacked_control_points(self.avatar.muscles, activation)
+            rest = muscles.displace(rest, self.influence, self.rest_controls, posed_controls,
+                                    backend=self.settings.backend)
+        return rest, np.asarray(matrices, dtype=np.float32)
+
     def frames(self, motion: Motion) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """Yield (rgb (H, W, 3) uint8, labels (H, W) uint8) for each frame of the motion."""
         skeleton = self.avatar.skeleton
@@ -138,7 +156,7 @@ class AvatarRenderer:
                        if self.use_muscles else np.zeros((motion.n_frames, 0)))
         for t in range(motion.n_frames):
             try:
-                rgb, labels, _, _ = self.draw(self.pose_vertices(matrices[t], contraction[t]))
+                rgb, labels, _, _ = self.render_pose(matrices[t], contraction[t])
             except KernelError as error:
                 raise SigncastError(f"rendering failed: {error}") from None
             yield rgb, labels

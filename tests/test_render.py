@@ -103,3 +103,16 @@ def test_kernel_errors_are_signcast_errors_so_the_command_line_catches_one_type(
     with pytest.raises(SigncastError, match=r"^image size must be whole pixels in \[1, 8192\], got 0x0$"):
         rasterize(np.zeros((3, 3), np.float32), np.array([[0, 1, 2]]), np.array([1], np.uint8),
                   np.eye(4, dtype=np.float32), 0, 0, backend="numpy")
+
+
+@pytest.mark.parametrize("segmented", [False, True])
+def test_render_pose_draws_what_draw_of_pose_vertices_draws_with_contracted_muscles(avatar, any_backend, segmented):
+    renderer = AvatarRenderer(avatar, RenderSettings(width=176, height=144, backend=any_backend, segmented=segmented))
+    motion = bent_elbow(avatar, 80)
+    matrices = bone_matrices(avatar.skeleton, motion)[0]
+    contraction = activations(avatar.skeleton, avatar.muscles, joint_positions(avatar.skeleton, motion))[0]
+    assert contraction.max() > 0.4
+    for activation in (contraction, np.zeros_like(contraction)):
+        expected = renderer.draw(renderer.pose_vertices(matrices, activation))
+        result = renderer.render_pose(matrices, activation)
+        assert all(np.array_equal(r, e) for r, e in zip(result, expected))
