@@ -288,65 +288,77 @@ def huffman_lut(first_code, count, start, symbols):
     return lut_symbol, lut_length
 
 
-@njit(cache=True, inline="always")
-def _code(data, end_bit: int, pos: int, run: int, lut_symbol, lut_length, first_code, count, start,
-          symbols) -> tuple[int, int, int]:
-    """entropy_coding._get_code_local: (symbol or status, pos, run). When the next LUT_BITS bits hold no
-    emulation-prevention bit (the zero run cannot reach MAX_ZERO_RUN in them) and a code of at most
-    LUT_BITS bits, that code from the table; else bit by bit."""
-    byte = pos >> 3
-    if run + LUT_BITS < MAX_ZERO_RUN and pos + LUT_BITS <= end_bit and byte + 2 < len(data):
-        window = (np.int64(data[byte]) << 16) | (np.int64(data[byte + 1]) << 8) | np.int64(data[byte + 2])
-        peek = (window >> (24 - (pos & 7) - LUT_BITS)) & ((1 << LUT_BITS) - 1)
-        length = lut_length[peek]
-        if length:
-            return lut_symbol[peek], pos + length, _run_after(peek >> (LUT_BITS - length), length, run)
-    return _get_code_local(data, end_bit, pos, run, first_code, count, start, symbols)
-
-
-@njit(cache=True, inline="always")
-def _value(data, end_bit: int, pos: int, run: int, cat: int) -> tuple[bool, int, int, int]:
-    """entropy_coding._get_value_local (sign, then cat - 1 low bits) with the cat bits read at once."""
-    if not cat:
-        return True, 0, pos, run
-    bits, pos, run = _bits_local(data, end_bit, pos, run, cat)
-    if bits < 0:
-        return False, 0, pos, run
-    magnitude = (1 << (cat - 1)) + (bits & ((1 << (cat - 1)) - 1))
-    return True, -magnitude if bits >> (cat - 1) else magnitude, pos, run
-
-
 @njit(cache=True)
 def _read_dct_blocks(data, end_bit: int, pos: int, run: int, dc, dc_lut, ac, ac_lut, n_categories: int, dc_out,
                      ac_out) -> tuple[int, int, int]:
     """entropy_coding.read_dct_blocks (its statuses) with table look-ups: (status, pos, run). dc, ac: a table's
-    (first code, count, start, symbols); dc_lut, ac_lut: their huffman_lut."""
+    (first code, count, start, symbols); dc_lut, ac_lut: their huffman_lut.
+
+    A code comes from its table when the next LUT_BITS bits hold no emulation-prevention bit (the zero run
+    cannot reach MAX_ZERO_RUN in them) and a code of at most LUT_BITS bits, else bit by bit
+    (entropy_coding._get_code_local); a value's cat bits (sign, then cat - 1 low bits) are read at once where
+    they hold no emulation-prevention bit either (entropy_coding._bits_local). The table read and the value
+    read are written out in this loop rather than called: every call or inlined helper taking an array costs
+    reference-count updates, which cost ~5x the ~16 ns the look-up itself takes."""
     n_ac = ac_out.shape[0]
-    status = 0
+    n_data = len(data)
+    dc_symbol, dc_length = dc_lut[0], dc_lut[1]
+    ac_symbol, ac_length = ac_lut[0], ac_lut[1]
+    dc_first, dc_count, dc_start, dc_symbols = dc[0], dc[1], dc[2], dc[3]
+    ac_first, ac_count, ac_start, ac_symbols = ac[0], ac[1], ac[2], ac[3]
     for p in range(len(dc_out)):
-        cat, pos, run = _code(data, end_bit, pos, run, dc_lut[0], dc_lut[1], dc[0], dc[1], dc[2], dc[3])
-        if cat < 0:
-            return cat, pos, run
-        ok, dc_out[p], pos, run = _value(data, end_bit, pos, run, cat)
-        if not ok:
-            return -1, pos, run
-        k = 0
-        while k < n_ac:
-            symbol, pos, run = _code(data, end_bit, pos, run, ac_lut[0], ac_lut[1], ac[0], ac[1], ac[2], ac[3])
+        k = -1                                    # -1: the DC code; then the AC position the next value fills
+        while True:
+            symbol = -1
+            byte = pos >> 3
+            if run + LUT_BITS < MAX_ZERO_RUN and pos + LUT_BITS <= end_bit and byte + 2 < n_data:
+                window = (np.int64(data[byte]) << 16) | (np.int64(data[byte + 1]) << 8) | np.int64(data[byte + 2])
+                peek = (window >> (24 - (pos & 7) - LUT_BITS)) & ((1 << LUT_BITS) - 1)
+                length = dc_length[peek] if k < 0 else ac_length[peek]
+                if length:
+                    symbol = dc_symbol[peek] if k < 0 else ac_symbol[peek]
+                    pos += length
+                    run = _run_after(peek >> (LUT_BITS - length), length, run)
             if symbol < 0:
-                return symbol, pos, run
-            if symbol == 0:
-                break
-            zeros = (symbol - 1) // (n_categories - 1)
-            cat = (symbol - 1) % (n_categories - 1)
-            k += zeros
-            if k >= n_ac:
-                return -3, pos, run
-            ok, ac_out[k, p], pos, run = _value(data, end_bit, pos, run, cat + 1)
-            if not ok:
-                return -1, pos, run
+                if k < 0:
+                    symbol, pos, run = _get_code_local(data, end_bit, pos, run, dc_first, dc_count, dc_start,
+                                                       dc_symbols)
+                else:
+                    symbol, pos, run = _get_code_local(data, end_bit, pos, run, ac_first, ac_count, ac_start,
+                                                       ac_symbols)
+                if symbol < 0:
+                    return symbol, pos, run
+            if k < 0:
+                cat = symbol
+            else:
+                if symbol == 0:                   # end of block
+                    break
+                k += (symbol - 1) // (n_categories - 1)          # the zeros before this value
+                if k >= n_ac:
+                    return -3, pos, run
+                cat = (symbol - 1) % (n_categories - 1) + 1
+            value = 0
+            if cat:
+                byte = pos >> 3
+                if run + cat < MAX_ZERO_RUN and (pos & 7) + cat <= 24 and pos + cat <= end_bit and byte + 2 < n_data:
+                    window = (np.int64(data[byte]) << 16) | (np.int64(data[byte + 1]) << 8) | np.int64(data[byte + 2])
+                    bits = (window >> (24 - (pos & 7) - cat)) & ((1 << cat) - 1)
+                    pos += cat
+                    run = _run_after(bits, cat, run)
+                else:
+                    bits, pos, run = _bits_local(data, end_bit, pos, run, cat)
+                    if bits < 0:
+                        return -1, pos, run
+                magnitude = (1 << (cat - 1)) + (bits & ((1 << (cat - 1)) - 1))
+                value = -magnitude if bits >> (cat - 1) else magnitude
+            if k < 0:
+                dc_out[p] = value
+            else:
+                ac_out[k, p] = value
             k += 1
-    return status, pos, run
+            if k >= n_ac:
+                break
+    return 0, pos, run
 
 
 @njit(cache=True)

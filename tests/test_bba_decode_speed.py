@@ -172,28 +172,36 @@ def test_decode_motion_is_bitwise_the_stream_reader_motion(avatar, codec):
 
 
 def test_huffman_table_look_ups_read_what_the_bit_by_bit_reader_reads():
-    """kernels/bba_units._code against entropy_coding._get_code_local on random bits with long zero runs
-    (emulation-prevention bits, codes longer than the table, the data's end): the same symbols, statuses
-    and reader states, code after code."""
+    """kernels/bba_units._read_dct_blocks (table look-ups, values read at once) against
+    entropy_coding.read_dct_blocks (bit by bit) on random bits with long zero runs (emulation-prevention bits,
+    codes longer than the table, the data's end): the same status, reader state and levels, block after block."""
     from comparisons import param_coding as pc
     from kernels import bba_units, entropy_coding
 
     rng = np.random.default_rng(11)
     tables = pc.vlc_tables()
-    for name in ("dc_intra", "dc_inter", "ac"):
-        reader = tables[name].arrays()[2:]
-        lut = bba_units.huffman_lut(*reader)
-        for _ in range(20):
-            data = rng.integers(0, 256, 64).astype(np.uint8)
-            data[rng.random(64) < 0.3] = 0
-            end_bit = int(rng.integers(1, 8 * 64))
-            pos, run = 0, 0
-            while True:
-                expected = entropy_coding._get_code_local(data, end_bit, pos, run, *reader)
-                assert bba_units._code(data, end_bit, pos, run, *lut, *reader) == expected
-                if expected[0] < 0:
-                    break
-                _, pos, run = expected
+    ac = tables["ac"].arrays()[2:]
+    ac_lut = bba_units.huffman_lut(*ac)
+    statuses = set()
+    for name in ("dc_intra", "dc_inter"):
+        dc = tables[name].arrays()[2:]
+        dc_lut = bba_units.huffman_lut(*dc)
+        for _ in range(300):
+            data = rng.integers(0, 256, 96).astype(np.uint8)
+            data[rng.random(96) < rng.choice([0.1, 0.3, 0.6])] = 0
+            end_bit = int(rng.integers(1, 8 * 96))
+            n_params, n_ac = int(rng.integers(1, 9)), int(rng.choice([0, 3, 15]))
+            expected_dc, expected_ac = np.zeros(n_params, np.int64), np.zeros((n_ac, n_params), np.int64)
+            state = np.zeros(3, np.int64)
+            expected = entropy_coding.read_dct_blocks(data, end_bit, state, *dc, *ac, pc.N_CATEGORIES, expected_dc,
+                                                      expected_ac)
+            result_dc, result_ac = np.zeros(n_params, np.int64), np.zeros((n_ac, n_params), np.int64)
+            status, pos, run = bba_units._read_dct_blocks(data, end_bit, 0, 0, dc, dc_lut, ac, ac_lut, pc.N_CATEGORIES,
+                                                          result_dc, result_ac)
+            assert (status, pos, run) == (expected, state[0], state[1])
+            assert np.array_equal(result_dc, expected_dc) and np.array_equal(result_ac, expected_ac)
+            statuses.add(status)
+    assert statuses >= {0, -1, -3}              # decoded, truncated, an AC run past the segment (the tables are complete)
 
 
 def _regenerate_reference(key_q, key_t, kfi):
