@@ -18,10 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from comparisons.lab_codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec
+from comparisons.lab_settings import MPEG4_CODECS, MPEG4_Q
 
-MPEG4_CODECS = ("fba-pred", "fba-dct", "bba-pred", "bba-dct")
-MPEG4_Q = (1, 2, 4, 8, 16, 31)
-FPS = 25.0
 
 # Seed 002 Appendix III, conversational sequence (kb/s, dB): PSNR for waveform, VPSNR for model-based coders.
 SEED_POINTS = {

@@ -28,6 +28,7 @@ import numpy as np
 from comparisons import bap_table
 from comparisons.coded_streams import DEFAULT_STAGE, StreamReader, check_size
 from comparisons.fba_mapping import avatar_bap_map, baps_to_motion, motion_to_baps
+from comparisons.lab_settings import EVALUATION_LANGUAGES
 from comparisons.model_coders import (GestureCoder, HybridCoder, PostureCoder, gesture_coder, hybrid_coder,
                                       load_model_tables, posture_coder)
 from comparisons.vector_quantization import (TABLES_DIR, SpatialVQ, TemporalVQ, load_vq_tables, spatial_vq,
@@ -254,7 +255,6 @@ def lab_codecs() -> list[LabCodec]:
     return [LabCodec(name) for name in LAB_CODEC_NAMES]
 
 
-EVALUATION_LANGUAGES = ("ase", "gsg", "tsm")  # charted; never used to train tables (tools/train_vq_codebooks.py)
 
 
 def alphabet_motion(language: str, fps: float = 25.0) -> Motion:

@@ -11,18 +11,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from comparisons.lab_charts import (FPS, MPEG4_CODECS, MPEG4_Q, count_points, operating_ranges, write_charts,
-                                    write_points, write_ranges)
-from comparisons.lab_codecs import (EVALUATION_LANGUAGES, LAB_CODEC_NAMES, MODEL_NAMES, WAVEFORM_NAMES, LabCodec,
-                                    alphabet_motion)
+from comparisons.lab_charts import count_points, operating_ranges, write_charts, write_points, write_ranges
+from comparisons.lab_codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec, alphabet_motion
+from comparisons.lab_settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, FPS, MPEG4_Q
 from comparisons.param_codecs import get_codec
 from comparisons.param_study import measure_point
 from comparisons.records import make_record, write_records
 from media import lexicon
 from media.domain import solution_of
 from media.errors import SigncastError
-
-DEFAULT_CODECS = tuple(LAB_CODEC_NAMES) + MPEG4_CODECS
 
 
 @dataclass(frozen=True)
