@@ -56,7 +56,7 @@ class Scene:
     """
 
     def __init__(self, word: str, width: int, height: int, frames: int, copies: int = 1):
-        from kernels._arrays import immutable
+        from kernels import immutable
         from kernels.skinning import SkinWeights
         from media.avatar import load_avatar
         from media.fingerspelling import fingerspell

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from kernels._arrays import immutable
+from kernels import immutable
 from kernels.skinning import SkinWeights
 from media import rotations
 from media.errors import SigncastError

@@ -12,8 +12,7 @@ from typing import Iterator
 
 import numpy as np
 
-from kernels import backends, camera, muscles, raster, skinning
-from kernels._arrays import immutable
+from kernels import backends, camera, immutable, muscles, raster, skinning
 from kernels.skinned_raster import skin_and_rasterize
 from kernels.errors import KernelError
 from media.avatar import Avatar
