@@ -35,8 +35,8 @@ def as_array(name: str, value, dtype, shape: tuple) -> np.ndarray:
 def immutable(array) -> np.ndarray:
     """A read-only copy of `array` (same dtype and shape, C order) over a `bytes` buffer: its content
     can never change, so checks and uploads of it are reused without comparing it again."""
-    array = np.ascontiguousarray(array)
-    return np.frombuffer(array.tobytes(), dtype=array.dtype).reshape(array.shape)
+    array = np.asarray(array)
+    return np.frombuffer(array.tobytes(order="C"), dtype=array.dtype).reshape(array.shape)
 
 
 def is_immutable(array: np.ndarray) -> bool:

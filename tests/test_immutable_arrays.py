@@ -18,6 +18,10 @@ def test_an_immutable_array_keeps_its_values_and_cannot_be_made_writeable():
     with pytest.raises(ValueError):
         frozen[1:].flags.writeable = True
     assert is_immutable(frozen) and is_immutable(frozen[1:]) and is_immutable(frozen.T)
+    for other in (np.float32(3.5), np.zeros((0, 3), np.int32), np.arange(6.0).reshape(2, 3).T):
+        copy = immutable(other)                           # a scalar, an empty array, a transposed view
+        assert copy.shape == np.shape(other) and copy.dtype == np.asarray(other).dtype
+        assert np.array_equal(copy, other) and copy.flags.c_contiguous and is_immutable(copy)
 
 
 def test_read_only_views_of_writeable_memory_are_not_immutable():
