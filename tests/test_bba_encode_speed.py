@@ -55,8 +55,17 @@ def test_undecided_candidates_are_decided_by_numpy(clips, monkeypatch):
     # Margins wider than any value: the kernel decides nothing, every candidate goes back to _within_each.
     monkeypatch.setattr(kf, "_MARGIN_RAD", 10.0)
     monkeypatch.setattr(kf, "_MARGIN_M", 10.0)
+    asked = []
+    numpy_test = kf._within_each
+    monkeypatch.setattr(kf, "_within_each", lambda *args: asked.append(args[2:4]) or numpy_test(*args))
     for motion in clips[:6]:
-        assert np.array_equal(kf.key_frames(motion, 0.05), kf._key_frames_numpy(motion, 0.05))
+        expected = kf._key_frames_numpy(motion, 0.05)
+        del asked[:]
+        assert np.array_equal(kf.key_frames(motion, 0.05), expected)
+        # one candidate at a time, every one of them: the first candidate of each key, 2 frames on, among them
+        assert all(len(first) == 1 for first, _ in asked)
+        firsts = {int(k) for k in expected if k + 2 <= motion.n_frames - 1}
+        assert firsts and firsts <= {int(first[0]) for first, last in asked if last[0] == first[0] + 2}
 
 
 def test_key_frames_edge_cases(clips):
