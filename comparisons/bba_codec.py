@@ -537,31 +537,40 @@ def _write_levels(header: BBAHeader, plan: _UnitPlan, intra_flags, levels, bones
 
 def _range_choice(by_key: np.ndarray, carried: np.ndarray | None, intra: np.ndarray, q: int) -> tuple[np.ndarray, bool]:
     """(fields (4, K) int64, tight) of a predictive stream: by_key (U, K) int64 levels by unit and stream key
-    (0 where not carried), carried (U, K) bool (None: every unit carries every key; the fields are then
-    kernels/bba_writer.range_fields', the same numbers), intra (U,) bool. Tight ranges unless the default
-    alphabets are estimated (log2 of alphabet sizes per coded level) to cost less than the range fields they save."""
+    (0 where not carried), carried (U, K) bool (None: every unit carries every key; the fields and the choice
+    are then kernels/bba_writer's range_fields and range_cost_gap, the same numbers and the same choice, NumPy's
+    sums deciding a near tie), intra (U,) bool. Tight ranges unless the default alphabets are estimated (log2
+    of alphabet sizes per coded level) to cost less than the range fields they save."""
     if carried is None:
         fields = writer_kernel.range_fields(by_key, intra, q, pc.RANGE_DELTA)
     else:
         fields = np.zeros((4, by_key.shape[1]), dtype=np.int64)
         fields[0], fields[1] = pc.range_fields(by_key[intra], q)
         fields[2], fields[3] = pc.range_fields(by_key[~intra], q)
-    if np.all(fields <= pc.DEFAULT_RANGE_FIELD):
-        default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
-        if carried is None:
-            n_intra = int(np.count_nonzero(intra))
-            counts = np.empty((2, by_key.shape[1]), dtype=np.int64)
-            counts[0], counts[1] = n_intra, len(intra) - n_intra
-        else:
-            counts = np.array([carried[intra].sum(axis=0), carried[~intra].sum(axis=0)], dtype=np.int64)
-
-        def estimate(f: np.ndarray) -> float:
-            i_low, i_high = pc.alphabet(f[0], f[1], q)
-            p_low, p_high = pc.alphabet(f[2], f[3], q)
-            return float((counts[0] * np.log2(i_high - i_low + 1)).sum() + (counts[1] * np.log2(p_high - p_low + 1)).sum())
-        if estimate(default) < estimate(fields) + 4 * pc.RANGE_BITS * by_key.shape[1]:
-            return default, False
+    if not np.all(fields <= pc.DEFAULT_RANGE_FIELD):
+        return fields, True
+    default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
+    if carried is None:
+        n_intra = int(np.count_nonzero(intra))
+        choice = writer_kernel.range_cost_gap(fields, n_intra, len(intra) - n_intra, q, pc.RANGE_DELTA,
+                                              pc.DEFAULT_RANGE_FIELD, pc.RANGE_BITS)
+        if choice >= 0:
+            return (default, False) if choice else (fields, True)
+        counts = np.empty((2, by_key.shape[1]), dtype=np.int64)
+        counts[0], counts[1] = n_intra, len(intra) - n_intra
+    else:
+        counts = np.array([carried[intra].sum(axis=0), carried[~intra].sum(axis=0)], dtype=np.int64)
+    if _estimated_bits(default, counts, q) < _estimated_bits(fields, counts, q) + 4 * pc.RANGE_BITS * by_key.shape[1]:
+        return default, False
     return fields, True
+
+
+def _estimated_bits(fields: np.ndarray, counts: np.ndarray, q: int) -> float:
+    """Bits of coding counts (2, K) levels (intra, predicted) of each key in the alphabets of fields (4, K),
+    estimated as log2 of the alphabet sizes."""
+    i_low, i_high = pc.alphabet(fields[0], fields[1], q)
+    p_low, p_high = pc.alphabet(fields[2], fields[3], q)
+    return float((counts[0] * np.log2(i_high - i_low + 1)).sum() + (counts[1] * np.log2(p_high - p_low + 1)).sum())
 
 
 def _check_header(h: BBAHeader) -> None:
@@ -574,6 +583,21 @@ def _check_header(h: BBAHeader) -> None:
         raise SigncastError(f"BBA header period {h.header_period} outside 0..63")
     if not 0 <= h.rotation_order < 24:
         raise SigncastError(f"rotationOrder {h.rotation_order} outside 0..23")
+
+
+@dataclass(frozen=True)
+class _ArrayTables:
+    """What `_write_arrays` needs of its streams' one set of bone masks, made once per set (`_array_tables`): the
+    bits of a unit's bone list (read-only uint8 0/1) and the (value, number of bits) of the header's bone table."""
+    list_bits: np.ndarray
+    bone_table: tuple[int, int]
+
+
+@functools.lru_cache(maxsize=256)
+def _array_tables(masks: tuple[tuple[int, int], ...], exponents: tuple[tuple[int, int], ...]) -> _ArrayTables:
+    """The `_ArrayTables` of sorted (boneID, mask) pairs, every bone animatable as it is sent (cached)."""
+    return _ArrayTables(_bit_array(*_bone_list_bits(masks, tuple(mask for _, mask in masks))),
+                        _bone_table_bits(masks, exponents))
 
 
 def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, values: np.ndarray,
@@ -595,15 +619,15 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
     if bones and (min(bones) < 0 or max(bones) > 1023):
         raise SigncastError(f"boneID {next(b for b in bones if not 0 <= b <= 1023)} outside 0..1023")
     numbers = np.cumsum(kfi + 1, dtype=np.int64) - 1     # display frames: 0, then KeyFrameIndex + 1 later each
-    _check_size(int(numbers[-1]) + 1, sum(mask.bit_count() for mask in bones.values()))
+    masks = tuple(sorted(bones.items()))
+    layout = _layout(masks, _exponent_items(skeleton))
+    _check_size(int(numbers[-1]) + 1, len(layout.keys))
     largest = int(np.abs(values).max(initial=0))
     if largest > VALUE_LIMIT:
         raise SigncastError(f"a BBA bone value of magnitude {largest} is beyond +-{VALUE_LIMIT}")
-    masks = tuple(sorted(bones.items()))
-    layout = _layout(masks, _exponent_items(skeleton))
+    tables = _array_tables(masks, _exponent_items(skeleton))
+    list_bits = tables.list_bits
     q = header.q
-    bone_ids = [b for b, _ in masks]
-    list_bits = _bit_array(*_bone_list_bits(masks, tuple(mask for _, mask in masks)))
     n_display = int(numbers[-1]) + 1
     if header.coding == "pred":
         intra = np.arange(n) % header.intra_period == 0
@@ -618,7 +642,7 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
             if np.any(sizes > pc.MAX_TOTAL // 2):
                 raise SigncastError(f"alphabet of {int(sizes.max())} symbols is too large for a frequency "
                                     f"limit of {pc.MAX_TOTAL}")
-        header_bits = _bit_array(*_header_bits(header, n_display, bone_ids, bones, tight, skeleton))
+        header_bits = _bit_array(*_header_bits(header, n_display, len(masks), tables.bone_table, tight))
         detail = np.zeros(4, dtype=np.int64)
         room = (2 * (len(header_bits) + 8 * fields.size) + len(list_bits) + 4 * 32 * (len(layout.keys) + 1) + 256)
         size = (len(header_bits) + 8 * fields.size + 64 + n * room) * 23 // 22 // 8 + 64
@@ -635,7 +659,7 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
             plan = _UnitPlan([[t] for t in range(n)], numbers, kfi.tolist(), [k > 0 for k in range(n)], [masks] * n,
                              [[]] * n)
             return _write(header, plan, intra.tolist(), [(layout.keys, layout.steps, level, columns) for level in levels],
-                          bone_ids, bones, fields, tight, skeleton)
+                          list(layout.bones), bones, fields, tight, skeleton)
         if n_bits == writer_kernel.STATUS_SYMBOL:
             raise SigncastError(f"symbol {int(detail[2])} outside the model's alphabet 0..{int(detail[3]) - 1}")
         return buffer[:(n_bits + 7) >> 3].tobytes()
@@ -647,7 +671,7 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
     for u, (start, size) in enumerate(zip(starts.tolist(), sizes.tolist())):
         dc[u], ac[u, :size - 1] = pc.dct_levels(values[start:start + size], dc_step, ac_step)
     intra = np.arange(len(starts)) % header.intra_period == 0
-    header_bits = _bit_array(*_header_bits(header, n_display, bone_ids, bones, False, skeleton))
+    header_bits = _bit_array(*_header_bits(header, n_display, len(masks), tables.bone_table, False))
     tables = pc.vlc_tables()
     detail = np.zeros(1, dtype=np.int64)
     size = (3 * len(header_bits) + len(starts) * (len(list_bits) + 72 * len(layout.keys) * pc.SEGMENT + 512)) * 23 // 22 // 8 + 64
@@ -699,14 +723,16 @@ def _write_header(writer: BitWriter, header: BBAHeader, n_frames: int, bones, an
     """The BBA start code and the header (the same bits for the first header and its copies)."""
     writer.start_code(BBA_START_CODE)
     header_start = writer.n_bits - 8               # the CRC covers the start code's last byte
-    writer.write(*_header_bits(header, n_frames, bones, animatable, tight, skeleton))
+    table = _bone_table_bits(tuple((b, animatable[b]) for b in bones), _exponent_items(skeleton))
+    writer.write(*_header_bits(header, n_frames, len(bones), table, tight))
     if tight:
         pc.write_range_fields(writer, fields)
     _write_crc(writer, header_start)
 
 
-def _header_bits(header: BBAHeader, n_frames: int, bones, animatable, tight: bool, skeleton) -> tuple[int, int]:
-    """(value, number of bits) of the header's fields after its start code, up to the range fields."""
+def _header_bits(header: BBAHeader, n_frames: int, n_bones: int, table: tuple[int, int], tight: bool) -> tuple[int, int]:
+    """(value, number of bits) of the header's fields after its start code, up to the range fields; table: the
+    (value, number of bits) of its bone table (`_bone_table_bits`) of n_bones bones."""
     writer = _Bits()
     writer.write(VERSION, 8)
     _write_fps(writer, header.fps)
@@ -718,8 +744,8 @@ def _header_bits(header: BBAHeader, n_frames: int, bones, animatable, tight: boo
     writer.write(n_frames, FRAME_NUMBER_BITS)
     writer.write(header.rotation_order, 5)
     writer.write_bit(int(tight))
-    writer.write(len(bones), 10)
-    writer.write(*_bone_table_bits(tuple((b, animatable[b]) for b in bones), _exponent_items(skeleton)))
+    writer.write(n_bones, 10)
+    writer.write(*table)
     return writer.value, writer.n_bits
 
 

@@ -20,6 +20,8 @@ The writer state (bit position, zero run) and the coder registers are local vari
 zero-filled buffer large enough (STATUS_FULL otherwise, nothing is valid then). Imports nothing of
 signcast's Python modules.
 """
+import math
+
 import numpy as np
 from numba import njit
 
@@ -273,3 +275,31 @@ def range_fields(levels, intra, q, delta):
         for c in range(k):
             fields[r, c] = -(-top[r, c] * q // delta)
     return fields
+
+
+# Relative gap below which `range_cost_gap` leaves the choice to the caller's NumPy sums: its sequential sums of
+# K <= 1023 terms (each a count times libm's log2) differ from NumPy's pairwise ones by far less (< 1e-12).
+COST_MARGIN = 1e-9
+
+
+@njit(cache=True)
+def range_cost_gap(fields, n_intra, n_predicted, q, delta, default_field, field_bits):
+    """The choice of comparisons/bba_codec._range_choice for units that all carry every key, compiled: fields
+    (4, K) int64 (`range_fields`), n_intra and n_predicted the units of each kind. The default alphabets win
+    where their estimated cost, sum over keys of n_intra log2(intra alphabet size) + n_predicted log2(predicted
+    alphabet size), is below the tight fields' plus the fields' own 4 field_bits K bits. Returns 1 (default),
+    0 (tight) or -1 (the two within COST_MARGIN of each other: the caller decides with NumPy's sums)."""
+    k = fields.shape[1]
+    default_cost = 0.0
+    tight_cost = 0.0
+    default_low, default_high = -(default_field * delta // q), default_field * delta // q
+    default_bits = math.log2(default_high - default_low + 1)
+    for c in range(k):
+        default_cost += n_intra * default_bits + n_predicted * default_bits
+        i_size = fields[0, c] * delta // q + (fields[1, c] * delta // q) + 1
+        p_size = fields[2, c] * delta // q + (fields[3, c] * delta // q) + 1
+        tight_cost += n_intra * math.log2(i_size) + n_predicted * math.log2(p_size)
+    tight_cost += 4 * field_bits * k
+    if abs(default_cost - tight_cost) <= COST_MARGIN * (default_cost + tight_cost):
+        return -1
+    return 1 if default_cost < tight_cost else 0

@@ -9,6 +9,8 @@ import pytest
 
 from comparisons import bba_codec
 from comparisons import keyframes as kf
+from comparisons import param_coding as pc
+from kernels import bba_writer as writer_kernel
 from media import rotations
 from media.face_rig import with_face_bones
 from media.fingerspelling import letter_motion
@@ -127,3 +129,31 @@ def test_dense_range_choice_is_the_masked_one():
                 assert tight == tight_ref and np.array_equal(fields, fields_ref) and fields.dtype == fields_ref.dtype
                 choices.add(tight)
     assert choices == {True, False}
+
+
+def test_compiled_range_cost_choice_is_numpys(monkeypatch):
+    """kernels/bba_writer.range_cost_gap's choice against NumPy's estimated bits on 3,000 random field sets
+    (near-tie gaps included), and its undecided answer (-1) handed to NumPy's sums."""
+    rng = np.random.default_rng(11)
+    bonus = 4 * pc.RANGE_BITS
+    decided = set()
+    for _ in range(3000):
+        k = int(rng.integers(1, 300))
+        fields = rng.integers(0, pc.DEFAULT_RANGE_FIELD + 1, size=(4, k)).astype(np.int64)
+        fields[:, rng.random(k) < 0.5] = pc.DEFAULT_RANGE_FIELD       # many keys at the default: near ties
+        n_intra, n_predicted, q = int(rng.integers(0, 5)), int(rng.integers(0, 60)), int(rng.integers(1, 32))
+        counts = np.array([[n_intra] * k, [n_predicted] * k], dtype=np.int64)
+        default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
+        expected = bba_codec._estimated_bits(default, counts, q) < bba_codec._estimated_bits(fields, counts, q) + bonus * k
+        choice = writer_kernel.range_cost_gap(fields, n_intra, n_predicted, q, pc.RANGE_DELTA,
+                                                   pc.DEFAULT_RANGE_FIELD, pc.RANGE_BITS)
+        assert choice == -1 or bool(choice) == expected
+        decided.add(choice)
+    assert {0, 1} <= decided
+    levels = np.round(rng.laplace(size=(24, 40)) * 3).astype(np.int64)
+    intra = np.arange(24) % 5 == 0
+    expected = [bba_codec._range_choice(levels, None, intra, q) for q in (1, 8, 31)]
+    monkeypatch.setattr(bba_codec.writer_kernel, "range_cost_gap", lambda *args: -1)
+    for q, (fields, tight) in zip((1, 8, 31), expected):
+        fields_numpy, tight_numpy = bba_codec._range_choice(levels, None, intra, q)
+        assert tight_numpy == tight and np.array_equal(fields_numpy, fields)
