@@ -24,8 +24,11 @@ def _quantize(value, step):
 
 @njit(cache=True)
 def _fold(value, period):
-    """value folded into (-period / 2, period / 2]: half - (half - value) mod period."""
+    """value folded into (-period / 2, period / 2]: half - (half - value) mod period (a value already there is
+    returned as it is without the division, the same number)."""
     half = period // 2
+    if half - period < value <= half:
+        return value
     rest = (half - value) % period
     if rest < 0:
         rest += period

@@ -82,6 +82,19 @@ def test_compiled_predictive_levels_match_the_unit_by_unit_loop(avatar, q):
         assert (sum(flags_a) == len(flags_a)) == jumping
 
 
+def test_compiled_fold_is_the_modulo_formula():
+    """kernels/bba_levels._fold (values already in range returned without a division) against
+    half - (half - v) mod period, at the range's ends and over three periods either way, odd periods too."""
+    from kernels import bba_levels
+    rng = np.random.default_rng(5)
+    for period in (bba_codec.ANGLE_PERIOD, 2, 3, 1001):
+        half = period // 2
+        values = np.concatenate([np.arange(half - period - 2, half + 3), rng.integers(-3 * period, 3 * period, 2000),
+                                 [-3 * period, 3 * period, half + period, half - 2 * period]])
+        for v in values.tolist():
+            assert bba_levels._fold(v, period) == half - (half - v) % period
+
+
 def test_compiled_predictive_levels_raise_the_loop_error_on_an_intra_level_out_of_range(avatar):
     motion = letter_motion("ase", "A", 25.0)
     far = _translated(motion, np.where(np.arange(motion.n_frames) == 3, 20.0, 0.0))   # beyond 15.24 m
