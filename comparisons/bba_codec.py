@@ -733,16 +733,25 @@ def _write_header(writer: BitWriter, header: BBAHeader, n_frames: int, bones, an
 def _header_bits(header: BBAHeader, n_frames: int, n_bones: int, table: tuple[int, int], tight: bool) -> tuple[int, int]:
     """(value, number of bits) of the header's fields after its start code, up to the range fields; table: the
     (value, number of bits) of its bone table (`_bone_table_bits`) of n_bones bones."""
+    return _header_field_bits(header.fps, header.coding, header.keyframes, header.q, header.intra_period,
+                              header.header_period, n_frames, header.rotation_order, tight, n_bones, table)
+
+
+@functools.lru_cache(maxsize=256)
+def _header_field_bits(fps: float, coding: str, keyframes: bool, q: int, intra_period: int, header_period: int,
+                       n_frames: int, rotation_order: int, tight: bool, n_bones: int, table: tuple[int, int]
+                       ) -> tuple[int, int]:
+    """`_header_bits` of the header's fields (cached: a sweep writes many streams with the same header)."""
     writer = _Bits()
     writer.write(VERSION, 8)
-    _write_fps(writer, header.fps)
-    writer.write(0 if header.coding == "pred" else 1, 2)
-    writer.write_bit(int(header.keyframes))
-    writer.write(header.q, 5)
-    writer.write(header.intra_period, 6)
-    writer.write(header.header_period, 6)
+    _write_fps(writer, fps)
+    writer.write(0 if coding == "pred" else 1, 2)
+    writer.write_bit(int(keyframes))
+    writer.write(q, 5)
+    writer.write(intra_period, 6)
+    writer.write(header_period, 6)
     writer.write(n_frames, FRAME_NUMBER_BITS)
-    writer.write(header.rotation_order, 5)
+    writer.write(rotation_order, 5)
     writer.write_bit(int(tight))
     writer.write(n_bones, 10)
     writer.write(*table)
