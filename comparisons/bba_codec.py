@@ -611,20 +611,20 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
         raise SigncastError("a BBA stream needs at least one frame")
     if kfi[0]:
         raise SigncastError("the first BBA frame has KeyFrameIndex 0: there is no frame before it to interpolate from")
-    bad = np.flatnonzero((kfi < 0) | (kfi > kf.MAX_KFI))
-    if len(bad):
-        raise SigncastError(f"KeyFrameIndex {int(kfi[bad[0]])} outside 0..31")
-    if header.coding == "dct" and np.any(kfi):
+    numbers, bad, any_kfi, largest = writer_kernel.frame_checks(   # numbers: display frames, KeyFrameIndex + 1 apart
+        np.ascontiguousarray(kfi, dtype=np.int64), np.ascontiguousarray(values, dtype=np.int64), kf.MAX_KFI)
+    if bad >= 0:
+        raise SigncastError(f"KeyFrameIndex {int(kfi[bad])} outside 0..31")
+    if header.coding == "dct" and any_kfi:
         raise SigncastError("the DCT BBA coder carries neither key frames nor muscles")
     if bones and (min(bones) < 0 or max(bones) > 1023):
         raise SigncastError(f"boneID {next(b for b in bones if not 0 <= b <= 1023)} outside 0..1023")
-    numbers = np.cumsum(kfi + 1, dtype=np.int64) - 1     # display frames: 0, then KeyFrameIndex + 1 later each
     masks = tuple(sorted(bones.items()))
     layout = _layout(masks, _exponent_items(skeleton))
     _check_size(int(numbers[-1]) + 1, len(layout.keys))
-    largest = int(np.abs(values).max(initial=0))
     if largest > VALUE_LIMIT:
-        raise SigncastError(f"a BBA bone value of magnitude {largest} is beyond +-{VALUE_LIMIT}")
+        shown = "2**63 or more" if largest == np.iinfo(np.int64).max else largest
+        raise SigncastError(f"a BBA bone value of magnitude {shown} is beyond +-{VALUE_LIMIT}")
     tables = _array_tables(masks, _exponent_items(skeleton))
     list_bits = tables.list_bits
     q = header.q
@@ -1432,7 +1432,9 @@ def _motion_arrays_numpy(motion: Motion, q: int, coding: str, keyframes: bool, t
     # Every frame carries every value that is ever sent (not only those changing in its intra
     # period), so an intra unit refreshes the whole pose: after a loss, the frames from the next
     # intra unit on are exact, and the frames a decoder reports lost are the only wrong ones.
-    sent = np.flatnonzero(np.any(pc.quantize(_fold(values, is_angle), steps * q) != 0, axis=0))
+    # (a value out of int64's range, -2**63 after the cast, is sent too, so that the writer rejects it)
+    sent = np.flatnonzero(np.any((pc.quantize(_fold(values, is_angle), steps * q) != 0)
+                                 | (values == np.iinfo(np.int64).min), axis=0))
     mask: dict[int, int] = {}
     for c in sent.tolist():
         b, bit = columns[c]

@@ -102,7 +102,8 @@ def motion_values(angles, translation, source, steps, is_angle, q, rotation_unit
     columns sorted by (boneID, bit), key_bone / key_bit (U,) theirs. Values are round(angle / rotation_unit)
     and round(translation / translation_unit) (np.round: half to even). A column is sent when a frame's
     value, folded into (-period / 2, period / 2] where it is an angle, quantises to a non-zero level at
-    steps * q, i.e. 2 |v| > steps * q (param_coding.quantize). Returns (values (K, P) int64 of the sent
+    steps * q, i.e. 2 |v| > steps * q (param_coding.quantize); a value out of int64's range (-2**63) is sent,
+    so that the writer rejects it. Returns (values (K, P) int64 of the sent
     (boneID, bit) in stream order, bones (M,) int64 ascending with masks (M,) int64 their sent bits, and
     order (M,) each bone's first sent column: `_motion_arrays` builds its mask dict in that order)."""
     n, n_bones = angles.shape[0], angles.shape[1]
@@ -124,7 +125,7 @@ def motion_values(angles, translation, source, steps, is_angle, q, rotation_unit
             v = raw[t, s]
             if is_angle[c]:
                 v = half - (half - v) % period
-            if 2 * abs(v) > limit:
+            if abs(v) > limit // 2 or v == -9223372036854775807 - 1:    # 2 |v| > limit, without overflow
                 sent[first[c]] = True
                 sent_at[first[c]] = min(sent_at[first[c]], c)
                 break

@@ -303,3 +303,31 @@ def range_cost_gap(fields, n_intra, n_predicted, q, delta, default_field, field_
     if abs(default_cost - tight_cost) <= COST_MARGIN * (default_cost + tight_cost):
         return -1
     return 1 if default_cost < tight_cost else 0
+
+
+@njit(cache=True)
+def frame_checks(kfi, values, max_kfi):
+    """What comparisons/bba_codec._write_arrays checks of its arrays, in one pass: kfi (F,) int64 KeyFrameIndex of
+    each frame, values (F, P) int64. Returns (numbers (F,) int64 the display frames, cumsum(kfi + 1) - 1; the index
+    of the first KeyFrameIndex outside 0..max_kfi, or -1; whether any KeyFrameIndex is nonzero; the largest
+    |value|, 0 for none; int64's most negative number, whose magnitude int64 cannot hold (what an out-of-range
+    quantisation gives), counts as its largest number)."""
+    numbers = np.empty(len(kfi), np.int64)
+    total = 0
+    bad = -1
+    nonzero = False
+    for t in range(len(kfi)):
+        total += kfi[t] + 1
+        numbers[t] = total - 1
+        if bad < 0 and not 0 <= kfi[t] <= max_kfi:
+            bad = t
+        nonzero = nonzero or kfi[t] != 0
+    largest = 0
+    for t in range(values.shape[0]):
+        for p in range(values.shape[1]):
+            v = values[t, p]
+            magnitude = -v if v < 0 else v
+            if magnitude < 0:                   # -(-2**63) wraps
+                magnitude = 9223372036854775807
+            largest = max(largest, magnitude)
+    return numbers, bad, nonzero, largest

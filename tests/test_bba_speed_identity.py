@@ -7,6 +7,7 @@ import pytest
 
 from comparisons import bba_codec
 from comparisons.fap_rates import synthetic_faps
+from comparisons.param_codecs import get_codec
 from media import face_rig
 from media.errors import SigncastError
 from media.face_rig import avatar_fapu, face_bone_rotations
@@ -93,6 +94,21 @@ def test_compiled_fold_is_the_modulo_formula():
                                  [-3 * period, 3 * period, half + period, half - 2 * period]])
         for v in values.tolist():
             assert bba_levels._fold(v, period) == half - (half - v) % period
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered in cast")
+def test_a_translation_beyond_int64_is_rejected_not_dropped(avatar):
+    """A root translation of 1e17 m quantises beyond int64 (-2**63 after the cast): the compiled analysis and
+    its NumPy reference both send it, and every BBA coder rejects it, rather than coding a motion that stands
+    still."""
+    motion = letter_motion("ase", "A", 25.0).without_face()
+    far = _translated(motion, np.full(motion.n_frames, 1e17))
+    compiled = bba_codec._motion_arrays(far, 4, "pred", False, None, None, 0, 0, "s", avatar.skeleton)
+    reference = bba_codec._motion_arrays_numpy(far, 4, "pred", False, None, None, 0, 0, "s", avatar.skeleton)
+    assert compiled[1] == reference[1] and np.array_equal(compiled[3], reference[3])
+    for name in ("bba-pred", "bba-dct", "bba-key"):
+        with pytest.raises(SigncastError, match=r"magnitude 2\*\*63 or more is beyond"):
+            get_codec(name).encode(far, 4)
 
 
 def test_compiled_predictive_levels_raise_the_loop_error_on_an_intra_level_out_of_range(avatar):
