@@ -81,7 +81,7 @@ class BbaCodec:
             ", key frames + interpolation" if keyframes else "")
 
     def encode(self, motion: Motion, q: int) -> bytes:
-        return bba_codec.encode_motion(with_face_bones(motion).without_face(), q, self.coding, keyframes=self.keyframes)
+        return bba_codec.encode_motion(with_face_bones(motion, keep_faps=False), q, self.coding, keyframes=self.keyframes)
 
     def decode(self, data: bytes) -> Motion:
         return bba_codec.decode_motion(data)

@@ -420,12 +420,13 @@ def _carried_bones_by_side(face: _Displacements, skeleton: Skeleton) -> dict[str
     return _carry(skeleton, "head", on_head) | _carry(skeleton, "jaw", on_jaw)
 
 
-def with_face_bones(motion: Motion, avatar: Avatar | None = None) -> Motion:
+def with_face_bones(motion: Motion, avatar: Avatar | None = None, *, keep_faps: bool = True) -> Motion:
     """The motion with its face played on the avatar's face bones (default: the vendored avatar).
 
     A motion without FAPs is returned as it is. Otherwise the face bones' rotations (from the FAPs, in
     this avatar's FAPU) replace the motion's own entries for those bones or are appended; the FAPs are
-    kept, so applying this twice gives the same motion.
+    kept, so applying this twice gives the same motion, unless keep_faps is False (what a coder of bones
+    sends: `with_face_bones(motion).without_face()`, built once).
     """
     if motion.faps is None:
         return motion
@@ -435,7 +436,8 @@ def with_face_bones(motion: Motion, avatar: Avatar | None = None) -> Motion:
     q = np.empty((motion.n_frames, len(names), 4))
     q[:, :len(motion.bone_names)] = motion.rotations          # the appended columns are all face bones
     q[:, position] = face
-    return Motion(motion.fps, names, q, motion.root_translation.copy(), motion.faps)     # Motion copies the FAPs
+    return Motion(motion.fps, names, q, motion.root_translation.copy(),                 # Motion copies the FAPs
+                  motion.faps if keep_faps else None)
 
 
 _BONE_PLANS: dict[tuple[tuple[str, ...], tuple[str, ...]], tuple[tuple[str, ...], np.ndarray]] = {}

@@ -138,6 +138,9 @@ def test_with_face_bones_is_idempotent_and_leaves_faceless_motions_alone(avatar)
     np.testing.assert_array_equal(twice.rotations, once.rotations)
     np.testing.assert_array_equal(once.faps, motion.faps)
     assert not np.allclose(once.rotations[:, once.bone("jaw")], rotations.IDENTITY)
+    bones_only = with_face_bones(motion, avatar, keep_faps=False)
+    assert bones_only.faps is None and bones_only.bone_names == once.bone_names
+    np.testing.assert_array_equal(bones_only.rotations, once.rotations)
 
 
 def test_face_bone_rotations_refuse_faps_of_the_wrong_shape(avatar):
