@@ -7,6 +7,8 @@
    Q in {1, 8, 31} and at the seed-002 coders' lowest, middle and highest operating points. Targets
    (issue 17): every FBA/BBA codec >= 1000x both ways, every seed-002 coder >= 200x. The first
    round of each codec also pays for loading tables and compiled kernels; a warm-up pass excludes it.
+   The MPEG-4 codecs are also timed on the same motions without their FAPs ('body'): BBA plays a face on
+   44 face bones through media/face_rig.py's solve, which FBA, coding the FAPs themselves, does not need.
 2. Arithmetic coder against the zero-order empirical entropy: the quantised P-frame residual levels
    of the FBA predictive coder over all 26 letters (Q = 1 and Q = 8) are coded as one sequence with
    one adaptive model; coded bits (excluding the 32-bit count) are compared with n * H(p). The same levels are
