@@ -308,7 +308,10 @@ def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, stric
     # (kernels/lab_rotations.py)
     lab_rotations.anatomical_bap_levels(motion.rotations, mapped, source, frames, neutrals, columns, signs,
                                         bap_table.ROTATION_UNIT_RAD, values)
-    translation_mm = np.round(motion.root_translation / bap_table.TRANSLATION_UNIT_M).astype(np.int64)
+    translation_mm = np.round(motion.root_translation / bap_table.TRANSLATION_UNIT_M)
+    if not np.all(np.abs(translation_mm) < 2.0 ** 62):     # the int64 cast would wrap (and warn)
+        raise SigncastError(f"root translation of {np.abs(motion.root_translation).max():.3g} m cannot be sent as BAPs")
+    translation_mm = translation_mm.astype(np.int64)
     values[:, 181 - 1] = translation_mm[:, 1]   # vertical
     values[:, 182 - 1] = translation_mm[:, 0]   # lateral
     values[:, 183 - 1] = translation_mm[:, 2]   # frontal

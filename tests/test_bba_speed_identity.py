@@ -2,6 +2,8 @@
 and the BBA coder's batched paths against the stream they must reproduce."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -100,7 +102,7 @@ def test_compiled_fold_is_the_modulo_formula():
 def test_a_translation_beyond_int64_is_rejected_not_dropped(avatar):
     """A root translation of 1e17 m quantises beyond int64 (-2**63 after the cast): the compiled analysis and
     its NumPy reference both send it, and every BBA coder rejects it, rather than coding a motion that stands
-    still."""
+    still; the FBA coders reject it before the cast."""
     motion = letter_motion("ase", "A", 25.0).without_face()
     far = _translated(motion, np.full(motion.n_frames, 1e17))
     compiled = bba_codec._motion_arrays(far, 4, "pred", False, None, None, 0, 0, "s", avatar.skeleton)
@@ -109,6 +111,11 @@ def test_a_translation_beyond_int64_is_rejected_not_dropped(avatar):
     for name in ("bba-pred", "bba-dct", "bba-key"):
         with pytest.raises(SigncastError, match=r"magnitude 2\*\*63 or more is beyond"):
             get_codec(name).encode(far, 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                      # FBA checks before the cast: no warning either
+        for name in ("fba-pred", "fba-dct"):
+            with pytest.raises(SigncastError, match="root translation of 1e\\+17 m cannot be sent as BAPs"):
+                get_codec(name).encode(far, 4)
 
 
 def test_compiled_predictive_levels_raise_the_loop_error_on_an_intra_level_out_of_range(avatar):
