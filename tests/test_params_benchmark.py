@@ -1,0 +1,30 @@
+"""benchmarks/params.py's speed table runs and fills its columns as it says: the Motion codec, the stream coding
+alone (FBA and the seed-002 coders; not BBA, whose analysis is its coder), and the MPEG-4 codecs on the motions
+without their FAPs. Timings are measured there, not checked here."""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from benchmarks import params as params_benchmark
+from media.fingerspelling import letter_motion
+
+
+def test_speed_table_columns(capsys):
+    motions = [letter_motion("ase", "A", params_benchmark.FPS)]
+    assert motions[0].faps is not None                  # the face is part of what is timed
+    worst = params_benchmark.speed(motions, 1, ["fba-dct", "bba-key", "quant"])
+    printed = capsys.readouterr().out
+    assert set(worst) == {"fba-dct", "bba-key", "quant"} and all(len(row) == 6 for row in worst.values())
+    finite = {name: [not math.isnan(value) for value in row] for name, row in worst.items()}
+    assert finite["fba-dct"] == [True] * 6
+    assert finite["bba-key"] == [True, True, False, False, True, True]
+    assert finite["quant"] == [True, True, True, True, False, False]
+    assert all(value > 0 for row in worst.values() for value in row if not math.isnan(value))
+    verdicts = [line.split() for line in printed.splitlines() if line.split()[:1] == ["bba-key"] and len(line.split()) >= 9]
+    assert verdicts and verdicts[-1][-2] in ("yes", "NO") and verdicts[-1][-1] in ("yes", "NO")
