@@ -196,7 +196,7 @@ def _frame(skeleton: Skeleton, bone: str, base: str) -> np.ndarray:
     if np.linalg.norm(flexion) < 0.3:
         return np.eye(3)
     flexion /= np.linalg.norm(flexion)
-    return np.stack([flexion, long_axis, np.cross(flexion, long_axis)], axis=1)
+    return np.stack([flexion, long_axis, rotations.cross(flexion, long_axis)], axis=1)
 
 
 _EXTRA_BONES = {

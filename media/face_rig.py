@@ -468,7 +468,7 @@ def _turn(arm: np.ndarray, displacement: np.ndarray) -> np.ndarray:
     across = np.linalg.norm(arm - along[:, None] * direction, axis=-1)
     reach = np.linalg.norm(arm)
     angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
-    return _from_axis_angle(np.cross(arm, direction), angle)
+    return _from_axis_angle(rotations.cross(arm, direction), angle)
 
 
 def _from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -489,7 +489,7 @@ def _turns(arms: np.ndarray, displacements: np.ndarray) -> np.ndarray:
     across = np.linalg.norm(arms[:, None] - along[..., None] * direction, axis=-1)
     reach = np.array([np.linalg.norm(arm) for arm in arms])[:, None]
     angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
-    return _from_axis_angle(np.cross(arms[:, None], direction), angle)
+    return _from_axis_angle(rotations.cross(arms[:, None], direction), angle)
 
 
 _ARMS: dict[tuple[int, Fapu], tuple[Skeleton, np.ndarray]] = {}
@@ -721,7 +721,7 @@ def _rotation_matrices(rotation_vectors: np.ndarray) -> np.ndarray:
 def _vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """(V, 3) unit area-weighted vertex normals (triangles counter-clockwise from outside)."""
     corners = vertices[triangles]
-    face_normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    face_normals = rotations.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     normals = np.zeros_like(vertices)
     for k in range(3):
         np.add.at(normals, triangles[:, k], face_normals)

@@ -147,7 +147,7 @@ def _optimise_angle(chain, angles, base, targets, j: int, k: int) -> None:
         along_c = np.sum(axis * current, axis=-1)
         along_d = np.sum(axis * desired, axis=-1)
         b_term = b_term + weight * (np.sum(desired * current, axis=-1) - along_c * along_d)
-        c_term = c_term + weight * np.sum(axis * np.cross(current, desired), axis=-1)
+        c_term = c_term + weight * np.sum(axis * rotations.cross(current, desired), axis=-1)
 
     for owner, rest_point, desired, weight in targets.points:
         if owner >= j:

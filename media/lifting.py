@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from media import rotations
+
 
 def to_plane(points_px: np.ndarray, pixels_per_metre: float | np.ndarray, origin_px: np.ndarray | None = None) -> np.ndarray:
     """Image points (..., >=2) pixels -> frontal-plane points (..., 2) metres (X right of image = +X, Y up)."""
@@ -70,7 +72,7 @@ def fit_triangle(observed: np.ndarray, template: np.ndarray) -> tuple[np.ndarray
     template = np.asarray(template, dtype=np.float64)
     edges_rest = np.stack([template[1] - template[0], template[2] - template[0]], axis=1)      # (3, 2)
     q, r = np.linalg.qr(edges_rest)                                                            # (3,2), (2,2)
-    normal = np.cross(q[:, 0], q[:, 1])
+    normal = rotations.cross(q[:, 0], q[:, 1])
     edges_seen = np.stack([observed[:, 1] - observed[:, 0], observed[:, 2] - observed[:, 0]], axis=-1)  # (T, 2 rows xy, 2 edges)
     # s * rows(R)[:2] @ edges_rest = edges_seen  ->  s * (Q^T r_i) = R^-T m_i =: c_i
     c = np.einsum("ij,tkj->tki", np.linalg.inv(r).T, edges_seen)                               # (T, 2, 2): c_1, c_2
@@ -112,7 +114,7 @@ def _orthonormal_rows(r1: np.ndarray, r2: np.ndarray) -> np.ndarray:
     x /= np.maximum(np.linalg.norm(x, axis=-1, keepdims=True), 1e-12)
     y = y - np.sum(x * y, axis=-1, keepdims=True) * x
     y /= np.maximum(np.linalg.norm(y, axis=-1, keepdims=True), 1e-12)
-    return np.stack([x, y, np.cross(x, y)], axis=1)
+    return np.stack([x, y, rotations.cross(x, y)], axis=1)
 
 
 def open_hinge(projected: np.ndarray, depth: np.ndarray, towards_parent: np.ndarray, min_angle: float,

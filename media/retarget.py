@@ -71,6 +71,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from kernels import viterbi
 from media import face_parameters, ik, lifting, rotations
 from media import jitter_filter as filters
 from media.avatar import Skeleton, load_avatar
@@ -284,7 +285,7 @@ def _palmar_normal(skeleton: Skeleton, side: str) -> np.ndarray:
     middle = _head(skeleton, f"finger3-1.{side}")
     wrist = _head(skeleton, f"wrist.{side}")
     across = index - little if side == "R" else little - index
-    return _unit(np.cross(across, middle - wrist))
+    return _unit(rotations.cross(across, middle - wrist))
 
 
 def _flexion_direction(skeleton: Skeleton, side: str, finger: str) -> np.ndarray:
@@ -308,9 +309,9 @@ def _elbow_hinge(skeleton: Skeleton, side: str) -> np.ndarray:
     (turns the forearm towards the upper arm). A straight rest arm flexes forward (+Z)."""
     upper = _unit(_head(skeleton, f"lowerarm01.{side}") - _head(skeleton, f"upperarm01.{side}"))
     fore = _unit(_head(skeleton, f"wrist.{side}") - _head(skeleton, f"lowerarm01.{side}"))
-    hinge = np.cross(upper, fore)
+    hinge = rotations.cross(upper, fore)
     if np.linalg.norm(hinge) < 1e-3:
-        hinge = np.cross(upper, np.array([0.0, 0.0, 1.0]))
+        hinge = rotations.cross(upper, np.array([0.0, 0.0, 1.0]))
     return _unit(hinge)
 
 
@@ -338,17 +339,17 @@ def joint_axes(skeleton: Skeleton, bone: str) -> np.ndarray:
         finger = "thumb" if base.startswith("finger1-") else "other"
         towards = _flexion_direction(skeleton, side, finger)
         abduction = _unit(towards - np.dot(towards, long_axis) * long_axis)
-        return np.stack([np.cross(long_axis, abduction), long_axis, abduction])
+        return np.stack([rotations.cross(long_axis, abduction), long_axis, abduction])
     if base in ("upperarm01", "upperarm02", "lowerarm01", "lowerarm02"):
         flexion = _elbow_hinge(skeleton, side)
         along = _bone_vector(skeleton, bone)
         long_axis = _unit(along - np.dot(along, flexion) * flexion)
-        return np.stack([flexion, long_axis, np.cross(flexion, long_axis)])
+        return np.stack([flexion, long_axis, rotations.cross(flexion, long_axis)])
     if base == "wrist":
         palmar = _palmar_normal(skeleton, side)
         fore = _unit(_head(skeleton, f"wrist.{side}") - _head(skeleton, f"lowerarm01.{side}"))
-        flexion = _unit(np.cross(fore, palmar))
-        return np.stack([flexion, np.cross(palmar, flexion), palmar])
+        flexion = _unit(rotations.cross(fore, palmar))
+        return np.stack([flexion, rotations.cross(palmar, flexion), palmar])
     raise SigncastError(f"no anatomical axes for bone {bone!r}: only arm and hand bones have them here")
 
 
@@ -531,8 +532,17 @@ def smooth_choice(unary: np.ndarray, pairwise: np.ndarray) -> np.ndarray:
 
     unary: (T, K) cost of each option per frame; pairwise: (T-1, K, K) cost of moving from option i
     at frame t to option j at frame t+1 (here: how far the pose jumps, so a depth-mirror choice
-    does not flicker from frame to frame).
+    does not flicker from frame to frame). Compiled (kernels/viterbi.py); `_smooth_choice_numpy` is the loop
+    in NumPy, its reference.
     """
+    unary = np.ascontiguousarray(unary, dtype=np.float64)
+    if not len(unary):
+        return np.empty(0, dtype=np.int64)
+    return viterbi.smooth_choice(unary, np.ascontiguousarray(pairwise, dtype=np.float64))
+
+
+def _smooth_choice_numpy(unary: np.ndarray, pairwise: np.ndarray) -> np.ndarray:
+    """`smooth_choice` in NumPy."""
     n_frames, n_options = unary.shape
     total = unary[0].copy()
     back = np.zeros((n_frames, n_options), dtype=np.int64)
@@ -644,9 +654,9 @@ def neutral_pose(skeleton: Skeleton, side: str) -> dict[str, np.ndarray]:
     upper_rest, fore_rest = _unit(elbow - shoulder), _unit(wrist - elbow)
     hinge = _elbow_hinge(skeleton, side)
     hanging = np.array([outwards * np.sin(tilt), -np.cos(tilt), 0.0])
-    level_hinge = _unit(np.cross(hanging, np.array([0.0, 0.0, 1.0])))   # flexes the hanging forearm forward
-    rest_frame = np.stack([upper_rest, hinge, np.cross(upper_rest, hinge)], axis=1)
-    posed_frame = np.stack([hanging, level_hinge, np.cross(hanging, level_hinge)], axis=1)
+    level_hinge = _unit(rotations.cross(hanging, np.array([0.0, 0.0, 1.0])))   # flexes the hanging forearm forward
+    rest_frame = np.stack([upper_rest, hinge, rotations.cross(upper_rest, hinge)], axis=1)
+    posed_frame = np.stack([hanging, level_hinge, rotations.cross(hanging, level_hinge)], axis=1)
     pose = {f"upperarm01.{side}": rotations.from_matrix(posed_frame @ rest_frame.T)}
     pose[f"lowerarm01.{side}"] = rotations.from_axis_angle(hinge, -np.arccos(np.clip(upper_rest @ fore_rest, -1.0, 1.0)))
     wrist_axes = joint_axes(skeleton, f"wrist.{side}")
@@ -660,7 +670,7 @@ def neutral_pose(skeleton: Skeleton, side: str) -> dict[str, np.ndarray]:
     flat = lambda v: _unit(v - np.dot(v, axis_world) * axis_world)
     now, goal = flat(palm_now), flat(np.array([-outwards, 0.0, 0.0]))
     pose[f"lowerarm02.{side}"] = rotations.from_axis_angle(
-        twist_axis, np.arctan2(np.dot(np.cross(now, goal), axis_world), np.dot(now, goal)))
+        twist_axis, np.arctan2(np.dot(rotations.cross(now, goal), axis_world), np.dot(now, goal)))
     for finger, chain in FINGER_CHAINS.items():
         for level, (bone, _, _) in enumerate(chain, start=1):
             if finger == "thumb" and level == 1:
@@ -669,7 +679,7 @@ def neutral_pose(skeleton: Skeleton, side: str) -> dict[str, np.ndarray]:
             flexion_axis, long_axis, _ = joint_axes(skeleton, name)
             line = _bone_vector(skeleton, skeleton.names[skeleton.parents[skeleton.index(name)]])
             line = line - np.dot(line, flexion_axis) * flexion_axis
-            curl = np.arctan2(np.dot(np.cross(line, long_axis), flexion_axis), np.dot(line, long_axis))
+            curl = np.arctan2(np.dot(rotations.cross(line, long_axis), flexion_axis), np.dot(line, long_axis))
             pose[name] = rotations.from_axis_angle(flexion_axis, -curl)
     return {name: rotations.canonical(rotations.normalize(q)) for name, q in pose.items()}
 
@@ -974,7 +984,7 @@ def _thumb_base_twist(skeleton: Skeleton, side: str, base_world: np.ndarray,
     hinge, mcp_long, mcp_palmward = joint_axes(skeleton, f"finger1-2.{side}")
     hinge_along = hinge @ long_axis
     hinge_across = hinge - hinge_along * long_axis
-    hinge_side = np.cross(long_axis, hinge_across)
+    hinge_side = rotations.cross(long_axis, hinge_across)
     flex_lo, flex_hi = np.radians(THUMB_LIMITS[2][0])
     limit, easy = np.radians(THUMB_TWIST_MAX), np.radians(THUMB_EASY_TWIST)
     inverse = rotations.conjugate(base_world)

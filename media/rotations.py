@@ -21,6 +21,8 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from kernels import vector_rotation
+
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 _AXES = "XYZ"
 _XYZW = [1, 2, 3, 0]                  # (w, x, y, z) -> scipy's (x, y, z, w)
@@ -109,12 +111,33 @@ def from_matrix(m: np.ndarray) -> np.ndarray:
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate vectors v (..., 3) by q (..., 4) (broadcast) -> (..., 3)."""
+    """Rotate vectors v (..., 3) by q (..., 4) (broadcast) -> (..., 3): scipy's Rotation.from_quat(q).apply(v),
+    bitwise; two or more vectors in C order by kernels/vector_rotation.py (scipy's operations in scipy's order,
+    without its per-call cost), otherwise by scipy itself (one vector goes through BLAS, and vectors in another
+    layout through einsum's plain loop, which sums in another order)."""
     q = np.asarray(q, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     shape = np.broadcast_shapes(q.shape[:-1], v.shape[:-1])
     vectors = np.array(np.broadcast_to(v, shape + (3,)).reshape(-1, 3))     # writable, for scipy's Cython
+    # scipy's einsum sums three products in an order that depends on the vectors' layout (its SIMD loop for
+    # C-contiguous rows, a plain loop otherwise); np.array keeps a transposed input's layout
+    if len(vectors) > 1 and vectors.flags.c_contiguous:
+        rotated, ok = vector_rotation.rotate(np.ascontiguousarray(np.broadcast_to(q, shape + (4,)).reshape(-1, 4)),
+                                             vectors)
+        if ok:
+            return rotated.reshape(shape + (3,))
     return as_rotation(np.broadcast_to(q, shape + (4,))).apply(vectors).reshape(shape + (3,))
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b (..., 3) of 3-vectors a, b (..., 3) broadcast together: np.cross's operations (each component one
+    product less another, a[1] b[2] - a[2] b[1], ...), so its numbers bit for bit, without its axis handling,
+    which costs ~10 us a call on the retargeting's small arrays."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -123,14 +146,14 @@ def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     b = np.asarray(b, dtype=np.float64)
     a = a / np.linalg.norm(a, axis=-1, keepdims=True)
     b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    cross = np.cross(a, b)
+    normal = cross(a, b)
     dot = np.sum(a * b, axis=-1, keepdims=True)
-    q = np.concatenate([1.0 + dot, cross], axis=-1)
+    q = np.concatenate([1.0 + dot, normal], axis=-1)
     # Opposite directions: rotate by pi about any axis perpendicular to a.
     opposite = (dot[..., 0] < -1.0 + 1e-12)
     if np.any(opposite):
         helper = np.where(np.abs(a[..., :1]) < 0.9, np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
-        perpendicular = np.cross(a, helper)
+        perpendicular = cross(a, helper)
         q = np.where(opposite[..., None], np.concatenate([np.zeros_like(dot), perpendicular], axis=-1), q)
     return normalize(q)
 

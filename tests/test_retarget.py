@@ -170,6 +170,23 @@ def test_smooth_choice_keeps_a_depth_mirror_unless_the_evidence_is_strong():
     assert retarget.smooth_choice(strong, jump).tolist() == [0, 1, 1, 1]
 
 
+def test_compiled_smooth_choice_is_the_numpy_loop():
+    """kernels/viterbi.py against the NumPy loop: random costs with 2-4 options, exact ties (small integers)
+    and NaNs (np.argmin takes the first NaN), one frame and two."""
+    rng = np.random.default_rng(4)
+    for trial in range(600):
+        n_frames, n_options = int(rng.integers(1, 40)), int(rng.integers(2, 5))
+        unary = rng.normal(size=(n_frames, n_options))
+        pairwise = rng.normal(size=(max(n_frames - 1, 0), n_options, n_options))
+        if trial % 3 == 1:                                   # ties
+            unary, pairwise = np.round(unary), np.round(pairwise)
+        if trial % 5 == 2:
+            unary[rng.random(unary.shape) < 0.1] = np.nan
+            pairwise[rng.random(pairwise.shape) < 0.1] = np.nan
+        expected = retarget._smooth_choice_numpy(unary, pairwise)
+        assert retarget.smooth_choice(unary, pairwise).tolist() == expected.tolist()
+
+
 def test_palm_does_not_flip_while_the_hand_holds_still(skeleton):
     for letter in "AI":
         clip = lexicon.read_clip(lexicon.lookup("ase", letter))
