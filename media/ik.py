@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from kernels import scipy_rotation
 from media import rotations
 
 
@@ -46,7 +47,14 @@ class IKTargets:
 
 
 def _axis_matrices(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """(T, K, 3, 3) rotation about each unit axis (K, 3) by each angle (T, K) (Rodrigues)."""
+    """(T, K, 3, 3) rotation about each unit axis (K, 3) by each angle (T, K) (Rodrigues; compiled,
+    kernels/scipy_rotation.axis_matrices; `_axis_matrices_numpy` is the NumPy form)."""
+    return scipy_rotation.axis_matrices(np.ascontiguousarray(axes, dtype=np.float64),
+                                        np.ascontiguousarray(angles, dtype=np.float64))
+
+
+def _axis_matrices_numpy(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """`_axis_matrices` in NumPy."""
     axes = np.asarray(axes, dtype=np.float64)
     cross = np.zeros(axes.shape[:-1] + (3, 3))
     cross[..., 0, 1], cross[..., 0, 2], cross[..., 1, 2] = -axes[..., 2], axes[..., 1], -axes[..., 0]

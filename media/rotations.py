@@ -21,7 +21,7 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from kernels import vector_rotation
+from kernels import scipy_rotation
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 _AXES = "XYZ"
@@ -84,9 +84,12 @@ def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """axis: (..., 3) (need not be unit; a zero axis gives the identity); angle: (...) radians
     -> (..., 4) (w, x, y, z) = (cos(angle / 2), sin(angle / 2) axis) (broadcast)."""
     axis = np.asarray(axis, dtype=np.float64)
-    unit = axis / np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-300)
-    rotvec = unit * np.asarray(angle, dtype=np.float64)[..., None]
-    return as_quaternion(Rotation.from_rotvec(rotvec.reshape(-1, 3)), rotvec.shape[:-1])
+    angle = np.asarray(angle, dtype=np.float64)
+    shape = np.broadcast_shapes(axis.shape[:-1], angle.shape)
+    # unit axis times angle, then scipy's from_rotvec, compiled operation for operation (kernels/scipy_rotation.py)
+    quaternions = scipy_rotation.from_axis_angle(np.ascontiguousarray(np.broadcast_to(axis, shape + (3,)).reshape(-1, 3)),
+                                                 np.ascontiguousarray(np.broadcast_to(angle, shape).reshape(-1)))
+    return quaternions.reshape(shape + (4,))
 
 
 def to_axis_angle(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -112,7 +115,7 @@ def from_matrix(m: np.ndarray) -> np.ndarray:
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors v (..., 3) by q (..., 4) (broadcast) -> (..., 3): scipy's Rotation.from_quat(q).apply(v),
-    bitwise; two or more vectors in C order by kernels/vector_rotation.py (scipy's operations in scipy's order,
+    bitwise; two or more vectors in C order by kernels/scipy_rotation.py (scipy's operations in scipy's order,
     without its per-call cost), otherwise by scipy itself (one vector goes through BLAS, and vectors in another
     layout through einsum's plain loop, which sums in another order)."""
     q = np.asarray(q, dtype=np.float64)
@@ -122,7 +125,7 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     # scipy's einsum sums three products in an order that depends on the vectors' layout (its SIMD loop for
     # C-contiguous rows, a plain loop otherwise); np.array keeps a transposed input's layout
     if len(vectors) > 1 and vectors.flags.c_contiguous:
-        rotated, ok = vector_rotation.rotate(np.ascontiguousarray(np.broadcast_to(q, shape + (4,)).reshape(-1, 4)),
+        rotated, ok = scipy_rotation.rotate(np.ascontiguousarray(np.broadcast_to(q, shape + (4,)).reshape(-1, 4)),
                                              vectors)
         if ok:
             return rotated.reshape(shape + (3,))

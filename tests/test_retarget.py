@@ -170,6 +170,23 @@ def test_smooth_choice_keeps_a_depth_mirror_unless_the_evidence_is_strong():
     assert retarget.smooth_choice(strong, jump).tolist() == [0, 1, 1, 1]
 
 
+def test_compiled_axis_matrices_are_the_numpy_broadcast():
+    """media/ik.py's Rodrigues matrices compiled (kernels/scipy_rotation.axis_matrices) against the NumPy form,
+    bitwise: random and axis-aligned axes (signed zeros), angles over eight decades, +-0."""
+    rng = np.random.default_rng(2)
+    for trial in range(300):
+        n_axes, n_frames = int(rng.integers(1, 4)), int(rng.integers(1, 60))
+        axes = rng.normal(size=(n_axes, 3))
+        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+        if trial % 4 == 0:
+            axes = np.eye(3)[:n_axes] * rng.choice([-1.0, 1.0], (n_axes, 1))
+        angles = rng.uniform(-4, 4, (n_frames, n_axes)) * 10.0 ** rng.uniform(-8, 0, (n_frames, n_axes))
+        angles[:, 0] = 0.0 if trial % 5 == 0 else angles[:, 0]
+        angles[:, -1] = -0.0 if trial % 7 == 0 else angles[:, -1]
+        expected = ik._axis_matrices_numpy(axes, angles)
+        assert np.array_equal(ik._axis_matrices(axes, angles).view(np.int64), expected.view(np.int64))
+
+
 def test_compiled_smooth_choice_is_the_numpy_loop():
     """kernels/viterbi.py against the NumPy loop: random costs with 2-4 options, exact ties (small integers)
     and NaNs (np.argmin takes the first NaN), one frame and two."""

@@ -112,7 +112,7 @@ def test_rotate_broadcasts_one_rotation_over_many_vectors():
 
 
 def test_rotate_is_scipys_apply_bitwise():
-    """media.rotations.rotate (kernels/vector_rotation.py for two or more vectors) against scipy's
+    """media.rotations.rotate (kernels/scipy_rotation.py for two or more vectors) against scipy's
     from_quat(q).apply(v) itself: non-unit quaternions over six decades, vectors over nine, exact zeros of both
     signs, the axes and the identity, and a zero quaternion (scipy's error)."""
     rng = np.random.default_rng(12)
@@ -132,6 +132,25 @@ def test_rotate_is_scipys_apply_bitwise():
     assert np.array_equal(rotations.rotate(q[:3000], fortran).view(np.int64), expected.view(np.int64))
     with pytest.raises(ValueError, match="zero norm"):
         rotations.rotate(np.zeros((2, 4)), v[:2])
+
+
+def test_from_axis_angle_is_numpy_and_scipy_bitwise():
+    """media.rotations.from_axis_angle (kernels/scipy_rotation.py) against the unit axis from NumPy's norm times the
+    angle, through scipy's from_rotvec: axes over ten decades, zero axes, angles of +-0, around the series'
+    1e-3 rad switch, and broadcast shapes."""
+    def reference(axis, angle):
+        axis = np.asarray(axis, dtype=np.float64)
+        unit = axis / np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-300)
+        rotvec = unit * np.asarray(angle, dtype=np.float64)[..., None]
+        return Rotation.from_rotvec(rotvec.reshape(-1, 3)).as_quat().reshape(rotvec.shape[:-1] + (4,))[..., [3, 0, 1, 2]]
+
+    rng = np.random.default_rng(14)
+    axis = rng.normal(size=(20000, 3)) * 10.0 ** rng.uniform(-5, 5, size=(20000, 1))
+    angle = rng.uniform(-4, 4, 20000) * 10.0 ** rng.uniform(-6, 0, 20000)
+    axis[:100], angle[100:200], angle[200:300] = 0.0, 0.0, -0.0
+    angle[300:400] = 1e-3 * rng.choice([1 - 2e-16, 1.0, 1 + 2e-16], 100)
+    for a, b in ((axis, angle), (axis[0], angle[:50]), (axis[:6, None], angle[None, :7]), (axis[5], 0.3)):
+        assert np.array_equal(rotations.from_axis_angle(a, b).view(np.int64), reference(a, b).view(np.int64))
 
 
 def test_cross_is_numpys_bitwise():
