@@ -15,6 +15,9 @@ through np.matmul (BLAS): the caller keeps those cases for scipy.
 series 0.5 - a2 / 48 + a2 a2 / 3840 at or below 1e-3 rad), the quaternion (cos(angle / 2), scale x, scale y,
 scale z). sin and cos are libm's, as scipy's.
 
+`multiply` is media/rotations.py's Hamilton product, each component's four products summed left to right as
+NumPy evaluates the expression.
+
 `axis_matrices` is media/ik.py's Rodrigues matrices cos I + sin [a]x + (1 - cos) a a^T as NumPy broadcasts them,
 element by element in the same order (the products with the zeros of I and [a]x included, so the signs of
 zeros too); NumPy's float64 sin and cos are libm's on these machines, as Numba's (tests/test_ik.py checks the
@@ -93,4 +96,19 @@ def axis_matrices(axes, angles):
                 for c in range(3):
                     identity = 1.0 if r == c else 0.0
                     out[t, k, r, c] = (cos * identity + sin * cross[k, r, c]) + (1.0 - cos) * (axes[k, r] * axes[k, c])
+    return out
+
+
+@njit(cache=True)
+def multiply(a, b):
+    """Hamilton products a * b of (N, 4) float64 quaternions (w, x, y, z) row by row -> (N, 4)."""
+    n = a.shape[0]
+    out = np.empty((n, 4))
+    for t in range(n):
+        aw, ax, ay, az = a[t, 0], a[t, 1], a[t, 2], a[t, 3]
+        bw, bx, by, bz = b[t, 0], b[t, 1], b[t, 2], b[t, 3]
+        out[t, 0] = aw * bw - ax * bx - ay * by - az * bz
+        out[t, 1] = aw * bx + ax * bw + ay * bz - az * by
+        out[t, 2] = aw * by - ax * bz + ay * bw + az * bx
+        out[t, 3] = aw * bz + ax * by - ay * bx + az * bw
     return out

@@ -52,7 +52,17 @@ def scipy_sequence(order: str) -> str:
 
 
 def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product a*b (rotate by b, then by a) of (..., 4) quaternions (broadcast)."""
+    """Hamilton product a*b (rotate by b, then by a) of (..., 4) quaternions (broadcast): compiled
+    (kernels/scipy_rotation.multiply), the products summed as `_multiply_numpy` sums them."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    shape = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
+    flat = [np.ascontiguousarray(np.broadcast_to(q, shape + (4,)).reshape(-1, 4)) for q in (a, b)]
+    return scipy_rotation.multiply(*flat).reshape(shape + (4,))
+
+
+def _multiply_numpy(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """`multiply` in NumPy."""
     aw, ax, ay, az = np.moveaxis(np.asarray(a, dtype=np.float64), -1, 0)
     bw, bx, by, bz = np.moveaxis(np.asarray(b, dtype=np.float64), -1, 0)
     return np.stack([

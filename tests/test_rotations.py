@@ -153,6 +153,16 @@ def test_from_axis_angle_is_numpy_and_scipy_bitwise():
         assert np.array_equal(rotations.from_axis_angle(a, b).view(np.int64), reference(a, b).view(np.int64))
 
 
+def test_compiled_multiply_is_the_numpy_product():
+    rng = np.random.default_rng(15)
+    q = rng.normal(size=(3000, 4)) * 10.0 ** rng.uniform(-4, 4, size=(3000, 4))
+    q[:100] = np.round(q[:100]) * 0.0 * np.sign(rng.normal(size=(100, 4)))           # +-0
+    for a, b in ((q, q[::-1]), (q[0], q), (q[:40, None], q[None, :30]), (q[5], q[6])):
+        expected = rotations._multiply_numpy(a, b)
+        got = rotations.multiply(a, b)
+        assert got.shape == expected.shape and np.array_equal(got.view(np.int64), expected.view(np.int64))
+
+
 def test_cross_is_numpys_bitwise():
     rng = np.random.default_rng(13)
     for a_shape, b_shape in (((40, 3), (40, 3)), ((3,), (40, 3)), ((5, 40, 3), (40, 3)), ((3,), (3,))):
