@@ -10,10 +10,11 @@ halves first: (m[j, 0] v[0] + m[j, 2] v[2]) + m[j, 1] v[1], then adds it to the 
 +0). Vectors in another layout take einsum's plain loop, which sums in index order, and a single vector goes
 through np.matmul (BLAS): the caller keeps those cases for scipy.
 
-`from_axis_angle` is media/rotations.py's axis / max(|axis|, 1e-300) * angle (NumPy's norm of three: the sum
-(x x + y y) + z z) then Rotation.from_rotvec: angle = sqrt((x x + y y) + z z), scale = sin(angle / 2) / angle (the
-series 0.5 - a2 / 48 + a2 a2 / 3840 at or below 1e-3 rad), the quaternion (cos(angle / 2), scale x, scale y,
-scale z). sin and cos are libm's, as scipy's.
+`from_rotvec` is Rotation.from_rotvec then as_quat in (w, x, y, z) order: angle = sqrt((x x + y y) + z z), scale
+= sin(angle / 2) / angle (the series 0.5 - a2 / 48 + a2 a2 / 3840 at or below 1e-3 rad), the quaternion
+(cos(angle / 2), scale x, scale y, scale z); sin and cos are libm's, as scipy's. `from_axis_angle` is
+media/rotations.py's axis / max(|axis|, 1e-300) * angle (NumPy's norm of three: the sum (x x + y y) + z z), then
+`from_rotvec`.
 
 `multiply` is media/rotations.py's Hamilton product, each component's four products summed left to right as
 NumPy evaluates the expression.
@@ -23,7 +24,7 @@ element by element in the same order (the products with the zeros of I and [a]x 
 zeros too); NumPy's float64 sin and cos are libm's on these machines, as Numba's (tests/test_ik.py checks the
 matrices bitwise).
 
-tests/test_rotations.py compares the first two with scipy bitwise on random and edge-case inputs. Imports
+tests/test_rotations.py compares rotate, from_axis_angle and multiply with scipy or NumPy bitwise on random and edge-case inputs. Imports
 nothing of signcast.
 """
 import math
@@ -57,26 +58,37 @@ def rotate(q, v):
 
 
 @njit(cache=True)
+def from_rotvec(rotvec: np.ndarray) -> np.ndarray:
+    """rotvec (N, 3) radians (axis times angle) -> (N, 4) float64 quaternions (w, x, y, z)."""
+    n = rotvec.shape[0]
+    out = np.empty((n, 4))
+    for t in range(n):
+        x, y, z = rotvec[t, 0], rotvec[t, 1], rotvec[t, 2]
+        angle = math.sqrt(x * x + y * y + z * z)
+        if angle <= 1e-3:
+            angle2 = angle * angle
+            scale = 0.5 - angle2 / 48 + angle2 * angle2 / 3840
+        else:
+            scale = math.sin(angle / 2) / angle
+        out[t, 0] = math.cos(angle / 2)
+        out[t, 1], out[t, 2], out[t, 3] = scale * x, scale * y, scale * z
+    return out
+
+
+@njit(cache=True)
 def from_axis_angle(axis, angle):
     """axis (N, 3) float64, need not be unit (a zero axis gives the identity); angle (N,) float64 radians. Returns
-    (N, 4) (w, x, y, z) quaternions (cos(angle / 2), sin(angle / 2) unit axis)."""
+    (N, 4) (w, x, y, z) quaternions (cos(angle / 2), sin(angle / 2) unit axis): `from_rotvec` of the unit axis
+    times the angle."""
     n = axis.shape[0]
-    out = np.empty((n, 4))
+    rotvec = np.empty((n, 3))
     for t in range(n):
         a0, a1, a2 = axis[t, 0], axis[t, 1], axis[t, 2]
         length = math.sqrt((a0 * a0 + a1 * a1) + a2 * a2)
         if not length >= 1e-300 and not math.isnan(length):         # np.maximum(length, 1e-300), NaN kept
             length = 1e-300
-        x, y, z = a0 / length * angle[t], a1 / length * angle[t], a2 / length * angle[t]
-        turn = math.sqrt((x * x + y * y) + z * z)
-        if turn <= 1e-3:
-            turn2 = turn * turn
-            scale = 0.5 - turn2 / 48 + turn2 * turn2 / 3840
-        else:
-            scale = math.sin(turn / 2) / turn
-        out[t, 0] = math.cos(turn / 2)
-        out[t, 1], out[t, 2], out[t, 3] = scale * x, scale * y, scale * z
-    return out
+        rotvec[t, 0], rotvec[t, 1], rotvec[t, 2] = a0 / length * angle[t], a1 / length * angle[t], a2 / length * angle[t]
+    return from_rotvec(rotvec)
 
 
 @njit(cache=True)

@@ -322,7 +322,7 @@ def _turned_bones(face: _Displacements, skeleton: Skeleton) -> dict[str, np.ndar
     turned = dict(zip(names, _turns(_turned_arms(skeleton, fapu), np.stack(displacements))))
     # Per eye: yaw about +Y, then pitch about +X; all four turns in one call, then both products.
     axes = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]] * len(SIDES))[:, None]           # (4, 1, 3)
-    turns = _from_axis_angle(axes, np.stack(eye_angles))                         # (4, T, 4)
+    turns = rotations.from_axis_angle(axes, np.stack(eye_angles))             # (4, T, 4)
     eyes = rotations.multiply(turns[0::2], turns[1::2])
     result = {"jaw": turned["jaw"]}
     for k, side in enumerate(SIDES):
@@ -468,16 +468,7 @@ def _turn(arm: np.ndarray, displacement: np.ndarray) -> np.ndarray:
     across = np.linalg.norm(arm - along[:, None] * direction, axis=-1)
     reach = np.linalg.norm(arm)
     angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
-    return _from_axis_angle(rotations.cross(arm, direction), angle)
-
-
-def _from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """media/rotations.py `from_axis_angle`, bitwise: its NumPy unit axis times angle, then scipy's from_rotvec
-    compiled (kernels/face_bones.py). axis (..., 3), angle (...) radians (broadcast) -> (..., 4) (w, x, y, z)."""
-    axis = np.asarray(axis, dtype=np.float64)
-    unit = axis / np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-300)
-    rotvec = unit * np.asarray(angle, dtype=np.float64)[..., None]
-    return bones_kernel.from_rotvec(np.ascontiguousarray(rotvec.reshape(-1, 3))).reshape(rotvec.shape[:-1] + (4,))
+    return rotations.from_axis_angle(rotations.cross(arm, direction), angle)
 
 
 def _turns(arms: np.ndarray, displacements: np.ndarray) -> np.ndarray:
@@ -489,7 +480,7 @@ def _turns(arms: np.ndarray, displacements: np.ndarray) -> np.ndarray:
     across = np.linalg.norm(arms[:, None] - along[..., None] * direction, axis=-1)
     reach = np.array([np.linalg.norm(arm) for arm in arms])[:, None]
     angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
-    return _from_axis_angle(rotations.cross(arms[:, None], direction), angle)
+    return rotations.from_axis_angle(rotations.cross(arms[:, None], direction), angle)
 
 
 _ARMS: dict[tuple[int, Fapu], tuple[Skeleton, np.ndarray]] = {}
