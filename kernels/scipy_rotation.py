@@ -16,6 +16,7 @@ through np.matmul (BLAS): the caller keeps those cases for scipy.
 media/rotations.py's axis / max(|axis|, 1e-300) * angle (NumPy's norm of three: the sum (x x + y y) + z z), then
 `from_rotvec`.
 
+`cross` is np.cross of 3-vectors (each component one product less another, as NumPy computes it), and
 `multiply` is media/rotations.py's Hamilton product, each component's four products summed left to right as
 NumPy evaluates the expression.
 
@@ -123,4 +124,18 @@ def multiply(a, b):
         out[t, 1] = aw * bx + ax * bw + ay * bz - az * by
         out[t, 2] = aw * by - ax * bz + ay * bw + az * bx
         out[t, 3] = aw * bz + ax * by - ay * bx + az * bw
+    return out
+
+
+@njit(cache=True)
+def cross(a, b):
+    """a x b of (N, 3) float64 vectors row by row -> (N, 3): a1 b2 - a2 b1, a2 b0 - a0 b2, a0 b1 - a1 b0."""
+    n = a.shape[0]
+    out = np.empty((n, 3))
+    for t in range(n):
+        a0, a1, a2 = a[t, 0], a[t, 1], a[t, 2]
+        b0, b1, b2 = b[t, 0], b[t, 1], b[t, 2]
+        out[t, 0] = a1 * b2 - a2 * b1
+        out[t, 1] = a2 * b0 - a0 * b2
+        out[t, 2] = a0 * b1 - a1 * b0
     return out

@@ -51,14 +51,23 @@ def scipy_sequence(order: str) -> str:
     return order[:3] if order[3] == "r" else order[:3].lower()
 
 
+def _rows(x: np.ndarray, shape: tuple[int, ...], width: int | None) -> np.ndarray:
+    """x broadcast to shape + (width,) and flattened to C-contiguous rows (N, width), or to shape and flattened to (N,)
+    for width None, without a copy where x already has that shape and layout (NumPy's broadcast_to costs more than
+    these kernels)."""
+    full = shape if width is None else shape + (width,)
+    if x.shape != full:
+        x = np.broadcast_to(x, full)
+    return np.ascontiguousarray(x).reshape(-1) if width is None else np.ascontiguousarray(x).reshape(-1, width)
+
+
 def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product a*b (rotate by b, then by a) of (..., 4) quaternions (broadcast): compiled
     (kernels/scipy_rotation.multiply), the products summed as `_multiply_numpy` sums them."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     shape = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
-    flat = [np.ascontiguousarray(np.broadcast_to(q, shape + (4,)).reshape(-1, 4)) for q in (a, b)]
-    return scipy_rotation.multiply(*flat).reshape(shape + (4,))
+    return scipy_rotation.multiply(_rows(a, shape, 4), _rows(b, shape, 4)).reshape(shape + (4,))
 
 
 def _multiply_numpy(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -97,8 +106,7 @@ def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     angle = np.asarray(angle, dtype=np.float64)
     shape = np.broadcast_shapes(axis.shape[:-1], angle.shape)
     # unit axis times angle, then scipy's from_rotvec, compiled operation for operation (kernels/scipy_rotation.py)
-    quaternions = scipy_rotation.from_axis_angle(np.ascontiguousarray(np.broadcast_to(axis, shape + (3,)).reshape(-1, 3)),
-                                                 np.ascontiguousarray(np.broadcast_to(angle, shape).reshape(-1)))
+    quaternions = scipy_rotation.from_axis_angle(_rows(axis, shape, 3), _rows(angle, shape, None))
     return quaternions.reshape(shape + (4,))
 
 
@@ -131,12 +139,11 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     q = np.asarray(q, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     shape = np.broadcast_shapes(q.shape[:-1], v.shape[:-1])
-    vectors = np.array(np.broadcast_to(v, shape + (3,)).reshape(-1, 3))     # writable, for scipy's Cython
+    vectors = np.array((v if v.shape == shape + (3,) else np.broadcast_to(v, shape + (3,))).reshape(-1, 3))  # writable
     # scipy's einsum sums three products in an order that depends on the vectors' layout (its SIMD loop for
     # C-contiguous rows, a plain loop otherwise); np.array keeps a transposed input's layout
     if len(vectors) > 1 and vectors.flags.c_contiguous:
-        rotated, ok = scipy_rotation.rotate(np.ascontiguousarray(np.broadcast_to(q, shape + (4,)).reshape(-1, 4)),
-                                             vectors)
+        rotated, ok = scipy_rotation.rotate(_rows(q, shape, 4), vectors)
         if ok:
             return rotated.reshape(shape + (3,))
     return as_rotation(np.broadcast_to(q, shape + (4,))).apply(vectors).reshape(shape + (3,))
@@ -144,13 +151,12 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a x b (..., 3) of 3-vectors a, b (..., 3) broadcast together: np.cross's operations (each component one
-    product less another, a[1] b[2] - a[2] b[1], ...), so its numbers bit for bit, without its axis handling,
-    which costs ~10 us a call on the retargeting's small arrays."""
+    product less another, a[1] b[2] - a[2] b[1], ...), so its numbers bit for bit, compiled
+    (kernels/scipy_rotation.cross) without np.cross's axis handling, which costs ~10 us a call on small arrays."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+    shape = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
+    return scipy_rotation.cross(_rows(a, shape, 3), _rows(b, shape, 3)).reshape(shape + (3,))
 
 
 def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
