@@ -625,8 +625,8 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
     if largest > VALUE_LIMIT:
         shown = "2**63 or more" if largest == np.iinfo(np.int64).max else largest
         raise SigncastError(f"a BBA bone value of magnitude {shown} is beyond +-{VALUE_LIMIT}")
-    tables = _array_tables(masks, _exponent_items(skeleton))
-    list_bits = tables.list_bits
+    mask_tables = _array_tables(masks, _exponent_items(skeleton))
+    list_bits = mask_tables.list_bits
     q = header.q
     n_display = int(numbers[-1]) + 1
     if header.coding == "pred":
@@ -642,7 +642,7 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
             if np.any(sizes > pc.MAX_TOTAL // 2):
                 raise SigncastError(f"alphabet of {int(sizes.max())} symbols is too large for a frequency "
                                     f"limit of {pc.MAX_TOTAL}")
-        header_bits = _bit_array(*_header_bits(header, n_display, len(masks), tables.bone_table, tight))
+        header_bits = _bit_array(*_header_bits(header, n_display, len(masks), mask_tables.bone_table, tight))
         detail = np.zeros(4, dtype=np.int64)
         room = (2 * (len(header_bits) + 8 * fields.size) + len(list_bits) + 4 * 32 * (len(layout.keys) + 1) + 256)
         size = (len(header_bits) + 8 * fields.size + 64 + n * room) * 23 // 22 // 8 + 64
@@ -671,7 +671,7 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
     for u, (start, size) in enumerate(zip(starts.tolist(), sizes.tolist())):
         dc[u], ac[u, :size - 1] = pc.dct_levels(values[start:start + size], dc_step, ac_step)
     intra = np.arange(len(starts)) % header.intra_period == 0
-    header_bits = _bit_array(*_header_bits(header, n_display, len(masks), tables.bone_table, False))
+    header_bits = _bit_array(*_header_bits(header, n_display, len(masks), mask_tables.bone_table, False))
     tables = pc.vlc_tables()
     detail = np.zeros(1, dtype=np.int64)
     size = (3 * len(header_bits) + len(starts) * (len(list_bits) + 72 * len(layout.keys) * pc.SEGMENT + 512)) * 23 // 22 // 8 + 64
