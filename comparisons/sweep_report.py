@@ -177,7 +177,7 @@ def chart(table: list[dict]):
             axes.errorbar(xs, median, yerr=errors, fmt="o", capsize=2, markersize=4, label=f"{column[1]} ({column[0]})")
         axes.set_xticks(x, names, rotation=45 if len(names) > 8 else 0)
         axes.set(ylabel="kbit/s at matched point", title=f"{fps:g} fps: median over items, bars: interquartile range")
-        axes.set_ylim(bottom=0)
+        axes.set_ylim(0, axes.get_ylim()[1] * 1.2)        # headroom: no marker on the frame, none under the legend
         axes.grid(True, axis="y", alpha=0.3)
         axes.legend(fontsize=7, ncol=min(len(codecs), 5))
     figure.suptitle(f"Rate at the matched operating point\n{CRITERION.text()}, against {MEASURED_AGAINST}",
