@@ -171,7 +171,10 @@ DESCRIPTIONS = {
 class LabCodec:
     """One seed-002 coder as a Motion codec for comparisons/param_codecs.py:
     encode(motion, q) -> bytes, decode(bytes) -> Motion, with q = 1 .. len(settings()) the
-    operating point (1 = lowest rate), as the MPEG-4 codecs' Q is an integer knob."""
+    operating point (1 = lowest rate), as the MPEG-4 codecs' Q is an integer knob. The coders carry the
+    signing DOFs (`dof_layout`) only: a motion's face (FAPs) and root translation decode at rest."""
+
+    sends_face = False
 
     def __init__(self, name: str, stage: str = DEFAULT_STAGE):
         if name not in CODER_IDS:

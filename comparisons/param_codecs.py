@@ -7,11 +7,14 @@ coders) can register next to the MPEG-4 ones:
     class MyCodec:
         name = "my-codec"
         description = "one line"
+        sends_face = False
         def encode(self, motion: Motion, q: int) -> bytes: ...
         def decode(self, data: bytes) -> Motion: ...
     register(MyCodec())
 
-`q` is the codec's quality knob (for the MPEG-4 coders the global quantisation value 1..31).
+`q` is the codec's quality knob (for the MPEG-4 coders the global quantisation value 1..31). `sends_face`
+says whether a motion's face (its FAPs) travels in the stream: the MPEG-4 coders send it (FBA as FAPs, BBA as
+face bones); seed 002's coders carry the signing joints only, so a face decodes at rest.
 `decode` must return a Motion of the same length and frame rate as the encoded one (bones the
 stream does not carry stay at rest) and raise SigncastError on damaged data. A reported size is
 len() of the bytes `encode` returned.
@@ -32,6 +35,7 @@ from media.motion import Motion
 class ParamCodec(Protocol):
     name: str
     description: str
+    sends_face: bool
 
     def encode(self, motion: Motion, q: int) -> bytes: ...
 
@@ -42,6 +46,8 @@ class FbaCodec:
     """MPEG-4 FBA stream (comparisons/fba_codec.py) of the avatar's BAPs (fba_mapping), and of the
     motion's FAPs when it carries a face (fba_object_mask 3), saturated at their coded range
     (fap_table.saturated: a measured face's outliers)."""
+
+    sends_face = True
 
     def __init__(self, coding: str) -> None:
         self.coding = coding
@@ -71,6 +77,8 @@ class BbaCodec:
     """MPEG-4 BBA stream (comparisons/bba_codec.py) of the avatar's bones; a motion's face travels as the
     face bones' rotations (media.face_rig: the FAPs played on the avatar), so the decoded Motion has those
     bones and no FAPs."""
+
+    sends_face = True
 
     def __init__(self, coding: str, keyframes: bool = False) -> None:
         self.coding = coding

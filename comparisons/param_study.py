@@ -51,13 +51,16 @@ def measure_point(motion: Motion, codec_name: str, q: int) -> dict:
 
 
 def _face_fields(motion: Motion, decoded: Motion, codec, q: int, bits: int) -> dict:
-    """For a motion with a face: face_kbps, the bits the face adds over the same body coded alone (kbit/s);
-    fap_error, the mean |decoded - original| FAP value over the FAPs that move, FAP units (only for codecs
-    that carry FAPs: BBA carries the face bones instead)."""
+    """For a motion with a face: face_sent, whether the codec sends it (`sends_face`; seed 002's coders do not,
+    and their face decodes at rest, which the joint error counts); where it is sent, face_kbps, the bits the
+    face adds over the same body coded alone (kbit/s), and fap_error, the mean |decoded - original| FAP value
+    over the FAPs that move, FAP units (only for codecs that carry FAPs: BBA carries the face bones instead)."""
     if motion.faps is None:
         return {}
+    if not codec.sends_face:
+        return {"face_sent": False}
     body_bits = 8 * len(codec.encode(motion.without_face(), q))
-    fields = {"face_kbps": (bits - body_bits) / motion.duration_s / 1000.0}
+    fields = {"face_sent": True, "face_kbps": (bits - body_bits) / motion.duration_s / 1000.0}
     moving = np.ptp(motion.faps, axis=0) > 0
     if decoded.faps is not None and moving.any():
         fields["fap_error"] = float(np.abs(decoded.faps[:, moving] - motion.faps[:, moving]).mean())

@@ -9,7 +9,8 @@ keep the two kinds of quality apart:
   sent objects);
 - parameter quality, for points without a picture (width = height = 0): param_psnr (parameter domain, seed 000
   eq. 2.6), vpsnr, joint_error_mm_mean / joint_error_mm_max and group_errors (per joint group: mean, max); for a
-  motion with a face, face_kbps (what the FAPs add over the body alone) and fap_error (mean |error|, FAP units);
+  motion with a face, face_sent (in extra: false for a codec that carries the signing joints only, whose face
+  decodes at rest), face_kbps (what the FAPs add over the body alone) and fap_error (mean |error|, FAP units);
 - transport, for points delivered live (TRANSPORT_FIELDS: loss, delivered rate with headers, concealed frames,
   latency);
 Any other field (areas, sweep labels, flags, ...) is kept as given in Record.extra.

@@ -9,8 +9,8 @@ sweep has no rendering, so its threshold is on parameter quality: mean joint pos
 of the avatar, comparisons.param_study) at most JOINT_ERROR_MM against the uncoded, retargeted motion. An item
 whose finest Q misses it does not count in the median (the cell says how many reached it).
 
-Point records (kind "point") carry language, item, solution, codec, q, fps, kbps and joint_error_mm_mean; failed
-ones (kind "failed") their reason.
+Point records (kind "point") carry language, item, solution, codec, q, fps, kbps and joint_error_mm_mean (and,
+for a motion with a face, face_sent: whether the codec sent it); failed ones (kind "failed") their reason.
 """
 from __future__ import annotations
 
@@ -186,6 +186,16 @@ def chart(table: list[dict]):
     return figure
 
 
+def face_note(records: list[dict]) -> str | None:
+    """A sentence naming the codecs that did not send the swept motions' faces (records with face_sent false:
+    seed 002's coders), or None when every codec sent them or no motion had a face."""
+    faceless = sorted({r["codec"] for r in records if r.get("kind", "point") == "point" and r.get("face_sent") is False})
+    if not faceless:
+        return None
+    return (f"Face not sent by {', '.join(faceless)}: these coders carry the signing joints only, so the face decodes "
+            "at rest; its error counts in the threshold (the face bones are joints of the avatar).")
+
+
 def _html_table(header: list[str], rows: list[list[str]]) -> str:
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in row) + "</tr>" for row in rows)
@@ -222,6 +232,9 @@ def report_html(records: list[dict], table: list[dict], figure_png: bytes) -> st
               f"point: {html.escape(OPERATING_RULE)}. &ldquo;{BEST}&rdquo;: each item's cheapest codec of the "
               f"solution.</p>")
     sections = [swept, legend]
+    note = face_note(records)
+    if note:
+        sections.append(f"<p><b>{html.escape(note)}</b></p>")
     for fps, languages_rows in _grid(table).items():
         header = ["language", *(f"{s}: {c}" for s, c in wanted)]
         rows = [[language, *(cell_text(row.get(c)) for c in wanted)] for language, row in languages_rows.items()]

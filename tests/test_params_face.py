@@ -38,3 +38,20 @@ def test_the_letters_faps_are_written_as_fap_files(study):
 def test_without_the_face_the_body_is_coded_alone(tmp_path):
     records = params.run(params.ParamsSettings("ase", "A", ("fba-dct",), (4,), 10.0), tmp_path)
     assert "face_kbps" not in records[0] and not (tmp_path / "fap").exists()
+
+
+def test_a_coder_that_sends_no_face_says_so(tmp_path):
+    """seed 002's coders carry the signing joints only: their records say the face was not sent (no face_kbps of 0
+    that would read as a free face), the table says so, and a sweep's report names them."""
+    from comparisons import sweep_report
+    settings = params.ParamsSettings("ase", "A", ("quant", "fba-dct"), (1,), 10.0, face=True)
+    records = params.run(settings, tmp_path)
+    by_codec = {r["codec"]: r for r in records}
+    assert by_codec["quant"]["face_sent"] is False and "face_kbps" not in by_codec["quant"]
+    assert by_codec["fba-dct"]["face_sent"] is True and by_codec["fba-dct"]["face_kbps"] > 0
+    table = params.main_table(settings, records)
+    assert table.count("face not sent") == 1 and "kbps the face adds" in table
+    points = [dict(r, kind="point") for r in records]
+    note = sweep_report.face_note(points)
+    assert note is not None and "quant" in note and "fba-dct" not in note
+    assert sweep_report.face_note([r for r in points if r["codec"] == "fba-dct"]) is None

@@ -105,6 +105,9 @@ def run(args: argparse.Namespace) -> int:
             return 130
     state = result.state
     print(sweep_report.summary_text(sweep_report.cells(sweep_report.matched_points(result.records))))
+    note = sweep_report.face_note(result.records)
+    if note:
+        print(note)
     left = state.total - state.finished
     print(f"{state.done} points measured, {state.failed} failed, {state.skipped} finished earlier"
           + (f", {left} left (run again to continue)" if left else "") + f"; {result.wall_s:.1f} s")

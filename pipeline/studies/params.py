@@ -110,4 +110,7 @@ def main_table(settings: ParamsSettings, records: list[dict]) -> str:
             if any(mine[q].get("face_kbps") is not None for q in qs):
                 lines.append(f"{'':>5} {'of which':>9} " + " ".join(f"{mine[q].get('face_kbps', 0.0):8.2f}" for q in qs)
                              + "   kbps the face adds")
+            elif any(mine[q].get("face_sent") is False for q in qs):
+                lines.append(f"{'':>5} {'':>9} face not sent: this coder carries the signing joints only, the face "
+                             "decodes at rest")
     return "\n".join(lines)
