@@ -22,7 +22,7 @@ import numpy as np
 
 from media.avatar import Skeleton
 from media.errors import SigncastError
-from media.kinematics import joint_positions
+from media.kinematics import bone_matrices, joint_positions
 from media.motion import Motion
 
 VISUAL_BANDS_HZ = ((0.0, 1.0), (1.0, 3.0), (3.0, 7.0), (7.0, 15.0))
@@ -114,6 +114,26 @@ def joint_position_error_mm(skeleton: Skeleton, original: Motion, decoded: Motio
     if original.n_frames != decoded.n_frames:
         raise SigncastError(f"motions differ in length: {original.n_frames} and {decoded.n_frames} frames")
     return 1000.0 * np.linalg.norm(joint_positions(skeleton, original) - joint_positions(skeleton, decoded), axis=-1)
+
+
+def face_joint_error_mm(skeleton: Skeleton, original: Motion, decoded: Motion, face_bones, anchor: str = "head"
+                        ) -> np.ndarray:
+    """(N, F) distance in mm between the tails of the face bones (the chin, the lid margins, the lip points, the
+    brows, ...; F = len(face_bones), names) of the two motions, each measured in its own motion's posed anchor
+    bone's frame: the face's own movement, with the head's pose taken out (`joint_position_error_mm` counts the
+    head's pose error on every face joint, which hides a face left at rest)."""
+    if original.n_frames != decoded.n_frames:
+        raise SigncastError(f"motions differ in length: {original.n_frames} and {decoded.n_frames} frames")
+    face = np.array([skeleton.index(name) for name in face_bones], dtype=np.int64)
+    anchor_index = skeleton.index(anchor)
+    local = []
+    for motion in (original, decoded):
+        world = bone_matrices(skeleton, motion)
+        posed = world[:, face]
+        tails = np.einsum("tfij,fj->tfi", posed[..., :3, :3], skeleton.tails[face]) + posed[..., :3, 3]
+        turn, shift = world[:, anchor_index, :3, :3], world[:, anchor_index, :3, 3]
+        local.append(np.einsum("tji,tfj->tfi", turn, tails - shift[:, None]))       # R^T (p - t)
+    return 1000.0 * np.linalg.norm(local[0] - local[1], axis=-1)
 
 
 def band_split(error, fps: float, bands=VISUAL_BANDS_HZ) -> np.ndarray:

@@ -5,7 +5,7 @@ Per point: bits = 8 x len(coded bytes); kbps over the clip's duration at the cod
 distortion eq. 2.6 over the rotation BAP vectors in rad^2 (both original and decoded motion mapped
 to BAPs, so FBA and BBA are scored alike); mean PSNR and VPSNR over the BAPs that move; per
 BAP group the normalised weighted vector error and its maximum form; joint position error (mm) by
-forward kinematics. The study adds the size of the letter's `.pose` file as kbps, the baseline of
+forward kinematics, and for a motion with a face the face bones' error in the head's frame (mm). The study adds the size of the letter's `.pose` file as kbps, the baseline of
 today's pose tools.
 """
 from __future__ import annotations
@@ -20,7 +20,7 @@ from comparisons import bap_table, metrics
 from comparisons.fba_mapping import motion_to_baps
 from comparisons.param_codecs import get_codec
 from media.avatar import load_avatar
-from media.face_rig import with_face_bones
+from media.face_rig import face_bone_names, with_face_bones
 from media.motion import Motion
 
 ROTATION_COLUMNS = np.array([b.id - 1 for b in bap_table.BAPS if not b.is_translation])
@@ -40,14 +40,26 @@ def measure_point(motion: Motion, codec_name: str, q: int) -> dict:
     decoded_baps = decoded_all[:, ROTATION_COLUMNS] * bap_table.ROTATION_UNIT_RAD
     moving = metrics.value_range(original_baps) > 0
     # the face is compared as the avatar plays it: FAPs (FBA) through the face rig, face bones (BBA) as sent
-    joint_mm = metrics.joint_position_error_mm(load_avatar().skeleton, with_face_bones(motion), with_face_bones(decoded))
+    played, played_decoded = with_face_bones(motion), with_face_bones(decoded)
+    joint_mm = metrics.joint_position_error_mm(load_avatar().skeleton, played, played_decoded)
     return {"bits": 8 * len(data), "distortion": metrics.distortion(original_baps, decoded_baps),
             "param_psnr": metrics.mean_db(metrics.psnr(original_baps[:, moving], decoded_baps[:, moving])),
             "vpsnr": metrics.mean_db(metrics.vpsnr(original_baps[:, moving], decoded_baps[:, moving], motion.fps)),
             "joint_error_mm_mean": float(joint_mm.mean()), "joint_error_mm_max": float(joint_mm.max()),
             "group_errors": metrics.bap_group_errors(original_all, decoded_all),
             "encode_fps": motion.n_frames / encode_s, "decode_fps": motion.n_frames / decode_s,
-            "frames": motion.n_frames, **_face_fields(motion, decoded, codec, q, 8 * len(data))}
+            "frames": motion.n_frames, **_face_fields(motion, decoded, codec, q, 8 * len(data)),
+            **_face_joint_fields(motion, played, played_decoded)}
+
+
+def _face_joint_fields(motion: Motion, played: Motion, played_decoded: Motion) -> dict:
+    """For a motion with a face: face_joint_error_mm, the mean over frames and face bones of
+    metrics.face_joint_error_mm (the face bones' tails in the head's frame: the face's own movement), and its
+    maximum, face_joint_error_mm_max."""
+    if motion.faps is None:
+        return {}
+    face_mm = metrics.face_joint_error_mm(load_avatar().skeleton, played, played_decoded, face_bone_names())
+    return {"face_joint_error_mm": float(face_mm.mean()), "face_joint_error_mm_max": float(face_mm.max())}
 
 
 def _face_fields(motion: Motion, decoded: Motion, codec, q: int, bits: int) -> dict:

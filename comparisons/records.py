@@ -10,7 +10,9 @@ keep the two kinds of quality apart:
 - parameter quality, for points without a picture (width = height = 0): param_psnr (parameter domain, seed 000
   eq. 2.6), vpsnr, joint_error_mm_mean / joint_error_mm_max and group_errors (per joint group: mean, max); for a
   motion with a face, face_sent (in extra: false for a codec that carries the signing joints only, whose face
-  decodes at rest), face_kbps (what the FAPs add over the body alone) and fap_error (mean |error|, FAP units);
+  decodes at rest), face_kbps (what the FAPs add over the body alone), fap_error (mean |error|, FAP units) and
+  face_joint_error_mm / face_joint_error_mm_max (the face bones' tails in the head's frame, mm: the face's own
+  movement, which the joint errors over the whole body hide behind the head's pose);
 - transport, for points delivered live (TRANSPORT_FIELDS: loss, delivered rate with headers, concealed frames,
   latency);
 Any other field (areas, sweep labels, flags, ...) is kept as given in Record.extra.
@@ -51,7 +53,7 @@ SCHEMA_VERSION = 2
 REQUIRED_FIELDS = ("solution", "clip", "codec", "q", "fps", "width", "height", "bits", "duration_s", "kbps")
 IMAGE_QUALITY_FIELDS = ("image_psnr", "skin_psnr", "object_psnr", "ssim", "skin_ssim", "object_ssim")
 PARAM_QUALITY_FIELDS = ("param_psnr", "vpsnr", "joint_error_mm_mean", "joint_error_mm_max", "face_kbps", "fap_error",
-                        "group_errors")
+                        "face_joint_error_mm", "face_joint_error_mm_max", "group_errors")
 # what a viewer can read: landmarks extracted from what the viewer sees against the reference's landmarks
 INTELLIGIBILITY_FIELDS = ("hand_error", "hand_error_p90", "hand_pck_10", "hand_pck_20", "left_hand_found",
                           "right_hand_found", "face_error", "face_error_p90", "mouth_error", "eyes_error", "letter_top1", "letter_top3",
@@ -104,6 +106,8 @@ class Record:
     joint_error_mm_max: float | None = None
     face_kbps: float | None = None         # kbit/s the face adds over the same body coded alone
     fap_error: float | None = None         # mean |decoded - original| of the moving FAPs, FAP units
+    face_joint_error_mm: float | None = None       # face bones' tails in the head's frame: mean error, mm
+    face_joint_error_mm_max: float | None = None   # and the largest
     group_errors: dict | None = None       # joint group -> [mean, max] weighted error
     # intelligibility (comparisons.intelligibility), against `reference`: "source video" (message fidelity) or
     # "lossless render" (codec loss of an avatar solution); errors per frame, then mean (and 90th percentile)

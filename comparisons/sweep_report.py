@@ -193,7 +193,8 @@ def face_note(records: list[dict]) -> str | None:
     if not faceless:
         return None
     return (f"Face not sent by {', '.join(faceless)}: these coders carry the signing joints only, so the face decodes "
-            "at rest; its error counts in the threshold (the face bones are joints of the avatar).")
+            "at rest. The threshold on the mean joint error hardly sees it (the face joints ride on the head); the "
+            "records' face_joint_error_mm (the face bones in the head's frame) does.")
 
 
 def _html_table(header: list[str], rows: list[list[str]]) -> str:

@@ -180,6 +180,13 @@ def avatar_fapu(avatar: Avatar | None = None) -> Fapu:
     return fapu
 
 
+def face_bone_names(avatar: Avatar | None = None) -> tuple[str, ...]:
+    """The names of the bones the face rig turns on this avatar (default: the vendored one): the jaw, lids and
+    eyes, the carriers and the skinned lip, cheek, brow and nose bones."""
+    avatar = avatar or load_avatar()
+    return _face_rig(avatar.skeleton, avatar_fapu(avatar)).names
+
+
 def face_bone_rotations(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dict[str, np.ndarray]:
     """Local rotations of the face bones that play the FAPs (see the module's docstring).
 

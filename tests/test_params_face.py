@@ -55,3 +55,38 @@ def test_a_coder_that_sends_no_face_says_so(tmp_path):
     note = sweep_report.face_note(points)
     assert note is not None and "quant" in note and "fba-dct" not in note
     assert sweep_report.face_note([r for r in points if r["codec"] == "fba-dct"]) is None
+
+
+def test_face_joint_error_takes_the_heads_pose_out_and_sees_a_face_at_rest():
+    """metrics.face_joint_error_mm measures the face bones in the head's frame: a head turned by 5 degrees with the
+    same face gives ~0 there (but millimetres of whole-body joint error); the same face left at rest does not."""
+    from scipy.spatial.transform import Rotation
+
+    from comparisons import metrics
+    from media.avatar import load_avatar
+    from media.face_rig import face_bone_names, with_face_bones
+    from media.motion import Motion
+    skeleton = load_avatar().skeleton
+    motion = letter_motion("ase", "B", 10.0)
+    played, names = with_face_bones(motion), face_bone_names()
+    assert len(names) == 44 and not metrics.face_joint_error_mm(skeleton, played, played, names).any()
+    head = played.bone_names.index("head")
+    turned = played.rotations.copy()
+    nod = Rotation.from_euler("x", 5, degrees=True)
+    xyzw = (nod * Rotation.from_quat(turned[:, head], scalar_first=True)).as_quat(scalar_first=True)
+    turned[:, head] = xyzw
+    nodded = Motion(played.fps, played.bone_names, turned, played.root_translation, played.faps)
+    assert metrics.joint_position_error_mm(skeleton, played, nodded)[:, [skeleton.index(n) for n in names]].mean() > 2.0
+    assert metrics.face_joint_error_mm(skeleton, played, nodded, names).max() < 1e-9
+    at_rest = with_face_bones(motion.without_face())
+    face_mm = metrics.face_joint_error_mm(skeleton, played, at_rest, names)
+    assert face_mm.shape == (motion.n_frames, 44) and face_mm.max() > 2.0
+
+
+def test_records_carry_the_face_joint_error():
+    from comparisons.param_study import measure_point
+    motion = letter_motion("ase", "C", 10.0)
+    sent, dropped = measure_point(motion, "fba-dct", 4), measure_point(motion, "quant", 6)
+    assert 0 < sent["face_joint_error_mm"] <= sent["face_joint_error_mm_max"]
+    assert dropped["face_joint_error_mm"] > 5 * sent["face_joint_error_mm"]
+    assert "face_joint_error_mm" not in measure_point(motion.without_face(), "fba-dct", 4)
