@@ -19,7 +19,7 @@ import numpy as np
 from comparisons import bap_table, metrics
 from comparisons.fba_mapping import motion_to_baps
 from comparisons.param_codecs import get_codec
-from media.avatar import load_avatar
+from media.avatar import Avatar, load_avatar
 from media.face_rig import face_bone_names, with_face_bones
 from media.motion import Motion
 
@@ -49,16 +49,18 @@ def measure_point(motion: Motion, codec_name: str, q: int) -> dict:
             "group_errors": metrics.bap_group_errors(original_all, decoded_all),
             "encode_fps": motion.n_frames / encode_s, "decode_fps": motion.n_frames / decode_s,
             "frames": motion.n_frames, **_face_fields(motion, decoded, codec, q, 8 * len(data)),
-            **_face_joint_fields(motion, played, played_decoded)}
+            **face_joint_fields(motion, played, played_decoded)}
 
 
-def _face_joint_fields(motion: Motion, played: Motion, played_decoded: Motion) -> dict:
+def face_joint_fields(motion: Motion, played: Motion, played_decoded: Motion, avatar: Avatar | None = None) -> dict:
     """For a motion with a face: face_joint_error_mm, the mean over frames and face bones of
     metrics.face_joint_error_mm (the face bones' tails in the head's frame: the face's own movement), and its
-    maximum, face_joint_error_mm_max."""
+    maximum, face_joint_error_mm_max. played, played_decoded: the motion and its decoded form with their faces
+    played on the avatar's face bones (media.face_rig.with_face_bones); avatar: default the vendored one."""
     if motion.faps is None:
         return {}
-    face_mm = metrics.face_joint_error_mm(load_avatar().skeleton, played, played_decoded, face_bone_names())
+    avatar = avatar or load_avatar()
+    face_mm = metrics.face_joint_error_mm(avatar.skeleton, played, played_decoded, face_bone_names(avatar))
     return {"face_joint_error_mm": float(face_mm.mean()), "face_joint_error_mm_max": float(face_mm.max())}
 
 

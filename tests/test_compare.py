@@ -58,6 +58,9 @@ def test_every_point_is_read_against_the_source_and_avatar_points_also_against_t
         assert record["hand_joint_error_mm"] >= 0 and record["arm_joint_error_mm"] >= 0
     coarse, fine = (_points(result, codec="fba-pred", q=q, sweep="q", reference=LOSSLESS)[0] for q in (31, 2))
     assert coarse["hand_joint_error_mm"] > fine["hand_joint_error_mm"]
+    # the terminal plays the face it was sent (FBA's FAPs, BBA's face bones); a face left at rest is ~0.9 mm
+    for codec in ("fba-pred", "bba-key"):
+        assert _points(result, codec=codec, q=2, sweep="q", reference=LOSSLESS)[0]["face_joint_error_mm"] < 0.3
 
 
 @pytest.mark.slow

@@ -54,11 +54,13 @@ import numpy as np
 from tqdm import tqdm
 
 from comparisons import image_quality, matching, metrics, param_codecs, video_objects
+from comparisons.param_study import face_joint_fields
 from comparisons.records import INTELLIGIBILITY_FIELDS, make_record, versions, write_records
 from comparisons.report import build_report, operating_points
 from media.avatar import load_avatar
 from media.domain import SKIN_PARTS, check_q, check_size, solution_of
 from media.errors import SigncastError
+from media.face_rig import with_face_bones
 from media.lexicon import SignClip
 from media.motion import Motion, resample
 from media.render import AvatarRenderer, RenderSettings
@@ -314,9 +316,10 @@ def _fit_length(motion: Motion, n_frames: int) -> Motion:
     if motion.n_frames >= n_frames:
         return motion.frames(0, n_frames) if motion.n_frames > n_frames else motion
     pad = n_frames - motion.n_frames
+    faps = None if motion.faps is None else np.concatenate([motion.faps, np.repeat(motion.faps[-1:], pad, axis=0)])
     return Motion(motion.fps, motion.bone_names,
                   np.concatenate([motion.rotations, np.repeat(motion.rotations[-1:], pad, axis=0)]),
-                  np.concatenate([motion.root_translation, np.repeat(motion.root_translation[-1:], pad, axis=0)]))
+                  np.concatenate([motion.root_translation, np.repeat(motion.root_translation[-1:], pad, axis=0)]), faps)
 
 
 def render_frames(renderer: AvatarRenderer, motion: Motion, label: str, progress: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -513,8 +516,8 @@ class ParamPoints:
         data = codec.encode(sent, q)
         decoded = codec.decode(data)
         shown = decoded if full else resample(Motion(fps, decoded.bone_names, decoded.rotations,
-                                                     decoded.root_translation), s.fps)
-        shown = Motion(s.fps, shown.bone_names, shown.rotations, shown.root_translation)
+                                                     decoded.root_translation, decoded.faps), s.fps)
+        shown = Motion(s.fps, shown.bone_names, shown.rotations, shown.root_translation, shown.faps)
         return _fit_length(shown, s.n_frames), 8 * len(data), sent.n_frames
 
     def code(self, codec_name: str, q: int, fps: float, progress: bool = False) -> tuple[Viewed, np.ndarray]:
@@ -522,7 +525,10 @@ class ParamPoints:
         s = self.scenario
         shown, bits, n_sent = self.decoded(codec_name, q, fps)
         frames, labels = render_frames(self.renderer, shown, f"terminal {codec_name} Q{q}", progress)
-        joint_mm = metrics.joint_position_error_mm(self.skeleton, s.motion, shown)
+        # the face as the terminal plays it: FAPs (FBA) through the face rig, face bones (BBA) as sent
+        avatar = self.renderer.avatar
+        played, played_shown = with_face_bones(s.motion, avatar), with_face_bones(shown, avatar)
+        joint_mm = metrics.joint_position_error_mm(self.skeleton, played, played_shown)
         full = fps >= s.fps * (1 - 1e-3)
         width, height = s.size
         fields = make_record(solution_of(codec_name), s.name, codec_name, q, s.fps if full else fps, width, height,
@@ -530,7 +536,8 @@ class ParamPoints:
                              frames=n_sent, joint_error_mm_mean=float(joint_mm.mean()),
                              joint_error_mm_max=float(joint_mm.max()),
                              hand_joint_error_mm=float(joint_mm[:, self.hand_joints].mean()),
-                             arm_joint_error_mm=float(joint_mm[:, self.arm_joints].mean()))
+                             arm_joint_error_mm=float(joint_mm[:, self.arm_joints].mean()),
+                             **face_joint_fields(s.motion, played, played_shown, avatar))
         return Viewed(frames, np.isin(labels, SKIN_PARTS), fields), frames
 
 
