@@ -51,6 +51,7 @@ def test_a_coder_that_sends_no_face_says_so(tmp_path):
     assert by_codec["fba-dct"]["face_sent"] is True and by_codec["fba-dct"]["face_kbps"] > 0
     table = params.main_table(settings, records)
     assert table.count("face not sent") == 1 and "kbps the face adds" in table
+    assert table.count("the face bones' mean error in the head's frame") == 2
     points = [dict(r, kind="point") for r in records]
     note = sweep_report.face_note(points)
     assert note is not None and "quant" in note and "fba-dct" not in note

@@ -99,7 +99,8 @@ def run(settings: ParamsSettings, out: str | Path, *, progress: Callable[[int], 
 
 
 def main_table(settings: ParamsSettings, records: list[dict]) -> str:
-    """kbps (and distortion) per letter and codec at each Q; with the face, what it adds below each row."""
+    """kbps (and distortion) per letter and codec at each Q; with the face, what it adds (or that it is not sent)
+    and the face bones' error in the head's frame below each row."""
     qs = settings.qs
     lines = [f"{'sign':>5} {'codec':>9} " + " ".join(f"{'Q=' + str(q):>8}" for q in qs) + "   kbps (distortion rad^2)"]
     for unit in settings.units():
@@ -113,4 +114,7 @@ def main_table(settings: ParamsSettings, records: list[dict]) -> str:
             elif any(mine[q].get("face_sent") is False for q in qs):
                 lines.append(f"{'':>5} {'':>9} face not sent: this coder carries the signing joints only, the face "
                              "decodes at rest")
+            if any(mine[q].get("face_joint_error_mm") is not None for q in qs):
+                lines.append(f"{'':>5} {'face':>9} " + " ".join(f"{mine[q]['face_joint_error_mm']:8.3f}" for q in qs)
+                             + "   mm, the face bones' mean error in the head's frame")
     return "\n".join(lines)
