@@ -5,8 +5,8 @@ Per point: bits = 8 x len(coded bytes); kbps over the clip's duration at the cod
 distortion eq. 2.6 over the rotation BAP vectors in rad^2 (both original and decoded motion mapped
 to BAPs, so FBA and BBA are scored alike); mean PSNR and VPSNR over the BAPs that move; per
 BAP group the normalised weighted vector error and its maximum form; joint position error (mm) by
-forward kinematics, and for a motion with a face the face bones' error in the head's frame (mm). The study adds the size of the letter's `.pose` file as kbps, the baseline of
-today's pose tools.
+forward kinematics, and for a motion with a face the face bones' error in the head's frame (mm). The study
+adds the size of the letter's `.pose` file as kbps, the baseline of today's pose tools.
 """
 from __future__ import annotations
 
@@ -66,7 +66,7 @@ def face_joint_fields(motion: Motion, played: Motion, played_decoded: Motion, av
 
 def _face_fields(motion: Motion, decoded: Motion, codec, q: int, bits: int) -> dict:
     """For a motion with a face: face_sent, whether the codec sends it (`sends_face`; seed 002's coders do not,
-    and their face decodes at rest, which the joint error counts); where it is sent, face_kbps, the bits the
+    and their face decodes at rest, which face_joint_fields measures); where it is sent, face_kbps, the bits the
     face adds over the same body coded alone (kbit/s), and fap_error, the mean |decoded - original| FAP value
     over the FAPs that move, FAP units (only for codecs that carry FAPs: BBA carries the face bones instead)."""
     if motion.faps is None:
