@@ -89,6 +89,7 @@ from comparisons.fba_mapping import avatar_bap_map
 from kernels import bba_euler as split_kernel
 from kernels import bba_header as header_kernel
 from kernels import bba_levels as level_kernel
+from kernels import libm
 from kernels import bba_masks as mask_kernel
 from kernels import bba_rotations as euler_kernel
 from kernels import bba_units as unit_kernel
@@ -228,7 +229,7 @@ def _rotation_step_exponents(skeleton: Skeleton) -> dict[int, int]:
     bap_map = avatar_bap_map(skeleton)
     for bone in bap_map.bones:
         step = min(bap_table.bap(i).step for i in bone.baps)
-        exponents[skeleton.index(bone.bone)] = round(np.log2(step))
+        exponents[skeleton.index(bone.bone)] = round(libm.log2(step))
     _EXPONENTS[id(skeleton)] = (skeleton, exponents)
     return exponents
 
@@ -570,7 +571,7 @@ def _estimated_bits(fields: np.ndarray, counts: np.ndarray, q: int) -> float:
     estimated as log2 of the alphabet sizes."""
     i_low, i_high = pc.alphabet(fields[0], fields[1], q)
     p_low, p_high = pc.alphabet(fields[2], fields[3], q)
-    return float((counts[0] * np.log2(i_high - i_low + 1)).sum() + (counts[1] * np.log2(p_high - p_low + 1)).sum())
+    return float((counts[0] * libm.log2(i_high - i_low + 1)).sum() + (counts[1] * libm.log2(p_high - p_low + 1)).sum())
 
 
 def _check_header(h: BBAHeader) -> None:

@@ -47,6 +47,7 @@ from scipy.signal import savgol_coeffs
 from comparisons.coded_streams import StreamReader, StreamWriter
 from comparisons.vector_quantization import TABLES_DIR, group_layout, load_table_file, nearest
 from comparisons.waveform_coders import DofCoder, uniform_index, uniform_value
+from kernels import libm, ordered_products
 from kernels.lab_gesture import warp_rows
 from media.errors import SigncastError
 
@@ -106,7 +107,7 @@ def _savgol_tables() -> tuple:
     coeffs = savgol_coeffs(SAVGOL_WINDOW, SAVGOL_ORDER, deriv=1)
     t = np.arange(0, SAVGOL_WINDOW, dtype=np.float64)
     powers = np.flip(np.arange(SAVGOL_ORDER + 1, dtype=np.float64))
-    lhs = t[:, None] ** powers[None, :]
+    lhs = libm.power(t[:, None], powers[None, :])
     scale = np.sqrt(np.sum(lhs * lhs, axis=0))
     lhs /= scale
     gelsd, gelsd_lwork = get_lapack_funcs(("gelsd", "gelsd_lwork"), (lhs, lhs))
@@ -207,8 +208,9 @@ def hermite_fill(keys: np.ndarray, values: np.ndarray, n_frames: int) -> np.ndar
     m = np.minimum(np.searchsorted(keys, frames, side="right") - 1, len(keys) - 2)
     a, r = keys[m], keys[m + 1] - keys[m]
     t = (frames - a) / r
-    h00, h10 = 2 * t ** 3 - 3 * t ** 2 + 1, t ** 3 - 2 * t ** 2 + t
-    h01, h11 = -2 * t ** 3 + 3 * t ** 2, t ** 3 - t ** 2
+    cube = libm.power(t, 3.0)
+    h00, h10 = 2 * cube - 3 * t ** 2 + 1, cube - 2 * t ** 2 + t
+    h01, h11 = -2 * cube + 3 * t ** 2, cube - t ** 2
     out[:] = (h00[:, None] * values[m] + h10[:, None] * r[:, None] * slopes[m]
               + h01[:, None] * values[m + 1] + h11[:, None] * r[:, None] * slopes[m + 1])
     return out
@@ -217,7 +219,7 @@ def hermite_fill(keys: np.ndarray, values: np.ndarray, n_frames: int) -> np.ndar
 @functools.lru_cache(maxsize=512)
 def raised_cosine(n: int) -> np.ndarray:
     """w(t) = (1 + cos(pi t)) / 2 at t = 0, 1/(n-1), ..., 1 (eq. 8-9): 1 -> 0. (n,), read-only (shared)."""
-    w = np.ones(1) if n == 1 else (1.0 + np.cos(np.pi * np.arange(n) / (n - 1))) / 2.0
+    w = np.ones(1) if n == 1 else (1.0 + libm.cos(np.pi * np.arange(n) / (n - 1))) / 2.0
     w.setflags(write=False)
     return w
 
@@ -514,7 +516,7 @@ class HybridCoder(_GroupCoder):
 
     def _segment_values(self, coefficients: np.ndarray, length: int) -> np.ndarray:
         """(3, K) mean and cosine amplitudes -> (length, K)."""
-        return _cosine_basis(length).T @ coefficients
+        return ordered_products.matmul(_cosine_basis(length).T, coefficients)
 
     def _synthesise(self, group, bounds, index, quantisers, n_blend):
         """Receiver: segments [a, b) (the last one includes the final frame) from quantised coefficients
@@ -580,7 +582,7 @@ class HybridCoder(_GroupCoder):
 def _cosine_basis(length: int) -> np.ndarray:
     """(3, length): 1, cos(pi k (2n + 1) / (2 length)) for k = 1, 2 (the hybrid coder's DCT basis), read-only."""
     n = np.arange(length)
-    basis = np.stack([np.ones(length)] + [np.cos(np.pi * k * (2 * n + 1) / (2 * length)) for k in (1, 2)])
+    basis = np.stack([np.ones(length)] + [libm.cos(np.pi * k * (2 * n + 1) / (2 * length)) for k in (1, 2)])
     basis.setflags(write=False)
     return basis
 

@@ -328,6 +328,20 @@ def from_matrix(matrix):
 
 
 @njit(cache=True)
+def transposed_products(parent, turned):
+    """parent^T turned of each (T, K, 3, 3) pair, (T, K, 3, 3): each entry (p0 t0 + p1 t1) + p2 t2 in that
+    order (not BLAS's, whose order and fused multiply-adds depend on the CPU)."""
+    out = np.empty(parent.shape)
+    for t in range(parent.shape[0]):
+        for k in range(parent.shape[1]):
+            for r in range(3):
+                for c in range(3):
+                    out[t, k, r, c] = ((parent[t, k, 0, r] * turned[t, k, 0, c] + parent[t, k, 1, r] * turned[t, k, 1, c])
+                                       + parent[t, k, 2, r] * turned[t, k, 2, c])
+    return out
+
+
+@njit(cache=True)
 def quaternions_into(matrices, out, column):
     """`from_matrix` of matrices (T, K, 3, 3) written to out[:, column:column + K] ((T, F, 4) float64, w, x, y, z);
     returns ok (False: some matrix is one scipy would orthogonalise, and out's values for them are not scipy's)."""

@@ -124,6 +124,18 @@ def turn_directions(displacements):
 
 
 @njit(cache=True)
+def turn_along(arms, direction):
+    """`_turns`' dot products: along (N, T) = (d0 a0 + d1 a1) + d2 a2 of each arm (N, 3) and its directions
+    (N, T, 3), in that order (not BLAS's, whose order and fused multiply-adds depend on the CPU)."""
+    n, m = direction.shape[0], direction.shape[1]
+    along = np.empty((n, m))
+    for a in range(n):
+        for t in range(m):
+            along[a, t] = (direction[a, t, 0] * arms[a, 0] + direction[a, t, 1] * arms[a, 1]) + direction[a, t, 2] * arms[a, 2]
+    return along
+
+
+@njit(cache=True)
 def turn_sides(arms, direction, along, distance, reach):
     """`_turns`' second step: across (N, T) = |arm - along direction| (the arm's part across the displacement)
     and the clipped cosine (N, T) clip((distance + along) / reach, -1, 1), the arccos argument; arms (N, 3),

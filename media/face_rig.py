@@ -51,6 +51,7 @@ import numpy as np
 
 from kernels import bba_face_rig as face_kernel
 from kernels import face_bones as bones_kernel
+from kernels import libm
 from media import rotations
 from media.avatar import Avatar, Skeleton, load_avatar
 from media.errors import SigncastError
@@ -174,7 +175,7 @@ def avatar_fapu(avatar: Avatar | None = None) -> Fapu:
     es = abs(p["pupil.L"][0] - p["pupil.R"][0])
     ens = (p["pupil.L"][1] + p["pupil.R"][1]) / 2 - p["nose_tip"][1]
     mns = p["nose_tip"][1] - p["mouth_middle"][1]
-    mw = np.linalg.norm(p["mouth_corner.L"] - p["mouth_corner.R"])
+    mw = float(_length(p["mouth_corner.L"] - p["mouth_corner.R"]))
     fapu = Fapu(*(float(distance) / FAPU_DIVISOR for distance in (irisd, es, ens, mns, mw)))
     _FAPU[id(avatar)] = (avatar, fapu)
     return fapu
@@ -209,9 +210,9 @@ def _face_bone_quaternions(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> 
     turned, eye_angles, head, tail, jaw = bones_kernel.face_targets(
         values, _TARGET_COLUMNS, rig.units, rig.shares, ANGLE_UNIT_RAD)
     distance, direction = bones_kernel.turn_directions(turned)
-    along = (direction @ rig.arms[:, :, None])[..., 0]      # NumPy's (BLAS) products, one per arm, as `_turns`
+    along = bones_kernel.turn_along(rig.arms, direction)
     across, ratio = bones_kernel.turn_sides(rig.arms, direction, along, distance, rig.reach)
-    lids = bones_kernel.turn_quaternions(rig.arms, direction, np.arctan2(across, along) - np.arccos(ratio))
+    lids = bones_kernel.turn_quaternions(rig.arms, direction, libm.arctan2(across, along) - libm.arccos(ratio))
     quaternions = np.empty((len(faps), len(rig.names), 4))
     quaternions[:, _LID_COLUMNS] = lids.swapaxes(0, 1)
     quaternions[:, _EYE_COLUMNS] = bones_kernel.eye_rotations(eye_angles).swapaxes(0, 1)
@@ -262,12 +263,11 @@ def _carry_into(plan: _CarryPlan, head_moved: np.ndarray, tail_moved: np.ndarray
                 column: int, iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> None:
     """The carry of a plan (`_carry`) written to quaternions[:, column:column + C + S] ((T, F, 4)): frames held
     bit for bit solved once, the solve, the carriers' quaternions and the skinned bones' turns in one compiled
-    call (kernels/bba_face_rig.carry_into), the products parent^T turned NumPy's (their last bits are what the
-    stream hashes were taken with), quaternions bitwise scipy's from_matrix."""
+    call (kernels/bba_face_rig.carry_into), the products parent^T turned, quaternions bitwise scipy's from_matrix."""
     local, parent, turned, ok = face_kernel.carry_into(
         head_moved, tail_moved, plan.carrier_heads, plan.carrier_parents, plan.skinned_heads, plan.skinned_parents,
         plan.group_members, plan.group_start, *plan.tables, plan.arms, iterations, damping, max_turn, quaternions, column)
-    products = np.swapaxes(parent, -1, -2) @ turned
+    products = face_kernel.transposed_products(parent, turned)
     ok = face_kernel.quaternions_into(products, quaternions, column + len(plan.carriers)) and ok
     if not ok:                              # scipy orthogonalises first: ask it
         matrices = np.concatenate([local, products], axis=1)
@@ -471,10 +471,10 @@ def _turn(arm: np.ndarray, displacement: np.ndarray) -> np.ndarray:
     point stops at its farthest reach when the displacement is beyond it)."""
     distance = np.linalg.norm(displacement, axis=-1)
     direction = displacement / np.maximum(distance, 1e-300)[:, None]
-    along = direction @ arm
+    along = _dot(direction, arm)
     across = np.linalg.norm(arm - along[:, None] * direction, axis=-1)
-    reach = np.linalg.norm(arm)
-    angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
+    reach = _length(arm)
+    angle = libm.arctan2(across, along) - libm.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
     return rotations.from_axis_angle(rotations.cross(arm, direction), angle)
 
 
@@ -483,16 +483,27 @@ def _turns(arms: np.ndarray, displacements: np.ndarray) -> np.ndarray:
     operations as `_turn` does them (the same values) but one call per NumPy function."""
     distance = np.linalg.norm(displacements, axis=-1)                                  # (N, T)
     direction = displacements / np.maximum(distance, 1e-300)[..., None]
-    along = np.stack([d @ arm for d, arm in zip(direction, arms)])                     # (N, T)
+    along = _dot(direction, arms[:, None])                                            # (N, T)
     across = np.linalg.norm(arms[:, None] - along[..., None] * direction, axis=-1)
-    reach = np.array([np.linalg.norm(arm) for arm in arms])[:, None]
-    angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
+    reach = _length(arms)[:, None]
+    angle = libm.arctan2(across, along) - libm.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
     return rotations.from_axis_angle(rotations.cross(arms[:, None], direction), angle)
 
 
 _ARMS: dict[tuple[int, Fapu], tuple[Skeleton, np.ndarray]] = {}
 _SHARES: dict[int, tuple[Skeleton, dict[str, float]]] = {}
 _REACH: dict[tuple[int, Fapu], np.ndarray] = {}      # _ARMS' lengths, (5,), made with them
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(a0 b0 + a1 b1) + a2 b2 of 3-vectors (..., 3) broadcast together: an order fixed on every CPU (BLAS's
+    dot and matmul sum in CPU-dependent orders, with fused multiply-adds where the CPU has them)."""
+    return (a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]) + a[..., 2] * b[..., 2]
+
+
+def _length(v: np.ndarray) -> np.ndarray:
+    """|v| of 3-vectors (..., 3) as `_dot`, sqrt of (x x + y y) + z z."""
+    return np.sqrt(_dot(v, v))
 
 
 def _turned_arms(skeleton: Skeleton, fapu: Fapu) -> np.ndarray:
@@ -508,7 +519,7 @@ def _turned_arms(skeleton: Skeleton, fapu: Fapu) -> np.ndarray:
     result = np.array(arms)
     result.flags.writeable = False
     _ARMS[(id(skeleton), fapu)] = (skeleton, result)
-    _REACH[(id(skeleton), fapu)] = np.array([np.linalg.norm(arm) for arm in result])     # as `_turns`
+    _REACH[(id(skeleton), fapu)] = _length(result)                                      # as `_turns`
     return result
 
 
@@ -534,7 +545,7 @@ def _lid_arms(skeleton: Skeleton, side: str, aperture: float) -> tuple[np.ndarra
     margins are `aperture` metres apart vertically."""
     upper, lower = (skeleton.tails[skeleton.index(f"orbicularis0{k}.{side}")]
                     - skeleton.heads[skeleton.index(f"orbicularis0{k}.{side}")] for k in (3, 4))
-    upper, lower = upper / np.linalg.norm(upper), lower / np.linalg.norm(lower)
+    upper, lower = upper / _length(upper), lower / _length(lower)
     radius = aperture / (upper[1] - lower[1])
     return radius * upper, radius * lower
 

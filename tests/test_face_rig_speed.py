@@ -19,8 +19,11 @@ from media.face_rig import avatar_fapu, face_bone_rotations
 from media.fingerspelling import letter_motion
 from media.motion import Motion
 
-# face_bone_rotations of the cases below, hashed with the frame-by-frame solve and scipy's conversions.
-_RIG_DIGEST = "1b22d77515672ddf201236f051863e2b3c73544e6d3197632cd6b11749aefdb6"
+# face_bone_rotations of the cases below, hashed: first ("1b22d775...") with the frame-by-frame solve and scipy's
+# conversions on a CPU without AVX-512, then retaken when the rig's dot products, matrix products and arctan2 /
+# arccos were fixed to one order and libm's results (face_bones.turn_along, bba_face_rig.transposed_products,
+# kernels/libm.py), so that it holds on every CPU (before, NumPy's AVX-512 paths and OpenBLAS's kernels changed it).
+_RIG_DIGEST = "38a9e612dd4c1324b3567ba419d6ac1a02d65078cd6e52d3f6f69881ccc43ee6"
 
 
 def _bits(a: np.ndarray) -> np.ndarray:
@@ -121,7 +124,7 @@ def test_held_frames_are_solved_once_and_give_each_frame_its_own_solution(avatar
 
 def _carry_by_steps(plan, head_moved, tail_moved):
     """The carry as separate steps (how face_rig._carry_arrays did it before the one-call kernel): distinct
-    frames by a NumPy comparison, the frame-vectorised solve (`carry`), bone_turns, NumPy's parent^T turned,
+    frames by a NumPy comparison, the frame-vectorised solve (`carry`), bone_turns, parent^T turned,
     from_matrix (scipy's where it orthogonalises). (T, C + S, 4)."""
     rows = np.ascontiguousarray(head_moved).reshape(len(head_moved), -1).view(np.int64)
     changed = np.ones(len(rows), dtype=bool)
@@ -132,7 +135,7 @@ def _carry_by_steps(plan, head_moved, tail_moved):
     run = np.cumsum(changed) - 1
     local, parent = local[run], parent[run]
     turned = face_kernel.bone_turns(plan.arms, head_moved, tail_moved)
-    matrices = np.concatenate([local, np.swapaxes(parent, -1, -2) @ turned], axis=1)
+    matrices = np.concatenate([local, face_kernel.transposed_products(parent, turned)], axis=1)
     quaternions, orthogonal = face_kernel.from_matrix(matrices.reshape(-1, 3, 3))
     if not orthogonal:
         return rotations.from_matrix(matrices)

@@ -1,0 +1,45 @@
+"""The stored stream and decode hashes hold on another CPU: the hash tests run again in a fresh interpreter with
+NumPy's SIMD dispatch held to its baseline (no AVX2, no AVX-512: other code paths for its transcendental
+functions) and OpenBLAS's kernels for a CPU without FMA (Nehalem). Before kernels/libm.py and
+kernels/ordered_products.py, 16 of the decoded hashes failed on an AVX-512 machine, and the FBA DCT stream of
+HELLO at Q 1 and the hybrid coder's decodes changed under the Nehalem kernels."""
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+HASH_TESTS = ("tests/test_stream_identity.py", "tests/test_libm.py",
+              "tests/test_face_rig_speed.py::test_face_bone_rotations_hash_as_before_the_faster_paths",
+              "tests/test_bba_speed_identity.py::test_bba_codecs_array_paths_give_the_stored_bytes_and_motions")
+
+
+def _dispatched_simd() -> list[str]:
+    """NumPy's runtime-dispatched SIMD targets this CPU has (e.g. X86_V3, X86_V4, AVX512_ICL)."""
+    from numpy._core import _multiarray_umath as umath
+    return [name for name in umath.__cpu_dispatch__ if umath.__cpu_features__.get(name)]
+
+
+@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="OpenBLAS's core types named here are x86's")
+def test_hashes_hold_with_baseline_simd_and_blas_kernels_without_fma():
+    env = dict(os.environ, OPENBLAS_CORETYPE="Nehalem", NPY_DISABLE_CPU_FEATURES=" ".join(_dispatched_simd()))
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *HASH_TESTS],
+                         cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-2000:]
+    assert " passed" in run.stdout.splitlines()[-1]
+
+
+def test_the_alternative_is_another_code_path_here():
+    """The check above means something only if the alternate settings change NumPy's or OpenBLAS's bits on
+    this machine: OpenBLAS's Nehalem kernel has no FMA, so a 17-term dot product's rounding differs."""
+    script = ("import numpy as np; r = np.random.default_rng(0); a, b = r.normal(size=(64, 17)), r.normal(size=(17, 1)); "
+              "print((a @ b).tobytes().hex())")
+    runs = [subprocess.run([sys.executable, "-c", script], env=dict(os.environ, **extra), capture_output=True,
+                           text=True, timeout=120).stdout for extra in ({}, {"OPENBLAS_CORETYPE": "Nehalem"})]
+    if runs[0] == runs[1]:
+        pytest.skip("this CPU's OpenBLAS kernel rounds as the Nehalem one does (no FMA here)")
+    assert np.frombuffer(bytes.fromhex(runs[0].strip())).shape == (64,)
