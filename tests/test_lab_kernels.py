@@ -29,6 +29,7 @@ from comparisons.model_coders import (
     warp_segments,
 )
 from comparisons.vector_quantization import nearest
+from kernels import libm
 from media import rotations
 from media.errors import SigncastError
 
@@ -171,8 +172,9 @@ def test_hermite_fill_equals_the_per_interval_formula():
     for m in range(len(keys) - 1):
         a, b = keys[m], keys[m + 1]
         t = (np.arange(a, b + 1) - a) / (b - a)
-        h00, h10 = 2 * t ** 3 - 3 * t ** 2 + 1, t ** 3 - 2 * t ** 2 + t
-        h01, h11 = -2 * t ** 3 + 3 * t ** 2, t ** 3 - t ** 2
+        cube = libm.power(t, 3.0)          # libm's pow, as the coder (NumPy's t ** 3 depends on the CPU)
+        h00, h10 = 2 * cube - 3 * t ** 2 + 1, cube - 2 * t ** 2 + t
+        h01, h11 = -2 * cube + 3 * t ** 2, cube - t ** 2
         expected[a:b + 1] = (h00[:, None] * values[m] + h10[:, None] * (b - a) * slopes[m]
                              + h01[:, None] * values[m + 1] + h11[:, None] * (b - a) * slopes[m + 1])
     assert got.tobytes() == expected.tobytes()
