@@ -74,9 +74,14 @@ def _power(x, exponent, out):
 def _apply(loop, *arguments):
     """loop over the arguments broadcast together as contiguous float64 arrays; the result has their
     broadcast shape (a Python float for scalars)."""
-    values = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in arguments))
+    values = [np.asarray(a, dtype=np.float64) for a in arguments]
+    if len(values) > 1 and any(v.shape != values[0].shape for v in values[1:]):
+        values = np.broadcast_arrays(*values)
     out = np.empty(values[0].shape)
-    loop(*(np.ascontiguousarray(v).reshape(-1) for v in values), out.reshape(-1))
+    if len(values) == 1:
+        loop(values[0].ravel(), out.ravel())
+    else:
+        loop(values[0].ravel(), values[1].ravel(), out.ravel())
     return out if out.ndim else float(out)
 
 
