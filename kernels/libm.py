@@ -17,114 +17,85 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
-def _arccos(x, out):
-    for i in range(x.size):
-        out[i] = math.acos(x[i])
+ARCCOS, SIN, COS, ARCTAN2, LOG1P, EXPM1, LOG2, EXP2, POWER = range(9)
 
 
 @njit(cache=True)
-def _sin(x, out):
-    for i in range(x.size):
-        out[i] = math.sin(x[i])
+def _evaluate(function, x, y, out):
+    """out[i] = libm's `function` (one of the codes above) of x[i] (and y[i]); all (N,) float64."""
+    for i in range(out.size):
+        if function == ARCCOS:
+            out[i] = math.acos(x[i])
+        elif function == SIN:
+            out[i] = math.sin(x[i])
+        elif function == COS:
+            out[i] = math.cos(x[i])
+        elif function == ARCTAN2:
+            out[i] = math.atan2(x[i], y[i])
+        elif function == LOG1P:
+            out[i] = math.log1p(x[i])
+        elif function == EXPM1:
+            out[i] = math.expm1(x[i])
+        elif function == LOG2:
+            out[i] = math.log2(x[i])
+        elif function == EXP2:
+            out[i] = np.exp2(x[i])
+        else:
+            out[i] = math.pow(x[i], y[i])
 
 
-@njit(cache=True)
-def _log1p(x, out):
-    for i in range(x.size):
-        out[i] = math.log1p(x[i])
-
-
-@njit(cache=True)
-def _expm1(x, out):
-    for i in range(x.size):
-        out[i] = math.expm1(x[i])
-
-
-@njit(cache=True)
-def _log2(x, out):
-    for i in range(x.size):
-        out[i] = math.log2(x[i])
-
-
-@njit(cache=True)
-def _exp2(x, out):
-    for i in range(x.size):
-        out[i] = np.exp2(x[i])
-
-
-@njit(cache=True)
-def _cos(x, out):
-    for i in range(x.size):
-        out[i] = math.cos(x[i])
-
-
-@njit(cache=True)
-def _arctan2(y, x, out):
-    for i in range(y.size):
-        out[i] = math.atan2(y[i], x[i])
-
-
-@njit(cache=True)
-def _power(x, exponent, out):
-    for i in range(x.size):
-        out[i] = math.pow(x[i], exponent[i])
-
-
-def _apply(loop, *arguments):
-    """loop over the arguments broadcast together as contiguous float64 arrays; the result has their
-    broadcast shape (a Python float for scalars)."""
+def _apply(function, *arguments):
+    """`function` over the arguments broadcast together as float64 arrays; the result has their broadcast
+    shape (a Python float for scalars)."""
     values = [np.asarray(a, dtype=np.float64) for a in arguments]
     if len(values) > 1 and any(v.shape != values[0].shape for v in values[1:]):
         values = np.broadcast_arrays(*values)
     out = np.empty(values[0].shape)
-    if len(values) == 1:
-        loop(values[0].ravel(), out.ravel())
-    else:
-        loop(values[0].ravel(), values[1].ravel(), out.ravel())
+    x = values[0].ravel()
+    _evaluate(function, x, values[1].ravel() if len(values) > 1 else x, out.ravel())
     return out if out.ndim else float(out)
 
 
 def arccos(x):
     """arccos of x, radians in [0, pi]; x in [-1, 1] (NaN outside)."""
-    return _apply(_arccos, x)
+    return _apply(ARCCOS, x)
 
 
 def sin(x):
     """sin of x (radians)."""
-    return _apply(_sin, x)
+    return _apply(SIN, x)
 
 
 def cos(x):
     """cos of x (radians)."""
-    return _apply(_cos, x)
+    return _apply(COS, x)
 
 
 def arctan2(y, x):
     """The angle of (x, y), radians in [-pi, pi]; y and x broadcast together."""
-    return _apply(_arctan2, y, x)
+    return _apply(ARCTAN2, y, x)
 
 
 def log1p(x):
     """log(1 + x)."""
-    return _apply(_log1p, x)
+    return _apply(LOG1P, x)
 
 
 def expm1(x):
     """exp(x) - 1."""
-    return _apply(_expm1, x)
+    return _apply(EXPM1, x)
 
 
 def log2(x):
     """Base-2 logarithm."""
-    return _apply(_log2, x)
+    return _apply(LOG2, x)
 
 
 def exp2(x):
     """2 ** x."""
-    return _apply(_exp2, x)
+    return _apply(EXP2, x)
 
 
 def power(x, exponent):
     """x ** exponent; x and exponent broadcast together."""
-    return _apply(_power, x, exponent)
+    return _apply(POWER, x, exponent)
