@@ -25,18 +25,23 @@ def fused_multiply_add(typingctx, a, b, c):
 
 @njit(cache=True)
 def _matmul(a, b, out):
+    # k outside j: each entry is still its chain over k in order, and the inner loop runs along b's rows
+    n = b.shape[1]
+    row = np.empty(n)
     for i in range(a.shape[0]):
-        for j in range(b.shape[1]):
-            total = 0.0
-            for k in range(a.shape[1]):
-                total = fused_multiply_add(a[i, k], b[k, j], total)
-            out[i, j] = total
+        row[:] = 0.0
+        for k in range(a.shape[1]):
+            factor = a[i, k]
+            b_row = b[k]
+            for j in range(n):
+                row[j] = fused_multiply_add(factor, b_row[j], row[j])
+        out[i] = row
 
 
 def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a (M, K) @ b (K, N) -> (M, N) float64, each entry fma(a[i, K-1], b[K-1, j], ... fma(a[i, 0], b[0, j], 0))."""
     a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
     if a.ndim != 2 or b.ndim != 2 or a.shape[1] != b.shape[0]:
         raise ValueError(f"matmul takes (M, K) and (K, N) arrays, got {a.shape} and {b.shape}")
     out = np.empty((a.shape[0], b.shape[1]))
