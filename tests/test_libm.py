@@ -46,3 +46,25 @@ def test_shapes_scalars_and_non_contiguous_inputs():
     assert isinstance(libm.log2(8.0), float) and libm.log2(8.0) == 3.0
     assert libm.log2(np.float64(0.5)) == -1.0
     assert np.isnan(libm.arccos(1.5)) and libm.sin(np.empty((0, 3))).shape == (0, 3)
+
+
+def _fma_chain(row, column) -> float:
+    """fma(row[K-1], column[K-1], ... fma(row[0], column[0], 0)), each step rounded once (exact rationals)."""
+    from fractions import Fraction
+    total = 0.0
+    for x, y in zip(row, column):
+        total = float(Fraction(x) * Fraction(y) + Fraction(total))
+    return total
+
+
+def test_ordered_matmul_is_a_chain_of_fused_multiply_adds_in_order():
+    from kernels import ordered_products
+    rng = np.random.default_rng(5)
+    a, b = rng.normal(size=(7, 17)), rng.normal(size=(17, 5)) * 10.0 ** rng.integers(-8, 8, size=(17, 5))
+    expected = np.array([[_fma_chain(a[i], b[:, j]) for j in range(5)] for i in range(7)])
+    assert np.array_equal(ordered_products.matmul(a, b), expected)
+    assert np.array_equal(ordered_products.matmul(np.asfortranarray(a), np.asfortranarray(b)), expected)
+    plain = np.array([[sum((a[i, k] * b[k, j] for k in range(17)), 0.0) for j in range(5)] for i in range(7)])
+    assert not np.array_equal(plain, expected)          # the inputs tell a fused chain from plain sums
+    with pytest.raises(ValueError, match=r"\(M, K\) and \(K, N\)"):
+        ordered_products.matmul(a, b.T)
