@@ -11,8 +11,9 @@ keep the two kinds of quality apart:
   eq. 2.6), vpsnr, joint_error_mm_mean / joint_error_mm_max and group_errors (per joint group: mean, max); for a
   motion with a face, face_sent (in extra: false for a codec that carries the signing joints only, whose face
   decodes at rest), face_kbps (what the FAPs add over the body alone), fap_error (mean |error|, FAP units) and
-  face_joint_error_mm / face_joint_error_mm_max (the face bones' tails in the head's frame, mm: the face's own
-  movement, which the joint errors over the whole body hide behind the head's pose);
+  face_joint_error_mm / face_joint_error_mm_max / face_joint_error_mm_p90 (the face bones' tails in the head's
+  frame, mm: the face's own movement, which the joint errors over the whole body hide behind the head's pose; p90:
+  the 90th percentile over frames of each frame's worst face point);
 - transport, for points delivered live (TRANSPORT_FIELDS: loss, delivered rate with headers, concealed frames,
   latency);
 Any other field (areas, sweep labels, flags, ...) is kept as given in Record.extra.
@@ -53,7 +54,7 @@ SCHEMA_VERSION = 2
 REQUIRED_FIELDS = ("solution", "clip", "codec", "q", "fps", "width", "height", "bits", "duration_s", "kbps")
 IMAGE_QUALITY_FIELDS = ("image_psnr", "skin_psnr", "object_psnr", "ssim", "skin_ssim", "object_ssim")
 PARAM_QUALITY_FIELDS = ("param_psnr", "vpsnr", "joint_error_mm_mean", "joint_error_mm_max", "face_kbps", "fap_error",
-                        "face_joint_error_mm", "face_joint_error_mm_max", "group_errors")
+                        "face_joint_error_mm", "face_joint_error_mm_max", "face_joint_error_mm_p90", "group_errors")
 # what a viewer can read: landmarks extracted from what the viewer sees against the reference's landmarks
 INTELLIGIBILITY_FIELDS = ("hand_error", "hand_error_p90", "hand_pck_10", "hand_pck_20", "left_hand_found",
                           "right_hand_found", "face_error", "face_error_p90", "mouth_error", "eyes_error", "letter_top1", "letter_top3",
@@ -108,6 +109,7 @@ class Record:
     fap_error: float | None = None         # mean |decoded - original| of the moving FAPs, FAP units
     face_joint_error_mm: float | None = None       # face bones' tails in the head's frame: mean error, mm
     face_joint_error_mm_max: float | None = None   # and the largest
+    face_joint_error_mm_p90: float | None = None   # 90th percentile over frames of each frame's worst face point
     group_errors: dict | None = None       # joint group -> [mean, max] weighted error
     # intelligibility (comparisons.intelligibility), against `reference`: "source video" (message fidelity) or
     # "lossless render" (codec loss of an avatar solution); errors per frame, then mean (and 90th percentile)

@@ -90,4 +90,7 @@ def test_records_carry_the_face_joint_error():
     sent, dropped = measure_point(motion, "fba-dct", 4), measure_point(motion, "quant", 6)
     assert 0 < sent["face_joint_error_mm"] <= sent["face_joint_error_mm_max"]
     assert dropped["face_joint_error_mm"] > 5 * sent["face_joint_error_mm"]
+    # each frame's worst face point, 90th percentile over frames: the sweep's face threshold (2 mm) tells them apart
+    assert sent["face_joint_error_mm"] < sent["face_joint_error_mm_p90"] <= sent["face_joint_error_mm_max"]
+    assert sent["face_joint_error_mm_p90"] < 1.0 < 2.0 < dropped["face_joint_error_mm_p90"]
     assert "face_joint_error_mm" not in measure_point(motion.without_face(), "fba-dct", 4)

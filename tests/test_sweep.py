@@ -154,3 +154,55 @@ def test_a_sweep_larger_than_one_records_file_is_refused_before_any_work(tmp_pat
     assert main(["sweep", "--languages", "all", "--q", "1,2,4,8,16,31", "--out", str(out)]) == 2
     error = capsys.readouterr().err.strip()
     assert "a sweep of 37560 points is more than one records file holds" in error and not out.exists()
+
+
+def test_points_of_another_version_are_refused_before_any_work(tmp_path, capsys):
+    """A records file the sweep cannot mix: points keyed under another code version (measured before TASK_VERSION
+    changed what a point measures, or by another signcast) would sit in the report beside re-measured ones."""
+    out = tmp_path / "out"
+    old_key = sweep.task_key("ase", "A", "fba-pred", 4, 10.0, "FBA", "signcast 0.1, sweep task 1")
+    write_records(out / sweep.RECORDS, [make_record("FBA", "ase:A", "fba-pred", 4, 10.0, 0, 0, 800, 1.0, task=old_key,
+                                                    language="ase", item="A")])
+    (out / MANIFEST).write_text(f"{sweep.RECORDS}\n")
+    assert main(["sweep", "--languages", "ase", "--items", "A", "--codecs", "fba-pred", "--q", "4", "--fps", "10",
+                 "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "1 points measured by another version" in error, error
+    assert len(read_records(out / sweep.RECORDS)) == 1                 # left as it was
+    current = dict(read_records(out / sweep.RECORDS)[0], task=sweep.task_key(
+        "ase", "A", "fba-pred", 4, 10.0, "FBA", sweep.code_version()))
+    assert sweep.stale_records([current]) == [] and len(sweep.stale_records([current], "signcast 0.1")) == 1
+
+
+def _item_points(codec: str, joint_mm: dict[int, float], face_mm: dict[int, float] | None, face_sent: bool = True
+                 ) -> list[dict]:
+    """Point records of one item and codec at Q 1, 4, 16, 31 (kbps falling with Q), with the given errors."""
+    records = []
+    for q, bits in ((1, 40_000), (4, 20_000), (16, 10_000), (31, 5_000)):
+        fields = {"joint_error_mm_mean": joint_mm[q]}
+        if face_mm is not None:
+            fields |= {"face_sent": face_sent, "face_joint_error_mm_p90": face_mm[q]}
+        records.append(make_record(sweep.solution_of(codec), "ase:A", codec, q, 25.0, 0, 0, bits, 1.0,
+                                   language="ase", item="A", **fields))
+    return records
+
+
+def test_the_matched_point_holds_the_face_where_the_motion_has_one():
+    """The body's mean joint error cannot see the face: the matched point also keeps each frame's worst face point
+    within FACE_ERROR_MM (90th percentile over frames). A coder that does not send the face misses it wherever the
+    face moves more than that, however good its body; a motion without a face is matched on the body alone."""
+    body = {1: 0.2, 4: 0.8, 16: 1.6, 31: 4.0}                          # meets 2 mm down to Q 16
+    face_binding = {1: 0.1, 4: 0.5, 16: 2.5, 31: 3.0}                  # the face misses from Q 16 on
+    faceless = {q: 6.0 for q in body}                                  # the face at rest: 6 mm off
+    records = (_item_points("fba-dct", body, face_binding) + _item_points("quant", body, faceless, face_sent=False)
+               + [dict(r, item="B", clip="ase:B") for r in _item_points("fba-pred", body, None)])
+    matched = {(m["item"], m["codec"]): m for m in sweep_report.matched_points(records)}
+    face_bound = matched[("A", "fba-dct")]
+    assert face_bound["reached"] and (face_bound["q_met"], face_bound["q_missed"]) == (4, 16)
+    # linear in log-rate between Q 4 (0.5 mm, 20 kbps) and Q 16 (2.5 mm, 10 kbps): 2 mm three quarters of the way
+    assert face_bound["kbps"] == pytest.approx(10 * 2 ** 0.25)
+    assert not matched[("A", "quant")]["reached"]
+    body_only = matched[("B", "fba-pred")]
+    assert body_only["reached"] and (body_only["q_met"], body_only["q_missed"]) == (16, 31)
+    assert sweep_report.criteria(records[:4]) == [sweep_report.CRITERION, sweep_report.FACE_CRITERION]
+    assert "worst face point" in sweep_report.summary_text(sweep_report.cells(list(matched.values())))

@@ -41,6 +41,7 @@ from pathlib import Path
 from comparisons.param_codecs import codec_names, get_codec
 from comparisons.param_study import measure_point
 from comparisons.records import MAX_RECORD_VALUES, make_record, read_records, versions, write_records
+from comparisons.sweep_report import language_item
 from media import lexicon
 from media.domain import check_fps, check_q, solution_of
 from media.errors import SigncastError
@@ -48,7 +49,8 @@ from media.motion import Motion
 from pipeline.outputs import MANIFEST, check_folder
 
 EXECUTORS = ("local", "ray")
-TASK_VERSION = 1                   # bump when a point's measurement changes meaning: old keys are then re-measured
+# bump when a point's measurement changes meaning (2: face_joint_error_mm_p90, which the report's face threshold reads)
+TASK_VERSION = 2
 RECORDS = "records.jsonl"
 REPORT_FILES = ("report.html", "sweep_table.csv", "sweep_kbps.png")
 SWEEP_FILES = (RECORDS, RECORDS + ".tmp", *REPORT_FILES)
@@ -341,6 +343,11 @@ def load_finished(path: Path, *, skip_failed: bool = False) -> tuple[list[dict],
     if foreign:
         raise SigncastError(f"{path} holds records that signcast sweep did not write (no task key): choose a new "
                             f"--out, or pass --force to start over")
+    stale = stale_records(records)
+    if stale:
+        raise SigncastError(f"{path} holds {len(stale)} points measured by another version than this one "
+                            f"({code_version()}), which the report cannot mix: choose a new --out, or pass --force "
+                            f"to start over")
     done = {r["task"] for r in records if r.get("kind") == "point"}
     failed = {r["task"] for r in records if r.get("kind") == "failed"} - done
     if skip_failed:
@@ -349,6 +356,22 @@ def load_finished(path: Path, *, skip_failed: bool = False) -> tuple[list[dict],
     if len(kept) != len(records):
         _replace_records(path, kept)
     return kept, done
+
+
+def stale_records(records: list[dict], version: str | None = None) -> list[dict]:
+    """The point and failed records whose task key is not the one their parameters give under this code version
+    (`code_version`): measured by another signcast, or before TASK_VERSION changed what a point measures."""
+    version = version or code_version()
+    return [r for r in records if r.get("kind") in ("point", "failed") and r.get("task") != _record_key(r, version)]
+
+
+def _record_key(record: dict, version: str) -> str | None:
+    """The task key of a point or failed record's parameters under version (None: the record lacks them)."""
+    try:
+        return task_key(*language_item(record), record["codec"], record["q"], record["fps"], record["solution"],
+                        version)
+    except (KeyError, TypeError, ValueError):
+        return None
 
 
 def pending_units(units: list[Unit], finished: set[str]) -> list[Unit]:
