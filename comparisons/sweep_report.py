@@ -212,8 +212,8 @@ def face_note(records: list[dict]) -> str | None:
     if not faceless:
         return None
     return (f"Face not sent by {', '.join(faceless)}: these coders carry the signing joints only, so the face decodes "
-            f"at rest, and they reach the threshold only on items whose face moves less than its {FACE_ERROR_MM:g} mm "
-            "(the face bones in the head's frame).")
+            f"at rest, and they reach the threshold only on items whose face moves less than {FACE_ERROR_MM:g} mm "
+            "(each frame's worst face point, in the head's frame).")
 
 
 def _html_table(header: list[str], rows: list[list[str]]) -> str:
