@@ -13,6 +13,13 @@ Chosen here:
 - when even the dearest point misses, the match is not reached and its rate is that of the best point (the one
   that misses the criteria by the smallest margin, in units of each criterion's threshold distance);
 - when the cheapest swept point already meets the threshold, the rate is its own (no cheaper bracket).
+
+With monotone=True the criteria are judged on each criterion's monotone fit over the swept points instead of the
+values as measured: intelligibility does not fall when bits (or frames) are added, so a measured fall is the
+landmark extractor's noise, and the least-squares fit that never falls (isotonic regression, pooling adjacent
+violators, every point weighted alike: `monotone_fit`) pools the points that disagree. The matched rate,
+bracket and crossing follow from the fitted values; Match.fitted holds them at the matched rate, while
+`fields_at` still interpolates the measured fields.
 """
 from __future__ import annotations
 
@@ -75,27 +82,76 @@ class Match:
     lower: dict | None
     fraction: float
     reached: bool
+    fitted: dict | None = None       # monotone=True: each criterion's fitted value at the matched rate
 
 
-def cheapest_rate(points: list[dict], criteria: list[Criterion]) -> Match:
-    """The cheapest rate (kbps) meeting every criterion (see the module's description); points: >= 1 records."""
+def cheapest_rate(points: list[dict], criteria: list[Criterion], *, monotone: bool = False) -> Match:
+    """The cheapest rate (kbps) meeting every criterion (see the module's description); points: >= 1 records;
+    monotone: judge each criterion on its monotone fit over the points (non-decreasing in rate where higher is
+    better) rather than on the values as measured."""
     if not points:
         raise SigncastError("no swept point to match")
     if not criteria:
         raise SigncastError("matching needs at least one criterion")
     ordered = sorted(points, key=lambda p: p["kbps"])
+    judged = _fitted(ordered, criteria) if monotone else ordered
     k = len(ordered)
-    while k > 0 and meets(ordered[k - 1], criteria):
+    while k > 0 and meets(judged[k - 1], criteria):
         k -= 1
     if k == len(ordered):            # even the dearest point misses
-        best = min(ordered, key=lambda p: (_miss(p, criteria), -p["kbps"]))
-        return Match(float(best["kbps"]), best, None, 1.0, False)
-    upper = ordered[k]
+        best = min(range(k), key=lambda i: (_miss(judged[i], criteria), -ordered[i]["kbps"]))
+        return Match(float(ordered[best]["kbps"]), ordered[best], None, 1.0, False,
+                     _fields(judged[best], criteria) if monotone else None)
     if k == 0:
-        return Match(float(upper["kbps"]), upper, None, 1.0, True)
-    lower = ordered[k - 1]
-    fraction = max(_crossing(lower, upper, c) for c in criteria)
-    return Match(_log_between(lower["kbps"], upper["kbps"], fraction), upper, lower, fraction, True)
+        return Match(float(ordered[0]["kbps"]), ordered[0], None, 1.0, True,
+                     _fields(judged[0], criteria) if monotone else None)
+    fraction = max(_crossing(judged[k - 1], judged[k], c) for c in criteria)
+    fitted = _fields(judged[k - 1], criteria, judged[k], fraction) if monotone else None
+    return Match(_log_between(ordered[k - 1]["kbps"], ordered[k]["kbps"], fraction), ordered[k], ordered[k - 1],
+                 fraction, True, fitted)
+
+
+def monotone_fit(values: list[float | None], increasing: bool = True) -> list[float | None]:
+    """The least-squares fit of values (in the order given) that never decreases (increasing) or never increases,
+    every value weighted alike: pool adjacent violators, each pooled run taking its mean. None (a missing value)
+    is left out of the fit and stays None."""
+    present = [i for i, v in enumerate(values) if v is not None]
+    sign = 1.0 if increasing else -1.0
+    blocks: list[list[float]] = []              # [sum, count] of each pooled run, means non-decreasing
+    for i in present:
+        blocks.append([sign * values[i], 1.0])
+        while len(blocks) > 1 and blocks[-2][0] / blocks[-2][1] > blocks[-1][0] / blocks[-1][1]:
+            total, count = blocks.pop()
+            blocks[-1][0] += total
+            blocks[-1][1] += count
+    fitted: list[float | None] = [None] * len(values)
+    position = iter(present)
+    for total, count in blocks:
+        for _ in range(int(count)):
+            fitted[next(position)] = sign * total / count
+    return fitted
+
+
+def _fitted(ordered: list[dict], criteria: list[Criterion]) -> list[dict]:
+    """Copies of the points (ordered along the swept axis) with each criterion's field replaced by its monotone fit:
+    non-decreasing along the axis where higher is better, non-increasing where lower is."""
+    judged = [dict(point) for point in ordered]
+    for criterion in criteria:
+        fit = monotone_fit([criterion.value(point) for point in ordered], criterion.higher_is_better)
+        for point, value in zip(judged, fit):
+            point[criterion.field] = value
+    return judged
+
+
+def _fields(point: dict, criteria: list[Criterion], upper: dict | None = None, fraction: float = 0.0) -> dict:
+    """Each criterion's value at point, or fraction of the way from point to upper (linear; upper's value where
+    either is missing)."""
+    values = {}
+    for c in criteria:
+        low = c.value(point)
+        high = c.value(upper) if upper is not None else low
+        values[c.field] = high if low is None or high is None else low + fraction * (high - low)
+    return values
 
 
 def _miss(point: dict, criteria: list[Criterion]) -> float:
@@ -137,11 +193,14 @@ def _finite(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def lowest_fps_holding(points: list[dict], criteria: list[Criterion]) -> float | None:
+def lowest_fps_holding(points: list[dict], criteria: list[Criterion], *, monotone: bool = False) -> float | None:
     """The lowest frame rate (the points' "fps") down to which every swept rate, from the highest, meets every
-    criterion; None when the highest rate already misses. points: one per frame rate, at one Q."""
+    criterion; None when the highest rate already misses. points: one per frame rate, at one Q; monotone: judge
+    each criterion on its monotone fit over the frame rates (as cheapest_rate does over the rates)."""
+    ordered = sorted(points, key=lambda p: p["fps"])
+    judged = _fitted(ordered, criteria) if monotone else ordered
     holding = None
-    for point in sorted(points, key=lambda p: -p["fps"]):
+    for point in reversed(judged):
         if not meets(point, criteria):
             break
         holding = float(point["fps"])

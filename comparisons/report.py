@@ -840,7 +840,11 @@ def _matched_section(records: list[dict], styles: dict) -> str:
             "the <em>source video</em> measures the message's fidelity; the <em>lossless render</em> measures only an avatar "
             "solution's codec loss, not the avatar's own distance from the signer. Each solution's operating point is the "
             "cheapest rate whose intelligibility reaches the threshold, interpolated between the two swept Q values that "
-            "bracket it; where no swept point reaches it, the row gives the best point's rate. Hand errors are in hand "
+            "bracket it; where no swept point reaches it, the row gives the best point's rate. Every intelligibility "
+            "figure is the mean of several landmark extractions, each from the picture moved by an invisible fraction of "
+            "a pixel; the threshold is judged on each criterion's monotone fit over the swept Q (intelligibility does not "
+            "fall when bits are added, so where a dearer point reads lower, the extractor's noise is pooled), and the "
+            "threshold's columns (hand PCK, letter top-1) give that fit at the matched rate. Hand errors are in hand "
             "sizes (about 10 cm of palm: 0.1 is about a centimetre), face errors in interocular distances. “Holds down "
             "to” is the lowest frame rate at which the threshold still holds. Delivery channels: " + channels + ".</p>"
             + _table_note(records)

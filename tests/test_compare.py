@@ -15,7 +15,8 @@ from pipeline.studies.compare import CompareSettings, LOSSLESS, SOURCE, UNCODED_
 from pipeline.studies.video import VideoSweep
 
 SMALL = CompareSettings(word="AB", video=VideoSweep(qs=(12, 31), frame_rates=(25.0, 10.0), other_codecs=()),
-                        param_codecs=("fba-pred", "bba-key"), param_qs=(2, 31), size=(176, 144), max_clip_frames=48)
+                        param_codecs=("fba-pred", "bba-key"), param_qs=(2, 31), size=(176, 144), max_clip_frames=48,
+                        extractions=2)
 SOLUTIONS = {"NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "FBA", "BBA"}
 AVATAR = {"SSV", "FBA", "BBA"}
 
@@ -74,6 +75,11 @@ def test_the_uncoded_reference_resampled_by_half_a_pixel_is_the_ceiling(result):
     assert 0 <= source["letter_top1"] <= source["letter_top3"] <= 100
     for matched in (r for r in result.records if r.get("kind") == "matched" and r["reference"] == SOURCE):
         assert f"{source['hand_pck_20'] - 2.0:.4g}" in matched["threshold"]
+    # the ceiling and every point: the mean of two extractions under their sub-pixel shifts, with their spread
+    run = next(r for r in result.records if r.get("kind") == "run")
+    assert run["extractions"] == 2 and run["extraction_shifts"] == [[0.5, 0.5], [0.5, 0.0]]
+    for record in [source, *_points(result)]:
+        assert record["extractions"] == 2 and record["draw_sd"]["hand_pck_20"] >= 0
 
 
 @pytest.mark.slow
@@ -89,6 +95,11 @@ def test_each_solution_is_matched_between_its_bracketing_points(result):
         assert record["reference"] == (LOSSLESS if record["solution"] in AVATAR else SOURCE)
         assert "PCK@0.2" in record["threshold"] and "letter top-1" in record["threshold"]
         assert isinstance(record["reached"], bool)
+        # judged on the monotone fit over Q: where reached with a cheaper bracket, the fit crosses the threshold there
+        assert "monotone fit" in record["judged_on"] and set(record["measured"]) == {"hand_pck_20", "letter_top1"}
+        if record["reached"] and record["q_low"] != record["q_high"]:
+            threshold = float(record["threshold"].split(">=")[1].split()[0])
+            assert record["hand_pck_20"] >= threshold - 0.01          # the fit at the match; the text rounds to 4 digits
         assert record["fps_holds"] is None or record["fps_holds"] in (25.0, 10.0)
         assert set(INTELLIGIBILITY_FIELDS) & set(record)
     operating = {r["solution"] for r in result.operating}
@@ -204,5 +215,11 @@ def test_compare_rejects_bad_settings(tmp_path, capsys):
     assert "40" in capsys.readouterr().err
     assert main(["compare", "ase", "AB", "--codecs", "fba-zip", "--out", str(tmp_path)]) == 2
     assert "unknown parameter codec" in capsys.readouterr().err
+    assert main(["compare", "xyz", "AB", "--out", str(tmp_path)]) == 2
+    assert np.char.find(capsys.readouterr().err, "xyz") >= 0
+    for count in ("0", "17"):
+        assert main(["compare", "ase", "AB", "--extractions", count, "--out", str(tmp_path)]) == 2
+        error = capsys.readouterr().err.strip()
+        assert len(error.splitlines()) == 1 and "bad extraction count" in error, error
     assert main(["compare", "xyz", "AB", "--out", str(tmp_path)]) == 2
     assert np.char.find(capsys.readouterr().err, "xyz") >= 0

@@ -59,3 +59,34 @@ def test_lowest_frame_rate_holding_stops_at_the_first_miss():
 def test_no_points_is_refused():
     with pytest.raises(SigncastError):
         cheapest_rate([], [PCK])
+
+
+def test_the_monotone_fit_pools_adjacent_violators():
+    from comparisons.matching import monotone_fit
+    assert monotone_fit([1.0, 3.0, 2.0, 4.0]) == [1.0, 2.5, 2.5, 4.0]
+    assert monotone_fit([5.0, 1.0, 1.0, 6.0]) == pytest.approx([7 / 3, 7 / 3, 7 / 3, 6.0])
+    assert monotone_fit([0.1, 0.3, 0.2], increasing=False) == pytest.approx([0.2, 0.2, 0.2])
+    assert monotone_fit([2.0, None, 1.0, 3.0]) == [1.5, None, 1.5, 3.0]
+    assert monotone_fit([]) == [] and monotone_fit([None]) == [None]
+
+
+def test_monotone_matching_pools_the_extractors_noise_across_q():
+    """The demo's BBA row (hand PCK@0.2 means of four extractions, threshold 97.25): Q 1 reads 0.24 points under Q 4,
+    which alone makes 'every dearer point meets' fail at the dearest point; intelligibility does not fall when bits
+    are added, so the fit pools Q 1 and Q 4 (97.31) and the match lies between Q 31 and Q 4."""
+    threshold = Criterion("hand_pck_20", 97.25, label="hand PCK@0.2")
+    points = [point(7.0, 95.94, 31), point(14.5, 97.43, 4), point(19.9, 97.19, 1)]
+    assert not cheapest_rate(points, [threshold]).reached
+    match = cheapest_rate(points, [threshold], monotone=True)
+    assert match.reached and (match.upper["q"], match.lower["q"]) == (4, 31)
+    pooled = (97.43 + 97.19) / 2
+    assert match.fraction == pytest.approx((97.25 - 95.94) / (pooled - 95.94))
+    assert match.fitted["hand_pck_20"] == pytest.approx(97.25)
+    assert fields_at(match, ("hand_pck_20",))["hand_pck_20"] != pytest.approx(97.25)    # the measured values
+    # a real fall is not pooled away: the dearer points' mean must still reach the threshold
+    assert not cheapest_rate([point(7.0, 95.0, 31), point(14.5, 97.3, 4), point(19.9, 96.0, 1)], [threshold],
+                             monotone=True).reached
+    # over frame rates likewise: 15 fps reads under 10 fps, pooled they hold
+    rates = [point(10, 97.5, fps=25), point(8, 97.0, fps=15), point(6, 97.6, fps=10), point(5, 90.0, fps=5)]
+    assert lowest_fps_holding(rates, [threshold]) == 25
+    assert lowest_fps_holding(rates, [threshold], monotone=True) == 10

@@ -7,7 +7,8 @@ it live, packetises it (comparisons.rtp) and sends it through a relay that drops
 with a seeded model (comparisons.loss_models: Bernoulli, or Gilbert-Elliott bursts); the receiver depacketises,
 decodes, conceals, renders (FBA, BBA), and time-stamps each frame when it is ready to show. Then the frames it
 showed are judged as `signcast compare` judges a point (pipeline.studies.compare.Judge: landmarks re-extracted,
-hand keypoint error and PCK, letters), against the same references.
+hand keypoint error and PCK, letters), against the same references; one extraction per point, under the
+half-pixel shift that is compare's first (comparisons.landmark_draws: a live point is one of --repeats).
 
 Per point the record carries the stream's kbps (its own bytes over the clip's duration), delivered_kbps (whole
 datagrams: IPv4 20 + UDP 8 bytes + the RTP packet), the measured packet loss, the frames lost and concealed, the
@@ -257,10 +258,9 @@ class LiveStudy:
                              late_packets=got.late_packets, refresh=description.details.get("refresh"),
                              shape_gop=description.details.get("shape_gop"),
                              burst=self.settings.burst, jitter_ms=self.settings.jitter_ms, seed=seed)
-        observed = compare.extract(got.shown[self.judge.measured], s.fps,
-                                   f"landmarks: {codec} at {rate_percent:g} % loss", self.progress)
+        draws = self.judge.draws(got.shown[self.judge.measured], s.fps, f"landmarks: {codec} at {rate_percent:g} % loss")
         viewed = compare.Viewed(got.shown, None, fields)
-        return self.judge.records(description.solution, viewed, observed), delivery
+        return self.judge.records(description.solution, viewed, draws), delivery
 
 
 def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -> list[dict]:
