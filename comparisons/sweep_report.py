@@ -4,7 +4,8 @@ failed points with their reasons.
 
 The matched operating point of one item (a clip, or a fingerspelled word) coded with one codec at one frame rate is
 found by comparisons.matching.cheapest_rate, the rule of `signcast compare`, over the item's swept Q: the cheapest
-rate above which every swept point meets the threshold, interpolated in log-rate between the bracketing Q. The
+rate above which every swept point meets the threshold, interpolated in log-rate between the bracketing Q; judged on
+the points as measured (forward kinematics is exact: no extractor's noise to pool, unlike compare's). The
 sweep has no rendering, so its threshold is on parameter quality (forward kinematics of the avatar,
 comparisons.param_study) against the uncoded, retargeted motion:
 - the body: mean joint position error at most JOINT_ERROR_MM;
