@@ -681,6 +681,20 @@ def _plot_intelligibility_sweeps(panel, records: list[dict], field: str, styles:
         style = styles.get(name, {"color": "grey", "marker": "o"})
         panel.plot([r["kbps"] for r in rows], [r[field] for r in rows], "--" if ref in dashed_references else "-",
                    ms=4, label=label, **style)
+        errors = [_standard_error(r["record"], field) if len(r["clips"]) == 1 else None for r in rows]
+        shown = [(r["kbps"], r[field], e) for r, e in zip(rows, errors) if e is not None]
+        if shown:
+            panel.errorbar([x for x, _, _ in shown], [y for _, y, _ in shown], yerr=[e for _, _, e in shown],
+                           fmt="none", ecolor=style.get("color", "grey"), elinewidth=1, capsize=2, alpha=0.7)
+
+
+def _standard_error(record: dict, field: str) -> float | None:
+    """The standard error of a point's field over its landmark extractions (their standard deviation over the
+    square root of their number), None for a point extracted once or without the field's spread."""
+    spread, count = (record.get("draw_sd") or {}).get(field), record.get("extractions")
+    if not isinstance(spread, (int, float)) or not isinstance(count, int) or count < 2:
+        return None
+    return spread / count ** 0.5
 
 
 def _plot_matched(panel, records: list[dict], field: str, styles: dict) -> None:
@@ -709,7 +723,8 @@ def _finish_intelligibility_panel(panel, field: str) -> None:
 def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
     """Rate against intelligibility: hand PCK@0.2 (percent) against kbps (log) for every solution's quantizer
     sweep at its top frame rate, the threshold on it, the matched operating points marked; further panels with
-    face error (interocular distances) and letter top-1 (percent) where the points carry them."""
+    face error (interocular distances) and letter top-1 (percent) where the points carry them. Points measured as
+    the mean of several landmark extractions carry bars of one standard error."""
     records = normalize_records(records)
     styles = styles or series_styles(records)
     fields = [f for f in INTELLIGIBILITY_PANELS if f == "hand_pck_20" or _swept_for_intelligibility(records, f)]
@@ -727,7 +742,10 @@ def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
         panels[0][0].text(panels[0][0].get_xlim()[0], value, f" threshold {value:g} %", fontsize=7, va="bottom",
                           color="firebrick")
     panels[0][0].set_title("hand keypoints")
-    figure.suptitle(f"Rate against intelligibility, {_against(references)}", fontsize=10)
+    extracted = any(isinstance(r.get("extractions"), int) and r["extractions"] > 1 for r in points(records))
+    figure.suptitle(f"Rate against intelligibility, {_against(references)}"
+                    + ("\nbars: one standard error over each point's landmark extractions" if extracted else ""),
+                    fontsize=10)
     _figure_legend(figure, panels[0])
     return figure
 

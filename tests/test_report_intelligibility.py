@@ -238,3 +238,22 @@ def test_the_intelligibility_report_renders_in_headless_chromium(tmp_path):
     footer = dom.split('id="render-check">', 1)[1].split("<", 1)[0]
     charts, tables = len(page.charts), len(page.tables)
     assert charts >= 6 and footer == f"rendered {charts}/{charts} charts, {tables}/{tables} tables; all ok"
+
+
+def test_points_averaged_over_several_extractions_carry_standard_error_bars():
+    """A point measured as the mean of K landmark extractions is drawn with a bar of its standard error
+    (draw_sd / sqrt(K)); points extracted once get none."""
+    from matplotlib.container import ErrorbarContainer
+    records = _records()
+    for record in records:
+        if record.get("kind") == "point" and record["solution"] == "FBA":
+            record.update(extractions=4, draw_sd={"hand_pck_20": 2.0})
+    figure = chart_rate_intelligibility(records)
+    bars = [c for c in figure.axes[0].containers if isinstance(c, ErrorbarContainer)]
+    assert len(bars) == 1                                   # FBA's sweep only
+    segments = bars[0].lines[2][0].get_segments()
+    assert len(segments) == len(SWEPT_Q) and all(abs(s[1][1] - s[0][1] - 2.0) < 1e-9 for s in segments)
+    assert "standard error" in figure._suptitle.get_text()
+    plain = chart_rate_intelligibility(_records())
+    assert not [c for c in plain.axes[0].containers if isinstance(c, ErrorbarContainer)]
+    assert "standard error" not in plain._suptitle.get_text()
