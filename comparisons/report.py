@@ -57,9 +57,14 @@ window.addEventListener("load", () => {
   const tables = [...document.querySelectorAll("table[data-table]")];
   const brokenCharts = charts.filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.dataset.chart);
   const emptyTables = tables.filter(t => t.tBodies[0].rows.length === 0).map(t => t.dataset.table);
+  const body = document.body.getBoundingClientRect();
+  const design = parseFloat(getComputedStyle(document.body).maxWidth);   // tables must fit the body's max-width
+  const page = Math.max(body.right, body.left + (isNaN(design) ? 0 : design));
+  const wide = tables.filter(t => t.getBoundingClientRect().right > page + 1).map(t => `${t.dataset.table} (too wide)`);
   document.getElementById("render-check").textContent =
     `rendered ${charts.length - brokenCharts.length}/${charts.length} charts, ${tables.length - emptyTables.length}/${tables.length} tables` +
-    (brokenCharts.length || emptyTables.length ? `; broken: ${[...brokenCharts, ...emptyTables].join(", ")}` : "; all ok");
+    (brokenCharts.length || emptyTables.length || wide.length
+     ? `; broken: ${[...brokenCharts, ...emptyTables, ...wide].join(", ")}` : "; all ok");
 });
 </script>
 """
@@ -995,9 +1000,10 @@ def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>
 body {{ font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1150px; color: #222; }}
-table {{ border-collapse: collapse; margin: 0.8em 0 1.6em; font-size: 0.88em; }}
-th, td {{ border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }}
+table {{ border-collapse: collapse; margin: 0.8em 0 1.6em; font-size: 0.8em; }}
+th, td {{ border: 1px solid #ccc; padding: 0.2em 0.4em; text-align: left; vertical-align: top; }}
 th {{ background: #f0f0f0; }}
+table[data-table="points"] {{ font-size: 0.72em; }}
 img.chart {{ max-width: 100%; display: block; margin: 0.5em 0 1.2em; }}
 .nowrap {{ white-space: nowrap; }}
 #render-check {{ color: #888; font-size: 0.8em; }}

@@ -207,6 +207,16 @@ def test_report_renders_in_headless_chromium(tmp_path):
 
 
 @pytest.mark.slow
+def test_the_render_check_flags_a_table_wider_than_the_page(tmp_path):
+    """The page's own check also measures the tables against the body's max-width: a clip name of 300 characters
+    without a space makes the table of every point too wide, and the footer says which."""
+    flags = _chromium()
+    records = [dict(r, clip="x" * 300) if r.get("kind", "point") == "point" else r for r in _records()]
+    footer = _footer(flags, build_report(records, tmp_path / "report.html"))
+    assert footer.startswith("rendered 4/4 charts, 6/6 tables; broken: ") and "points (too wide)" in footer, footer
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["params", "lab", "video"])
 def test_report_on_each_command_s_records_renders_in_headless_chromium(command_records, kind):
     flags = _chromium()
