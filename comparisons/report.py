@@ -100,10 +100,12 @@ TRAN_SIZE = (320, 240)
 MATCHED_SOLUTIONS = (*VIDEO_SOLUTIONS, FBA, BBA)
 # Intelligibility fields a chart panel can show: (label with unit, higher is better).
 INTELLIGIBILITY_PANELS = {
-    "hand_pck_20": ("hand PCK@0.2 (% of hand keypoints within 0.2 hand sizes)", True),
-    "face_error": ("face error (interocular distances, mean; lower is better)", False),
-    "letter_top1": ("fingerspelled letters recognised first (top-1 %)", True),
+    "hand_pck_20": ("hand PCK@0.2\n(% of hand keypoints within 0.2 hand sizes)", True),
+    "face_error": ("face error (interocular distances,\nmean; lower is better)", False),
+    "letter_top1": ("fingerspelled letters recognised\nfirst (top-1 %)", True),
 }
+# the criteria's labels in a matched record's threshold text, per panel (comparisons.matching.threshold_text)
+THRESHOLD_LABELS = {"hand_pck_20": r"PCK@0\.2", "letter_top1": r"letter top-1"}
 RENDERED_SOLUTIONS = ("SSV", FBA, BBA)   # pictures of the avatar: measured against its lossless render
 # Today's video codecs, coded at matched quality; their quantiser is on their own scale, not MPEG-4's Q 1-31.
 OTHER_VIDEO_CODECS = {"libx264": "H.264", "libsvtav1": "AV1"}
@@ -632,9 +634,10 @@ def _channel_marks(kbps: float | None) -> str:
                        for c in DELIVERY_CHANNELS)
 
 
-def threshold_value(threshold: str | None) -> float | None:
-    """The percent of a threshold on hand PCK@0.2 written as text ("hand PCK@0.2 >= 98.0 %"), else None."""
-    found = re.search(r"PCK@0\.2\D*?(?:>=|≥)\s*([0-9]+(?:\.[0-9]+)?)", threshold or "")
+def threshold_value(threshold: str | None, name: str = r"PCK@0\.2") -> float | None:
+    """The value of a threshold written as text on the criterion whose label matches the regular expression name
+    (default hand PCK@0.2: "hand PCK@0.2 >= 98.0 %" gives 98.0; r"letter top-1" the letters'), else None."""
+    found = re.search(name + r"\D*?(?:>=|≥)\s*([0-9]+(?:\.[0-9]+)?)", threshold or "")
     return float(found.group(1)) if found else None
 
 
@@ -741,11 +744,12 @@ def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
         _plot_intelligibility_sweeps(panel, records, field, styles, dashed)
         _plot_matched(panel, records, field, styles)
         _finish_intelligibility_panel(panel, field)
-    thresholds = {threshold_value(m.get("threshold")) for m in matched_records(records)} - {None}
-    for value in sorted(thresholds):
-        panels[0][0].axhline(value, color="firebrick", ls="--", lw=1)
-        panels[0][0].text(panels[0][0].get_xlim()[0], value, f" threshold {value:g} %", fontsize=7, va="bottom",
-                          color="firebrick")
+    for panel, field in zip(panels[0], fields):
+        name = THRESHOLD_LABELS.get(field)
+        thresholds = {threshold_value(m.get("threshold"), name) for m in matched_records(records)} - {None} if name else set()
+        for value in sorted(thresholds):
+            panel.axhline(value, color="firebrick", ls="--", lw=1)
+            panel.text(panel.get_xlim()[0], value, f" threshold {value:g} %", fontsize=7, va="bottom", color="firebrick")
     panels[0][0].set_title("hand keypoints")
     extracted = any(isinstance(r.get("extractions"), int) and r["extractions"] > 1 for r in points(records))
     figure.suptitle(f"Rate against intelligibility, {_against(references)}"
@@ -1003,7 +1007,7 @@ body {{ font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1150px;
 table {{ border-collapse: collapse; margin: 0.8em 0 1.6em; font-size: 0.8em; }}
 th, td {{ border: 1px solid #ccc; padding: 0.2em 0.4em; text-align: left; vertical-align: top; }}
 th {{ background: #f0f0f0; }}
-table[data-table="points"] {{ font-size: 0.72em; }}
+table[data-table=points] {{ font-size: 0.72em; }}
 img.chart {{ max-width: 100%; display: block; margin: 0.5em 0 1.2em; }}
 .nowrap {{ white-space: nowrap; }}
 #render-check {{ color: #888; font-size: 0.8em; }}

@@ -224,6 +224,8 @@ def test_threshold_value_reads_a_hand_pck_threshold_only():
     assert threshold_value("hand PCK@0.2 >= 98.0 %") == 98.0
     assert threshold_value("hand PCK@0.2 ≥ 97 %") == 97.0
     assert threshold_value("face error <= 0.05") is None and threshold_value(None) is None
+    both = "hand PCK@0.2 % >= 96.86 and letter top-1 % >= 70"
+    assert threshold_value(both) == 96.86 and threshold_value(both, r"letter top-1") == 70.0
 
 
 @pytest.mark.slow
