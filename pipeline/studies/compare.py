@@ -131,11 +131,11 @@ class CompareSettings:
 
     @classmethod
     def demo(cls) -> "CompareSettings":
-        """The word scenario on a sweep small enough for under 5 minutes on two CPU cores: video Q 4, 12, 31;
+        """The word scenario on a sweep small enough for under 5 minutes on two CPU cores: video Q 4, 8, 12, 31;
         frame rates 25 and 12.5; one FBA and one BBA codec at parameter Q 1, 4, 31; 352x288 render (at 176x144
         the hands are about 15 pixels and the landmarks' own noise exceeds the threshold); intelligibility measured
-        on every 3rd frame (landmark extraction, 50-70 ms a frame, is most of the work)."""
-        return cls(video=video_study.VideoSweep(qs=(4, 12, 31), frame_rates=(25.0, 12.5), other_codecs=()),
+        on every 3rd frame, four extractions each (landmark extraction, 30-70 ms a frame, is most of the work)."""
+        return cls(video=video_study.VideoSweep(qs=(4, 8, 12, 31), frame_rates=(25.0, 12.5), other_codecs=()),
                    param_codecs=("fba-pred", "bba-key"), param_qs=(1, 4, 31), size=(352, 288), landmark_step=3,
                    extractions=4)
 
