@@ -48,7 +48,8 @@ between the bracketing swept Q; the matched record's intelligibility and image-q
 the same way. At the upper bracket's Q the frame rates are swept and fps_holds is the lowest rate down to
 which the threshold holds. Both decisions are taken on each criterion's monotone fit over the swept Q (frame
 rates), not on the points one by one (JUDGED_ON): intelligibility does not fall when bits or frames are added, so
-where a dearer point reads lower the extractor's noise is pooled (matched records carry the fitted values, "fitted").
+where a dearer point reads lower the extractor's noise is pooled (a matched record's criterion fields are the fit's
+at the matched rate, the measured values under "measured").
 """
 from __future__ import annotations
 
