@@ -16,7 +16,7 @@ from pipeline.studies.video import VideoSweep
 
 SMALL = CompareSettings(word="AB", video=VideoSweep(qs=(12, 31), frame_rates=(25.0, 10.0), other_codecs=()),
                         param_codecs=("fba-pred", "bba-key"), param_qs=(2, 31), size=(176, 144), max_clip_frames=48,
-                        extractions=2)
+                        extractions=2, refinements=1)
 SOLUTIONS = {"NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "FBA", "BBA"}
 AVATAR = {"SSV", "FBA", "BBA"}
 
@@ -102,6 +102,12 @@ def test_each_solution_is_matched_between_its_bracketing_points(result):
             assert record["hand_pck_20"] >= threshold - 0.01          # the fit at the match; the text rounds to 4 digits
         assert record["fps_holds"] is None or record["fps_holds"] in (25.0, 10.0)
         assert set(INTELLIGIBILITY_FIELDS) & set(record)
+    # one refinement: where a series matched between its two swept Q, one more Q inside that bracket was measured
+    refined = _points(result, refined=True)
+    for record in refined:
+        swept = SMALL.param_qs if record["solution"] in ("FBA", "BBA") else SMALL.video.qs
+        assert record["sweep"] == "q" and min(swept) < record["q"] < max(swept) and record["q"] not in swept
+    assert len({(r["solution"], r["codec"]) for r in refined}) == len({(r["solution"], r["codec"], r["q"]) for r in refined})
     operating = {r["solution"] for r in result.operating}
     assert operating == SOLUTIONS
     stages = [r for r in result.records if r.get("kind") == "stage"]
@@ -217,9 +223,25 @@ def test_compare_rejects_bad_settings(tmp_path, capsys):
     assert "unknown parameter codec" in capsys.readouterr().err
     assert main(["compare", "xyz", "AB", "--out", str(tmp_path)]) == 2
     assert np.char.find(capsys.readouterr().err, "xyz") >= 0
-    for count in ("0", "17"):
-        assert main(["compare", "ase", "AB", "--extractions", count, "--out", str(tmp_path)]) == 2
+    for option, count, fragment in (("--extractions", "0", "bad extraction count"),
+                                    ("--extractions", "17", "bad extraction count"),
+                                    ("--refine", "-1", "bad refinement count"), ("--refine", "6", "bad refinement count")):
+        assert main(["compare", "ase", "AB", option, count, "--out", str(tmp_path)]) == 2
         error = capsys.readouterr().err.strip()
-        assert len(error.splitlines()) == 1 and "bad extraction count" in error, error
+        assert len(error.splitlines()) == 1 and fragment in error, error
     assert main(["compare", "xyz", "AB", "--out", str(tmp_path)]) == 2
     assert np.char.find(capsys.readouterr().err, "xyz") >= 0
+
+
+def test_a_refinement_measures_the_geometric_middle_of_a_reached_bracket():
+    from comparisons.matching import Match
+    from pipeline.studies.compare import q_inside
+
+    def bracket(low_q, high_q, reached=True):
+        return Match(10.0, {"q": high_q, "kbps": 20.0}, {"q": low_q, "kbps": 5.0}, 0.5, reached)
+    assert q_inside(bracket(12, 4), {4, 12, 31}) == 7                 # sqrt(48) = 6.9
+    assert q_inside(bracket(31, 4), {4, 31}) == 11
+    assert q_inside(bracket(5, 4), {4, 5}) is None                    # adjacent
+    assert q_inside(bracket(6, 4), {4, 5, 6}) is None                 # the middle measured already
+    assert q_inside(bracket(31, 4, reached=False), {4, 31}) is None
+    assert q_inside(Match(20.0, {"q": 4, "kbps": 20.0}, None, 1.0, True), {4}) is None

@@ -46,9 +46,12 @@ def add_scenario_arguments(parser: argparse.ArgumentParser, natural: bool = True
     options.add_out(parser, default=Path("signcast-out"))
     options.add_size(parser, "352x288", "rendered signer size of the avatar-only scenarios (with --video: the clip's)")
     parser.add_argument("--backend", default="auto", help="kernels backend: auto, warp, opencl, numpy (default auto)")
-    parser.add_argument("--extractions", type=int, default=4,
+    parser.add_argument("--extractions", type=int, default=None,
                         help="landmark extractions per point, each under its own sub-pixel shift, averaged: the "
                              "extractor's noise shrinks with their number, its time grows (1-16, default 4)")
+    parser.add_argument("--refine", type=int, default=None,
+                        help="more Q measured inside each solution's matched Q bracket, one at a time, so that its "
+                             "rate is interpolated between nearer Q (0-5; default 2, the demo 1)")
     options.add_no_progress(parser)
 
 
@@ -76,9 +79,10 @@ def scenario_fields(args: argparse.Namespace) -> dict:
     from media.domain import parse_size
     fields = dict(language=args.language, word=args.word, clip=getattr(args, "video", None),
                   pose=getattr(args, "pose", None), size=parse_size(args.size), backend=args.backend,
-                  max_clip_size=options.parse_max_size(args.max_size), extractions=args.extractions)
-    if getattr(args, "frames", None) is not None:
-        fields["max_clip_frames"] = args.frames
+                  max_clip_size=options.parse_max_size(args.max_size))
+    for name, field in (("frames", "max_clip_frames"), ("extractions", "extractions"), ("refine", "refinements")):
+        if getattr(args, name, None) is not None:
+            fields[field] = getattr(args, name)
     return fields
 
 

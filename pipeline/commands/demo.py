@@ -14,8 +14,9 @@ def add_parser(subparsers) -> None:
         "demo", help="the main job on the bundled data: the avatar fingerspells a word through the six solutions, "
                      "a small sweep",
         description="Fingerspell a word with the avatar and carry its lossless render through the six solutions on a "
-                    "small sweep (video Q 4, 8, 12, 31; frame rates 25 and 12.5; fba-pred and bba-key at parameter Q 1, "
-                    "4, 31; landmarks measured on every 3rd frame, 4 extractions each), measure what a viewer can read, match the "
+                    "small sweep (video Q 4, 12, 31; frame rates 25 and 12.5; fba-pred and bba-key at parameter Q 1, "
+                    "4, 31; one more Q inside each matched bracket; landmarks measured on every 3rd frame, 4 "
+                    "extractions each), measure what a viewer can read, match the "
                     "solutions, write the report and print its path and a summary table.")
     add_scenario_arguments(parser, natural=False)
     parser.set_defaults(func=run, size=None)

@@ -43,8 +43,9 @@ frames (carphone), face error within FACE_MARGIN interocular distances of the un
 letter top-1 no more than LETTER_MARGIN letters of the word below the uncoded reference's (half a letter: a
 letter the ceiling reads may be missed in fewer than half the extractions). The NSV family is matched against the source video, the avatar
 solutions against the lossless render (in the video scenario the retargeting loss alone keeps them from the
-source's threshold; their message fidelity is in the point records). The rate is interpolated in log-rate
-between the bracketing swept Q; the matched record's intelligibility and image-quality fields are interpolated
+source's threshold; their message fidelity is in the point records). Where the match falls between two swept Q
+more than one step apart, up to `refinements` more Q are measured inside the bracket (its geometric middle; those
+records say refined). The rate is interpolated in log-rate between the bracketing Q; the matched record's intelligibility and image-quality fields are interpolated
 the same way. At the upper bracket's Q the frame rates are swept and fps_holds is the lowest rate down to
 which the threshold holds. Both decisions are taken on each criterion's monotone fit over the swept Q (frame
 rates), not on the points one by one (JUDGED_ON): intelligibility does not fall when bits or frames are added, so
@@ -89,6 +90,7 @@ PCK_MARGIN = 2.0             # hand PCK@0.2 points below the uncoded reference's
 # letter top-1 below the uncoded reference's, in letters of the word: with several extractions, a letter the ceiling
 # reads may be missed in fewer than half of them (one extraction: no letter may be lost)
 LETTER_MARGIN = 0.5
+MAX_REFINEMENTS = 5           # halving a Q 1-31 bracket five times leaves adjacent Q
 FACE_MARGIN = 0.02           # face error, interocular distances above the uncoded reference's
 JUDGED_ON = ("each criterion's monotone fit over the swept Q (and frame rates) of the means over the extractions "
              "(comparisons.matching, monotone=True)")
@@ -111,7 +113,8 @@ class CompareSettings:
     landmark_step: intelligibility is measured on every landmark_step-th frame of what the viewer sees (1: all; the
     reference's landmarks at the same frames; letter spans shrink accordingly); extractions: landmarks are
     extracted this many times from every subject, each under one sub-pixel shift, and the measures averaged
-    (comparisons.landmark_draws)."""
+    (comparisons.landmark_draws); refinements: after the Q sweep, up to this many more Q are measured per series,
+    each inside its matched bracket (Study.refine), so that the match is interpolated between nearer Q."""
     language: str = "ase"
     word: str = "HELLO"
     clip: str | None = None
@@ -125,6 +128,7 @@ class CompareSettings:
     max_clip_size: tuple[int, int] | None = video_study.DEFAULT_MAX_SIZE
     landmark_step: int = 1
     extractions: int = 4
+    refinements: int = 2
 
     @property
     def scenario(self) -> str:
@@ -132,13 +136,14 @@ class CompareSettings:
 
     @classmethod
     def demo(cls) -> "CompareSettings":
-        """The word scenario on a sweep small enough for under 5 minutes on two CPU cores: video Q 4, 8, 12, 31;
+        """The word scenario on a sweep small enough for under 5 minutes on two CPU cores: video Q 4, 12, 31 and one
+        refinement inside each matched bracket;
         frame rates 25 and 12.5; one FBA and one BBA codec at parameter Q 1, 4, 31; 352x288 render (at 176x144
         the hands are about 15 pixels and the landmarks' own noise exceeds the threshold); intelligibility measured
         on every 3rd frame, four extractions each (landmark extraction, 30-70 ms a frame, is most of the work)."""
-        return cls(video=video_study.VideoSweep(qs=(4, 8, 12, 31), frame_rates=(25.0, 12.5), other_codecs=()),
+        return cls(video=video_study.VideoSweep(qs=(4, 12, 31), frame_rates=(25.0, 12.5), other_codecs=()),
                    param_codecs=("fba-pred", "bba-key"), param_qs=(1, 4, 31), size=(352, 288), landmark_step=3,
-                   extractions=4)
+                   extractions=4, refinements=1)
 
 
 @dataclass
@@ -244,6 +249,8 @@ def check_settings(settings: CompareSettings) -> None:
         raise SigncastError(f"bad frame count {settings.max_clip_frames}: at least 2")
     if not 1 <= settings.extractions <= MAX_EXTRACTIONS:
         raise SigncastError(f"bad extraction count {settings.extractions}: choose 1 to {MAX_EXTRACTIONS}")
+    if not 0 <= settings.refinements <= MAX_REFINEMENTS:
+        raise SigncastError(f"bad refinement count {settings.refinements}: choose 0 to {MAX_REFINEMENTS}")
     if settings.scenario == "word":
         from media import lexicon
         lexicon.split_word(lexicon.check_language(settings.language), settings.word)
@@ -594,8 +601,9 @@ class Study:
     def lower_rates(self) -> list[float]:
         return sorted({f for f in self.settings.video.frame_rates if f < self.scenario.fps * (1 - 1e-3)}, reverse=True)
 
-    def measure(self, series: Series, q: int, fps: float, bar) -> list[dict]:
-        """Code one point, extract the landmarks of what the viewer sees, measure it; its records."""
+    def measure(self, series: Series, q: int, fps: float, bar, **extra) -> list[dict]:
+        """Code one point, extract the landmarks of what the viewer sees, measure it; its records (with the extra
+        fields)."""
         s = self.scenario
         label = f"landmarks: {series.codec if series.solution in ('FBA', 'BBA') else series.solution} Q{q} {fps:g} fps"
         measured = self.judge.measured
@@ -608,7 +616,7 @@ class Study:
             distinct, on_screen = np.unique(hold[measured], return_inverse=True)
             draws = [select_frames(observed, on_screen, s.fps)
                      for observed in self.judge.draws(sent[distinct], min(fps, s.fps), label)]
-        records = self.judge.records(series.solution, viewed, draws)
+        records = [dict(record, **extra) for record in self.judge.records(series.solution, viewed, draws)]
         self.observed[(series.solution, series.codec, q, records[0]["fps"])] = draws[0]
         self.add(records)
         bar.update(1)
@@ -626,14 +634,15 @@ class Study:
                 self.measure(series, q, self.scenario.fps, bar)
 
     def match(self) -> list[dict]:
-        """The matched record of every series, with its frame-rate sweep at the upper bracket's Q."""
+        """The matched record of every series (after refining its Q bracket), with its frame-rate sweep at the upper
+        bracket's Q."""
         matched = []
         rates = self.lower_rates()
-        with tqdm(total=len(self.series()) * len(rates), desc="points (frame rates)", unit="point",
+        with tqdm(total=len(self.series()) * len(rates), desc="points (refined Q, frame rates)", unit="point",
                   disable=not self.progress) as bar:
             for series in self.series():
                 criteria = self.criteria(series.reference)
-                found = matching.cheapest_rate(series.points(self.records), criteria, monotone=True)
+                found = self.refine(series, criteria, bar)
                 _mark_operating(series.points(self.records), found.kbps, criteria)
                 q = found.upper["q"]
                 for fps in rates:
@@ -643,6 +652,20 @@ class Study:
                                                    matching.lowest_fps_holding(at_q, criteria, monotone=True)))
         self.add(matched)
         return matched
+
+    def refine(self, series: Series, criteria: list[matching.Criterion], bar) -> matching.Match:
+        """The series' match, after measuring up to `refinements` more Q at the scenario's rate, each inside the
+        bracket found so far (`q_inside`), where the bracket spans more than one Q step; those records carry
+        refined=True."""
+        found = matching.cheapest_rate(series.points(self.records), criteria, monotone=True)
+        for _ in range(self.settings.refinements):
+            q = q_inside(found, {r["q"] for r in series.points(self.records)})
+            if q is None:
+                break
+            bar.total += 1
+            self.measure(series, q, self.scenario.fps, bar, refined=True)
+            found = matching.cheapest_rate(series.points(self.records), criteria, monotone=True)
+        return found
 
     def matched_record(self, series: Series, found: matching.Match, criteria, fps_holds) -> dict:
         """The series at its matched rate: the criteria's fields are their monotone fits there (what the match was
@@ -677,6 +700,19 @@ class Study:
             margin = 100.0 * LETTER_MARGIN / max(len(self.judge.spans or ()), 1)
             found.append(matching.Criterion("letter_top1", ceiling["letter_top1"] - margin, label="letter top-1 %"))
         return found
+
+
+def q_inside(found: matching.Match, measured: set[int]) -> int | None:
+    """The Q to measure next inside a reached match's bracket: the rounded geometric middle of its two swept Q,
+    moved off them; None where the match has no bracket, was not reached, or the two are adjacent (or the middle
+    is measured already)."""
+    if not found.reached or found.lower is None:
+        return None
+    low, high = sorted((int(found.lower["q"]), int(found.upper["q"])))
+    if high - low < 2:
+        return None
+    q = min(max(round((low * high) ** 0.5), low + 1), high - 1)
+    return None if q in measured else q
 
 
 def _hand_share(clip: SignClip) -> float:
@@ -740,6 +776,7 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                   "size_rule": SIZE_RULE if scenario.kind == "video" else "the reference is the avatar's render",
                   "pck_margin": PCK_MARGIN, "face_margin": FACE_MARGIN, "letter_margin": LETTER_MARGIN,
                   "min_hand_share": MIN_HAND_SHARE,
+                  "refinements": settings.refinements,
                   "extractions": settings.extractions, "extraction_shifts": [list(shift) for shift in
                                                                              SHIFTS[:settings.extractions]],
                   "matched_against": {"NSV family": SOURCE, "SSV, FBA, BBA": LOSSLESS}}
