@@ -1007,7 +1007,7 @@ body {{ font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1150px;
 table {{ border-collapse: collapse; margin: 0.8em 0 1.6em; font-size: 0.8em; }}
 th, td {{ border: 1px solid #ccc; padding: 0.2em 0.4em; text-align: left; vertical-align: top; }}
 th {{ background: #f0f0f0; }}
-table[data-table=points] {{ font-size: 0.72em; }}
+table[data-table=points], table[data-table=matched] {{ font-size: 0.72em; }}
 img.chart {{ max-width: 100%; display: block; margin: 0.5em 0 1.2em; }}
 .nowrap {{ white-space: nowrap; }}
 #render-check {{ color: #888; font-size: 0.8em; }}
