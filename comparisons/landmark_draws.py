@@ -77,5 +77,14 @@ def mean_fields(draws: list[dict]) -> dict:
     return mean
 
 
+def standard_error(record: dict, field: str) -> float | None:
+    """The standard error of a record's field over its landmark extractions (their standard deviation, `mean_fields`'
+    draw_sd, over the square root of their number); None for a record extracted once or without the field's spread."""
+    spread, count = (record.get("draw_sd") or {}).get(field), record.get("extractions")
+    if not _number(spread) or not isinstance(count, int) or count < 2:
+        return None
+    return spread / count ** 0.5
+
+
 def _number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 from media.errors import SigncastError
 
@@ -205,3 +206,42 @@ def lowest_fps_holding(points: list[dict], criteria: list[Criterion], *, monoton
             break
         holding = float(point["fps"])
     return holding
+
+
+def verdict_margin(points: list[dict], criteria: list[Criterion], point_se: Callable[[dict, str], float | None],
+                   threshold_se: dict[str, float]) -> float | None:
+    """How far, in standard errors, the verdict of `cheapest_rate(points, criteria, monotone=True)` stands from its
+    threshold; None where a spread is unknown.
+
+    The verdict (reached or not) rests on the dearest point: a match is reached when its monotone fit meets every
+    criterion. For each criterion, the fitted value there minus the threshold (positive where it meets), over the
+    standard error of that difference: the fit's (the pooled run of points it averages, sqrt(sum se^2) / n, each
+    point's from point_se(point, field)) and the threshold's own (threshold_se[field]: a threshold tied to a
+    measured ceiling carries that measurement's error), taken as independent. The margin is the smallest over the
+    criteria (every criterion must hold for "reached"; one that clearly fails makes "not reached" clear): |margin|
+    under 2 is a call too close for the extractions made. Zero error: +-inf (0 where the fit equals the threshold).
+    """
+    ordered = sorted(points, key=lambda p: p["kbps"])
+    judged = _fitted(ordered, criteria)
+    margins = []
+    for c in criteria:
+        fitted = c.value(judged[-1])
+        if fitted is None:
+            return None
+        run = []                                  # the pooled run at the dear end: the points the fit averages there
+        for i in reversed(range(len(judged))):
+            if c.value(ordered[i]) is None:
+                continue
+            if c.value(judged[i]) != fitted:
+                break
+            run.append(i)
+        errors = [point_se(ordered[i], c.field) for i in run]
+        own = threshold_se.get(c.field)
+        if own is None or any(e is None for e in errors):
+            return None
+        error = math.sqrt(sum(e * e for e in errors) / len(errors) ** 2 + own * own)
+        gap = fitted - c.threshold if c.higher_is_better else c.threshold - fitted
+        if abs(gap) <= 1e-9:
+            gap = 0.0
+        margins.append(gap / error if error > 0 else math.copysign(math.inf, gap) if gap else 0.0)
+    return min(margins)

@@ -40,6 +40,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from comparisons.criteria import SOLUTIONS, criteria_table  # noqa: E402
+from comparisons.landmark_draws import standard_error  # noqa: E402
 from comparisons.records import normalize_records  # noqa: E402
 from comparisons.video_codecs import CODECS as VIDEO_CODECS  # noqa: E402
 from media.domain import BBA, FBA, PARAMETER_SOLUTIONS, SOLUTION_ORDER, VIDEO_SOLUTIONS  # noqa: E402
@@ -689,20 +690,11 @@ def _plot_intelligibility_sweeps(panel, records: list[dict], field: str, styles:
         style = styles.get(name, {"color": "grey", "marker": "o"})
         panel.plot([r["kbps"] for r in rows], [r[field] for r in rows], "--" if ref in dashed_references else "-",
                    ms=4, label=label, **style)
-        errors = [_standard_error(r["record"], field) if len(r["clips"]) == 1 else None for r in rows]
+        errors = [standard_error(r["record"], field) if len(r["clips"]) == 1 else None for r in rows]
         shown = [(r["kbps"], r[field], e) for r, e in zip(rows, errors) if e is not None]
         if shown:
             panel.errorbar([x for x, _, _ in shown], [y for _, y, _ in shown], yerr=[e for _, _, e in shown],
                            fmt="none", ecolor=style.get("color", "grey"), elinewidth=1, capsize=2, alpha=0.7)
-
-
-def _standard_error(record: dict, field: str) -> float | None:
-    """The standard error of a point's field over its landmark extractions (their standard deviation over the
-    square root of their number), None for a point extracted once or without the field's spread."""
-    spread, count = (record.get("draw_sd") or {}).get(field), record.get("extractions")
-    if not isinstance(spread, (int, float)) or not isinstance(count, int) or count < 2:
-        return None
-    return spread / count ** 0.5
 
 
 def _plot_matched(panel, records: list[dict], field: str, styles: dict) -> None:
@@ -805,9 +797,22 @@ def _bracket(matched: dict) -> str:
 
 
 def _reached(matched: dict) -> str:
+    """"✔ yes" or "✘ no: rate of the best point", with how clear the verdict is (`verdict_note`)."""
     if "reached" not in matched:
         return "–"
-    return "✔ yes" if matched["reached"] else "✘ no: rate of the best point"
+    verdict = "✔ yes" if matched["reached"] else "✘ no: rate of the best point"
+    note = verdict_note(matched)
+    return f"{verdict} ({note})" if note else verdict
+
+
+def verdict_note(matched: dict) -> str:
+    """How far the verdict stands from the threshold in standard errors of the extractions ("+3.2 SE", "-0.6 SE: too
+    close to call"; "clear" where the extractions agreed exactly), "" where the record has no such measure."""
+    clear, margin = matched.get("verdict_clear"), matched.get("verdict_margin_se")
+    if clear is None:
+        return ""
+    text = f"{margin:+.1f} SE" if isinstance(margin, (int, float)) else "no spread"
+    return text if clear else f"{text}: too close to call"
 
 
 def _hands_found(matched: dict) -> str:
@@ -871,7 +876,10 @@ def _matched_section(records: list[dict], styles: dict) -> str:
             "figure is the mean of several landmark extractions, each from the picture moved by an invisible fraction of "
             "a pixel; the threshold is judged on each criterion's monotone fit over the swept Q (intelligibility does not "
             "fall when bits are added, so where a dearer point reads lower, the extractor's noise is pooled), and the "
-            "threshold's columns (hand PCK, letter top-1) give that fit at the matched rate. Hand errors are in hand "
+            "threshold's columns (hand PCK, letter top-1) give that fit at the matched rate. “Reached” says how many "
+            "standard errors of the extractions the fit at the dearest point stands from the threshold (the ceiling's "
+            "error included): under 2, the call is too close for the extractions made (more, with --extractions, "
+            "narrow it). Hand errors are in hand "
             "sizes (about 10 cm of palm: 0.1 is about a centimetre), face errors in interocular distances. “Holds down "
             "to” is the lowest frame rate at which the threshold still holds. Delivery channels: " + channels + ".</p>"
             + _table_note(records)

@@ -102,11 +102,19 @@ def test_each_solution_is_matched_between_its_bracketing_points(result):
             assert record["hand_pck_20"] >= threshold - 0.01          # the fit at the match; the text rounds to 4 digits
         assert record["fps_holds"] is None or record["fps_holds"] in (25.0, 10.0)
         assert set(INTELLIGIBILITY_FIELDS) & set(record)
-    # one refinement: where a series matched between its two swept Q, one more Q inside that bracket was measured
+        # how clear the verdict is, in standard errors of the two extractions (the ceiling's included)
+        margin = record["verdict_margin_se"]
+        assert isinstance(record["verdict_clear"], bool)
+        if margin is not None:
+            assert (margin >= 0) == record["reached"] and record["verdict_clear"] == (abs(margin) >= 2.0)
+    # one refinement: a Q inside the bracket where a series matched between two swept Q, or finer than the sweep
+    # where even its dearest point missed (coarser where its cheapest met, but the sweep's coarsest is 31 here)
     refined = _points(result, refined=True)
     for record in refined:
         swept = SMALL.param_qs if record["solution"] in ("FBA", "BBA") else SMALL.video.qs
-        assert record["sweep"] == "q" and min(swept) < record["q"] < max(swept) and record["q"] not in swept
+        assert record["sweep"] == "q" and 1 <= record["q"] < max(swept) and record["q"] not in swept
+        if record["q"] < min(swept):
+            assert record["q"] == round(min(swept) ** 0.5)
     assert len({(r["solution"], r["codec"]) for r in refined}) == len({(r["solution"], r["codec"], r["q"]) for r in refined})
     operating = {r["solution"] for r in result.operating}
     assert operating == SOLUTIONS
@@ -239,15 +247,25 @@ def test_compare_rejects_bad_settings(tmp_path, capsys):
     assert np.char.find(capsys.readouterr().err, "xyz") >= 0
 
 
-def test_a_refinement_measures_the_geometric_middle_of_a_reached_bracket():
+def test_a_refinement_measures_the_geometric_middle_of_a_reached_bracket_or_beyond_the_sweep():
     from comparisons.matching import Match
-    from pipeline.studies.compare import q_inside
+    from pipeline.studies.compare import q_to_refine
 
     def bracket(low_q, high_q, reached=True):
         return Match(10.0, {"q": high_q, "kbps": 20.0}, {"q": low_q, "kbps": 5.0}, 0.5, reached)
-    assert q_inside(bracket(12, 4), {4, 12, 31}) == 7                 # sqrt(48) = 6.9
-    assert q_inside(bracket(31, 4), {4, 31}) == 11
-    assert q_inside(bracket(5, 4), {4, 5}) is None                    # adjacent
-    assert q_inside(bracket(6, 4), {4, 5, 6}) is None                 # the middle measured already
-    assert q_inside(bracket(31, 4, reached=False), {4, 31}) is None
-    assert q_inside(Match(20.0, {"q": 4, "kbps": 20.0}, None, 1.0, True), {4}) is None
+
+    def alone(q, reached):
+        return Match(20.0, {"q": q, "kbps": 20.0}, None, 1.0, reached)
+    assert q_to_refine(bracket(12, 4), {4, 12, 31}) == 7                 # sqrt(48) = 6.9
+    assert q_to_refine(bracket(31, 4), {4, 31}) == 11
+    assert q_to_refine(bracket(5, 4), {4, 5}) is None                    # adjacent
+    assert q_to_refine(bracket(6, 4), {4, 5, 6}) is None                 # the middle measured already
+    # not reached: finer than the finest swept Q, towards Q 1
+    assert q_to_refine(alone(4, reached=False), {4, 12, 31}) == 2
+    assert q_to_refine(alone(12, reached=False), {4, 12, 31}) == 2
+    assert q_to_refine(alone(4, reached=False), {2, 4, 12, 31}) == 1   # sqrt(2) = 1.4: still finer than 2
+    assert q_to_refine(alone(4, reached=False), {1, 4, 31}) is None    # Q 1 measured: nothing finer
+    # reached at the cheapest swept point: coarser, towards Q 31
+    assert q_to_refine(alone(4, reached=True), {1, 2, 4}) == 11
+    assert q_to_refine(alone(30, reached=True), {4, 30}) == 31
+    assert q_to_refine(alone(31, reached=True), {4, 31}) is None       # nothing coarser

@@ -90,3 +90,32 @@ def test_monotone_matching_pools_the_extractors_noise_across_q():
     rates = [point(10, 97.5, fps=25), point(8, 97.0, fps=15), point(6, 97.6, fps=10), point(5, 90.0, fps=5)]
     assert lowest_fps_holding(rates, [threshold]) == 25
     assert lowest_fps_holding(rates, [threshold], monotone=True) == 10
+
+
+def test_the_verdict_margin_counts_standard_errors_of_the_pooled_fit_and_the_threshold():
+    from comparisons.matching import verdict_margin
+
+    def drawn(kbps, pck, sd, q):
+        return {**point(kbps, pck, q), "draw_sd": {"hand_pck_20": sd}, "extractions": 4}
+
+    def se(record, field):
+        return record["draw_sd"][field] / 2.0
+    threshold = Criterion("hand_pck_20", 97.0)
+    # the dearest point alone: (98.0 - 97.0) / sqrt((1.2 / 2)^2 + 0.8^2) = 1 / 1.0
+    points = [drawn(5, 90.0, 1.0, 31), drawn(20, 98.0, 1.2, 4)]
+    assert verdict_margin(points, [threshold], se, {"hand_pck_20": 0.8}) == pytest.approx(1.0)
+    assert verdict_margin(points, [threshold], se, {"hand_pck_20": 0.0}) == pytest.approx(1 / 0.6)
+    # a dearer point reading lower is pooled: the fit (97.5) averages two points, its error sqrt(0.6^2 + 0.6^2) / 2
+    pooled = [drawn(5, 90.0, 1.0, 31), drawn(20, 98.0, 1.2, 4), drawn(30, 97.0, 1.2, 1)]
+    assert verdict_margin(pooled, [threshold], se, {"hand_pck_20": 0.0}) == pytest.approx(0.5 / (0.6 * 2 ** 0.5 / 2))
+    # not reached: negative; lower-is-better criteria count the other way; the smallest criterion decides
+    assert verdict_margin([drawn(20, 96.4, 1.2, 4)], [threshold], se, {"hand_pck_20": 0.0}) == pytest.approx(-1.0)
+    face = Criterion("face_error", 0.05, higher_is_better=False)
+    both = [{**drawn(20, 99.0, 1.2, 4), "face_error": 0.06, "draw_sd": {"hand_pck_20": 1.2, "face_error": 0.01}}]
+    assert verdict_margin(both, [threshold, face], se, {"hand_pck_20": 0.0, "face_error": 0.0}) == pytest.approx(-2.0)
+    # no spread where the extractions agree: the verdict is as measured; one extraction: unknown
+    exact = [drawn(20, 98.0, 0.0, 4)]
+    assert verdict_margin(exact, [threshold], se, {"hand_pck_20": 0.0}) == math.inf
+    assert verdict_margin([drawn(20, 96.0, 0.0, 4)], [threshold], se, {"hand_pck_20": 0.0}) == -math.inf
+    assert verdict_margin(points, [threshold], lambda record, field: None, {"hand_pck_20": 0.8}) is None
+    assert verdict_margin(points, [threshold], se, {}) is None

@@ -43,9 +43,10 @@ frames (carphone), face error within FACE_MARGIN interocular distances of the un
 letter top-1 no more than LETTER_MARGIN letters of the word below the uncoded reference's (half a letter: a
 letter the ceiling reads may be missed in fewer than half the extractions). The NSV family is matched against the source video, the avatar
 solutions against the lossless render (in the video scenario the retargeting loss alone keeps them from the
-source's threshold; their message fidelity is in the point records). Where the match falls between two swept Q
-more than one step apart, up to `refinements` more Q are measured inside the bracket (its geometric middle; those
-records say refined). The rate is interpolated in log-rate between the bracketing Q; the matched record's intelligibility and image-quality fields are interpolated
+source's threshold; their message fidelity is in the point records). Then up to `refinements` more Q are measured
+per series, one at a time (`q_to_refine`; those records say refined): inside the bracket where the match falls
+between two swept Q more than one step apart (its geometric middle), at finer Q where even the dearest point misses,
+at coarser Q where the cheapest already meets. The rate is interpolated in log-rate between the bracketing Q; the matched record's intelligibility and image-quality fields are interpolated
 the same way. At the upper bracket's Q the frame rates are swept and fps_holds is the lowest rate down to
 which the threshold holds. Both decisions are taken on each criterion's monotone fit over the swept Q (frame
 rates), not on the points one by one (JUDGED_ON): intelligibility does not fall when bits or frames are added, so
@@ -63,12 +64,12 @@ import numpy as np
 from tqdm import tqdm
 
 from comparisons import image_quality, matching, metrics, param_codecs, video_objects
-from comparisons.landmark_draws import MAX_EXTRACTIONS, SHIFTS, extract, extract_draws, mean_fields
+from comparisons.landmark_draws import MAX_EXTRACTIONS, SHIFTS, extract, extract_draws, mean_fields, standard_error
 from comparisons.param_study import face_joint_fields
 from comparisons.records import INTELLIGIBILITY_FIELDS, make_record, versions, write_records
-from comparisons.report import build_report, operating_points
+from comparisons.report import build_report, operating_points, verdict_note
 from media.avatar import load_avatar
-from media.domain import SKIN_PARTS, check_q, check_size, solution_of
+from media.domain import MAX_Q, MIN_Q, SKIN_PARTS, check_q, check_size, solution_of
 from media.errors import SigncastError
 from media.face_rig import with_face_bones
 from media.lexicon import SignClip
@@ -94,6 +95,9 @@ MAX_REFINEMENTS = 5           # halving a Q 1-31 bracket five times leaves adjac
 FACE_MARGIN = 0.02           # face error, interocular distances above the uncoded reference's
 JUDGED_ON = ("each criterion's monotone fit over the swept Q (and frame rates) of the means over the extractions "
              "(comparisons.matching, monotone=True)")
+# a verdict (reached or not) this many standard errors from its threshold is clear; nearer, too close to call for the
+# extractions made (comparisons.matching.verdict_margin)
+CLEAR_VERDICT_SE = 2.0
 MIN_HAND_SHARE = 0.1         # a reference showing a hand in fewer frames is matched on the face
 ARM_BONES = ("upperarm01", "upperarm02", "lowerarm01", "lowerarm02", "wrist")   # shoulder to wrist
 HAND_BONE_PREFIXES = ("metacarpal", "finger")
@@ -114,7 +118,8 @@ class CompareSettings:
     reference's landmarks at the same frames; letter spans shrink accordingly); extractions: landmarks are
     extracted this many times from every subject, each under one sub-pixel shift, and the measures averaged
     (comparisons.landmark_draws); refinements: after the Q sweep, up to this many more Q are measured per series,
-    each inside its matched bracket (Study.refine), so that the match is interpolated between nearer Q."""
+    each inside its matched bracket, or beyond the swept Q where none or all of them meet the threshold
+    (Study.refine, `q_to_refine`), so that the match is interpolated between nearer Q."""
     language: str = "ase"
     word: str = "HELLO"
     clip: str | None = None
@@ -654,12 +659,12 @@ class Study:
         return matched
 
     def refine(self, series: Series, criteria: list[matching.Criterion], bar) -> matching.Match:
-        """The series' match, after measuring up to `refinements` more Q at the scenario's rate, each inside the
-        bracket found so far (`q_inside`), where the bracket spans more than one Q step; those records carry
+        """The series' match, after measuring up to `refinements` more Q at the scenario's rate, each where the match
+        found so far asks (`q_to_refine`: inside its bracket, or beyond the swept Q); those records carry
         refined=True."""
         found = matching.cheapest_rate(series.points(self.records), criteria, monotone=True)
         for _ in range(self.settings.refinements):
-            q = q_inside(found, {r["q"] for r in series.points(self.records)})
+            q = q_to_refine(found, {r["q"] for r in series.points(self.records)})
             if q is None:
                 break
             bar.total += 1
@@ -676,11 +681,16 @@ class Study:
         fields_at = "interpolated in log-rate between the bracketing points" if lower is not None else "the point's own"
         fields = matching.fields_at(found, (*INTELLIGIBILITY_FIELDS, *QUALITY_FIELDS, "joint_error_mm_mean"))
         measured = {name: fields.get(name) for name in found.fitted}
+        ceiling = self.ceiling(series.reference)
+        margin = matching.verdict_margin(series.points(self.records), criteria, standard_error,
+                                         {c.field: standard_error(ceiling, c.field) for c in criteria})
         return {"kind": "matched", "solution": series.solution, "codec": series.codec, "clip": self.scenario.name,
                 "reference": series.reference, "kbps": found.kbps, "q_low": min(qs), "q_high": max(qs),
                 "bracket_kbps": [lower["kbps"] if lower is not None else found.upper["kbps"], found.upper["kbps"]],
                 "q_shown": found.upper["q"], "threshold": matching.threshold_text(criteria),
-                "reached": found.reached, "fps_holds": fps_holds, "fields_at": fields_at, "judged_on": JUDGED_ON,
+                "reached": found.reached, "verdict_margin_se": margin if margin is not None and np.isfinite(margin) else None,
+                "verdict_clear": None if margin is None else bool(abs(margin) >= CLEAR_VERDICT_SE),
+                "fps_holds": fps_holds, "fields_at": fields_at, "judged_on": JUDGED_ON,
                 **fields, **found.fitted, "measured": measured}
 
     def ceiling(self, reference: str) -> dict:
@@ -702,17 +712,30 @@ class Study:
         return found
 
 
-def q_inside(found: matching.Match, measured: set[int]) -> int | None:
-    """The Q to measure next inside a reached match's bracket: the rounded geometric middle of its two swept Q,
-    moved off them; None where the match has no bracket, was not reached, or the two are adjacent (or the middle
-    is measured already)."""
-    if not found.reached or found.lower is None:
-        return None
-    low, high = sorted((int(found.lower["q"]), int(found.upper["q"])))
-    if high - low < 2:
-        return None
-    q = min(max(round((low * high) ** 0.5), low + 1), high - 1)
+def q_to_refine(found: matching.Match, measured: set[int]) -> int | None:
+    """The Q to measure next for a match, one step of its refinement; None when there is none to measure:
+    - reached between two swept Q: the rounded geometric middle of the two, moved off them (None where the two are
+      adjacent);
+    - not reached (even the dearest point misses): the geometric middle of MIN_Q and the finest swept Q, moved off
+      it (None where that is MIN_Q): the match is looked for beyond the sweep, at finer Q;
+    - reached at the cheapest swept point (no lower bracket): the geometric middle of its Q and MAX_Q, moved off it
+      (None where that is MAX_Q), for a bracket below it.
+    None also where that Q is measured already. measured: the series' swept Q."""
+    if not found.reached:
+        finest = min(measured)
+        q = _geometric_middle(MIN_Q, finest, MIN_Q, finest - 1) if finest > MIN_Q else None
+    elif found.lower is None:
+        coarsest = int(found.upper["q"])
+        q = _geometric_middle(coarsest, MAX_Q, coarsest + 1, MAX_Q) if coarsest < MAX_Q else None
+    else:
+        low, high = sorted((int(found.lower["q"]), int(found.upper["q"])))
+        q = _geometric_middle(low, high, low + 1, high - 1) if high - low >= 2 else None
     return None if q in measured else q
+
+
+def _geometric_middle(low: int, high: int, least: int, most: int) -> int:
+    """round(sqrt(low * high)), held within least..most."""
+    return min(max(round((low * high) ** 0.5), least), most)
 
 
 def _hand_share(clip: SignClip) -> float:
@@ -842,7 +865,9 @@ def _backend_name(backend: str) -> str:
 def summary_rows(records: list[dict]) -> list[dict]:
     """One row per matched series."""
     return [{"solution": r["solution"], "codec": r["codec"], "reference": r["reference"], "kbps": r["kbps"],
-             "q_low": r["q_low"], "q_high": r["q_high"], "reached": r["reached"], "fps_holds": r.get("fps_holds"),
+             "q_low": r["q_low"], "q_high": r["q_high"], "reached": r["reached"],
+             "verdict_margin_se": r.get("verdict_margin_se"), "verdict_clear": r.get("verdict_clear"),
+             "fps_holds": r.get("fps_holds"),
              "hand_pck_20": r.get("hand_pck_20"), "face_error": r.get("face_error"),
              "letter_top1": r.get("letter_top1"), "skin_psnr": r.get("skin_psnr"), "threshold": r["threshold"]}
             for r in records if r.get("kind") == "matched"]
@@ -858,6 +883,12 @@ def write_summary_csv(records: list[dict], path: Path) -> Path:
     return path
 
 
+def _verdict(row: dict) -> str:
+    """"reached" or "not reached", with how clear the call is (comparisons.report.verdict_note)."""
+    note = verdict_note(row)
+    return ("reached" if row["reached"] else "not reached") + (f" ({note})" if note else "")
+
+
 def format_summary(records: list[dict]) -> str:
     """The terminal's summary table: each solution at its matched rate."""
     def fmt(value, spec):
@@ -867,16 +898,19 @@ def format_summary(records: list[dict]) -> str:
     lines = [f"matched against the {reference} on: {threshold}" for reference, threshold in thresholds]
     lines += [] if rows else ["no matched point"]
     lines.append(f"{'solution':9} {'codec':9} {'reference':16} {'kbps':>8} {'Q':>7} {'PCK@.2':>7} {'face':>6} "
-                 f"{'top-1':>6} {'skin dB':>7}  holds to")
+                 f"{'top-1':>6} {'skin dB':>7} {'holds to':>9}  verdict")
     for row in rows:
         q = f"{row['q_low']}-{row['q_high']}" if row["q_low"] != row["q_high"] else str(row["q_low"])
         holds = f"{row['fps_holds']:g} fps" if row["fps_holds"] is not None else "–"
         lines.append(f"{row['solution']:9} {row['codec']:9} {row['reference']:16} {row['kbps']:>8.1f}"
                      f"{'' if row['reached'] else '*'} {q:>6} {fmt(row['hand_pck_20'], '>7.1f')} "
                      f"{fmt(row['face_error'], '>6.3f')} {fmt(row['letter_top1'], '>6.0f')} "
-                     f"{fmt(row['skin_psnr'], '>7.2f')}  {holds}")
+                     f"{fmt(row['skin_psnr'], '>7.2f')} {holds:>9}  {_verdict(row)}")
     if any(not row["reached"] for row in rows):
         lines.append("* threshold not reached: the best swept point's rate")
+    if any(row["verdict_clear"] is False for row in rows):
+        lines.append(f"too close to call: the fit at the dearest point is under {CLEAR_VERDICT_SE:g} standard errors of "
+                     "the extractions from the threshold (more --extractions narrow it)")
     if rows:
         lines.append("judged on each criterion's monotone fit over Q (the extractor's noise pooled): the criteria's "
                      "columns are the fit at the matched rate")
