@@ -61,9 +61,11 @@ def extract_draws(frames: np.ndarray, fps: float, count: int, label: str, progre
 def mean_fields(draws: list[dict]) -> dict:
     """The mean over draws (one dict of measured fields per extraction) of each numeric field, over the draws that
     define it (None where none does); with several draws also draw_sd: each such field's standard deviation over
-    them (population; 0 for one draw) and extractions: their number."""
+    them (population; 0 for one draw), draw_values: each such field's value in every draw, in the draws' (the
+    shifts') order, None where a draw does not define it (so that two subjects extracted under the same shifts can
+    be compared shift by shift), and extractions: their number."""
     names = list(dict.fromkeys(name for fields in draws for name in fields))
-    mean, spread = {}, {}
+    mean, spread, values_by_draw = {}, {}, {}
     for name in names:
         values = [fields[name] for fields in draws if _number(fields.get(name))]
         if not values:
@@ -71,10 +73,18 @@ def mean_fields(draws: list[dict]) -> dict:
             continue
         mean[name] = float(np.mean(values))
         spread[name] = float(np.std(values))
+        values_by_draw[name] = [float(fields[name]) if _number(fields.get(name)) else None for fields in draws]
     if len(draws) > 1:
         mean["draw_sd"] = spread
+        mean["draw_values"] = values_by_draw
     mean["extractions"] = len(draws)
     return mean
+
+
+def draw_values(record: dict, field: str) -> list[float | None] | None:
+    """A record's field in each of its extractions (`mean_fields`' draw_values), None for a record extracted once."""
+    values = (record.get("draw_values") or {}).get(field)
+    return list(values) if isinstance(values, list) else None
 
 
 def standard_error(record: dict, field: str) -> float | None:

@@ -877,9 +877,9 @@ def _matched_section(records: list[dict], styles: dict) -> str:
             "a pixel; the threshold is judged on each criterion's monotone fit over the swept Q (intelligibility does not "
             "fall when bits are added, so where a dearer point reads lower, the extractor's noise is pooled), and the "
             "threshold's columns (hand PCK, letter top-1) give that fit at the matched rate. “Reached” says how many "
-            "standard errors of the extractions the fit at the dearest point stands from the threshold (the ceiling's "
-            "error included): under 2, the call is too close for the extractions made (more, with --extractions, "
-            "narrow it). Hand errors are in hand "
+            "standard errors the fit at the dearest point stands from the threshold, the difference taken extraction by "
+            "extraction against the ceiling's under the same shift: under 2, the call is too close for the extractions "
+            "made (more, with --extractions, narrow it). Hand errors are in hand "
             "sizes (about 10 cm of palm: 0.1 is about a centimetre), face errors in interocular distances. “Holds down "
             "to” is the lowest frame rate at which the threshold still holds. Delivery channels: " + channels + ".</p>"
             + _table_note(records)

@@ -26,6 +26,9 @@ def test_the_mean_over_draws_keeps_their_spread_and_skips_undefined_values():
     assert fields["hand_pck_20"] == pytest.approx(97.0) and fields["letter_top1"] == pytest.approx(90.0)
     assert fields["face_error"] is None and fields["extractions"] == 2
     assert fields["draw_sd"] == {"hand_pck_20": pytest.approx(1.0), "letter_top1": pytest.approx(10.0)}
+    assert fields["draw_values"] == {"hand_pck_20": [96.0, 98.0], "letter_top1": [80.0, 100.0]}
+    partly = mean_fields([{"hand_error": 0.1}, {"hand_error": None}, {"hand_error": 0.3}])
+    assert partly["hand_error"] == pytest.approx(0.2) and partly["draw_values"]["hand_error"] == [0.1, None, 0.3]
     single = mean_fields([{"hand_pck_20": 96.0}])
     assert single == {"hand_pck_20": 96.0, "extractions": 1}
 

@@ -1,6 +1,7 @@
 """comparisons.matching: the cheapest rate reaching an intelligibility threshold, and the frame rate it holds to."""
 import math
 
+import numpy as np
 import pytest
 
 from comparisons.matching import Criterion, cheapest_rate, fields_at, lowest_fps_holding, threshold_text
@@ -92,30 +93,40 @@ def test_monotone_matching_pools_the_extractors_noise_across_q():
     assert lowest_fps_holding(rates, [threshold], monotone=True) == 10
 
 
-def test_the_verdict_margin_counts_standard_errors_of_the_pooled_fit_and_the_threshold():
+def test_the_verdict_margin_counts_standard_errors_of_the_pooled_fit_against_the_threshold_draw_by_draw():
     from comparisons.matching import verdict_margin
 
-    def drawn(kbps, pck, sd, q):
-        return {**point(kbps, pck, q), "draw_sd": {"hand_pck_20": sd}, "extractions": 4}
+    def drawn(kbps, draws, q, field="hand_pck_20"):
+        return {**point(kbps, sum(draws) / len(draws), q), field: sum(draws) / len(draws), "draw_values": {field: draws}}
 
-    def se(record, field):
-        return record["draw_sd"][field] / 2.0
+    def values(record, field):
+        return record["draw_values"].get(field)
     threshold = Criterion("hand_pck_20", 97.0)
-    # the dearest point alone: (98.0 - 97.0) / sqrt((1.2 / 2)^2 + 0.8^2) = 1 / 1.0
-    points = [drawn(5, 90.0, 1.0, 31), drawn(20, 98.0, 1.2, 4)]
-    assert verdict_margin(points, [threshold], se, {"hand_pck_20": 0.8}) == pytest.approx(1.0)
-    assert verdict_margin(points, [threshold], se, {"hand_pck_20": 0.0}) == pytest.approx(1 / 0.6)
-    # a dearer point reading lower is pooled: the fit (97.5) averages two points, its error sqrt(0.6^2 + 0.6^2) / 2
-    pooled = [drawn(5, 90.0, 1.0, 31), drawn(20, 98.0, 1.2, 4), drawn(30, 97.0, 1.2, 1)]
-    assert verdict_margin(pooled, [threshold], se, {"hand_pck_20": 0.0}) == pytest.approx(0.5 / (0.6 * 2 ** 0.5 / 2))
+    level = {"hand_pck_20": [97.0] * 4}
+    # the dearest point alone against a fixed threshold: differences 1, 0, 2, 1 -> mean 1, sd 0.816, SE 0.408
+    points = [drawn(5, [90.0] * 4, 31), drawn(20, [98.0, 97.0, 99.0, 98.0], 4)]
+    assert verdict_margin(points, [threshold], values, level) == pytest.approx(1 / (np.sqrt(2 / 3) / 2))
+    # a ceiling that moves with the point (the same shift reads both high) leaves no spread in the difference;
+    # one that moves against it doubles it
+    together = {"hand_pck_20": [97.0, 96.0, 98.0, 97.0]}
+    assert verdict_margin(points, [threshold], values, together) == math.inf
+    against = {"hand_pck_20": [97.0, 98.0, 96.0, 97.0]}
+    assert verdict_margin(points, [threshold], values, against) == pytest.approx(1 / (2 * np.sqrt(2 / 3) / 2))
+    # a dearer point reading lower is pooled: the fit (97.5) is the mean of two points, draw by draw
+    pooled = points + [drawn(30, [97.0, 97.0, 97.0, 97.0], 1)]
+    differences = np.array([97.5, 97.0, 98.0, 97.5]) - 97.0
+    assert verdict_margin(pooled, [threshold], values, level) == pytest.approx(
+        0.5 / (differences.std(ddof=1) / 2))
     # not reached: negative; lower-is-better criteria count the other way; the smallest criterion decides
-    assert verdict_margin([drawn(20, 96.4, 1.2, 4)], [threshold], se, {"hand_pck_20": 0.0}) == pytest.approx(-1.0)
+    missed = [drawn(20, [96.0, 97.0, 96.0, 97.0], 4)]
+    assert verdict_margin(missed, [threshold], values, level) < -1.7
     face = Criterion("face_error", 0.05, higher_is_better=False)
-    both = [{**drawn(20, 99.0, 1.2, 4), "face_error": 0.06, "draw_sd": {"hand_pck_20": 1.2, "face_error": 0.01}}]
-    assert verdict_margin(both, [threshold, face], se, {"hand_pck_20": 0.0, "face_error": 0.0}) == pytest.approx(-2.0)
-    # no spread where the extractions agree: the verdict is as measured; one extraction: unknown
-    exact = [drawn(20, 98.0, 0.0, 4)]
-    assert verdict_margin(exact, [threshold], se, {"hand_pck_20": 0.0}) == math.inf
-    assert verdict_margin([drawn(20, 96.0, 0.0, 4)], [threshold], se, {"hand_pck_20": 0.0}) == -math.inf
-    assert verdict_margin(points, [threshold], lambda record, field: None, {"hand_pck_20": 0.8}) is None
-    assert verdict_margin(points, [threshold], se, {}) is None
+    both = [{**points[1], "face_error": 0.06, "draw_values": {**points[1]["draw_values"],
+                                                             "face_error": [0.05, 0.07, 0.06, 0.06]}}]
+    margin = verdict_margin(both, [threshold, face], values, {**level, "face_error": [0.05] * 4})
+    assert margin == pytest.approx(-0.01 / (np.sqrt(2e-4 / 3) / 2))
+    # no spread and a fit exactly at the threshold; draws missing or of another count: unknown
+    assert verdict_margin([drawn(20, [97.0] * 4, 4)], [threshold], values, level) == 0.0
+    assert verdict_margin(points, [threshold], lambda record, field: None, level) is None
+    assert verdict_margin(points, [threshold], values, {}) is None
+    assert verdict_margin(points, [threshold], values, {"hand_pck_20": [97.0] * 8}) is None

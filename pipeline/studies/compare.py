@@ -64,7 +64,7 @@ import numpy as np
 from tqdm import tqdm
 
 from comparisons import image_quality, matching, metrics, param_codecs, video_objects
-from comparisons.landmark_draws import MAX_EXTRACTIONS, SHIFTS, extract, extract_draws, mean_fields, standard_error
+from comparisons.landmark_draws import MAX_EXTRACTIONS, SHIFTS, draw_values, extract, extract_draws, mean_fields
 from comparisons.param_study import face_joint_fields
 from comparisons.records import INTELLIGIBILITY_FIELDS, make_record, versions, write_records
 from comparisons.report import build_report, operating_points, verdict_note
@@ -682,8 +682,10 @@ class Study:
         fields = matching.fields_at(found, (*INTELLIGIBILITY_FIELDS, *QUALITY_FIELDS, "joint_error_mm_mean"))
         measured = {name: fields.get(name) for name in found.fitted}
         ceiling = self.ceiling(series.reference)
-        margin = matching.verdict_margin(series.points(self.records), criteria, standard_error,
-                                         {c.field: standard_error(ceiling, c.field) for c in criteria})
+        margin = matching.verdict_margin(series.points(self.records), criteria, draw_values,
+                                         {c.field: _shifted_draws(draw_values(ceiling, c.field),
+                                                                     c.threshold - (ceiling.get(c.field) or 0.0))
+                                          for c in criteria})
         return {"kind": "matched", "solution": series.solution, "codec": series.codec, "clip": self.scenario.name,
                 "reference": series.reference, "kbps": found.kbps, "q_low": min(qs), "q_high": max(qs),
                 "bracket_kbps": [lower["kbps"] if lower is not None else found.upper["kbps"], found.upper["kbps"]],
@@ -710,6 +712,12 @@ class Study:
             margin = 100.0 * LETTER_MARGIN / max(len(self.judge.spans or ()), 1)
             found.append(matching.Criterion("letter_top1", ceiling["letter_top1"] - margin, label="letter top-1 %"))
         return found
+
+
+def _shifted_draws(values: list[float | None] | None, offset: float) -> list[float | None] | None:
+    """A ceiling's values in each extraction moved by its threshold's offset from its mean: the threshold draw by
+    draw."""
+    return None if values is None else [None if v is None else v + offset for v in values]
 
 
 def q_to_refine(found: matching.Match, measured: set[int]) -> int | None:
