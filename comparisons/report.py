@@ -811,7 +811,10 @@ def verdict_note(matched: dict) -> str:
     clear, margin = matched.get("verdict_clear"), matched.get("verdict_margin_se")
     if clear is None:
         return ""
-    text = f"{margin:+.1f} SE" if isinstance(margin, (int, float)) else "no spread"
+    if isinstance(margin, (int, float)):
+        text = f"{margin:+.{1 if abs(margin) >= 0.05 else 2}f} SE"
+    else:
+        text = "no spread"
     return text if clear else f"{text}: too close to call"
 
 
