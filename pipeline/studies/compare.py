@@ -51,7 +51,10 @@ the same way. At the upper bracket's Q the frame rates are swept and fps_holds i
 which the threshold holds. Both decisions are taken on each criterion's monotone fit over the swept Q (frame
 rates), not on the points one by one (JUDGED_ON): intelligibility does not fall when bits or frames are added, so
 where a dearer point reads lower the extractor's noise is pooled (a matched record's criterion fields are the fit's
-at the matched rate, the measured values under "measured").
+at the matched rate, the measured values under "measured"). Each matched record also says how clear its verdict is:
+verdict_margin_se, the standard errors between the fit at the dearest point and the threshold, taken extraction by
+extraction against the ceiling (comparisons.matching.verdict_margin), and verdict_clear, whether that is at least
+CLEAR_VERDICT_SE.
 """
 from __future__ import annotations
 
