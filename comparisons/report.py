@@ -29,6 +29,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import math
 import re
 from pathlib import Path
 from typing import NamedTuple
@@ -812,7 +813,8 @@ def verdict_note(matched: dict) -> str:
     if clear is None:
         return ""
     if isinstance(margin, (int, float)):
-        text = f"{margin:+.{1 if abs(margin) >= 0.05 else 2}f} SE"
+        digits = 1 if abs(margin) >= 0.1 else 2
+        text = f"{math.trunc(margin * 10 ** digits) / 10 ** digits:+.{digits}f} SE"    # toward 0: 1.96 is not "2.0"
     else:
         text = "no spread"
     return text if clear else f"{text}: too close to call"

@@ -264,15 +264,15 @@ def test_points_averaged_over_several_extractions_carry_standard_error_bars():
 def test_the_reached_column_says_how_many_standard_errors_the_verdict_stands_from_the_threshold(tmp_path):
     from comparisons.report import verdict_note
     records = _records()
-    margins = {"NSV": (5.66, True), "SSV": (-0.6, False), "NSV3O": (-0.048, False), "FBA": (None, True)}
+    margins = {"NSV": (5.66, True), "SSV": (-1.96, False), "NSV3O": (-0.048, False), "FBA": (None, True)}
     for record in records:
         if record["kind"] == "matched" and record["solution"] in margins:
             record["verdict_margin_se"], record["verdict_clear"] = margins[record["solution"]]
     page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
     reached = {row[0]: row[4] for row in page.tables["matched"]}
-    assert reached["NSV"] == "✔ yes (+5.7 SE)"
-    assert reached["SSV"] == "✘ no: rate of the best point (-0.6 SE: too close to call)"
-    assert reached["NSV3O"].endswith("(-0.05 SE: too close to call)")
+    assert reached["NSV"] == "✔ yes (+5.6 SE)"                # truncated toward 0
+    assert reached["SSV"] == "✘ no: rate of the best point (-1.9 SE: too close to call)"
+    assert reached["NSV3O"].endswith("(-0.04 SE: too close to call)")
     assert reached["FBA"] == "✔ yes (no spread)"             # the extractions agreed exactly
     assert reached["BBA"] == "✔ yes"                          # records from before the margin
     assert "too close for the extractions" in page.text
