@@ -87,6 +87,19 @@ def draw_values(record: dict, field: str) -> list[float | None] | None:
     return list(values) if isinstance(values, list) else None
 
 
+def leave_out(record: dict, k: int) -> dict:
+    """A copy of record with each field it keeps draw by draw (draw_values) the mean over every draw but draw k (None
+    where no other draw defines it): one leave-one-out replicate of a jackknife over the extractions. A record
+    extracted once, or whose draws do not reach k, is returned as it is (copied)."""
+    copy = dict(record)
+    for name, values in (record.get("draw_values") or {}).items():
+        if k >= len(values):
+            continue
+        rest = [v for i, v in enumerate(values) if i != k and _number(v)]
+        copy[name] = float(np.mean(rest)) if rest else None
+    return copy
+
+
 def standard_error(record: dict, field: str) -> float | None:
     """The standard error of a record's field over its landmark extractions (their standard deviation, `mean_fields`'
     draw_sd, over the square root of their number); None for a record extracted once or without the field's spread."""

@@ -791,10 +791,13 @@ def chart_intelligibility_vs_fps(records: list[dict], styles: dict | None = None
 
 
 def _bracket(matched: dict) -> str:
-    """kbps with the swept Q values bracketing it: "12.3 kbps (Q 8-12)"."""
+    """kbps, with its standard error where the record has one, and the swept Q values bracketing it:
+    "12.3 ± 0.4 (Q 8–12)"."""
     low, high = matched.get("q_low"), matched.get("q_high")
     qs = [f"{q:g}" for q in dict.fromkeys(q for q in (low, high) if q is not None)]
-    return _fmt(matched.get("kbps"), 1) + (f" (Q {'–'.join(qs)})" if qs else "")
+    spread = matched.get("kbps_se")
+    return (_fmt(matched.get("kbps"), 1) + (f" ± {_fmt(spread, 1)}" if isinstance(spread, (int, float)) else "")
+            + (f" (Q {'–'.join(qs)})" if qs else ""))
 
 
 def _reached(matched: dict) -> str:
@@ -850,7 +853,7 @@ def _matched_table(records: list[dict]) -> str:
             if joints:
                 cells += [_fmt(m.get("hand_joint_error_mm"), 1), _fmt(m.get("arm_joint_error_mm"), 1)]
             rows.append(cells + [_holds(m), _channel_marks(m.get("kbps"))])
-    header = ["solution", "codec", "measured against", "kbps at matched intelligibility (Q bracket)",
+    header = ["solution", "codec", "measured against", "kbps at matched intelligibility ± SE (Q bracket)",
               *(["threshold"] if not shared else []), "reached", "hand PCK@0.2 %", "hand error (hand sizes)", "hands found % (left / right)",
               "face error (interocular distances)", "mouth / eyes error (interocular distances)", "letter top-1 %",
               *(["hand joint error mm", "arm joint error mm"] if joints else []), "holds down to",
@@ -881,7 +884,8 @@ def _matched_section(records: list[dict], styles: dict) -> str:
             "figure is the mean of several landmark extractions, each from the picture moved by an invisible fraction of "
             "a pixel; the threshold is judged on each criterion's monotone fit over the swept Q (intelligibility does not "
             "fall when bits are added, so where a dearer point reads lower, the extractor's noise is pooled), and the "
-            "threshold's columns (hand PCK, letter top-1) give that fit at the matched rate. “Reached” says how many "
+            "threshold's columns (hand PCK, letter top-1) give that fit at the matched rate. “±” is the rate's jackknife standard error over the extractions (each left out in turn, from every point and the "
+            "ceiling alike). “Reached” says how many "
             "standard errors the fit at the dearest point stands from the threshold, the difference taken extraction by "
             "extraction against the ceiling's under the same shift: under 2, the call is too close for the extractions "
             "made (more, with --extractions, narrow it). Hand errors are in hand "

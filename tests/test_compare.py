@@ -102,7 +102,10 @@ def test_each_solution_is_matched_between_its_bracketing_points(result):
             assert record["hand_pck_20"] >= threshold - 0.01          # the fit at the match; the text rounds to 4 digits
         assert record["fps_holds"] is None or record["fps_holds"] in (25.0, 10.0)
         assert set(INTELLIGIBILITY_FIELDS) & set(record)
-        # how clear the verdict is, in standard errors of the two extractions (the ceiling's included)
+        # the rate's jackknife over the two extractions: where reached, each left out in turn moves the match
+        assert (record["kbps_se"] is None) == (not record["reached"])
+        assert record["kbps_se"] is None or 0 <= record["kbps_se"] < record["kbps"]
+        # how clear the verdict is, in standard errors of the two extractions, paired with the ceiling's
         margin = record["verdict_margin_se"]
         assert isinstance(record["verdict_clear"], bool)
         if margin is not None:
@@ -120,6 +123,29 @@ def test_each_solution_is_matched_between_its_bracketing_points(result):
     assert operating == SOLUTIONS
     stages = [r for r in result.records if r.get("kind") == "stage"]
     assert len(stages) >= 5 and all(s["wall_s"] >= 0 for s in stages)
+
+
+@pytest.mark.slow
+def test_a_reached_rate_carries_its_jackknife_over_the_extractions(result):
+    """Recomputed from the records: each extraction left out of every point and of the ceiling, the match found
+    again on the replicate thresholds (2 PCK points and half a letter of the word under the ceiling)."""
+    from comparisons.landmark_draws import leave_out
+    from comparisons.matching import Criterion, cheapest_rate
+    from pipeline.studies.compare import LETTER_MARGIN, PCK_MARGIN
+    ceiling = next(r for r in result.records if r.get("kind") == "uncoded" and r["subject"] == UNCODED_SUBJECTS[LOSSLESS])
+    below = {"hand_pck_20": PCK_MARGIN, "letter_top1": 100.0 * LETTER_MARGIN / len(SMALL.word)}
+    checked = 0
+    for matched in (r for r in result.records if r.get("kind") == "matched" and r["reference"] == LOSSLESS):
+        points = _points(result, solution=matched["solution"], codec=matched["codec"], sweep="q", reference=LOSSLESS)
+        rates = []
+        for k in range(SMALL.extractions):
+            replicate = leave_out(ceiling, k)
+            criteria = [Criterion(name, replicate[name] - gap) for name, gap in below.items()]
+            rates.append(cheapest_rate([leave_out(p, k) for p in points], criteria, monotone=True).kbps)
+        if matched["reached"]:
+            assert matched["kbps_se"] == pytest.approx(np.std(rates) * np.sqrt(SMALL.extractions - 1), abs=1e-6)
+            checked += 1
+    assert checked >= 1
 
 
 @pytest.mark.slow

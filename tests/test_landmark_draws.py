@@ -3,7 +3,7 @@ of what they measure."""
 import numpy as np
 import pytest
 
-from comparisons.landmark_draws import MAX_EXTRACTIONS, SHIFTS, extract_draws, mean_fields, shifted
+from comparisons.landmark_draws import MAX_EXTRACTIONS, SHIFTS, extract_draws, leave_out, mean_fields, shifted
 
 
 def test_the_shifts_are_distinct_sub_pixel_offsets_starting_at_the_half_pixel_diagonal():
@@ -31,6 +31,16 @@ def test_the_mean_over_draws_keeps_their_spread_and_skips_undefined_values():
     assert partly["hand_error"] == pytest.approx(0.2) and partly["draw_values"]["hand_error"] == [0.1, None, 0.3]
     single = mean_fields([{"hand_pck_20": 96.0}])
     assert single == {"hand_pck_20": 96.0, "extractions": 1}
+
+
+def test_a_jackknife_replicate_leaves_one_draw_out_of_every_field_kept_draw_by_draw():
+    record = {"kbps": 10.0, **mean_fields([{"hand_pck_20": 96.0, "hand_error": None}, {"hand_pck_20": 98.0, "hand_error": 0.2},
+                                           {"hand_pck_20": 91.0, "hand_error": None}])}
+    assert leave_out(record, 2)["hand_pck_20"] == pytest.approx(97.0) and leave_out(record, 0)["hand_pck_20"] == 94.5
+    assert leave_out(record, 0)["hand_error"] == 0.2 and leave_out(record, 1)["hand_error"] is None
+    assert leave_out(record, 1)["kbps"] == 10.0 and record["hand_pck_20"] == pytest.approx(95.0)   # a copy
+    assert leave_out(record, 7) == record                                  # no such draw
+    assert leave_out({"hand_pck_20": 96.0, "extractions": 1}, 0) == {"hand_pck_20": 96.0, "extractions": 1}
 
 
 def test_each_draw_is_moved_back_onto_the_pictures_own_pixel_grid():

@@ -268,7 +268,9 @@ def test_the_reached_column_says_how_many_standard_errors_the_verdict_stands_fro
     for record in records:
         if record["kind"] == "matched" and record["solution"] in margins:
             record["verdict_margin_se"], record["verdict_clear"] = margins[record["solution"]]
+            record["kbps_se"] = 12.34 if record["solution"] == "NSV" else None
     page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
+    assert page.tables["matched"][0][3] == "180.0 ± 12.3 (Q 8–16)"            # the rate's jackknife error
     reached = {row[0]: row[4] for row in page.tables["matched"]}
     assert reached["NSV"] == "✔ yes (+5.6 SE)"                # truncated toward 0
     assert reached["SSV"] == "✘ no: rate of the best point (-1.9 SE: too close to call)"

@@ -51,7 +51,8 @@ the same way. At the upper bracket's Q the frame rates are swept and fps_holds i
 which the threshold holds. Both decisions are taken on each criterion's monotone fit over the swept Q (frame
 rates), not on the points one by one (JUDGED_ON): intelligibility does not fall when bits or frames are added, so
 where a dearer point reads lower the extractor's noise is pooled (a matched record's criterion fields are the fit's
-at the matched rate, the measured values under "measured"). Each matched record also says how clear its verdict is:
+at the matched rate, the measured values under "measured"). A reached match's rate carries kbps_se, its jackknife
+standard error over the extractions (Study.rate_spread). Each matched record also says how clear its verdict is:
 verdict_margin_se, the standard errors between the fit at the dearest point and the threshold, taken extraction by
 extraction against the ceiling (comparisons.matching.verdict_margin), and verdict_clear, whether that is at least
 CLEAR_VERDICT_SE.
@@ -67,7 +68,7 @@ import numpy as np
 from tqdm import tqdm
 
 from comparisons import image_quality, matching, metrics, param_codecs, video_objects
-from comparisons.landmark_draws import MAX_EXTRACTIONS, SHIFTS, draw_values, extract, extract_draws, mean_fields
+from comparisons.landmark_draws import MAX_EXTRACTIONS, SHIFTS, draw_values, extract, extract_draws, leave_out, mean_fields
 from comparisons.param_study import face_joint_fields
 from comparisons.records import INTELLIGIBILITY_FIELDS, make_record, versions, write_records
 from comparisons.report import build_report, operating_points, verdict_note
@@ -690,7 +691,8 @@ class Study:
                                                                      c.threshold - (ceiling.get(c.field) or 0.0))
                                           for c in criteria})
         return {"kind": "matched", "solution": series.solution, "codec": series.codec, "clip": self.scenario.name,
-                "reference": series.reference, "kbps": found.kbps, "q_low": min(qs), "q_high": max(qs),
+                "reference": series.reference, "kbps": found.kbps, "kbps_se": self.rate_spread(series, found),
+                "q_low": min(qs), "q_high": max(qs),
                 "bracket_kbps": [lower["kbps"] if lower is not None else found.upper["kbps"], found.upper["kbps"]],
                 "q_shown": found.upper["q"], "threshold": matching.threshold_text(criteria),
                 "reached": found.reached, "verdict_margin_se": margin if margin is not None and np.isfinite(margin) else None,
@@ -698,13 +700,28 @@ class Study:
                 "fps_holds": fps_holds, "fields_at": fields_at, "judged_on": JUDGED_ON,
                 **fields, **found.fitted, "measured": measured}
 
+    def rate_spread(self, series: Series, found: matching.Match) -> float | None:
+        """The jackknife standard error (kbps) of a reached match's rate over the landmark extractions: replicate k
+        leaves extraction k out of every point of the series and of the ceiling (landmark_draws.leave_out: the same
+        draw everywhere, as the draws are paired) and matches again; SE = sqrt((K - 1) / K * sum (rate_k - mean)^2).
+        None for a match not reached (its rate is the best point's, not a crossing) or with one extraction."""
+        count = self.settings.extractions
+        if count < 2 or not found.reached:
+            return None
+        ceiling, points = self.ceiling(series.reference), series.points(self.records)
+        rates = np.array([matching.cheapest_rate([leave_out(point, k) for point in points],
+                                                 self.criteria(series.reference, leave_out(ceiling, k)),
+                                                 monotone=True).kbps for k in range(count)])
+        return float(np.sqrt((count - 1) / count * np.sum((rates - rates.mean()) ** 2)))
+
     def ceiling(self, reference: str) -> dict:
         return next(r for r in self.records if r.get("kind") == "uncoded" and r["reference"] == reference
                     and r["subject"] == UNCODED_SUBJECTS[reference])
 
-    def criteria(self, reference: str) -> list[matching.Criterion]:
-        """The threshold tied to the uncoded reference (see the module's description)."""
-        ceiling = self.ceiling(reference)
+    def criteria(self, reference: str, ceiling: dict | None = None) -> list[matching.Criterion]:
+        """The threshold tied to the uncoded reference (see the module's description); ceiling: the reference's
+        ceiling record (None: the measured one; `rate_spread` passes its jackknife replicates)."""
+        ceiling = self.ceiling(reference) if ceiling is None else ceiling
         landmarks = self.scenario.landmarks if reference == SOURCE else self.scenario.render_landmarks
         if _hand_share(landmarks) >= MIN_HAND_SHARE and ceiling.get("hand_pck_20") is not None:
             found = [matching.Criterion("hand_pck_20", ceiling["hand_pck_20"] - PCK_MARGIN, label="hand PCK@0.2 %")]
@@ -876,6 +893,7 @@ def _backend_name(backend: str) -> str:
 def summary_rows(records: list[dict]) -> list[dict]:
     """One row per matched series."""
     return [{"solution": r["solution"], "codec": r["codec"], "reference": r["reference"], "kbps": r["kbps"],
+             "kbps_se": r.get("kbps_se"),
              "q_low": r["q_low"], "q_high": r["q_high"], "reached": r["reached"],
              "verdict_margin_se": r.get("verdict_margin_se"), "verdict_clear": r.get("verdict_clear"),
              "fps_holds": r.get("fps_holds"),
@@ -908,17 +926,20 @@ def format_summary(records: list[dict]) -> str:
     thresholds = dict.fromkeys((row["reference"], row["threshold"]) for row in rows)
     lines = [f"matched against the {reference} on: {threshold}" for reference, threshold in thresholds]
     lines += [] if rows else ["no matched point"]
-    lines.append(f"{'solution':9} {'codec':9} {'reference':16} {'kbps':>8} {'Q':>7} {'PCK@.2':>7} {'face':>6} "
-                 f"{'top-1':>6} {'skin dB':>7} {'holds to':>9}  verdict")
+    lines.append(f"{'solution':9} {'codec':9} {'reference':16} {'kbps':>8} {'± SE':>6} {'Q':>6} {'PCK@.2':>7} "
+                 f"{'face':>6} {'top-1':>6} {'skin dB':>7} {'holds to':>9}  verdict")
     for row in rows:
         q = f"{row['q_low']}-{row['q_high']}" if row["q_low"] != row["q_high"] else str(row["q_low"])
         holds = f"{row['fps_holds']:g} fps" if row["fps_holds"] is not None else "–"
-        lines.append(f"{row['solution']:9} {row['codec']:9} {row['reference']:16} {row['kbps']:>8.1f}"
-                     f"{'' if row['reached'] else '*'} {q:>6} {fmt(row['hand_pck_20'], '>7.1f')} "
+        kbps = f"{row['kbps']:.1f}{'' if row['reached'] else '*'}"
+        lines.append(f"{row['solution']:9} {row['codec']:9} {row['reference']:16} {kbps:>8} "
+                     f"{fmt(row['kbps_se'], '>6.1f')} {q:>6} {fmt(row['hand_pck_20'], '>7.1f')} "
                      f"{fmt(row['face_error'], '>6.3f')} {fmt(row['letter_top1'], '>6.0f')} "
                      f"{fmt(row['skin_psnr'], '>7.2f')} {holds:>9}  {_verdict(row)}")
     if any(not row["reached"] for row in rows):
         lines.append("* threshold not reached: the best swept point's rate")
+    if any(row["kbps_se"] is not None for row in rows):
+        lines.append("± SE: the rate's jackknife standard error over the landmark extractions (each left out in turn)")
     if any(row["verdict_clear"] is False for row in rows):
         lines.append(f"too close to call: the fit at the dearest point is under {CLEAR_VERDICT_SE:g} standard errors of "
                      "the extractions from the threshold (more --extractions narrow it)")
