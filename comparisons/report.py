@@ -699,7 +699,8 @@ def _plot_intelligibility_sweeps(panel, records: list[dict], field: str, styles:
 
 
 def _plot_matched(panel, records: list[dict], field: str, styles: dict) -> None:
-    """The matched operating points as stars: filled where the threshold is reached, open where not."""
+    """The matched operating points as stars: filled where the threshold is reached, open where not; a horizontal bar
+    of the rate's jackknife error (kbps_se) where the record has one."""
     labelled = set()
     for m in matched_records(records):
         if m.get("kbps") is None or m.get(field) is None:
@@ -707,6 +708,11 @@ def _plot_matched(panel, records: list[dict], field: str, styles: dict) -> None:
         reached = bool(m.get("reached", True))
         label = "matched operating point" if reached else "best point (threshold not reached)"
         color = styles.get(_series_key(m), {"color": "black"})["color"]
+        spread = m.get("kbps_se")
+        if isinstance(spread, (int, float)) and spread > 0:
+            # a log axis: the bar is clipped at a tenth of the rate rather than crossing zero
+            panel.errorbar([m["kbps"]], [m[field]], xerr=[[min(spread, 0.9 * m["kbps"])], [spread]], fmt="none",
+                           ecolor=color, elinewidth=2, capsize=4, zorder=4)
         panel.plot([m["kbps"]], [m[field]], "*", ms=13, color=color, mec="black", mfc=color if reached else "none",
                    ls="none", label=None if label in labelled else label)
         labelled.add(label)
@@ -746,7 +752,9 @@ def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
     panels[0][0].set_title("hand keypoints")
     extracted = any(isinstance(r.get("extractions"), int) and r["extractions"] > 1 for r in points(records))
     figure.suptitle(f"Rate against intelligibility, {_against(references)}"
-                    + ("\nbars: one standard error over each point's landmark extractions" if extracted else ""),
+                    + ("\nbars: one standard error over each point's landmark extractions" if extracted else "")
+                    + ("; across the stars: the matched rate's jackknife error"
+                       if any(isinstance(m.get("kbps_se"), (int, float)) for m in matched_records(records)) else ""),
                     fontsize=10)
     _figure_legend(figure, panels[0])
     return figure

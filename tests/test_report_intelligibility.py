@@ -279,3 +279,18 @@ def test_the_reached_column_says_how_many_standard_errors_the_verdict_stands_fro
     assert reached["BBA"] == "✔ yes"                          # records from before the margin
     assert "too close for the extractions" in page.text
     assert verdict_note({}) == "" and verdict_note({"verdict_clear": None}) == ""
+
+
+def test_a_matched_rate_with_a_jackknife_error_gets_a_horizontal_bar_across_its_star():
+    from matplotlib.container import ErrorbarContainer
+    records = _records()
+    for record in records:
+        if record["kind"] == "matched" and record["solution"] == "NSV":
+            record["kbps_se"] = 20.0
+    figure = chart_rate_intelligibility(records)
+    bars = [c for c in figure.axes[0].containers if isinstance(c, ErrorbarContainer) and c.has_xerr]
+    assert len(bars) == 1
+    (segment,) = bars[0].lines[2][0].get_segments()
+    assert segment[0][0] == pytest.approx(160.0) and segment[1][0] == pytest.approx(200.0)     # NSV: 180 +- 20
+    assert "jackknife" in figure._suptitle.get_text()
+    assert "jackknife" not in chart_rate_intelligibility(_records())._suptitle.get_text()

@@ -921,7 +921,9 @@ def _verdict(row: dict) -> str:
 def format_summary(records: list[dict]) -> str:
     """The terminal's summary table: each solution at its matched rate."""
     def fmt(value, spec):
-        return format(value, spec) if isinstance(value, (int, float)) and np.isfinite(value) else "–"
+        """value in spec (">W.Pf"), or a dash right-aligned in the same width."""
+        ok = isinstance(value, (int, float)) and np.isfinite(value)
+        return format(value, spec) if ok else "–".rjust(int(spec[1:].split(".")[0]))
     rows = summary_rows(records)
     thresholds = dict.fromkeys((row["reference"], row["threshold"]) for row in rows)
     lines = [f"matched against the {reference} on: {threshold}" for reference, threshold in thresholds]
