@@ -265,12 +265,16 @@ def test_compare_rejects_bad_settings(tmp_path, capsys):
     assert np.char.find(capsys.readouterr().err, "xyz") >= 0
     for option, count, fragment in (("--extractions", "0", "bad extraction count"),
                                     ("--extractions", "17", "bad extraction count"),
-                                    ("--refine", "-1", "bad refinement count"), ("--refine", "6", "bad refinement count")):
+                                    ("--refine", "-1", "bad refinement count"), ("--refine", "6", "bad refinement count"),
+                                    ("--landmark-step", "0", "bad landmark step"),
+                                    ("--landmark-step", "26", "bad landmark step")):
         assert main(["compare", "ase", "AB", option, count, "--out", str(tmp_path)]) == 2
         error = capsys.readouterr().err.strip()
         assert len(error.splitlines()) == 1 and fragment in error, error
-    assert main(["compare", "xyz", "AB", "--out", str(tmp_path)]) == 2
-    assert np.char.find(capsys.readouterr().err, "xyz") >= 0
+    # a step that leaves fewer than two measured frames, refused before any work
+    assert main(["compare", "ase", "AB", "--frames", "10", "--landmark-step", "10", "--out", str(tmp_path)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "fewer than 2 of the 10 frames" in error, error
 
 
 def test_a_refinement_measures_the_geometric_middle_of_a_reached_bracket_or_beyond_the_sweep():

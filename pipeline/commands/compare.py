@@ -50,8 +50,12 @@ def add_scenario_arguments(parser: argparse.ArgumentParser, natural: bool = True
                         help="landmark extractions per point, each under its own sub-pixel shift, averaged: the "
                              "extractor's noise shrinks with their number, its time grows (1-16, default 4)")
     parser.add_argument("--refine", type=int, default=None,
-                        help="more Q measured inside each solution's matched Q bracket, one at a time, so that its "
-                             "rate is interpolated between nearer Q (0-5; default 2, the demo 1)")
+                        help="more Q measured per solution, one at a time: inside its matched Q bracket, so that its "
+                             "rate is interpolated between nearer Q, or beyond the swept Q where none (or every one) "
+                             "reaches the threshold (0-5; default 2, the demo 1)")
+    parser.add_argument("--landmark-step", type=int, default=None,
+                        help="intelligibility measured on every Nth frame of what the viewer sees: landmark extraction "
+                             "is most of the work (1 = every frame, the default; the demo 3)")
     options.add_no_progress(parser)
 
 
@@ -80,7 +84,8 @@ def scenario_fields(args: argparse.Namespace) -> dict:
     fields = dict(language=args.language, word=args.word, clip=getattr(args, "video", None),
                   pose=getattr(args, "pose", None), size=parse_size(args.size), backend=args.backend,
                   max_clip_size=options.parse_max_size(args.max_size))
-    for name, field in (("frames", "max_clip_frames"), ("extractions", "extractions"), ("refine", "refinements")):
+    for name, field in (("frames", "max_clip_frames"), ("extractions", "extractions"), ("refine", "refinements"),
+                        ("landmark_step", "landmark_step")):
         if getattr(args, name, None) is not None:
             fields[field] = getattr(args, name)
     return fields

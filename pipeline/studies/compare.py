@@ -95,6 +95,7 @@ PCK_MARGIN = 2.0             # hand PCK@0.2 points below the uncoded reference's
 # letter top-1 below the uncoded reference's, in letters of the word: with several extractions, a letter the ceiling
 # reads may be missed in fewer than half of them (one extraction: no letter may be lost)
 LETTER_MARGIN = 0.5
+MAX_LANDMARK_STEP = 25       # every 25th frame: one a second at 25 fps
 MAX_REFINEMENTS = 5           # halving a Q 1-31 bracket five times leaves adjacent Q
 FACE_MARGIN = 0.02           # face error, interocular distances above the uncoded reference's
 JUDGED_ON = ("each criterion's monotone fit over the swept Q (and frame rates) of the means over the extractions "
@@ -215,6 +216,9 @@ def check(settings: CompareSettings, command: str = "compare") -> None:
     n_frames, width, height = _expected_frames(settings)
     check_memory(n_frames, width, height, bytes_per_pixel(settings), command,
                  "choose a smaller --size or --max-size, or fewer frames")
+    if len(range(0, n_frames, settings.landmark_step)) < 2:
+        raise SigncastError(f"--landmark-step {settings.landmark_step} measures fewer than 2 of the {n_frames} frames: "
+                            "choose a smaller step")
 
 
 def _expected_frames(settings: CompareSettings) -> tuple[int, int, int]:
@@ -258,6 +262,8 @@ def check_settings(settings: CompareSettings) -> None:
         raise SigncastError(f"bad frame count {settings.max_clip_frames}: at least 2")
     if not 1 <= settings.extractions <= MAX_EXTRACTIONS:
         raise SigncastError(f"bad extraction count {settings.extractions}: choose 1 to {MAX_EXTRACTIONS}")
+    if not 1 <= settings.landmark_step <= MAX_LANDMARK_STEP:
+        raise SigncastError(f"bad landmark step {settings.landmark_step}: choose 1 to {MAX_LANDMARK_STEP} (every Nth frame)")
     if not 0 <= settings.refinements <= MAX_REFINEMENTS:
         raise SigncastError(f"bad refinement count {settings.refinements}: choose 0 to {MAX_REFINEMENTS}")
     if settings.scenario == "word":
