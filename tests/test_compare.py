@@ -299,3 +299,14 @@ def test_a_refinement_measures_the_geometric_middle_of_a_reached_bracket_or_beyo
     assert q_to_refine(alone(4, reached=True), {1, 2, 4}) == 11
     assert q_to_refine(alone(30, reached=True), {4, 30}) == 31
     assert q_to_refine(alone(31, reached=True), {4, 31}) is None       # nothing coarser
+
+
+def test_the_threshold_follows_the_ceiling_and_drops_letters_the_ceiling_cannot_read():
+    from pipeline.studies.compare import criteria_for
+    hands = criteria_for({"hand_pck_20": 98.5, "face_error": 0.03, "letter_top1": 80.0}, 0.9, 5)
+    assert [(c.field, c.threshold, c.higher_is_better) for c in hands] == [
+        ("hand_pck_20", pytest.approx(96.5), True), ("letter_top1", pytest.approx(70.0), True)]   # half a letter of 5
+    face = criteria_for({"hand_pck_20": 98.5, "face_error": 0.03}, 0.05, 0)               # hands in 5 % of frames
+    assert [(c.field, c.threshold, c.higher_is_better) for c in face] == [("face_error", pytest.approx(0.05), False)]
+    # a word cut short (--frames) whose ceiling reads no letter: no letter criterion, not "letter top-1 >= -50"
+    assert [c.field for c in criteria_for({"hand_pck_20": 80.5, "letter_top1": 0.0}, 0.9, 1)] == ["hand_pck_20"]

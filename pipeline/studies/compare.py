@@ -41,7 +41,8 @@ new pixels) and re-extracted, the landmark extractor's noise floor (against itse
 which no re-rendered or decoded picture can, however close), or, where the reference shows hands in fewer than MIN_HAND_SHARE of its
 frames (carphone), face error within FACE_MARGIN interocular distances of the uncoded's; on fingerspelling also
 letter top-1 no more than LETTER_MARGIN letters of the word below the uncoded reference's (half a letter: a
-letter the ceiling reads may be missed in fewer than half the extractions). The NSV family is matched against the source video, the avatar
+letter the ceiling reads may be missed in fewer than half the extractions; none where the ceiling reads no letter of
+the word). The NSV family is matched against the source video, the avatar
 solutions against the lossless render (in the video scenario the retargeting loss alone keeps them from the
 source's threshold; their message fidelity is in the point records). Then up to `refinements` more Q are measured
 per series, one at a time (`q_to_refine`; those records say refined): inside the bracket where the match falls
@@ -729,15 +730,23 @@ class Study:
         ceiling record (None: the measured one; `rate_spread` passes its jackknife replicates)."""
         ceiling = self.ceiling(reference) if ceiling is None else ceiling
         landmarks = self.scenario.landmarks if reference == SOURCE else self.scenario.render_landmarks
-        if _hand_share(landmarks) >= MIN_HAND_SHARE and ceiling.get("hand_pck_20") is not None:
-            found = [matching.Criterion("hand_pck_20", ceiling["hand_pck_20"] - PCK_MARGIN, label="hand PCK@0.2 %")]
-        else:
-            found = [matching.Criterion("face_error", ceiling.get("face_error", 0.0) + FACE_MARGIN,
-                                        higher_is_better=False, label="face error (interocular)")]
-        if ceiling.get("letter_top1") is not None:
-            margin = 100.0 * LETTER_MARGIN / max(len(self.judge.spans or ()), 1)
-            found.append(matching.Criterion("letter_top1", ceiling["letter_top1"] - margin, label="letter top-1 %"))
-        return found
+        return criteria_for(ceiling, _hand_share(landmarks), len(self.judge.spans or ()))
+
+
+def criteria_for(ceiling: dict, hand_share: float, n_letters: int) -> list[matching.Criterion]:
+    """The threshold tied to a ceiling record (the uncoded reference re-extracted): hand PCK@0.2 within PCK_MARGIN
+    points of it where the reference shows a hand in at least MIN_HAND_SHARE of its frames (hand_share, 0-1), else
+    face error within FACE_MARGIN; and letter top-1 within LETTER_MARGIN letters of a word of n_letters, where the
+    ceiling reads any letter (a ceiling that reads none leaves letters nothing to hold)."""
+    if hand_share >= MIN_HAND_SHARE and ceiling.get("hand_pck_20") is not None:
+        found = [matching.Criterion("hand_pck_20", ceiling["hand_pck_20"] - PCK_MARGIN, label="hand PCK@0.2 %")]
+    else:
+        found = [matching.Criterion("face_error", (ceiling.get("face_error") or 0.0) + FACE_MARGIN,
+                                    higher_is_better=False, label="face error (interocular)")]
+    if ceiling.get("letter_top1"):
+        margin = 100.0 * LETTER_MARGIN / max(n_letters, 1)
+        found.append(matching.Criterion("letter_top1", ceiling["letter_top1"] - margin, label="letter top-1 %"))
+    return found
 
 
 def _shifted_draws(values: list[float | None] | None, offset: float) -> list[float | None] | None:
