@@ -205,13 +205,15 @@ def avatar_video(tmp_path_factory):
 def test_compare_video_runs_end_to_end_on_a_rendered_avatar_clip(avatar_video, tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["compare", "--video", str(avatar_video), "--video-q", "12,31", "--frame-rates", "25,12.5",
-                 "--param-q", "4,31", "--codecs", "fba-pred,bba-key", "--no-progress", "--out", str(out)]) == 0
+                 "--param-q", "4,31", "--codecs", "fba-pred,bba-key", "--extractions", "2", "--refine", "1",
+                 "--no-progress", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "matched against the source video on: hand PCK@0.2" in printed
     assert "matched against the lossless render on" in printed
     records = [json.loads(line) for line in (out / "records.jsonl").read_text().splitlines()]
     run = next(r for r in records if r["kind"] == "run")
     assert run["scenario"] == "video" and run["clip_size"] == [176, 144] and run["clip_frames"] == 20
+    assert run["extractions"] == 2 and run["refinements"] == 1
     points = [r for r in records if r["kind"] == "point"]
     assert {r["solution"] for r in points} == SOLUTIONS
     assert all(r["duration_s"] == pytest.approx(run["clip_duration_s"]) for r in points)
