@@ -692,11 +692,7 @@ class Study:
         fields_at = "interpolated in log-rate between the bracketing points" if lower is not None else "the point's own"
         fields = matching.fields_at(found, (*INTELLIGIBILITY_FIELDS, *QUALITY_FIELDS, "joint_error_mm_mean"))
         measured = {name: fields.get(name) for name in found.fitted}
-        ceiling = self.ceiling(series.reference)
-        margin = matching.verdict_margin(series.points(self.records), criteria, draw_values,
-                                         {c.field: _shifted_draws(draw_values(ceiling, c.field),
-                                                                     c.threshold - (ceiling.get(c.field) or 0.0))
-                                          for c in criteria})
+        margin = self.verdict_margin(series, criteria)
         return {"kind": "matched", "solution": series.solution, "codec": series.codec, "clip": self.scenario.name,
                 "reference": series.reference, "kbps": found.kbps, "kbps_se": self.rate_spread(series, found),
                 "q_low": min(qs), "q_high": max(qs),
@@ -706,6 +702,14 @@ class Study:
                 "verdict_clear": None if margin is None else bool(abs(margin) >= CLEAR_VERDICT_SE),
                 "fps_holds": fps_holds, "fields_at": fields_at, "judged_on": JUDGED_ON,
                 **fields, **found.fitted, "measured": measured}
+
+    def verdict_margin(self, series: Series, criteria: list[matching.Criterion]) -> float | None:
+        """The series' verdict margin in standard errors (comparisons.matching.verdict_margin), each point against
+        the threshold draw by draw: the ceiling's extractions moved by the threshold's offset from their mean."""
+        ceiling = self.ceiling(series.reference)
+        threshold_draws = {c.field: _shifted_draws(draw_values(ceiling, c.field),
+                                                   c.threshold - (ceiling.get(c.field) or 0.0)) for c in criteria}
+        return matching.verdict_margin(series.points(self.records), criteria, draw_values, threshold_draws)
 
     def rate_spread(self, series: Series, found: matching.Match) -> float | None:
         """The jackknife standard error (kbps) of a reached match's rate over the landmark extractions: replicate k
