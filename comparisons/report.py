@@ -819,7 +819,7 @@ def _reached(matched: dict) -> str:
 
 def verdict_note(matched: dict) -> str:
     """How far the verdict stands from the threshold in standard errors of the extractions ("+3.2 SE", "-0.6 SE: too
-    close to call"; "clear" where the extractions agreed exactly), "" where the record has no such measure."""
+    close to call"; "no spread" where the extractions agreed exactly), "" where the record has no such measure."""
     clear, margin = matched.get("verdict_clear"), matched.get("verdict_margin_se")
     if clear is None:
         return ""
