@@ -53,7 +53,7 @@ def angular_acceleration(q: np.ndarray, fps: float) -> np.ndarray:
 
 
 def coded_kbps(motion, codec: str, q: int) -> float:
-    from comparisons.param_codecs import get_codec
+    from comparisons.params.codecs import get_codec
     return 8 * len(get_codec(codec).encode(motion, q)) / motion.duration_s / 1000.0
 
 

@@ -1,4 +1,4 @@
-"""The letter recogniser's ceiling (comparisons/letter_recognition.py): top-1 / top-3 on uncoded material.
+"""The letter recogniser's ceiling (comparisons/judging/letters.py): top-1 / top-3 on uncoded material.
 
 1. Lexicon clips (the real signers' keypoints, uncoded) of three languages, each scored letter by letter.
    Scored frames: one half of the clip's held span (fingerspelling.held_span), both halves in turn (each
@@ -28,7 +28,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from comparisons.letter_recognition import Recogniser, recognise_spans, top_k  # noqa: E402
+from comparisons.judging.letters import Recogniser, recognise_spans, top_k  # noqa: E402
 from media import lexicon  # noqa: E402
 from media.fingerspelling import held_span  # noqa: E402
 

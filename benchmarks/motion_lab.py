@@ -1,6 +1,6 @@
 """Speed of the seed-002 motion coders and what their entropy stages save.
 
-1. Encode and decode speed, frames per second, of each coder (comparisons/lab_codecs.py) on the ASL
+1. Encode and decode speed, frames per second, of each coder (comparisons/lab/codecs.py) on the ASL
    alphabet fingerspelled at 25 fps, at its lowest and highest operating point; median over --repeats.
    Real time is 25 fps, so the factor over real time is fps / 25.
 2. Entropy stage: the same streams with fixed-length codes, static Huffman and the adaptive arithmetic
@@ -18,7 +18,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from comparisons.lab_codecs import LAB_CODEC_NAMES, LabCodec, alphabet_motion, motion_dofs  # noqa: E402
+from comparisons.lab.codecs import LAB_CODEC_NAMES, LabCodec, alphabet_motion, motion_dofs  # noqa: E402
 
 FPS = 25.0
 

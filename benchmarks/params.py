@@ -16,7 +16,7 @@
 2. Arithmetic coder against the zero-order empirical entropy: the quantised P-frame residual levels
    of the FBA predictive coder over all 26 letters (Q = 1 and Q = 8) are coded as one sequence with
    one adaptive model; coded bits (excluding the 32-bit count) are compared with n * H(p). The same levels are
-   also coded by the binarised coder (comparisons/binarised_levels.py: significance, sign, log2 bucket and top
+   also coded by the binarised coder (comparisons/params/binarised_levels.py: significance, sign, log2 bucket and top
    bits, each an adaptive binary decision), the target of issue 17: within 3 % of n * H(p) at Q 1-8.
    Also reported: inside the real streams each BAP has its own model that restarts at every intra
    plane, so on 1-second letters the models' learning cost is part of the measured rate; the
@@ -37,16 +37,16 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from comparisons import bap_table  # noqa: E402
-from comparisons import param_coding as pc  # noqa: E402
-from comparisons.binarised_levels import decode_levels, encode_levels  # noqa: E402
-from comparisons.bitstream import BitWriter  # noqa: E402
-from comparisons.entropy import (ArithmeticEncoder, FrequencyModel, adaptive_code_length_bits,  # noqa: E402
+from comparisons.params import bap_table  # noqa: E402
+from comparisons.params import coding as pc  # noqa: E402
+from comparisons.params.binarised_levels import decode_levels, encode_levels  # noqa: E402
+from comparisons.params.bits import BitWriter  # noqa: E402
+from comparisons.params.entropy import (ArithmeticEncoder, FrequencyModel, adaptive_code_length_bits,  # noqa: E402
                                  empirical_entropy_bits, encode_sequence)
-from comparisons.fba_codec import _changed_mask, coded_order, decode_fba, encode_fba  # noqa: E402
-from comparisons.fba_mapping import motion_to_baps  # noqa: E402
-from comparisons.lab_codecs import motion_dofs  # noqa: E402
-from comparisons.param_codecs import codec_names, get_codec  # noqa: E402
+from comparisons.params.fba import _changed_mask, coded_order, decode_fba, encode_fba  # noqa: E402
+from comparisons.params.fba_mapping import motion_to_baps  # noqa: E402
+from comparisons.lab.codecs import motion_dofs  # noqa: E402
+from comparisons.params.codecs import codec_names, get_codec  # noqa: E402
 from media.face_rig import with_face_bones  # noqa: E402
 from media.fingerspelling import letter_motion  # noqa: E402
 

@@ -5,7 +5,7 @@ fingerspelled by the avatar (80 frames, 25 fps), rendered at --size (default 352
 cores (default 2; os.sched_setaffinity, and the thread pools of NumPy's BLAS and Numba held to as many):
 - NSV: the live PyAV encoder (mpeg4 at Q 4, libx264 at QP 26, no B-frames) fed one frame at a time, and the
   live decoder fed the packets one at a time;
-- FBA / BBA: a unit of --refresh frames coded by the parameter codec at Q 4 and wrapped (comparisons.fba_units),
+- FBA / BBA: a unit of --refresh frames coded by the parameter codec at Q 4 and wrapped (comparisons.transport.fba_units),
   and the receiver's side: the unit scanner, the codec's decoder, then the terminal's render of every frame
   (the avatar drawn by the kernels' default backend);
 - the video-object solutions (pipeline/live/objects.py: NSV2O, NSV3O, NSV3O+C, SSV at mpeg4 Q 4): the sender's
@@ -59,8 +59,9 @@ def main() -> None:
 
     import numpy as np
 
-    from comparisons import fba_units, param_codecs
-    from comparisons.live_video import LiveDecoder, LiveEncoder
+    from comparisons.transport import fba_units
+    from comparisons.params import codecs as param_codecs
+    from comparisons.transport.video import LiveDecoder, LiveEncoder
     from media.avatar import load_avatar
     from media.fingerspelling import fingerspell
     from media.render import AvatarRenderer, RenderSettings
@@ -118,7 +119,7 @@ def main() -> None:
         add(f"{name} decode", timed(decode, args.repeats))
         add(f"{name} terminal render {width}x{height}", timed(render, args.repeats))
 
-    from comparisons import rtp
+    from comparisons.transport import rtp
     from pipeline.live.jitter_buffer import DEPACKETIZERS
     from pipeline.live.objects import ObjectSink, ObjectSource
     from pipeline.live.session import SessionDescription, packetizer_for

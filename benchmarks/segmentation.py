@@ -13,7 +13,7 @@ import argparse
 
 import numpy as np
 
-from comparisons.video_objects import code_solution
+from comparisons.video.objects import code_solution
 from media import segmentation
 from media.avatar import load_avatar
 from media.fingerspelling import fingerspell

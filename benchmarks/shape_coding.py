@@ -1,6 +1,6 @@
-"""How fast is the binary shape coder (comparisons/shape_coding.py), per frame and object, both ways?
+"""How fast is the binary shape coder (comparisons/video/shape.py), per frame and object, both ways?
 
-Live delivery (pipeline/live/objects.py, comparisons/shape_units.py) codes every video object's shape every
+Live delivery (pipeline/live/objects.py, comparisons/transport/shape_units.py) codes every video object's shape every
 frame, so all objects' shapes (and their texture) must fit in 40 ms at 25 fps on 2 cores. This renders the
 first --frames frames of ASL "AB" by the NumPy backend at 176x144 and 352x288, takes the head, right hand,
 signer and clothes masks (media.segmentation.object_masks), codes each sequence at GOP 12 and decodes it, and
@@ -8,7 +8,7 @@ prints milliseconds per frame (best of --repeats rounds after a warm-up round th
 compilation or cache load) beside the baseline below and the speed-up over it.
 
 Baseline: the pure-Python coder (per-pixel loops in Python), measured on this project's 2-core build machine
-before the loops moved into kernels/shape_cae.py, same masks, same settings; ms per frame:
+before the loops moved into comparisons/video/shape_cae.py, same masks, same settings; ms per frame:
 
     size     object       encode  decode
     176x144  head           5.70    3.54
@@ -93,7 +93,7 @@ def main() -> None:
 
     import numpy as np
 
-    from comparisons.shape_coding import decode_shape, encode_shape
+    from comparisons.video.shape import decode_shape, encode_shape
 
     print(f"{'size':8} {'object':11} {'enc ms':>7} {'dec ms':>7} {'bytes':>6}   {'base enc':>8} {'base dec':>8}"
           f" {'enc x':>6} {'dec x':>6}")

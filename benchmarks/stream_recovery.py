@@ -3,11 +3,11 @@ FBA stream and BBA streams; and what the BBA resilience fields cost.
 
 1. Recovery: a real clip (ASL "ABCDEFGHIJ" fingerspelled by the avatar, 25 fps, 154 frames, Q = 4)
    is coded as
-   - live FBA units (comparisons/fba_units.py, BAPs and FAPs), predictive and DCT, refresh 8, 16
+   - live FBA units (comparisons/transport/fba_units.py, BAPs and FAPs), predictive and DCT, refresh 8, 16
      and 32 frames; received with find_units + assemble (hold concealment);
-   - one FBA stream (comparisons/fba_codec.py, intra period 32 / 4 DCT segments) for contrast: its
+   - one FBA stream (comparisons/params/fba.py, intra period 32 / 4 DCT segments) for contrast: its
      single CRC-32 turns any damage into the loss of the whole clip;
-   - BBA (comparisons/bba_codec.py) with the predictive coder at intra periods 4, 16 and 32 frames,
+   - BBA (comparisons/params/bba.py) with the predictive coder at intra periods 4, 16 and 32 frames,
      the DCT coder (intra every 4 segments), the key-frame coder, and the predictive coder with the
      header repeated before every intra unit (header_period=1); read_stream(resilient=True).
    Each of --trials random single-byte damages (seeded: a uniform position, XOR with a uniform
@@ -34,11 +34,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from comparisons import bba_codec
-from comparisons.fba_codec import decode_fba, encode_fba
-from comparisons.fba_mapping import motion_to_baps
-from comparisons.fba_units import assemble, encode_fba_units, find_units
-from comparisons.param_codecs import get_codec
+from comparisons.params import bba as bba_codec
+from comparisons.params.fba import decode_fba, encode_fba
+from comparisons.params.fba_mapping import motion_to_baps
+from comparisons.transport.fba_units import assemble, encode_fba_units, find_units
+from comparisons.params.codecs import get_codec
 from media.errors import SigncastError
 from media.fingerspelling import fingerspell, letter_motion
 

@@ -23,7 +23,7 @@ buffers byte-compressed (EXT_meshopt_compression). This benchmark puts both on t
    "close" is a rotation of up to 0.2 deg (0.00349 rad), so nearly still bones (the spine while fingerspelling)
    carry errors up to ~0.4 deg at every bit depth. Those errors are counted: it is what a gltfpack user gets.
    The report says how many moving tracks stay keyed.
-2. signcast side. The same motion through every parameter codec of `comparisons.param_codecs`: the MPEG-4
+2. signcast side. The same motion through every parameter codec of `comparisons.params.codecs`: the MPEG-4
    fba-pred, fba-dct, bba-pred, bba-dct at Q 1, 2, 4, 8, 16, 31, and the seed-002 coders (quant ... hybrid)
    at each of their operating points; size = len() of the stream the decoder read back. By default the motion is sent
    without its face (FAPs): the glTF animation carries only bones, so both sides carry the same body (chosen
@@ -414,7 +414,7 @@ def gltf_errors(motion: Motion, skeleton: Skeleton, rotation_bits: int, folder: 
 
 def signcast_codecs() -> tuple[str, ...]:
     """Every registered parameter codec but bba-key (bba-pred with key frames: the same stream family)."""
-    from comparisons.param_codecs import codec_names
+    from comparisons.params.codecs import codec_names
     return tuple(name for name in codec_names() if name != "bba-key")
 
 
@@ -423,7 +423,7 @@ def operating_points(name: str) -> tuple[int, ...]:
     coder (1 = its lowest rate)."""
     if name in MPEG_CODECS:
         return QS
-    from comparisons.param_codecs import get_codec
+    from comparisons.params.codecs import get_codec
     return tuple(range(1, len(get_codec(name).settings()) + 1))
 
 
@@ -431,7 +431,7 @@ def codec_errors(motion: Motion, codec_name: str, q: int) -> tuple[np.ndarray, i
     """Code the motion with a signcast parameter codec at Q: (T, M) errors in degrees of its M moving bones
     (a bone the decoded motion lacks counts as at rest), the stream's bytes, and how many moving bones the
     decoded motion carries."""
-    from comparisons.param_codecs import get_codec
+    from comparisons.params.codecs import get_codec
     codec = get_codec(codec_name)
     data = codec.encode(motion, q)
     decoded = codec.decode(data)
@@ -604,7 +604,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     problem = missing_tools()
     if args.codecs:
-        from comparisons.param_codecs import codec_names
+        from comparisons.params.codecs import codec_names
         unknown = sorted(set(args.codecs.split(",")) - set(codec_names()))
         if unknown:
             problem = f"unknown codec(s) {', '.join(unknown)}; known: {', '.join(codec_names())}"

@@ -42,9 +42,9 @@ __all__ = ["BACKGROUND", "BODY", "HEAD", "LEFT_HAND", "RIGHT_HAND", "PART_NAMES"
 # --------------------------------------------------------------------------- frame rate
 # One limit for every frame rate a user asks for (motion, rendering, coding, analysis). 240 fps is above any
 # display or signing capture rate, and FBA/BBA streams can signal every rate up to it: their frame-rate field
-# is 8 bits of whole frames plus sixteenths (comparisons.param_coding.frame_rate_fields: up to 255 15/16 fps).
+# is 8 bits of whole frames plus sixteenths (comparisons.params.coding.frame_rate_fields: up to 255 15/16 fps).
 # Readers of files and coded streams bound what a file may declare separately and more loosely
-# (media.text_files, comparisons.coded_streams: 1000 fps), since those guard allocations, not requests.
+# (media.text_files, comparisons.lab.streams: 1000 fps), since those guard allocations, not requests.
 MAX_FPS = 240.0
 
 
@@ -117,7 +117,7 @@ def parse_size(text: str, what: str = "--size") -> tuple[int, int]:
 
 # --------------------------------------------------------------------------- solutions and codecs
 FBA, BBA = "FBA", "BBA"
-# The seed-002 motion-coding laboratory's coders (comparisons.lab_codecs): waveform coders of each degree of
+# The seed-002 motion-coding laboratory's coders (comparisons.lab.codecs): waveform coders of each degree of
 # freedom and model-based coders. They code the same motion as FBA/BBA but are not MPEG-4 streams, so their
 # records carry a solution of their own.
 MOTION_CODER = "motion coder"

@@ -52,7 +52,7 @@ Method, per clip:
    lower eyelid, mean of both eyes), ES0 = 3.5.x - 3.6.x (pupils), ENS0 = eyes' line to 9.15, MNS0 = 9.15
    to 2.2, MW0 = 8.3.x - 8.4.x; one unit is the distance / 1024 (`Fapu.unit`); AU = 1e-5 rad.
 7. FAPs: a feature point's displacement along its FAP's axis, signed by the FAP's direction of positive
-   motion (comparisons/fap_table.py), divided by its FAPU, rounded. All displacements are from the neutral
+   motion (comparisons/params/fap_table.py), divided by its FAPU, rounded. All displacements are from the neutral
    face in the head-fixed frame, the lower lip's too: MPEG-4 defines open_jaw as the jaw's (chin's, 2.1)
    displacement that "does not affect mouth opening", so the lip FAPs carry the lips' own positions.
    Eyeballs (23-26): the iris centre's displacement from its eye's corners' midpoint, relative to the

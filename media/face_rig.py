@@ -1,6 +1,6 @@
 """The face rig: MPEG-4 FAPs -> local rotations of the avatar's face bones (MakeHuman default rig).
 
-FAP values are in the FAPU of the face they were measured on (comparisons/fap_table.py); they play
+FAP values are in the FAPU of the face they were measured on (comparisons/params/fap_table.py); they play
 on this avatar in its own FAPU, measured on its rest mesh (`avatar_fapu`). A displacement of d metres
 is value * FAPU in the FAP's positive direction; "left" is the avatar's own left (+X), up is +Y,
 forward +Z. Bones turn about their heads (media/avatar.py), so every displacement is made by turns:
@@ -49,9 +49,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kernels import bba_face_rig as face_kernel
-from kernels import face_bones as bones_kernel
-from kernels import libm
+from media import face_rig_solve as face_kernel
+from media import face_bones as bones_kernel
+from comparisons.params import libm
 from media import rotations
 from media.avatar import Avatar, Skeleton, load_avatar
 from media.errors import SigncastError
@@ -60,7 +60,7 @@ from media.motion import N_FAPS, Motion
 FAPU_DIVISOR = 1024
 ANGLE_UNIT_RAD = 1e-5
 
-# The FAPs this rig plays: MPEG-4 name -> id (comparisons/fap_table.py; index in Motion.faps = id - 1).
+# The FAPs this rig plays: MPEG-4 name -> id (comparisons/params/fap_table.py; index in Motion.faps = id - 1).
 FAP_IDS = {
     "open_jaw": 3, "lower_t_midlip": 4, "raise_b_midlip": 5, "stretch_l_cornerlip": 6, "stretch_r_cornerlip": 7,
     "lower_t_lip_lm": 8, "lower_t_lip_rm": 9, "raise_b_lip_lm": 10, "raise_b_lip_rm": 11,
@@ -193,7 +193,7 @@ def face_bone_rotations(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dic
 
     faps: (T, 68) integers, index = FAP id - 1, in FAPU (or 1e-5 rad). skeleton: the MakeHuman rig at rest.
     fapu: this face's units (`avatar_fapu`). Returns bone name -> (T, 4) float64 unit quaternions (w, x, y, z);
-    all-zero FAPs give identity rotations. The displacements, turns and eyes are compiled (kernels/face_bones.py;
+    all-zero FAPs give identity rotations. The displacements, turns and eyes are compiled (media/face_bones.py;
     arctan2, arccos and the arms' products stay NumPy's); `_face_bone_rotations_numpy` is the NumPy form.
     """
     names, quaternions = _face_bone_quaternions(faps, skeleton, fapu)
@@ -223,7 +223,7 @@ def _face_bone_quaternions(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> 
 
 # The turned bones' columns in `_face_bone_quaternions`: the jaw, then per side (L, R) the lids and the eye.
 _TURNED_NAMES = ("jaw",) + tuple(f"{bone}.{side}" for side in SIDES for bone in ("orbicularis03", "orbicularis04", "eye"))
-_LID_COLUMNS = np.array([0, 1, 2, 4, 5])          # kernels/face_bones.py turn_quaternions' order
+_LID_COLUMNS = np.array([0, 1, 2, 4, 5])          # media/face_bones.py turn_quaternions' order
 _EYE_COLUMNS = np.array([3, 6])
 
 
@@ -276,12 +276,12 @@ def _carry_into(plan: _CarryPlan, head_moved: np.ndarray, tail_moved: np.ndarray
 
 def _face_bone_rotations_numpy(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dict[str, np.ndarray]:
     """`face_bone_rotations` with the displacements and the eyes in NumPy (`_turned_bones`, `_carried_bones`):
-    the readable reference of kernels/face_bones.py `face_targets` and `eye_rotations`; tests compare the two."""
+    the readable reference of media/face_bones.py `face_targets` and `eye_rotations`; tests compare the two."""
     face = _Displacements(np.asarray(faps), fapu)
     return _turned_bones(face, skeleton) | _carried_bones(face, skeleton)
 
 
-# The FAPs kernels/face_bones.py `face_targets` reads, in its order; {s}: the side (L then R; one-sided names repeat).
+# The FAPs media/face_bones.py `face_targets` reads, in its order; {s}: the side (L then R; one-sided names repeat).
 _TARGET_FAPS = (
     "open_jaw", "shift_jaw", "close_t_{s}_eyelid", "close_b_{s}_eyelid", "yaw_{s}_eyeball", "pitch_{s}_eyeball",
     "squeeze_{s}_eyebrow", "puff_{s}_cheek", "lift_{s}_cheek", "raise_{s}_m_eyebrow", "push_t_lip", "push_b_lip",
@@ -653,7 +653,7 @@ def _carry_arrays(skeleton: Skeleton, anchor: str, names: tuple[str, ...], head_
 def _carry_numpy(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray, np.ndarray]],
            iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> dict[str, np.ndarray]:
     """`_carry` in NumPy, all frames at once: the readable reference of the compiled kernel
-    (kernels/bba_face_rig.py); tests compare the two.
+    (media/face_rig_solve.py); tests compare the two.
 
     Local rotations (T, 4) carrying skinned bones by their unskinned ancestors below `anchor`.
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kernels import scipy_rotation
+from media import scipy_rotation
 from media import rotations
 
 

@@ -13,7 +13,7 @@ here). The `start`/`end` columns (ms) refer to the source videos: start is alway
 always exceeds the clip's duration, so the clips are already cut; `read_clip` still honours them.
 Most languages sign with the right hand only, Italian (ise) with the left only, Czech, Croatian
 and Turkish (cse, csq, tsm) use both. The French (fsl) clips are the very same `.pose` files as the ASL (ase) ones,
-all 26 letters: fsl is not another signer (comparisons.letter_recognition leaves clips out by file). The package is located, never imported, and nothing is
+all 26 letters: fsl is not another signer (comparisons.judging.letters leaves clips out by file). The package is located, never imported, and nothing is
 downloaded.
 """
 from __future__ import annotations

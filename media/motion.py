@@ -3,7 +3,7 @@
 A Motion holds, for T frames at `fps` frames per second, the local rotation of each named bone
 (unit quaternions (w, x, y, z), float64, in the avatar's world-aligned rest frames: see
 media/avatar.py) and the translation of the root in metres. Frame t is at time t / fps seconds.
-A Motion may also carry the face: the 68 MPEG-4 FAP values of each frame (comparisons/fap_table.py), in
+A Motion may also carry the face: the 68 MPEG-4 FAP values of each frame (comparisons/params/fap_table.py), in
 FAPU of the face they were measured on, so any face (the avatar's own FAPU) can play them.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ from media import rotations
 from media.domain import check_fps
 from media.errors import SigncastError
 
-N_FAPS = 68     # comparisons/fap_table.py (media does not import the encoder layer)
+N_FAPS = 68     # comparisons/params/fap_table.py (media does not import the encoder layer)
 
 SUPPORTED_FPS = (10.0, 15.0, 20.0, 25.0, 29.97, 30.0)
 

@@ -71,7 +71,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kernels import viterbi
+from media import viterbi
 from media import face_parameters, ik, lifting, rotations
 from media import jitter_filter as filters
 from media.avatar import Skeleton, load_avatar
@@ -161,7 +161,7 @@ HEAD_PITCH_MAX = 15.0
 CLAVICLE_ELEVATION_MAX = 8.0  # shrug (+) or drop (-) of each clavicle from its shoulder's height, about its clip median
 
 # The MPEG-4 neutral body posture (seed 000 Fig. 2.10a; H-Anim's default pose), BAP value 0 in
-# comparisons/fba_mapping.py: standing, arms hanging at the sides with the elbows straight, palms facing the
+# comparisons/params/fba_mapping.py: standing, arms hanging at the sides with the elbows straight, palms facing the
 # thighs, wrists and fingers straight. The rig's rest is an A-pose instead (upper arms 49 deg out, elbows
 # bent 42 deg, wrists bent back 14 deg, finger joints curled up to 26 deg). On this body an arm hanging
 # straight down puts the hand 6 cm into the hip, so the hanging arm is turned NEUTRAL_ARM_ABDUCTION degrees
@@ -322,7 +322,7 @@ def joint_axes(skeleton: Skeleton, bone: str) -> np.ndarray:
     F is the flexion axis (a hinge's axis; a positive angle flexes), L the long axis (twist), A the
     abduction axis. The retargeting turns each joint about these axes (a finger's PIP and DIP, the
     thumb's MCP and IP, the elbow: about F only; a knuckle: F then A, never L; the forearm twist bone:
-    about L only; the wrist: F then A) and the MPEG-4 BAP mapping (comparisons/fba_mapping.py) reads
+    about L only; the wrist: F then A) and the MPEG-4 BAP mapping (comparisons/params/fba_mapping.py) reads
     its flexion / abduction / twisting BAPs about the same axes, so a hinge turn is exactly one BAP.
     - fingers, thumb and metacarpals: L the bone's rest direction, A the direction the finger flexes
       towards (_flexion_direction: the palm's normal, the thumb's own curl) made orthogonal to L;
@@ -532,7 +532,7 @@ def smooth_choice(unary: np.ndarray, pairwise: np.ndarray) -> np.ndarray:
 
     unary: (T, K) cost of each option per frame; pairwise: (T-1, K, K) cost of moving from option i
     at frame t to option j at frame t+1 (here: how far the pose jumps, so a depth-mirror choice
-    does not flicker from frame to frame). Compiled (kernels/viterbi.py); `_smooth_choice_numpy` is the loop
+    does not flicker from frame to frame). Compiled (media/viterbi.py); `_smooth_choice_numpy` is the loop
     in NumPy, its reference.
     """
     unary = np.ascontiguousarray(unary, dtype=np.float64)

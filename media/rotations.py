@@ -21,7 +21,8 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from kernels import libm, scipy_rotation
+from comparisons.params import libm
+from media import scipy_rotation
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 _AXES = "XYZ"
@@ -105,7 +106,7 @@ def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     axis = np.asarray(axis, dtype=np.float64)
     angle = np.asarray(angle, dtype=np.float64)
     shape = np.broadcast_shapes(axis.shape[:-1], angle.shape)
-    # unit axis times angle, then scipy's from_rotvec, compiled operation for operation (kernels/scipy_rotation.py)
+    # unit axis times angle, then scipy's from_rotvec, compiled operation for operation (media/scipy_rotation.py)
     quaternions = scipy_rotation.from_axis_angle(_rows(axis, shape, 3), _rows(angle, shape, None))
     return quaternions.reshape(shape + (4,))
 
@@ -133,7 +134,7 @@ def from_matrix(m: np.ndarray) -> np.ndarray:
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors v (..., 3) by q (..., 4) (broadcast) -> (..., 3): scipy's Rotation.from_quat(q).apply(v),
-    bitwise; two or more vectors in C order by kernels/scipy_rotation.py (scipy's operations in scipy's order,
+    bitwise; two or more vectors in C order by media/scipy_rotation.py (scipy's operations in scipy's order,
     without its per-call cost), otherwise by scipy itself (one vector goes through BLAS, and vectors in another
     layout through einsum's plain loop, which sums in another order)."""
     q = np.asarray(q, dtype=np.float64)

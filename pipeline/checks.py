@@ -46,8 +46,8 @@ def check_memory(n_frames: int, width: int, height: int, bytes_per_pixel: float,
 
 
 def video_codecs(names, option: str) -> tuple[str, ...]:
-    """Today's codecs coded at matched quality ('none' or '' for none), checked against comparisons.video_codecs."""
-    from comparisons.video_codecs import CODECS
+    """Today's codecs coded at matched quality ('none' or '' for none), checked against comparisons.video.codecs."""
+    from comparisons.video.codecs import CODECS
 
     chosen = tuple(name for name in names if name.strip().lower() not in NO_CODECS)
     known = [name for name in CODECS if name != "mpeg4"]

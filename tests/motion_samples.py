@@ -2,7 +2,7 @@
 another)."""
 import numpy as np
 
-from comparisons.fba_mapping import avatar_bap_map
+from comparisons.params.fba_mapping import avatar_bap_map
 from media import rotations
 from media.motion import Motion
 

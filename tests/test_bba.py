@@ -4,10 +4,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comparisons import bba_codec as bba
-from comparisons import keyframes as kf
-from comparisons.bba_xml import from_xml, to_xml
-from comparisons.bitstream import BitWriter, find_start_codes
+from comparisons.params import bba
+from comparisons.params import keyframes as kf
+from comparisons.params.bba_xml import from_xml, to_xml
+from comparisons.params.bits import BitWriter, find_start_codes
 from media import rotations
 from media.avatar import load_avatar
 from media.errors import SigncastError

@@ -1,17 +1,19 @@
 """The BBA decoder's fast paths against the plain code they replace, bitwise: sparse predicted models
-(kernels/bba_units.py), the header's one-call reader (kernels/bba_header.py), the range-field reader
-(kernels/param_frames.py), the held-table Euler conversion (kernels/bba_rotations.from_euler_table) and the
+(comparisons/params/bba_units.py), the header's one-call reader (comparisons/params/bba_header.py), the range-field reader
+(comparisons/params/frames.py), the held-table Euler conversion (kernels/bba_rotations.from_euler_table) and the
 batched key-frame expansion (keyframes.expand)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from comparisons import bap_table, bba_codec
-from comparisons import keyframes as kf
-from comparisons.bitstream import BitReader, BitWriter
-from kernels import bba_rotations, entropy_coding
-from kernels import param_frames as pf
+from comparisons.params import bap_table
+from comparisons.params import bba as bba_codec
+from comparisons.params import keyframes as kf
+from comparisons.params.bits import BitReader, BitWriter
+from comparisons.params import bba_rotations
+from comparisons.params import arithmetic as entropy_coding
+from comparisons.params import frames as pf
 from media import rotations
 from media.fingerspelling import letter_motion
 from media.errors import SigncastError
@@ -140,7 +142,7 @@ def test_sparse_models_filling_up_decode_what_the_unit_by_unit_reader_decodes(av
     """A value coding more distinct levels than a sparse model holds (SPARSE_CAPACITY) after an intra unit
     (intra period 63): the whole-stream kernel moves its models to the Fenwick bank and still decodes the
     unit-by-unit reader's values."""
-    from kernels.bba_units import SPARSE_CAPACITY
+    from comparisons.params.bba_units import SPARSE_CAPACITY
 
     data = bba_codec.write_stream(bba_codec.motion_to_stream(_noisy_long_motion("ABC", q), q, "pred", intra_period=63,
                                                              skeleton=avatar.skeleton), avatar.skeleton)
@@ -160,7 +162,7 @@ def test_sparse_models_filling_up_decode_what_the_unit_by_unit_reader_decodes(av
 
 @pytest.mark.parametrize("codec", ["bba-pred", "bba-dct", "bba-key"])
 def test_decode_motion_is_bitwise_the_stream_reader_motion(avatar, codec):
-    from comparisons.param_codecs import get_codec
+    from comparisons.params.codecs import get_codec
 
     for letter, q, fps in (("B", 1, 25.0), ("F", 31, 10.0), ("H", 8, 50.0)):
         data = get_codec(codec).encode(letter_motion("ase", letter, fps), q)
@@ -175,8 +177,9 @@ def test_huffman_table_look_ups_read_what_the_bit_by_bit_reader_reads():
     """kernels/bba_units._read_dct_blocks (table look-ups, values read at once) against
     entropy_coding.read_dct_blocks (bit by bit) on random bits with long zero runs (emulation-prevention bits,
     codes longer than the table, the data's end): the same status, reader state and levels, block after block."""
-    from comparisons import param_coding as pc
-    from kernels import bba_units, entropy_coding
+    from comparisons.params import coding as pc
+    from comparisons.params import bba_units
+    from comparisons.params import arithmetic as entropy_coding
 
     rng = np.random.default_rng(11)
     tables = pc.vlc_tables()

@@ -1,16 +1,16 @@
 """The BBA encoder's compiled paths give the reference's results bit for bit: the Euler split
-(kernels/bba_euler.py against scipy's as_euler, every rotation order, gimbal lock included) and the key-frame
-search (kernels/bba_keyframes.py against keyframes._key_frames_numpy, on real clips, with the kernel's
+(comparisons/params/bba_euler.py against scipy's as_euler, every rotation order, gimbal lock included) and the key-frame
+search (comparisons/params/bba_keyframes.py against keyframes._key_frames_numpy, on real clips, with the kernel's
 undecided candidates handed back to NumPy)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from comparisons import bba_codec
-from comparisons import keyframes as kf
-from comparisons import param_coding as pc
-from kernels import bba_writer as writer_kernel
+from comparisons.params import bba as bba_codec
+from comparisons.params import keyframes as kf
+from comparisons.params import coding as pc
+from comparisons.params import bba_writer as writer_kernel
 from media import rotations
 from media.face_rig import with_face_bones
 from media.fingerspelling import letter_motion
@@ -87,7 +87,7 @@ def _shifted(motion, offset_m: float):
 
 @pytest.mark.parametrize("coding, keyframes", [("pred", False), ("dct", False), ("pred", True)])
 def test_compiled_values_and_mask_are_the_numpy_analysis(clips, coding, keyframes):
-    """_motion_arrays (kernels/bba_euler.py motion_values) against _motion_arrays_numpy: the same header,
+    """_motion_arrays (comparisons/params/bba_euler.py motion_values) against _motion_arrays_numpy: the same header,
     the same mask dict (its order included), KeyFrameIndex and values, at several Q and rotation orders."""
     skeleton = bba_codec.load_avatar().skeleton
     motions = clips[::2] + [_shifted(clips[1], 0.0005), _shifted(clips[3], -0.0025), _shifted(clips[5], 40.0),

@@ -1,4 +1,4 @@
-"""The compiled face-rig solve (kernels/bba_face_rig.py) against its NumPy reference (media.face_rig._carry_numpy),
+"""The compiled face-rig solve (media/face_rig_solve.py) against its NumPy reference (media.face_rig._carry_numpy),
 and the BBA coder's batched paths against the stream they must reproduce."""
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comparisons import bba_codec
-from comparisons.fap_rates import synthetic_faps
-from comparisons.param_codecs import get_codec
+from comparisons.params import bba as bba_codec
+from comparisons.params.fap_rates import synthetic_faps
+from comparisons.params.codecs import get_codec
 from media import face_rig
 from media.errors import SigncastError
 from media.face_rig import avatar_fapu, face_bone_rotations
@@ -65,7 +65,7 @@ def _translated(motion: Motion, metres: np.ndarray) -> Motion:
 
 @pytest.mark.parametrize("q", [1, 8, 31])
 def test_compiled_predictive_levels_match_the_unit_by_unit_loop(avatar, q):
-    """kernels/bba_levels.py (streams with one mask) against _levels_by_unit, on a real letter and on the
+    """comparisons/params/bba_levels.py (streams with one mask) against _levels_by_unit, on a real letter and on the
     same letter jumping 16 m back and forth (P levels beyond the range fields: those units go intra)."""
     motion = letter_motion("ase", "J", 25.0)
     jumps = np.where(np.arange(motion.n_frames) % 2 == 1, 8.0, -8.0)
@@ -89,7 +89,7 @@ def test_compiled_predictive_levels_match_the_unit_by_unit_loop(avatar, q):
 def test_compiled_fold_is_the_modulo_formula():
     """kernels/bba_levels._fold (values already in range returned without a division) against
     half - (half - v) mod period, at the range's ends and over three periods either way, odd periods too."""
-    from kernels import bba_levels
+    from comparisons.params import bba_levels
     rng = np.random.default_rng(5)
     for period in (bba_codec.ANGLE_PERIOD, 2, 3, 1001):
         half = period // 2
@@ -127,7 +127,7 @@ def test_compiled_predictive_levels_raise_the_loop_error_on_an_intra_level_out_o
 
 
 # SHA-256 of the test below, taken with the per-frame loops before the array paths. The motions were stored when
-# retargeting live gave other inputs on other CPUs; the face rig's fixed order (kernels/libm.py) left this unchanged.
+# retargeting live gave other inputs on other CPUs; the face rig's fixed order (comparisons/params/libm.py) left this unchanged.
 _CODEC_DIGEST = "0d270ac905bc477771472580f38f745de41954e4f47c233ae24590ac3924875a"
 
 
@@ -145,7 +145,7 @@ def test_bba_codecs_array_paths_give_the_stored_bytes_and_motions():
     CPU); and the public per-frame path gives the same."""
     import hashlib
 
-    from comparisons.param_codecs import get_codec
+    from comparisons.params.codecs import get_codec
     from media.face_rig import with_face_bones
 
     digest = hashlib.sha256()
@@ -174,7 +174,7 @@ def test_bba_codecs_array_paths_give_the_stored_bytes_and_motions():
 
 @pytest.mark.parametrize("order", range(24))
 def test_compiled_euler_conversion_is_bitwise_scipys(order):
-    from kernels.bba_rotations import from_euler
+    from comparisons.params.bba_rotations import from_euler
     from media import rotations
 
     name = bba_codec.ORDER_NAMES[order]
@@ -204,7 +204,7 @@ def test_decode_motion_raises_what_read_stream_raises(avatar):
 def test_batched_key_frames_match_the_greedy_one_candidate_at_a_time_analysis(fps):
     """keyframes.key_frames (all candidates from a key in one batch) against the greedy loop of
     seed 000 §3.5 written out here, one candidate at a time."""
-    from comparisons import keyframes
+    from comparisons.params import keyframes
     from media import rotations
 
     def within(motion, first, last, threshold_rad, threshold_m):
@@ -236,7 +236,7 @@ def test_batched_key_frames_match_the_greedy_one_candidate_at_a_time_analysis(fp
 def test_whole_stream_kernel_decodes_what_the_unit_by_unit_reader_decodes(avatar, codec):
     """_read_uniform (one kernel call for every unit) against _read_units on real letters: it takes the fast
     path, and gives the same values and KeyFrameIndex of every frame."""
-    from comparisons.param_codecs import get_codec
+    from comparisons.params.codecs import get_codec
 
     for letter, q in (("C", 1), ("J", 8), ("E", 31)):
         data = get_codec(codec).encode(letter_motion("ase", letter, 25.0), q)
@@ -276,7 +276,7 @@ def test_decode_motion_on_damaged_streams_raises_or_decodes_as_read_stream(avata
 
 def _decode_frame_window(data, end_bit, reader_state, counts, tree, scalars, offsets, members, out) -> int:
     """kernels/entropy_coding.decode_frame_window with decode_frame's arguments and reader-state array."""
-    from kernels import entropy_coding as kc
+    from comparisons.params import arithmetic as kc
     status, pos, run, over = kc.decode_frame_window(data, end_bit, reader_state[0], reader_state[1], reader_state[2],
                                                     counts, tree, scalars, offsets, members, out, 0, False)
     reader_state[0], reader_state[1], reader_state[2] = pos, run, over
@@ -286,9 +286,9 @@ def _decode_frame_window(data, end_bit, reader_state, counts, tree, scalars, off
 def test_local_state_arithmetic_decoder_matches_decode_frame():
     """kernels/entropy_coding.decode_frame_window against decode_frame: the same symbols, status and reader
     state, on frames with long zero runs (emulation-prevention bits), on cut data and on random bytes."""
-    from comparisons.bitstream import BitReader, BitWriter
-    from comparisons.entropy import ModelBank, encode_frame
-    from kernels import entropy_coding as kc
+    from comparisons.params.bits import BitReader, BitWriter
+    from comparisons.params.entropy import ModelBank, encode_frame
+    from comparisons.params import arithmetic as kc
 
     rng = np.random.default_rng(3)
     sizes = rng.integers(1, 400, 60)
@@ -324,8 +324,8 @@ def test_local_state_arithmetic_decoder_matches_decode_frame():
 
 def _per_field_bytes(header, bones, kfi, values, skeleton):
     """The per-field writer (bba_codec._write_levels / _write, one BitWriter call per field) on the unit plan
-    _write_arrays makes: the bytes the whole-stream kernels (kernels/bba_writer.py) must reproduce."""
-    from comparisons import param_coding as pc
+    _write_arrays makes: the bytes the whole-stream kernels (comparisons/params/bba_writer.py) must reproduce."""
+    from comparisons.params import coding as pc
 
     n = len(kfi)
     masks = tuple(sorted(bones.items()))
@@ -375,7 +375,7 @@ def test_whole_stream_writer_gives_the_per_field_writers_bytes(avatar, coding):
 def test_whole_stream_writer_falls_back_when_a_model_would_be_halved(avatar, monkeypatch):
     """A predicted model whose count would pass the frequency limit (halved by the per-field coder) is left to
     the per-field writer: the same bytes."""
-    from kernels import bba_writer
+    from comparisons.params import bba_writer
 
     skeleton = avatar.skeleton
     header, bones, kfi, values = bba_codec._motion_arrays(letter_motion("ase", "B", 25.0), 8, "pred", False, None,
@@ -397,7 +397,7 @@ def test_whole_stream_writer_falls_back_when_a_model_would_be_halved(avatar, mon
 def test_key_frames_leave_out_still_bones_without_changing_a_decision(monkeypatch):
     """key_frames with the bones that never move left out (keyframes._moving) against key_frames over every
     bone, on letters whose body holds still, at several thresholds; and on a motion where nothing moves."""
-    from comparisons import keyframes
+    from comparisons.params import keyframes
 
     motions = [letter_motion("ase", letter, fps) for letter, fps in (("A", 25.0), ("J", 50.0), ("E", 10.0))]
     still = Motion(25.0, motions[0].bone_names, np.repeat(motions[0].rotations[:1], 12, axis=0),

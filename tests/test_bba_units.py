@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from comparisons.bitstream import BitWriter
-from comparisons.entropy import ModelBank, encode_frame
-from kernels import entropy_coding as kc
+from comparisons.params.bits import BitWriter
+from comparisons.params.entropy import ModelBank, encode_frame
+from comparisons.params import arithmetic as kc
 
 
 def _frames(rng: np.random.Generator, sizes: np.ndarray, kind: int, n_frames: int) -> list[np.ndarray]:

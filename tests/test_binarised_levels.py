@@ -1,4 +1,4 @@
-"""The binarised level coder (comparisons/binarised_levels.py): exact round trip, cost within 3 % of the
+"""The binarised level coder (comparisons/params/binarised_levels.py): exact round trip, cost within 3 % of the
 zero-order empirical entropy on the FBA predictive coder's Q 1 residuals of a real clip (where one multi-symbol
 adaptive model pays far more), and one-line errors on damaged data."""
 from pathlib import Path
@@ -8,11 +8,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from comparisons import bap_table
-from comparisons import param_coding as pc
-from comparisons.binarised_levels import MAX_BUCKET, decode_levels, encode_levels
-from comparisons.entropy import empirical_entropy_bits, encode_sequence
-from comparisons.fba_codec import _changed_mask, coded_order
+from comparisons.params import bap_table
+from comparisons.params import coding as pc
+from comparisons.params.binarised_levels import MAX_BUCKET, decode_levels, encode_levels
+from comparisons.params.entropy import empirical_entropy_bits, encode_sequence
+from comparisons.params.fba import _changed_mask, coded_order
 from media.errors import SigncastError
 
 DATA = Path(__file__).resolve().parent / "data"

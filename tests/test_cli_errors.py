@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from comparisons.records import make_record, read_records, write_records
+from comparisons.reports.records import make_record, read_records, write_records
 from media.errors import SigncastError
 from pipeline.cli import main
 from pipeline.outputs import MANIFEST, output_folder

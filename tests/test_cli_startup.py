@@ -3,7 +3,7 @@ their SciPy dependencies (over a second before any command starts), only what th
 import subprocess
 import sys
 
-HEAVY = ("comparisons.lab_codecs", "comparisons.model_coders", "scipy.signal", "scipy.stats", "warp", "av")
+HEAVY = ("comparisons.lab.codecs", "comparisons.lab.model", "scipy.signal", "scipy.stats", "warp", "av")
 
 
 def test_building_the_command_line_imports_no_coder_nor_scipy():
@@ -14,8 +14,8 @@ def test_building_the_command_line_imports_no_coder_nor_scipy():
 
 
 def test_the_lab_defaults_the_parser_shows_are_the_labs():
-    from comparisons import lab_codecs
-    from comparisons.lab_settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, MPEG4_CODECS
+    from comparisons.lab import codecs as lab_codecs
+    from comparisons.lab.settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, MPEG4_CODECS
     from pipeline.cli import build_parser
     from pipeline.studies import lab
 

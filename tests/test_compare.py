@@ -8,7 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from comparisons.records import INTELLIGIBILITY_FIELDS
+from comparisons.reports.records import INTELLIGIBILITY_FIELDS
 from media.video_io import read_video, write_video
 from pipeline.cli import main
 from pipeline.studies.compare import CompareSettings, LOSSLESS, SOURCE, UNCODED_SUBJECTS, run as run_compare
@@ -129,8 +129,8 @@ def test_each_solution_is_matched_between_its_bracketing_points(result):
 def test_a_reached_rate_carries_its_jackknife_over_the_extractions(result):
     """Recomputed from the records: each extraction left out of every point and of the ceiling, the match found
     again on the replicate thresholds (2 PCK points and half a letter of the word under the ceiling)."""
-    from comparisons.landmark_draws import leave_out
-    from comparisons.matching import Criterion, cheapest_rate
+    from comparisons.judging.landmark_draws import leave_out
+    from comparisons.judging.matching import Criterion, cheapest_rate
     from pipeline.studies.compare import LETTER_MARGIN, PCK_MARGIN
     ceiling = next(r for r in result.records if r.get("kind") == "uncoded" and r["subject"] == UNCODED_SUBJECTS[LOSSLESS])
     below = {"hand_pck_20": PCK_MARGIN, "letter_top1": 100.0 * LETTER_MARGIN / len(SMALL.word)}
@@ -280,7 +280,7 @@ def test_compare_rejects_bad_settings(tmp_path, capsys):
 
 
 def test_a_refinement_measures_the_geometric_middle_of_a_reached_bracket_or_beyond_the_sweep():
-    from comparisons.matching import Match
+    from comparisons.judging.matching import Match
     from pipeline.studies.compare import q_to_refine
 
     def bracket(low_q, high_q, reached=True):

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 from motion_samples import FPS, signing_like
 
-from comparisons import coded_streams, waveform_coders
-from comparisons.coded_streams import StreamReader, StreamWriter
-from comparisons.waveform_coders import ContextWaveletCoder, WaveletCoder
-from kernels import lab_context
+from comparisons.lab import streams as coded_streams
+from comparisons.lab import waveform as waveform_coders
+from comparisons.lab.streams import StreamReader, StreamWriter
+from comparisons.lab.waveform import ContextWaveletCoder, WaveletCoder
+from comparisons.lab import context as lab_context
 from media.errors import SigncastError
 
 LOWER, UPPER = np.full(5, -1.6), np.full(5, 1.6)
@@ -129,7 +130,7 @@ def test_a_section_claiming_another_count_is_rejected_before_allocating():
 
 def _layout_clip(n_frames: int, seed: int = 0) -> np.ndarray:
     """(T, 183) layout DOFs: a signing-like clip on a few DOFs of each group, the rest at rest (0)."""
-    from comparisons.lab_codecs import dof_layout
+    from comparisons.lab.codecs import dof_layout
     dofs = np.zeros((n_frames, dof_layout().n_dofs))
     moving = signing_like(n_frames, seed)[:, :4] * 0.5
     columns = np.random.default_rng(seed).choice(dof_layout().n_dofs, size=(12, 4), replace=False)
@@ -140,7 +141,7 @@ def _layout_clip(n_frames: int, seed: int = 0) -> np.ndarray:
 
 @pytest.mark.parametrize("n_frames, fps", [(1, 25.0), (10, 10.0), (33, 25.0), (40, 12.5)])
 def test_lab_codec_sends_the_compact_layout_and_decodes_it_exactly(n_frames, fps):
-    from comparisons.lab_codecs import LabCodec
+    from comparisons.lab.codecs import LabCodec
     codec = LabCodec("wavelet-cx")
     dofs = _layout_clip(n_frames)
     for index in (0, 5, 10):
@@ -160,7 +161,7 @@ def _stored_clip(name: str = "ase_J_10fps") -> np.ndarray:
 def test_compact_framing_saves_the_container_bytes():
     """The SCL1 wrapper (magic, id, 23-byte mask, CRC) around the SCM1 stream (17-byte header, section header,
     CRC) against the compact stream on a real one-second 10 fps clip (ASL "J", 10 frames): 40 bytes fewer."""
-    from comparisons.lab_codecs import LabCodec, dof_ranges
+    from comparisons.lab.codecs import LabCodec, dof_ranges
     dofs = _stored_clip()
     active = np.any(dofs != 0, axis=0)
     lower, upper = dof_ranges()
@@ -189,7 +190,7 @@ def test_compact_random_damage_raises_signcast_error_or_decodes_to_the_layout():
 def _compact_damage_rejected(dofs: np.ndarray, q: int, seed: int, trials: int) -> int:
     """Codes dofs (T, 183) at 10 fps and q, damages the stream `trials` times (CRC resealed): each decodes to a
     (T', 183) finite array at a valid fps or raises SigncastError. Returns how many raised."""
-    from comparisons.lab_codecs import LabCodec, dof_layout
+    from comparisons.lab.codecs import LabCodec, dof_layout
     codec = LabCodec("wavelet-cx")
     data, _ = codec.encode_dofs(dofs, 10.0, q)
     rejected = 0
@@ -209,7 +210,7 @@ def _compact_damage_rejected(dofs: np.ndarray, q: int, seed: int, trials: int) -
 
 
 def test_a_compact_header_claiming_huge_sizes_is_rejected_before_allocating():
-    from comparisons.lab_codecs import LabCodec
+    from comparisons.lab.codecs import LabCodec
     codec = LabCodec("wavelet-cx")
     for frames_field in (b"\xff\xff\xff\xff\xff\xff\xff\xff\x7f", b"\x80\x80\x80\x80\x80\x80\x80\x80\x80\x01",
                          coded_streams._varint(coded_streams.MAX_FRAMES + 1), b"\x00"):
@@ -226,7 +227,7 @@ def test_a_compact_header_claiming_huge_sizes_is_rejected_before_allocating():
 
 def test_shipped_priors_match_the_layout_and_help_on_short_clips():
     """The trained table is for the signing layout, and on a short clip its models beat untrained ones."""
-    from comparisons.lab_codecs import dof_layout
+    from comparisons.lab.codecs import dof_layout
     priors = waveform_coders.context_priors()
     with np.load(waveform_coders.PRIORS_PATH) as table:
         assert tuple(str(n) for n in table["dof_names"]) == dof_layout().names
@@ -298,7 +299,7 @@ def test_prediction_is_undone_exactly_along_chains_and_only_among_active_dofs():
 
 
 def test_prediction_saves_bytes_on_coupled_dofs_without_changing_the_reconstruction():
-    from comparisons.lab_codecs import LabCodec
+    from comparisons.lab.codecs import LabCodec
     codec = LabCodec("wavelet-cx")
     dofs = _coupled_clip(40)
     priors = waveform_coders.context_priors()
@@ -323,7 +324,7 @@ def test_compact_damage_with_predicted_dofs_raises_signcast_error_or_decodes_to_
 def test_a_stream_coded_with_other_priors_is_rejected_not_misdecoded(monkeypatch):
     """The compact CRC starts from the priors' tag: a decoder whose trained tables differ (here one predictor
     weight) rejects the stream with a one-line error instead of decoding it to other motion."""
-    from comparisons.lab_codecs import LabCodec
+    from comparisons.lab.codecs import LabCodec
     codec = LabCodec("wavelet-cx")
     data, recon = codec.encode_dofs(_layout_clip(40), FPS, 8)
     assert np.array_equal(codec.decode_dofs(data)[0], recon)

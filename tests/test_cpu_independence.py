@@ -1,7 +1,7 @@
 """The stored stream and decode hashes hold on another CPU: the hash tests run again in a fresh interpreter with
 NumPy's SIMD dispatch held to its baseline (no AVX2, no AVX-512: other code paths for its transcendental
-functions) and OpenBLAS's kernels for a CPU without FMA (Nehalem). Before kernels/libm.py and
-kernels/ordered_products.py, 16 of the decoded hashes failed on an AVX-512 machine, and the FBA DCT stream of
+functions) and OpenBLAS's kernels for a CPU without FMA (Nehalem). Before comparisons/params/libm.py and
+comparisons/params/ordered_products.py, 16 of the decoded hashes failed on an AVX-512 machine, and the FBA DCT stream of
 HELLO at Q 1 and the hybrid coder's decodes changed under the Nehalem kernels."""
 import os
 import platform

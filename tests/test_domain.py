@@ -111,11 +111,11 @@ def test_every_command_refuses_a_bad_fps_with_the_same_message_before_writing(tm
 
 def test_parameter_studies_take_the_same_frame_rates_as_everything_else(tmp_path, capsys):
     """No lower cap for `params`/`analyze` (it was 60): FBA streams signal 8-bit rates and sixteenths."""
-    from comparisons.param_coding import fps_from_fields, frame_rate_fields
+    from comparisons.params.coding import fps_from_fields, frame_rate_fields
     assert fps_from_fields(*frame_rate_fields(domain.MAX_FPS)) == domain.MAX_FPS
     out = tmp_path / "out"
     assert main(["params", "ase", "A", "--codecs", "fba-pred", "--param-q", "31", "--fps", "100", "--out", str(out)]) == 0
-    from comparisons.records import read_records
+    from comparisons.reports.records import read_records
     assert {r["fps"] for r in read_records(out / "records.jsonl")} == {100.0}
 
 
@@ -134,8 +134,8 @@ def test_check_q_refuses_with_one_message_naming_value_and_range(q):
 
 
 def test_parameter_coders_use_the_same_q_rule():
-    from comparisons import param_coding
-    from comparisons.param_codecs import get_codec
+    from comparisons.params import coding as param_coding
+    from comparisons.params.codecs import get_codec
     from media.avatar import load_avatar
     from media.motion import Motion
     assert param_coding.check_q is check_q
@@ -197,8 +197,8 @@ def test_commands_and_renderer_share_the_one_size_rule():
 # --------------------------------------------------------------------------- codec -> solution
 
 def test_every_parameter_codec_belongs_to_one_solution():
-    from comparisons.lab_codecs import LAB_CODEC_NAMES
-    from comparisons.param_codecs import codec_names
+    from comparisons.lab.codecs import LAB_CODEC_NAMES
+    from comparisons.params.codecs import codec_names
     solutions = {name: solution_of(name) for name in codec_names()}
     assert {n for n, s in solutions.items() if s == FBA} == {"fba-pred", "fba-dct"}
     assert {n for n, s in solutions.items() if s == BBA} == {"bba-pred", "bba-dct", "bba-key"}
@@ -214,8 +214,8 @@ def test_video_and_unknown_codecs_have_no_solution_of_their_own(codec):
 
 
 def test_the_report_orders_every_solution_and_the_criteria_cover_the_sources_six():
-    from comparisons.criteria import SOLUTIONS
-    from comparisons.report import SOLUTION_ORDER as REPORT_ORDER
+    from comparisons.judging.criteria import SOLUTIONS
+    from comparisons.reports.comparison import SOLUTION_ORDER as REPORT_ORDER
     assert REPORT_ORDER is SOLUTION_ORDER
     assert SOLUTION_ORDER == ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "FBA", "BBA", "motion coder")
     assert [s for s in SOLUTION_ORDER if s in SOLUTIONS] == list(SOLUTIONS)

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from comparisons.bitstream import BitReader, BitWriter, find_start_codes
-from comparisons.entropy import (ArithmeticDecoder, ArithmeticEncoder, CanonicalHuffman, FrequencyModel,
+from comparisons.params.bits import BitReader, BitWriter, find_start_codes
+from comparisons.params.entropy import (ArithmeticDecoder, ArithmeticEncoder, CanonicalHuffman, FrequencyModel,
                                  decode_sequence, empirical_entropy_bits, encode_sequence, huffman_code_lengths)
 from media.errors import SigncastError
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from comparisons import fap_table
+from comparisons.params import fap_table
 from media import face_parameters as fp
 from media import lexicon
 from media.errors import SigncastError

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from comparisons import fap_table
+from comparisons.params import fap_table
 from kernels.skinning import skin
 from media import rotations
 from media.errors import SigncastError

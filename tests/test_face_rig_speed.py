@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from comparisons.fap_rates import synthetic_faps
-from kernels import bba_face_rig as face_kernel
-from kernels import scipy_rotation
+from comparisons.params.fap_rates import synthetic_faps
+from media import face_rig_solve as face_kernel
+from media import scipy_rotation
 from media import face_rig, rotations
 from media.face_rig import avatar_fapu, face_bone_rotations
 from media.fingerspelling import letter_motion
@@ -22,7 +22,7 @@ from media.motion import Motion
 # face_bone_rotations of the cases below, hashed: first ("1b22d775...") with the frame-by-frame solve and scipy's
 # conversions on a CPU without AVX-512, then retaken when the rig's dot products, matrix products and arctan2 /
 # arccos were fixed to one order and libm's results (face_bones.turn_along, bba_face_rig.transposed_products,
-# kernels/libm.py), so that it holds on every CPU (before, NumPy's AVX-512 paths and OpenBLAS's kernels changed it).
+# comparisons/params/libm.py), so that it holds on every CPU (before, NumPy's AVX-512 paths and OpenBLAS's kernels changed it).
 _RIG_DIGEST = "38a9e612dd4c1324b3567ba419d6ac1a02d65078cd6e52d3f6f69881ccc43ee6"
 
 
@@ -205,7 +205,7 @@ def real_faps():
 
 
 def test_compiled_displacements_and_eyes_are_bitwise_the_numpy_rig(avatar, real_faps):
-    """face_bone_rotations (kernels/face_bones.py face_targets, turn_*, eye_rotations; arctan2 / arccos and the
+    """face_bone_rotations (media/face_bones.py face_targets, turn_*, eye_rotations; arctan2 / arccos and the
     arm products still NumPy's) against _face_bone_rotations_numpy (the displacements and eyes in NumPy), on
     real FAPs of many clips and languages, synthetic tracks and FAPs far beyond the rig's reach."""
     fapu = avatar_fapu(avatar)

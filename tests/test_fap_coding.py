@@ -2,7 +2,7 @@
 and the byte identity of BAP-only streams across the FAP refactor.
 
 Byte identity: tests/data/fba_bap_clips.npz holds BAP value arrays (T, 296) (int32, BAP units): two ASL
-fingerspelling clips as comparisons.fba_mapping.motion_to_baps gave them when the hashes were taken
+fingerspelling clips as comparisons.params.fba_mapping.motion_to_baps gave them when the hashes were taken
 ("HELLO" at 25 fps, 84 frames; "J" at 10 fps, 25 frames), and a synthetic 48-frame array with an angle
 crossing +-pi, a 15 m root jump and 20 BAPs set once and held (the predictive coder's early intra planes
 and one-frame settling plane). SHA-256 of encode_fba's output for each, taken with the BAP-only coder
@@ -15,13 +15,15 @@ import numpy as np
 import pytest
 from motion_samples import smooth_motion
 
-from comparisons import bap_table, fap_table, fba_codec
-from comparisons import param_coding as pc
-from comparisons.bitstream import BitReader, BitWriter, find_start_codes
-from comparisons.fap_file import format_fap, parse_fap, read_fap, write_fap
-from comparisons.fap_rates import fap_bits, synthetic_faps
-from comparisons.fba_codec import decode_fba, encode_fba
-from comparisons.param_codecs import get_codec
+from comparisons.params import bap_table
+from comparisons.params import fap_table
+from comparisons.params import fba as fba_codec
+from comparisons.params import coding as pc
+from comparisons.params.bits import BitReader, BitWriter, find_start_codes
+from comparisons.params.fap_file import format_fap, parse_fap, read_fap, write_fap
+from comparisons.params.fap_rates import fap_bits, synthetic_faps
+from comparisons.params.fba import decode_fba, encode_fba
+from comparisons.params.codecs import get_codec
 from media.errors import SigncastError
 from media.motion import Motion
 
@@ -60,7 +62,7 @@ BAP_ONLY_SHA256 = [
 
 def _body(n_frames: int, seed: int = 0) -> np.ndarray:
     """(T, 296) BAP values of a smooth avatar motion (no BAP jumps and holds, so no settling plane)."""
-    from comparisons.fba_mapping import motion_to_baps
+    from comparisons.params.fba_mapping import motion_to_baps
     return motion_to_baps(smooth_motion(n_frames=n_frames, seed=seed))
 
 

@@ -6,12 +6,13 @@ import zlib
 import numpy as np
 import pytest
 
-from comparisons import bap_table, fba_codec
-from comparisons import param_coding as pc
-from comparisons.bap_file import format_bap, parse_bap
-from comparisons.bitstream import BitWriter
-from comparisons.fba_codec import decode_fba, encode_fba, write_group_masks, write_plane_header
-from comparisons.fba_mapping import avatar_bap_map, baps_to_motion, motion_to_baps
+from comparisons.params import bap_table
+from comparisons.params import fba as fba_codec
+from comparisons.params import coding as pc
+from comparisons.params.bap_file import format_bap, parse_bap
+from comparisons.params.bits import BitWriter
+from comparisons.params.fba import decode_fba, encode_fba, write_group_masks, write_plane_header
+from comparisons.params.fba_mapping import avatar_bap_map, baps_to_motion, motion_to_baps
 from media import rotations
 from media.avatar import load_avatar
 from media.errors import SigncastError

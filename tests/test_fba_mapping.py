@@ -3,10 +3,10 @@ BAPs come first, BAP 0 is the MPEG-4 neutral posture, and the per-group bit budg
 import numpy as np
 import pytest
 
-from comparisons import bap_table
-from comparisons.bap_budget import group_budget, group_label
-from comparisons.fba_codec import encode_fba
-from comparisons.fba_mapping import avatar_bap_map, baps_to_motion, extension_report, motion_to_baps
+from comparisons.params import bap_table
+from comparisons.params.bap_budget import group_budget, group_label
+from comparisons.params.fba import encode_fba
+from comparisons.params.fba_mapping import avatar_bap_map, baps_to_motion, extension_report, motion_to_baps
 from media import lexicon, retarget, rotations
 from media.avatar import load_avatar
 from media.errors import SigncastError

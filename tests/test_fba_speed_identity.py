@@ -5,7 +5,7 @@ retargeted letters and on poses at the awkward places of the Euler split (angles
 abduction at +-pi/2 where the split is in gimbal lock, and just off it).
 
 Also the other speed-ups that must not change a bit: held frames skipped by the rotation kernels, the
-sparse P-frame models against the Fenwick banks (kernels/param_frames.py), and the DCT kernels around
+sparse P-frame models against the Fenwick banks (comparisons/params/frames.py), and the DCT kernels around
 NumPy's matrix products."""
 from __future__ import annotations
 
@@ -14,12 +14,13 @@ import functools
 import numpy as np
 import pytest
 
-from comparisons import bap_table, fba_codec
-from comparisons import param_coding as pc
-from comparisons.bitstream import BitReader, BitWriter
-from comparisons.entropy import MAX_TOTAL
-from comparisons.fba_codec import decode_fba, encode_fba
-from comparisons.fba_mapping import (
+from comparisons.params import bap_table
+from comparisons.params import fba as fba_codec
+from comparisons.params import coding as pc
+from comparisons.params.bits import BitReader, BitWriter
+from comparisons.params.entropy import MAX_TOTAL
+from comparisons.params.fba import decode_fba, encode_fba
+from comparisons.params.fba_mapping import (
     EULER_ORDER,
     _bone_rotations,
     _bone_sources,
@@ -27,8 +28,8 @@ from comparisons.fba_mapping import (
     baps_to_motion,
     motion_to_baps,
 )
-from kernels import lab_rotations
-from kernels import param_frames as pf
+from comparisons.lab import rotations as lab_rotations
+from comparisons.params import frames as pf
 from media import rotations
 from media.fingerspelling import letter_motion
 from media.motion import Motion

@@ -1,4 +1,4 @@
-"""Live FBA units (comparisons/fba_units.py) and live BBA decoding (bba_codec.LiveDecoder, split_units)."""
+"""Live FBA units (comparisons/transport/fba_units.py) and live BBA decoding (bba_codec.LiveDecoder, split_units)."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,9 +6,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from comparisons import bba_codec, fap_table
-from comparisons.fba_codec import BAPS, FAPS, decode_fba
-from comparisons.fba_units import (
+from comparisons.params import bba as bba_codec
+from comparisons.params import fap_table
+from comparisons.params.fba import BAPS, FAPS, decode_fba
+from comparisons.transport.fba_units import (
     HEADER_BYTES,
     UNIT_OVERHEAD_BYTES,
     UnitScanner,

@@ -52,7 +52,7 @@ def test_seed_corpora_stay_small():
 
 
 def test_motion_targets_are_the_lab_coders():
-    from comparisons.lab_codecs import LAB_CODEC_NAMES
+    from comparisons.lab.codecs import LAB_CODEC_NAMES
     assert fuzz_targets.MOTION_CODERS == LAB_CODEC_NAMES
     assert {f"motion-{name}" for name in LAB_CODEC_NAMES} <= set(fuzz_targets.TARGETS)
 
@@ -61,7 +61,7 @@ def _checksum_bytes(target: str) -> list[int]:
     """Offsets of checksum bytes: FBA's trailing CRC, the shape header's CRC (its last field), both
     CRCs of a motion-coder clip (the inner stream's ends 4 bytes before the clip's)."""
     if target == "shape":
-        from comparisons.shape_coding import _HEADER
+        from comparisons.video.shape import _HEADER
         return [_HEADER.size - 1]
     return [-1] if target == "fba" else [-1, -5]
 

@@ -4,8 +4,8 @@ import copy
 import numpy as np
 import pytest
 
-from comparisons.intelligibility import Intelligibility, hand_sizes, interocular_distances, measure
-from comparisons.records import INTELLIGIBILITY_FIELDS
+from comparisons.judging.intelligibility import Intelligibility, hand_sizes, interocular_distances, measure
+from comparisons.reports.records import INTELLIGIBILITY_FIELDS
 from media import lexicon
 from media.errors import SigncastError
 
@@ -88,7 +88,7 @@ def test_frame_counts_must_match(clip):
 
 
 def test_mouth_and_eyes_errors_see_expression_not_displacement(clip):
-    from comparisons.intelligibility import EYES_POINTS, MOUTH_POINTS
+    from comparisons.judging.intelligibility import EYES_POINTS, MOUTH_POINTS
     interocular = interocular_distances(clip.points[FACE], clip.confidence[FACE])
     shifted = _copy(clip)
     shifted.points[FACE] = clip.points[FACE] + np.array([5.0, -2.0, 0.0])
@@ -107,7 +107,7 @@ def test_mouth_and_eyes_errors_see_expression_not_displacement(clip):
 
 
 def test_a_hand_resting_below_the_waist_is_not_scored(clip):
-    from comparisons.intelligibility import waist_heights
+    from comparisons.judging.intelligibility import waist_heights
     waist = waist_heights(clip)
     assert np.all(np.isfinite(waist))
     lowered = _copy(clip)

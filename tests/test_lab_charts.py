@@ -3,7 +3,7 @@ import json
 
 import pytest
 
-from comparisons.lab_charts import operating_ranges
+from comparisons.reports.lab import operating_ranges
 from pipeline.studies import lab
 from pipeline.cli import main
 

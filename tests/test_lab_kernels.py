@@ -8,15 +8,16 @@ import pytest
 from motion_samples import smooth_motion
 from scipy.signal import savgol_filter
 
-from comparisons import bap_table, coded_streams
-from comparisons.coded_streams import StreamReader, StreamWriter
-from comparisons.fba_mapping import (
+from comparisons.params import bap_table
+from comparisons.lab import streams as coded_streams
+from comparisons.lab.streams import StreamReader, StreamWriter
+from comparisons.params.fba_mapping import (
     EULER_ORDER,
     avatar_bap_map,
     baps_to_motion,
     motion_to_baps,
 )
-from comparisons.model_coders import (
+from comparisons.lab.model import (
     GestureMatcher,
     PostureMatcher,
     gesture_distance,
@@ -28,14 +29,14 @@ from comparisons.model_coders import (
     warp,
     warp_segments,
 )
-from comparisons.vector_quantization import nearest
-from kernels import libm
+from comparisons.lab.vq import nearest
+from comparisons.params import libm
 from media import rotations
 from media.errors import SigncastError
 
 
 def _reference_baps_to_motion_rotations(values: np.ndarray) -> np.ndarray:
-    """baps_to_motion's rotations as computed before kernels/lab_rotations.py: scipy from_euler, NumPy products."""
+    """baps_to_motion's rotations as computed before comparisons/lab/rotations.py: scipy from_euler, NumPy products."""
     frames, neutrals, columns, signs = avatar_bap_map().arrays
     angles = values[:, columns].astype(np.float64) * bap_table.ROTATION_UNIT_RAD * signs
     anatomical = rotations.from_euler(angles, EULER_ORDER)
@@ -70,7 +71,7 @@ def test_motion_to_baps_is_bitwise_the_numpy_product_chain():
 
 
 def test_compiled_sections_use_the_entropy_coders_model_limits():
-    from comparisons import entropy
+    from comparisons.params import entropy
     assert coded_streams._MODEL_LIMIT == entropy.MAX_TOTAL and coded_streams._MAX_OVERRUN == entropy.PRECISION
 
 

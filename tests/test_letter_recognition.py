@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from comparisons.letter_recognition import Recogniser, normalise_hand, recognise_spans, top_k
+from comparisons.judging.letters import Recogniser, normalise_hand, recognise_spans, top_k
 from media import fingerspelling, lexicon
 from media.errors import SigncastError
 

@@ -1,4 +1,4 @@
-"""kernels/libm.py gives the C library's results, element for element, whatever NumPy's SIMD dispatch does
+"""comparisons/params/libm.py gives the C library's results, element for element, whatever NumPy's SIMD dispatch does
 on this CPU, in every shape the coders call it with."""
 import ctypes
 import ctypes.util
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from kernels import libm
+from comparisons.params import libm
 
 _C = ctypes.CDLL(ctypes.util.find_library("m"))
 for _name, _arity in {"acos": 1, "sin": 1, "cos": 1, "atan2": 2, "log1p": 1, "expm1": 1, "log2": 1, "exp2": 1,
@@ -58,7 +58,7 @@ def _fma_chain(row, column) -> float:
 
 
 def test_ordered_matmul_is_a_chain_of_fused_multiply_adds_in_order():
-    from kernels import ordered_products
+    from comparisons.params import ordered_products
     rng = np.random.default_rng(5)
     a, b = rng.normal(size=(7, 17)), rng.normal(size=(17, 5)) * 10.0 ** rng.integers(-8, 8, size=(17, 5))
     expected = np.array([[_fma_chain(a[i], b[:, j]) for j in range(5)] for i in range(7)])

@@ -13,8 +13,11 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from comparisons import fba_units, live_report, loss_models, rtp
-from comparisons.records import read_records
+from comparisons.transport import fba_units
+from comparisons.reports import live as live_report
+from comparisons.transport import loss as loss_models
+from comparisons.transport import rtp
+from comparisons.reports.records import read_records
 from media.avatar import load_avatar
 from media.fingerspelling import fingerspell
 from media.render import AvatarRenderer, RenderSettings

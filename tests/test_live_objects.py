@@ -5,8 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from comparisons import image_quality, rtp, shape_units, video_objects
-from comparisons.live_video import LiveDecoder
+from comparisons.video import quality as image_quality
+from comparisons.transport import rtp
+from comparisons.transport import shape_units
+from comparisons.video import objects as video_objects
+from comparisons.transport.video import LiveDecoder
 from media.errors import SigncastError
 from pipeline.live.objects import (
     TEXTURE_GOP,

@@ -4,16 +4,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from comparisons.live_video import LiveDecoder, LiveEncoder
-from comparisons.shape_coding import encode_shape
-from comparisons.shape_units import (
+from comparisons.transport.video import LiveDecoder, LiveEncoder
+from comparisons.video.shape import encode_shape
+from comparisons.transport.shape_units import (
     HEADER_SIZE,
     START_CODE,
     assemble_shape,
     encode_shape_units,
     find_shape_units,
 )
-from comparisons.video_codecs import decode_video
+from comparisons.video.codecs import decode_video
 from media.errors import SigncastError
 
 WIDTH, HEIGHT, N_FRAMES, GOP = 64, 48, 25, 12

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from comparisons.loss_models import (
+from comparisons.transport.loss import (
     Bernoulli,
     GilbertElliott,
     NetworkModel,

@@ -1,10 +1,10 @@
-"""comparisons.matching: the cheapest rate reaching an intelligibility threshold, and the frame rate it holds to."""
+"""comparisons.judging.matching: the cheapest rate reaching an intelligibility threshold, and the frame rate it holds to."""
 import math
 
 import numpy as np
 import pytest
 
-from comparisons.matching import Criterion, cheapest_rate, fields_at, lowest_fps_holding, threshold_text
+from comparisons.judging.matching import Criterion, cheapest_rate, fields_at, lowest_fps_holding, threshold_text
 from media.errors import SigncastError
 
 PCK = Criterion("hand_pck_20", 98.0, label="hand PCK@0.2")
@@ -63,7 +63,7 @@ def test_no_points_is_refused():
 
 
 def test_the_monotone_fit_pools_adjacent_violators():
-    from comparisons.matching import monotone_fit
+    from comparisons.judging.matching import monotone_fit
     assert monotone_fit([1.0, 3.0, 2.0, 4.0]) == [1.0, 2.5, 2.5, 4.0]
     assert monotone_fit([5.0, 1.0, 1.0, 6.0]) == pytest.approx([7 / 3, 7 / 3, 7 / 3, 6.0])
     assert monotone_fit([0.1, 0.3, 0.2], increasing=False) == pytest.approx([0.2, 0.2, 0.2])
@@ -94,7 +94,7 @@ def test_monotone_matching_pools_the_extractors_noise_across_q():
 
 
 def test_the_verdict_margin_counts_standard_errors_of_the_pooled_fit_against_the_threshold_draw_by_draw():
-    from comparisons.matching import verdict_margin
+    from comparisons.judging.matching import verdict_margin
 
     def drawn(kbps, draws, q, field="hand_pck_20"):
         return {**point(kbps, sum(draws) / len(draws), q), field: sum(draws) / len(draws), "draw_values": {field: draws}}

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from comparisons import metrics
+from comparisons.judging import metrics
 from media import rotations
 from media.avatar import load_avatar
 from media.errors import SigncastError

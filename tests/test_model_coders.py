@@ -3,9 +3,9 @@ import functools
 import numpy as np
 import pytest
 
-from comparisons.model_coders import (N_NORM, GestureCoder, HybridCoder, PostureCoder, gesture_boundaries, hermite_fill,
+from comparisons.lab.model import (N_NORM, GestureCoder, HybridCoder, PostureCoder, gesture_boundaries, hermite_fill,
                                       posture_keys, raised_cosine, warp)
-from comparisons.vector_quantization import train_codebook
+from comparisons.lab.vq import train_codebook
 from media.errors import SigncastError
 from motion_samples import FPS, psnr, signing_like
 
@@ -92,7 +92,7 @@ def test_model_coders_decode_exactly_and_reject_damage(cls):
 
 
 def test_model_coders_reach_far_lower_rates_than_direct_quantisation():
-    from comparisons.waveform_coders import UniformQuantizer
+    from comparisons.lab.waveform import UniformQuantizer
     postures, gestures = tables()
     dofs = signing_like(400, seed=0)
     quant_bytes = len(UniformQuantizer(LOWER, UPPER).encode(dofs, FPS, 0)[0])
@@ -160,8 +160,8 @@ def test_lab_codec_bounds_frames_times_the_whole_dof_layout_at_both_ends():
     from the inner header before decoding."""
     import struct
     import zlib
-    from comparisons.coded_streams import MAX_VALUES
-    from comparisons.lab_codecs import LabCodec, dof_layout
+    from comparisons.lab.streams import MAX_VALUES
+    from comparisons.lab.codecs import LabCodec, dof_layout
     codec, n_dofs = LabCodec("quant"), dof_layout().n_dofs
     too_long = MAX_VALUES // n_dofs + 1
     with pytest.raises(SigncastError, match="frames x channels"):
@@ -187,8 +187,8 @@ def test_model_coders_need_two_frames():
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["dpcm", "svq", "tvq", "posture", "gesture", "hybrid"])
 def test_registered_codec_round_trips_a_fingerspelled_word(name):
-    from comparisons.lab_codecs import LabCodec, dofs_motion, motion_dofs
-    from comparisons.param_codecs import get_codec
+    from comparisons.lab.codecs import LabCodec, dofs_motion, motion_dofs
+    from comparisons.params.codecs import get_codec
     from media.fingerspelling import fingerspell
 
     motion = fingerspell("ase", "cab")

@@ -4,7 +4,7 @@ that are not video, and clips with no person in them. Every clip here is real: f
 import numpy as np
 import pytest
 
-from comparisons.records import read_records
+from comparisons.reports.records import read_records
 from media.video_io import frame_indices_at_rate, read_video, resolve_video, write_video
 from pipeline.cli import main
 

@@ -1,9 +1,9 @@
-"""The compiled repetitive padding (kernels/padding.py) gives the NumPy oracle's bytes on real object masks and on
+"""The compiled repetitive padding (comparisons/video/padding.py) gives the NumPy oracle's bytes on real object masks and on
 random ones, odd sizes and empty / full masks included."""
 import numpy as np
 import pytest
 
-from comparisons.video_objects import repetitive_padding, repetitive_padding_numpy
+from comparisons.video.objects import repetitive_padding, repetitive_padding_numpy
 
 
 @pytest.mark.parametrize("height, width, density", [(144, 176, 0.02), (37, 53, 0.3), (16, 16, 0.0), (9, 7, 1.0),

@@ -4,18 +4,18 @@ within the codec's quantisation bound, at every Q, with nothing clipped.
 Two levels:
 - the FBA coder on BAP value series (encode_fba/decode_fba), angles near and across +-pi included;
 - every codec in MOTION_BOUNDS through the public Motion -> stream -> Motion path of
-  comparisons/param_codecs.py. To cover another codec, add its name and a bound function there.
+  comparisons/params/codecs.py. To cover another codec, add its name and a bound function there.
 """
 import numpy as np
 import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from comparisons import bap_table
-from comparisons import param_coding as pc
-from comparisons.fba_codec import decode_fba, encode_fba
-from comparisons.fba_mapping import avatar_bap_map, baps_to_motion
-from comparisons.param_codecs import get_codec
+from comparisons.params import bap_table
+from comparisons.params import coding as pc
+from comparisons.params.fba import decode_fba, encode_fba
+from comparisons.params.fba_mapping import avatar_bap_map, baps_to_motion
+from comparisons.params.codecs import get_codec
 from media import rotations
 from media.motion import Motion
 
@@ -68,7 +68,7 @@ def fba_motion_bound(coding: str):
     return bound
 
 
-# codec name (comparisons/param_codecs.py) -> bound(motion, q) as fba_motion_bound returns it
+# codec name (comparisons/params/codecs.py) -> bound(motion, q) as fba_motion_bound returns it
 MOTION_BOUNDS = {"fba-pred": fba_motion_bound("pred"), "fba-dct": fba_motion_bound("dct")}
 
 
@@ -167,7 +167,7 @@ def test_codec_decodes_any_motion_within_its_quantisation_bound(name, motion, q)
     assert np.all(np.abs(decoded.root_translation - motion.root_translation) <= translation_bound + 1e-9)
 
 
-# --------------------------------------------------------------------------- BBA (comparisons/bba_codec.py)
+# --------------------------------------------------------------------------- BBA (comparisons/params/bba.py)
 
 BBA_BONES = ("root", "upperarm01.L", "lowerarm01.R", "wrist.R", "finger2-1.R", "spine03")
 
@@ -179,7 +179,7 @@ def bba_error_bound(stream, q: int) -> list[dict]:
     pred (and key frames, which are predictive frames): half a step, step = base step x Q (an
     intra level is absolute, a P level codes the change from the decoder's own previous value,
     angles folded). dct: dct_error_bound at the length of the 16-frame segment of the frame."""
-    from comparisons import bba_codec as bba
+    from comparisons.params import bba
     from media.avatar import load_avatar
 
     skeleton = load_avatar().skeleton
@@ -200,7 +200,7 @@ def bba_motions(draw, max_frames: int = 24) -> tuple[Motion, int]:
     """(Motion, rotation order 0..23): a few avatar bones whose Euler angles in that order are
     random walks near and across +-pi (the middle angle over its whole range, gimbal lock
     included), and a root translation within +-15 m."""
-    from comparisons.bba_codec import ORDER_NAMES
+    from comparisons.params.bba import ORDER_NAMES
 
     order = draw(st.integers(0, 23))
     n_frames = draw(st.integers(1, max_frames))
@@ -226,7 +226,7 @@ def _bba_crossing_pi() -> tuple[Motion, int]:
 @example(motion_order=_bba_crossing_pi(), q=4)
 @example(motion_order=_bba_crossing_pi(), q=1)
 def test_bba_decodes_any_motion_within_its_quantisation_bound(coder, motion_order, q):
-    from comparisons import bba_codec as bba
+    from comparisons.params import bba
 
     motion, order = motion_order
     stream = bba.motion_to_stream(motion, q, "dct" if coder == "dct" else "pred", keyframes=coder == "key",

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from comparisons.param_codecs import REGISTRY, get_codec, register
+from comparisons.params.codecs import REGISTRY, get_codec, register
 from media.avatar import load_avatar
 from media.face_rig import with_face_bones
 from media.errors import SigncastError
@@ -79,7 +79,7 @@ def test_params_alphabet_draws_the_seed_002_charts(tmp_path):
     from pipeline.cli import main
     assert main(["params", "ase", "--alphabet", "--codecs", "dpcm,fba-pred", "--param-q", "8", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "lab_waveform_psnr.png").stat().st_size > 10_000
-    from comparisons.records import read_records
+    from comparisons.reports.records import read_records
     points = [r for r in read_records(tmp_path / "records.jsonl") if r.get("kind", "point") == "point"]
     assert {r["codec"] for r in points} == {"dpcm", "fba-pred"}
     # dpcm is a seed-002 motion coder, not an MPEG-4 FBA stream: its records say so

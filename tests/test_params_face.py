@@ -3,7 +3,7 @@ files are written and read back."""
 import numpy as np
 import pytest
 
-from comparisons.fap_file import read_fap
+from comparisons.params.fap_file import read_fap
 from media.fingerspelling import letter_motion
 from pipeline.studies import params
 
@@ -43,7 +43,7 @@ def test_without_the_face_the_body_is_coded_alone(tmp_path):
 def test_a_coder_that_sends_no_face_says_so(tmp_path):
     """seed 002's coders carry the signing joints only: their records say the face was not sent (no face_kbps of 0
     that would read as a free face), the table says so, and a sweep's report names them."""
-    from comparisons import sweep_report
+    from comparisons.reports import sweep as sweep_report
     settings = params.ParamsSettings("ase", "A", ("quant", "fba-dct"), (1,), 10.0, face=True)
     records = params.run(settings, tmp_path)
     by_codec = {r["codec"]: r for r in records}
@@ -63,7 +63,7 @@ def test_face_joint_error_takes_the_heads_pose_out_and_sees_a_face_at_rest():
     same face gives ~0 there (but millimetres of whole-body joint error); the same face left at rest does not."""
     from scipy.spatial.transform import Rotation
 
-    from comparisons import metrics
+    from comparisons.judging import metrics
     from media.avatar import load_avatar
     from media.face_rig import face_bone_names, with_face_bones
     from media.motion import Motion
@@ -85,7 +85,7 @@ def test_face_joint_error_takes_the_heads_pose_out_and_sees_a_face_at_rest():
 
 
 def test_records_carry_the_face_joint_error():
-    from comparisons.param_study import measure_point
+    from comparisons.params.study import measure_point
     motion = letter_motion("ase", "C", 10.0)
     sent, dropped = measure_point(motion, "fba-dct", 4), measure_point(motion, "quant", 6)
     assert 0 < sent["face_joint_error_mm"] <= sent["face_joint_error_mm_max"]

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from comparisons import bap_table
-from comparisons.bap_file import format_bap, read_bap
-from comparisons.records import read_records
+from comparisons.params import bap_table
+from comparisons.params.bap_file import format_bap, read_bap
+from comparisons.reports.records import read_records
 from media.bvh import read_bvh
 from media.errors import SigncastError
 from media.text_files import MAX_VALUES

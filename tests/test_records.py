@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from comparisons.records import (SCHEMA_VERSION, Record, make_record, normalize_records, read_records,
+from comparisons.reports.records import (SCHEMA_VERSION, Record, make_record, normalize_records, read_records,
                                  read_typed_records, write_records)
 from media.errors import SigncastError
 

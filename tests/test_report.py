@@ -9,8 +9,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from comparisons.criteria import bandwidth_scores, criteria_table
-from comparisons.report import build_report, chart_kbps_vs_q, chart_rate_quality, linear_fits, quantiser
+from comparisons.judging.criteria import bandwidth_scores, criteria_table
+from comparisons.reports.comparison import build_report, chart_kbps_vs_q, chart_rate_quality, linear_fits, quantiser
 from report_page import ReportPage
 
 

@@ -10,8 +10,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from comparisons.records import read_records, write_records
-from comparisons.report import (DELIVERY_CHANNELS, MATCHED_SOLUTIONS, MOBILE_PHONE, MODEM, build_report,
+from comparisons.reports.records import read_records, write_records
+from comparisons.reports.comparison import (DELIVERY_CHANNELS, MATCHED_SOLUTIONS, MOBILE_PHONE, MODEM, build_report,
                                 chart_rate_intelligibility, fits, threshold_value)
 from report_page import ReportPage
 
@@ -262,7 +262,7 @@ def test_points_averaged_over_several_extractions_carry_standard_error_bars():
 
 
 def test_the_reached_column_says_how_many_standard_errors_the_verdict_stands_from_the_threshold(tmp_path):
-    from comparisons.report import verdict_note
+    from comparisons.reports.comparison import verdict_note
     records = _records()
     margins = {"NSV": (5.66, True), "SSV": (-1.96, False), "NSV3O": (-0.048, False), "FBA": (None, True)}
     for record in records:

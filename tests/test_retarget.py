@@ -188,7 +188,7 @@ def test_compiled_axis_matrices_are_the_numpy_broadcast():
 
 
 def test_compiled_smooth_choice_is_the_numpy_loop():
-    """kernels/viterbi.py against the NumPy loop: random costs with 2-4 options, exact ties (small integers)
+    """media/viterbi.py against the NumPy loop: random costs with 2-4 options, exact ties (small integers)
     and NaNs (np.argmin takes the first NaN), one frame and two."""
     rng = np.random.default_rng(4)
     for trial in range(600):

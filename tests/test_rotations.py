@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from comparisons.bba_codec import ORDER_NAMES
+from comparisons.params.bba import ORDER_NAMES
 from media import rotations
 
 AXES = {"X": np.array([1.0, 0, 0]), "Y": np.array([0, 1.0, 0]), "Z": np.array([0, 0, 1.0])}
@@ -112,7 +112,7 @@ def test_rotate_broadcasts_one_rotation_over_many_vectors():
 
 
 def test_rotate_is_scipys_apply_bitwise():
-    """media.rotations.rotate (kernels/scipy_rotation.py for two or more vectors) against scipy's
+    """media.rotations.rotate (media/scipy_rotation.py for two or more vectors) against scipy's
     from_quat(q).apply(v) itself: non-unit quaternions over six decades, vectors over nine, exact zeros of both
     signs, the axes and the identity, and a zero quaternion (scipy's error)."""
     rng = np.random.default_rng(12)
@@ -135,7 +135,7 @@ def test_rotate_is_scipys_apply_bitwise():
 
 
 def test_from_axis_angle_is_numpy_and_scipy_bitwise():
-    """media.rotations.from_axis_angle (kernels/scipy_rotation.py) against the unit axis from NumPy's norm times the
+    """media.rotations.from_axis_angle (media/scipy_rotation.py) against the unit axis from NumPy's norm times the
     angle, through scipy's from_rotvec: axes over ten decades, zero axes, angles of +-0, around the series'
     1e-3 rad switch, and broadcast shapes."""
     def reference(axis, angle):

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from comparisons import rtp
-from comparisons.loss_models import Bernoulli
-from comparisons.rtp import (
+from comparisons.transport import rtp
+from comparisons.transport.loss import Bernoulli
+from comparisons.transport.rtp import (
     H264Packetizer,
     Mp4vPacketizer,
     ParameterPacketizer,
@@ -26,7 +26,7 @@ from comparisons.rtp import (
     unwrap_sequences,
     wire_bits,
 )
-from comparisons.video_codecs import encode_video, padded_packet
+from comparisons.video.codecs import encode_video, padded_packet
 from media.errors import SigncastError
 
 FPS = 25.0

@@ -3,7 +3,8 @@ label buffer, the coverage measure, and the object coder's transparent macrobloc
 import numpy as np
 import pytest
 
-from comparisons import video_codecs, video_objects
+from comparisons.video import codecs as video_codecs
+from comparisons.video import objects as video_objects
 from media import segmentation
 from media.domain import BACKGROUND, BODY, HEAD, LEFT_HAND, RIGHT_HAND
 from media.errors import SigncastError
@@ -159,7 +160,7 @@ def test_transparent_macroblocks_cost_less_texture_and_leave_the_opaque_pixels(c
 
 
 def test_snapped_person_edge_makes_the_signer_object_cost_about_what_the_true_silhouette_costs(avatar_clip, person):
-    from comparisons.video_objects import code_object
+    from comparisons.video.objects import code_object
     from media.landmarks.holistic import extract_landmarks
 
     frames, truth = avatar_clip

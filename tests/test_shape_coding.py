@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from comparisons.shape_coding import (MAX_PIXELS, MAX_SIDE, BinaryArithmeticDecoder, BinaryArithmeticEncoder,
+from comparisons.video.shape import (MAX_PIXELS, MAX_SIDE, BinaryArithmeticDecoder, BinaryArithmeticEncoder,
                                       decode_shape, encode_shape)
 from media.errors import SigncastError
 

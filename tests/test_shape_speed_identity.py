@@ -1,7 +1,7 @@
 """The compiled shape coder writes byte-identical streams to the pure-Python coder it replaced.
 
-The SHA-256 of every stream below was recorded from comparisons/shape_coding.py before its per-pixel loops
-moved into kernels/shape_cae.py; a changed hash means the stream format or the encoder's decisions changed.
+The SHA-256 of every stream below was recorded from comparisons/video/shape.py before its per-pixel loops
+moved into comparisons/video/shape_cae.py; a changed hash means the stream format or the encoder's decisions changed.
 Inputs: real masks (20 frames of ASL "AB" rendered at 176x144 by the NumPy backend: head, right hand, signer,
 clothes) and synthetic ones (empty, full, noise, a moving disc, a shape that jumps beyond the search range),
 each coded at GOP 1, 4 and 12 and decoded back exactly. The rendered masks' own hashes are checked first, so
@@ -14,7 +14,7 @@ import hashlib
 import numpy as np
 import pytest
 
-from comparisons.shape_coding import decode_shape, encode_shape
+from comparisons.video.shape import decode_shape, encode_shape
 
 OBJECTS = ("head", "right_hand", "signer", "clothes")
 GOPS = (1, 4, 12)
@@ -134,7 +134,7 @@ def test_synthetic_streams_are_unchanged(name):
 def test_the_kernels_sum_rounds_as_numpy_does():
     """Mode decisions compare summed float bit estimates: the kernel must round exactly as np.sum of a (16, 16)
     array (pairwise summation); a plain running sum differs in the last bits for about half of these."""
-    from kernels.shape_cae import numpy_sum_256
+    from comparisons.video.shape_cae import numpy_sum_256
 
     rng = np.random.default_rng(7)
     for scale in (1e-3, 1.0, 16.0):
@@ -149,7 +149,7 @@ def test_damaged_payloads_decode_or_raise_signcast_error_only():
     import struct
     import zlib
 
-    from comparisons.shape_coding import _HEADER
+    from comparisons.video.shape import _HEADER
     from media.errors import SigncastError
 
     rng = np.random.default_rng(8)

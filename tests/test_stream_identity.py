@@ -10,11 +10,11 @@ Inputs are stored arrays, not live retargeting (which keeps changing):
   the avatar Motion as the BBA codec receives it (rotations (T, 105, 4) float64 quaternions with the
   face bones of synthetic FAPs on HELLO, root_translation (T, 3) metres, bone_names, fps) and the
   seed-002 signing DOFs (T, 183) radians; and "faps/<BAP clip>" FAP values (T, 68) int32 for the
-  BAP clips (comparisons.fap_rates.synthetic_faps).
+  BAP clips (comparisons.params.fap_rates.synthetic_faps).
 
 The seed-002 coders also read their shipped tables (comparisons/tables): retraining them changes
 their streams, and these references must then be re-recorded with the reference coder (the
-pure-Python comparisons/entropy.py and bitstream.py before Numba). The fixtures were written from
+pure-Python comparisons/params/entropy.py and bitstream.py before Numba). The fixtures were written from
 media.fingerspelling (fingerspell "HELLO", letter_motion "J") with the retargeting of 2 Dec 2026.
 """
 import hashlib
@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comparisons import bba_codec
-from comparisons.fba_codec import decode_fba, encode_fba
-from comparisons.lab_codecs import LAB_CODEC_NAMES, LabCodec
+from comparisons.params import bba as bba_codec
+from comparisons.params.fba import decode_fba, encode_fba
+from comparisons.lab.codecs import LAB_CODEC_NAMES, LabCodec
 from media.motion import Motion
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -365,7 +365,7 @@ def test_streams_and_decoded_values_match_the_stored_references(kind, arguments)
     assert DIGESTS[kind](*arguments) == REFERENCE[(kind, arguments)]
 
 
-# wavelet-cx (comparisons/waveform_coders.py ContextWaveletCoder): the coder's own stream (SCM1) over the clip's
+# wavelet-cx (comparisons/lab/waveform.py ContextWaveletCoder): the coder's own stream (SCM1) over the clip's
 # active DOFs and the shipped DOF ranges, as lab_codecs.LabCodec hands them to it (independent of the SCL1 wrapper's
 # coder id, which comes with the name's registration in media.domain). (clip, q 1..11): (stream, decoded) SHA-256.
 CONTEXT_WAVELET_REFERENCE = {
@@ -386,8 +386,8 @@ CONTEXT_WAVELET_REFERENCE = {
 
 @pytest.mark.parametrize("clip, q", sorted(CONTEXT_WAVELET_REFERENCE))
 def test_context_wavelet_streams_match_the_stored_references(clip, q):
-    from comparisons.lab_codecs import dof_ranges
-    from comparisons.waveform_coders import ContextWaveletCoder
+    from comparisons.lab.codecs import dof_ranges
+    from comparisons.lab.waveform import ContextWaveletCoder
     lower, upper = dof_ranges()
     dofs = DOFS[clip]
     active = np.any(dofs != 0, axis=0)

@@ -6,8 +6,8 @@ import subprocess
 import numpy as np
 import pytest
 
-from comparisons.fba_codec import decode_fba, encode_fba
-from comparisons.transport_stream import (
+from comparisons.params.fba import decode_fba, encode_fba
+from comparisons.transport.ts import (
     CLOCK_ORIGIN_S,
     KLV_KEYS,
     TS_PACKET,
@@ -22,7 +22,7 @@ from comparisons.transport_stream import (
     stream_overheads,
     ts_overhead,
 )
-from comparisons.video_codecs import decode_video, encode_video
+from comparisons.video.codecs import decode_video, encode_video
 from media.errors import SigncastError
 
 FPS = 25

@@ -4,7 +4,7 @@ import csv
 import numpy as np
 import pytest
 
-from comparisons.records import read_records
+from comparisons.reports.records import read_records
 from pipeline.cli import main
 
 

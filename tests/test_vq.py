@@ -3,8 +3,8 @@ import functools
 import numpy as np
 import pytest
 
-from comparisons.lab_codecs import EVALUATION_LANGUAGES, dof_layout, training_languages
-from comparisons.vector_quantization import (CODEBOOK_SIZES, SpatialVQ, TemporalVQ, group_layout, load_vq_tables,
+from comparisons.lab.codecs import EVALUATION_LANGUAGES, dof_layout, training_languages
+from comparisons.lab.vq import (CODEBOOK_SIZES, SpatialVQ, TemporalVQ, group_layout, load_vq_tables,
                                              nearest, temporal_vectors, train_codebook)
 from media.errors import SigncastError
 from motion_samples import FPS, psnr, signing_like
@@ -59,7 +59,7 @@ def test_spatial_and_temporal_vq_decode_exactly_and_gain_with_codebook_size():
 
 def test_temporal_vq_beats_direct_quantization_at_a_lower_rate():
     """Seed 002 §7.9.2: temporal VQ always beats 1-D direct quantisation at equal rate."""
-    from comparisons.waveform_coders import UniformQuantizer
+    from comparisons.lab.waveform import UniformQuantizer
     _, temporal = small_codebooks()
     dofs = signing_like(300, seed=0)
     tvq = TemporalVQ(LOWER, UPPER, temporal)

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from comparisons.coded_streams import (StreamReader, StreamWriter, from_magnitude_classes, magnitude_classes,
+from comparisons.lab.streams import (StreamReader, StreamWriter, from_magnitude_classes, magnitude_classes,
                                        pack_bits, unpack_bits)
-from comparisons.waveform_coders import (WAVEFORM_CODERS, DeadReckoningCoder, UniformQuantizer, haar_forward,
+from comparisons.lab.waveform import (WAVEFORM_CODERS, DeadReckoningCoder, UniformQuantizer, haar_forward,
                                          haar_inverse)
 from media.errors import SigncastError
 from motion_samples import FPS, psnr, signing_like
@@ -144,7 +144,7 @@ def test_section_with_more_symbols_than_the_reader_allows_is_rejected():
 def test_arithmetic_stage_stops_where_its_data_ends_whatever_count_is_claimed():
     """An adaptive arithmetic decoder can turn no data into symbols for ever; it stops once it has read
     further past the end than its register's read-ahead (it used to decode all MAX_VALUES symbols first)."""
-    from comparisons.coded_streams import MAX_VALUES, entropy_stage
+    from comparisons.lab.streams import MAX_VALUES, entropy_stage
     arithmetic = entropy_stage("arithmetic")
     coded = arithmetic.encode(np.arange(100) % 41, 41)
     assert np.array_equal(arithmetic.decode(coded, 100, 41), np.arange(100) % 41)
@@ -165,7 +165,7 @@ def test_haar_transform_is_orthonormal_and_invertible():
 def test_huffman_stage_never_lengthens_the_fixed_length_code():
     """Seed 002 §7.4: on a few symbols the code table would cost more than it saves; the stage then
     falls back to fixed-length codes (one flag bit)."""
-    from comparisons.coded_streams import entropy_stage
+    from comparisons.lab.streams import entropy_stage
     huffman, fixed = entropy_stage("huffman"), entropy_stage("fixed")
     for symbols, alphabet in ((np.array([3, 900, 17]), 1024), (np.arange(64) % 7, 8), (np.zeros(500, int), 256)):
         coded = huffman.encode(symbols, alphabet)
@@ -189,7 +189,7 @@ def test_streams_are_bounded_in_frames_times_dofs_at_both_ends():
     """T <= MAX_FRAMES alone let a header announce 2**18 frames x 65535 DOFs; T x D is now bounded too."""
     import struct
     import zlib
-    from comparisons.coded_streams import MAX_FRAMES, MAX_VALUES
+    from comparisons.lab.streams import MAX_FRAMES, MAX_VALUES
     wide = 32  # MAX_FRAMES x 32 DOFs > MAX_VALUES
     assert MAX_FRAMES * wide > MAX_VALUES and MAX_VALUES * 8 <= 32 * 2 ** 20  # (T, D) float64 <= 32 MiB
     coder = UniformQuantizer(np.full(wide, -1.0), np.full(wide, 1.0))
@@ -208,7 +208,7 @@ def test_frame_rate_beyond_the_limit_is_rejected_at_both_ends():
     """The header's fps (u32, milli-Hz) reached 4.3 MHz; ADPCM sizes its predictor window by it."""
     import struct
     import zlib
-    from comparisons.coded_streams import MAX_FPS
+    from comparisons.lab.streams import MAX_FPS
     coder = WAVEFORM_CODERS["adpcm"](LOWER, UPPER)
     data, _ = coder.encode(signing_like(30), MAX_FPS, 1)
     assert coder.decode_with_fps(data)[1] == MAX_FPS

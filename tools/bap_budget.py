@@ -8,7 +8,7 @@ tables and write them into docs/parameters.md between its `bap-budget` markers.
 - (c) the same letters' FBA P and DCT rates at Q = 1 ... 31 next to Table 2.1's, and BBA / FBA
   next to Table 3.1 / 2.1.
 All streams are the body's only (BAPs, bones): a motion's face parameters are left out, as the
-thesis's letters had none. Method of the per-group attribution: comparisons/bap_budget.py.
+thesis's letters had none. Method of the per-group attribution: comparisons/params/bap_budget.py.
 
     .venv/bin/python tools/bap_budget.py [--no-write]
 """
@@ -23,9 +23,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from comparisons.bap_budget import group_label, motion_group_budget, stream_bits  # noqa: E402
-from comparisons.fba_mapping import motion_to_baps  # noqa: E402
-from comparisons.param_codecs import get_codec  # noqa: E402
+from comparisons.params.bap_budget import group_label, motion_group_budget, stream_bits  # noqa: E402
+from comparisons.params.fba_mapping import motion_to_baps  # noqa: E402
+from comparisons.params.codecs import get_codec  # noqa: E402
 from media import lexicon  # noqa: E402
 from media.fingerspelling import fingerspell, letter_motion  # noqa: E402
 from media.motion import Motion, resample  # noqa: E402

@@ -16,9 +16,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from comparisons.fap_rates import fap_bits  # noqa: E402
-from comparisons.fba_mapping import motion_to_baps  # noqa: E402
-from comparisons.param_codecs import get_codec  # noqa: E402
+from comparisons.params.fap_rates import fap_bits  # noqa: E402
+from comparisons.params.fba_mapping import motion_to_baps  # noqa: E402
+from comparisons.params.codecs import get_codec  # noqa: E402
 from media import face_parameters  # noqa: E402
 from media.fingerspelling import letter_motion  # noqa: E402
 from media.landmarks import holistic  # noqa: E402

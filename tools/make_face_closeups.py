@@ -20,7 +20,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-# FAP values (FAPU of the face, see comparisons/fap_table.py); lip FAPs set both inner and outer.
+# FAP values (FAPU of the face, see comparisons/params/fap_table.py); lip FAPs set both inner and outer.
 EXPRESSIONS = {
     "neutral": {},
     "mouth-open": {"open_jaw": 500, "lower_t_midlip": -80, "lower_t_lip_lm": -60, "lower_t_lip_rm": -60,
@@ -40,7 +40,7 @@ CAMERA_DISTANCE = 0.8        # metres from the face's centre
 
 def expression_faps(values: dict[str, int]) -> np.ndarray:
     """(1, 68) int64 FAPs; a lip FAP named without `_o` also sets its outer-lip twin when there is one."""
-    from comparisons.fap_table import BY_NAME, N_FAPS
+    from comparisons.params.fap_table import BY_NAME, N_FAPS
     faps = np.zeros((1, N_FAPS), dtype=np.int64)
     for name, value in values.items():
         for twin in (name, name + "_o"):

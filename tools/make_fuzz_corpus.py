@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests" / "fuzz"))
 
-from comparisons import bap_table  # noqa: E402
+from comparisons.params import bap_table  # noqa: E402
 
 import fuzz_targets  # noqa: E402
 
@@ -38,18 +38,18 @@ def _letter(word: str = "A", fps: float = 10.0):
 
 
 def _baps(motion) -> np.ndarray:
-    from comparisons.fba_mapping import motion_to_baps
+    from comparisons.params.fba_mapping import motion_to_baps
     return motion_to_baps(motion)
 
 
 def _face(motion, seed: int = 0) -> np.ndarray:
-    """A synthetic signer's face track (FAPs) as long as the motion (comparisons/fap_rates.py)."""
-    from comparisons.fap_rates import synthetic_faps
+    """A synthetic signer's face track (FAPs) as long as the motion (comparisons/params/fap_rates.py)."""
+    from comparisons.params.fap_rates import synthetic_faps
     return synthetic_faps(motion.n_frames, motion.fps, seed)
 
 
 def fba_seeds() -> dict[str, bytes]:
-    from comparisons.fba_codec import encode_fba
+    from comparisons.params.fba import encode_fba
     a, ab = _letter("A"), _letter("AB")
     first_half = np.arange(ab.n_frames) < ab.n_frames // 2
     return {"A-pred-q1.fba": encode_fba(_baps(a), a.fps, 1, "pred"),
@@ -67,7 +67,7 @@ def fba_seeds() -> dict[str, bytes]:
 
 
 def fap_seeds() -> dict[str, bytes]:
-    from comparisons.fap_file import format_fap
+    from comparisons.params.fap_file import format_fap
     a = _letter("A")
     return {"A-face.fap": format_fap(_face(a)[:6], a.fps, "face-A").encode()}
 
@@ -83,7 +83,7 @@ def _right_index_motion(frames: int = 4):
 
 def _muscle_update():
     """An update of the avatar's first muscle: its profiled control points at full bulge, mm."""
-    from comparisons.bba_codec import MuscleUpdate
+    from comparisons.params.bba import MuscleUpdate
     from media.avatar import load_avatar
     muscle = load_avatar().muscles[0]
     n_points, n_knots = len(muscle.control_points), len(muscle.knots)
@@ -99,7 +99,7 @@ def _muscle_update():
 
 
 def _bba_streams() -> dict[str, object]:
-    from comparisons.bba_codec import motion_to_stream
+    from comparisons.params.bba import motion_to_stream
     a, small = _letter("A"), _right_index_motion()
     with_muscle = motion_to_stream(small, 4, "pred")
     with_muscle.frames[1].muscles = [_muscle_update()]
@@ -112,18 +112,18 @@ def _bba_streams() -> dict[str, object]:
 
 
 def bba_seeds() -> dict[str, bytes]:
-    from comparisons.bba_codec import write_stream
+    from comparisons.params.bba import write_stream
     return {f"{name}.bba": write_stream(stream) for name, stream in _bba_streams().items()}
 
 
 def bba_xml_seeds() -> dict[str, bytes]:
-    from comparisons.bba_xml import to_xml
+    from comparisons.params.bba_xml import to_xml
     return {f"{name}.xml": to_xml(stream).encode() for name, stream in _bba_streams().items()
             if name.startswith("index-")}
 
 
 def bap_seeds() -> dict[str, bytes]:
-    from comparisons.bap_file import format_bap
+    from comparisons.params.bap_file import format_bap
     a = _letter("A")
     values = _baps(a)
     # version 3.1 carries the 186 standard BAPs only: the same frames, cut to them
@@ -137,7 +137,7 @@ def bap_seeds() -> dict[str, bytes]:
 
 
 def shape_seeds() -> dict[str, bytes]:
-    from comparisons.shape_coding import encode_shape
+    from comparisons.video.shape import encode_shape
     from media.segmentation import segment_signer
     from media.video_io import bundled_clip_path, read_video
     frames, _ = read_video(bundled_clip_path("carphone"), max_frames=3)
@@ -148,7 +148,7 @@ def shape_seeds() -> dict[str, bytes]:
 
 
 def motion_seeds(name: str) -> dict[str, bytes]:
-    from comparisons.lab_codecs import LabCodec
+    from comparisons.lab.codecs import LabCodec
     codec, motion = LabCodec(name), _letter("A")
     top = len(codec.settings())
     return {f"A-q1.{name}": codec.encode(motion, 1), f"A-q{top}.{name}": codec.encode(motion, top)}
@@ -189,8 +189,8 @@ def pose_seeds() -> dict[str, bytes]:
 
 
 def records_seeds() -> dict[str, bytes]:
-    from comparisons.fba_codec import encode_fba
-    from comparisons.records import make_record, versions, write_records
+    from comparisons.params.fba import encode_fba
+    from comparisons.reports.records import make_record, versions, write_records
     a = _letter("A")
     records = [{"kind": "run", "backend": "numpy", "versions": versions()}]
     for q in (1, 8, 31):

@@ -1,15 +1,15 @@
 """Trains the initial model states of wavelet-cx's compact streams: comparisons/tables/context_priors.npz.
 
-Clips: every fingerspelled unit of every training language (comparisons.lab_codecs.training_languages(): never
+Clips: every fingerspelled unit of every training language (comparisons.lab.codecs.training_languages(): never
 the charted ASL/DGS/TSM clips the benchmarks measure), one clip per unit (media.fingerspelling.letter_motion at
 25 fps, and the same motion resampled to 10 fps, media.motion.resample), the signing DOFs as LabCodec codes them
-(comparisons.lab_codecs.motion_dofs; the active mask = DOFs not exactly 0 in the clip).
+(comparisons.lab.codecs.motion_dofs; the active mask = DOFs not exactly 0 in the clip).
 
 Inter-DOF predictors (ContextPriors.predictor / .weight, comparisons/waveform_coders.predict_dofs) come first: for
 each DOF of the layout, the earlier DOF and weight (in 1/64, |w| <= 3) whose prediction leaves the fewest estimated
 bits (sum of log2(1 + |residual|) over the clips' coded coefficients at q = 9; candidates: the 6 earlier DOFs most
 correlated with it), kept when it saves at least 5 % of them. For each operating point q the clips' coefficients,
-with that prediction, are binarised exactly as the coder does (kernels/lab_context.py,
+with that prediction, are binarised exactly as the coder does (comparisons/lab/context.py,
 with a tally of the bits each context codes); a context's prior is P(0) = (zeros + 1) / (bits + 2) (Laplace) and
 its count (how many bits the prior weighs, i.e. how slowly the model leaves it) min(bits, cap). The mask's models
 (one bin per DOF, context: the previous DOF's bit) are trained the same way, on the 25 fps clips. cap is chosen
@@ -29,10 +29,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from comparisons.lab_codecs import dof_layout, motion_dofs, training_languages
-from comparisons.waveform_coders import (MAX_PREDICTION_WEIGHT, PRIORS_PATH, ContextWaveletCoder, predict_dofs,
+from comparisons.lab.codecs import dof_layout, motion_dofs, training_languages
+from comparisons.lab.waveform import (MAX_PREDICTION_WEIGHT, PRIORS_PATH, ContextWaveletCoder, predict_dofs,
                                          prediction_pairs, weighted_prediction)
-from kernels import lab_context
+from comparisons.lab import context as lab_context
 
 CAPS = (4, 8, 12, 16, 24, 32, 62)
 FPS = (25.0, 10.0)

@@ -19,10 +19,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from comparisons import param_coding as pc  # noqa: E402
-from comparisons.entropy import huffman_code_lengths  # noqa: E402
-from comparisons.fba_codec import dct_training_symbols  # noqa: E402
-from comparisons.fba_mapping import motion_to_baps  # noqa: E402
+from comparisons.params import coding as pc  # noqa: E402
+from comparisons.params.entropy import huffman_code_lengths  # noqa: E402
+from comparisons.params.fba import dct_training_symbols  # noqa: E402
+from comparisons.params.fba_mapping import motion_to_baps  # noqa: E402
 from media.fingerspelling import letter_motion  # noqa: E402
 
 TRAINING_LANGUAGE = "ase"
@@ -46,7 +46,7 @@ def main() -> None:
     lengths = {name: huffman_code_lengths(counts + 1, max_length=24) for name, counts in totals.items()}
     out = {
         "about": "Code lengths of the canonical Huffman tables of the signcast FBA/BBA DCT coders "
-                 "(comparisons/param_coding.py), designed by tools/train_param_vlc.py.",
+                 "(comparisons/params/coding.py), designed by tools/train_param_vlc.py.",
         "training": {"language": TRAINING_LANGUAGE, "letters": TRAINING_LETTERS, "fps": list(TRAINING_FPS),
                      "q": list(TRAINING_Q), "segments": n_segments,
                      "symbol_counts": {k: v.tolist() for k, v in totals.items()}},

@@ -1,6 +1,6 @@
 """Train the tables of the seed-002 motion coders on the training split of the lexicon.
 
-Training split: every lexicon language except comparisons.lab_codecs.EVALUATION_LANGUAGES (the
+Training split: every lexicon language except comparisons.lab.codecs.EVALUATION_LANGUAGES (the
 charted ones), each fingerspelling its whole alphabet at 25 fps on the avatar. Writes
   comparisons/tables/lab_dof_ranges.npz  DOF quantiser ranges (training min/max widened by 25 %)
   comparisons/tables/vq_codebooks.npz    spatial VQ codebooks per group, temporal VQ codebooks (LBG)
@@ -16,9 +16,9 @@ import sys
 import numpy as np
 from tqdm import tqdm
 
-from comparisons.lab_codecs import (RANGES_PATH, alphabet_motion, dof_layout, motion_dofs, training_languages)
-from comparisons.model_coders import MODEL_TABLE_PATH, N_NORM, GestureCoder, _frames, gesture_boundaries, warp
-from comparisons.vector_quantization import (CODEBOOK_SIZES, VQ_TABLE_PATH, temporal_vectors, train_codebooks)
+from comparisons.lab.codecs import (RANGES_PATH, alphabet_motion, dof_layout, motion_dofs, training_languages)
+from comparisons.lab.model import MODEL_TABLE_PATH, N_NORM, GestureCoder, _frames, gesture_boundaries, warp
+from comparisons.lab.vq import (CODEBOOK_SIZES, VQ_TABLE_PATH, temporal_vectors, train_codebooks)
 
 FPS = 25.0
 MAX_POSTURES = 1024

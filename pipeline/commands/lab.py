@@ -11,7 +11,7 @@ from pipeline.outputs import output_folder
 
 
 def add_parser(subparsers) -> None:
-    from comparisons.lab_settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, MPEG4_Q
+    from comparisons.lab.settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, MPEG4_Q
 
     parser = subparsers.add_parser(
         "lab", help="seed-002 motion coders on whole-alphabet sequences: PSNR/VPSNR vs kbps charts",

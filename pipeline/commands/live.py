@@ -1,7 +1,7 @@
 """`signcast live [LANGUAGE WORD | --pose FILE] --codecs mpeg4,fba-pred,fba-dct,bba-pred --loss-rates 0,0.5,1,2,5,10
 --out DIR`: the loss sweep. Each solution is delivered live over RTP/UDP on the loopback interface through a lossy
 relay at each loss rate and judged on what the receiver shows (the study is pipeline.studies.live; the report
-comparisons.live_report)."""
+comparisons.reports.live)."""
 from __future__ import annotations
 
 import argparse
@@ -84,7 +84,7 @@ def settings_from(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from comparisons import live_report
+    from comparisons.reports import live as live_report
     from pipeline.outputs import output_folder
     from pipeline.studies import live
     settings = settings_from(args)

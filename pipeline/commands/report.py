@@ -16,8 +16,8 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from comparisons.records import read_records
-    from comparisons.report import build_report
+    from comparisons.reports.records import read_records
+    from comparisons.reports.comparison import build_report
     from pipeline.outputs import output_files
     records = read_records(args.records)
     output = args.output or args.records.with_name("report.html")

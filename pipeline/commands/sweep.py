@@ -1,6 +1,6 @@
 """`signcast sweep --languages ase,gsg --items A,B,C --codecs fba-pred,bba-dct --q 4,16 --fps 25 --executor local|ray
 --out DIR`: languages x items x codecs x Q x fps of parameter transmission on a local process pool or on Ray,
-resumable (the study is pipeline.studies.sweep; the report comparisons.sweep_report)."""
+resumable (the study is pipeline.studies.sweep; the report comparisons.reports.sweep)."""
 from __future__ import annotations
 
 import argparse
@@ -77,7 +77,7 @@ def settings_from(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from comparisons import sweep_report
+    from comparisons.reports import sweep as sweep_report
     from pipeline.studies import sweep
     settings = settings_from(args)
     max_units = _count(args.max_units, "--max-units")

@@ -3,11 +3,11 @@ them).
 
 Senders ("sources"): capture(i) is called at frame i's capture time and returns the AccessUnits ready then;
 finish() returns what is left after the last frame.
-- NSV (VideoSource): the frame is encoded at once by a live PyAV encoder (comparisons.live_video.LiveEncoder,
+- NSV (VideoSource): the frame is encoded at once by a live PyAV encoder (comparisons.transport.video.LiveEncoder,
   no B-frames: each would delay every frame by one frame interval) and its packet sent as one access unit.
 - FBA / BBA (ParameterSource): frames are gathered into refresh periods; when a period's last frame is captured,
   the period is coded by the parameter codec as one self-contained stream (intra first) and sent as one unit
-  (comparisons.fba_units: start code, frame numbers, CRC-8, the stream with its own checks). A unit decodes alone,
+  (comparisons.transport.fba_units: start code, frame numbers, CRC-8, the stream with its own checks). A unit decodes alone,
   so a lost one costs exactly its frames; the price is look-ahead: a period's first frame waits refresh - 1
   frame intervals before it can be sent.
 
@@ -15,7 +15,7 @@ Receivers ("sinks"): receive(frame, depacketized) is called as the jitter buffer
 data and returns the indices of the frames now ready to show; finish() returns (shown (T, H, W, 3) uint8,
 received (T,) bool), every frame that never arrived concealed by holding the last shown one (the first shown,
 before any arrived).
-- NSV: a live PyAV decoder with FFmpeg's error concealment (comparisons.live_video.LiveDecoder); access units
+- NSV: a live PyAV decoder with FFmpeg's error concealment (comparisons.transport.video.LiveDecoder); access units
   lost entirely are announced to it, partial ones are decoded as they are.
 - FBA / BBA: units are found by a resynchronising scanner, decoded, and rendered by the terminal's renderer.
 The video-object solutions (NSV2O, NSV3O, NSV3O+C, SSV) have their own source and sink: pipeline/live/objects.py.
@@ -24,9 +24,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from comparisons import bba_codec, fba_units, param_codecs
-from comparisons.bitstream import START_CODE_PREFIX
-from comparisons.live_video import LiveDecoder, LiveEncoder
+from comparisons.params import bba as bba_codec
+from comparisons.transport import fba_units
+from comparisons.params import codecs as param_codecs
+from comparisons.params.bits import START_CODE_PREFIX
+from comparisons.transport.video import LiveDecoder, LiveEncoder
 from media.errors import SigncastError
 from media.motion import Motion
 from pipeline.live.session import AccessUnit, SessionDescription
@@ -171,7 +173,8 @@ def warm_up(codec: str, renderer=None, motion: Motion | None = None) -> None:
     entropy coder's, the shape coder's, the padding's; the renderer's first frame) do not land on a session's
     first frames: a terminal is ready before a call starts."""
     if codec in VIDEO_CODECS:
-        from comparisons import shape_units, video_objects
+        from comparisons.transport import shape_units
+        from comparisons.video import objects as video_objects
         mask = np.zeros((1, 32, 32), bool)
         mask[0, 8:20, 10:24] = True
         units = shape_units.encode_shape_units(mask, gop=1)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from comparisons import rtp
+from comparisons.transport import rtp
 from media.errors import SigncastError
 
 SEQUENCE_MODULUS = 1 << 16
@@ -37,7 +37,7 @@ class _Group:
 
 class JitterBuffer:
     """Groups packets by timestamp; `depacketize(packets)` turns a released group's packets (sorted, with any
-    sequence gap meaning loss) into its data: comparisons.rtp's depacketiser of the session's payload format."""
+    sequence gap meaning loss) into its data: comparisons.transport.rtp's depacketiser of the session's payload format."""
 
     def __init__(self, payload: str, fps: float, hold_s: float, first_sequence: int | None = None):
         self.payload, self.fps, self.hold_s = payload, fps, hold_s

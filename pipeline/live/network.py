@@ -1,5 +1,5 @@
 """UDP on the loopback interface: sockets, and a relay that drops, delays and reorders datagrams as a seeded
-network model decides (comparisons.loss_models.NetworkModel).
+network model decides (comparisons.transport.loss.NetworkModel).
 
 The relay runs in its own thread between a sender and a receiver: it receives every datagram on its own port,
 asks the model whether to drop it and how long to hold it, and forwards it to the receiver when its delay is

@@ -1,11 +1,11 @@
 """Live delivery of the video-object solutions (NSV2O, NSV3O, NSV3O+C, SSV): the sender's ObjectSource and the
 receiver's ObjectSink (pipeline/live/session.py calls them, as it calls the endpoints of pipeline/live/endpoints.py).
 
-Streams: every object of the solution (comparisons.video_objects.SOLUTION_OBJECTS, in that order) is sent as two
+Streams: every object of the solution (comparisons.video.objects.SOLUTION_OBJECTS, in that order) is sent as two
 RTP streams, `<object>/texture` (payload "mp4v" for mpeg4, "h264" for libx264: one access unit per frame) and
-`<object>/shape` (payload "units": comparisons.shape_units units, each an independent lossless shape stream).
+`<object>/shape` (payload "units": comparisons.transport.shape_units units, each an independent lossless shape stream).
 
-Texture over the whole frame (chosen here): the offline coder (comparisons.video_objects.code_object) crops each
+Texture over the whole frame (chosen here): the offline coder (comparisons.video.objects.code_object) crops each
 object to the bounding box of its masks over the whole clip, which a live sender cannot know before the clip
 ends. The live texture covers the whole frame instead, padded causally frame by frame as pad_object pads
 (MPEG-4 repetitive padding; in predicted frames the pixels outside the shape in this and the previous frame
@@ -33,9 +33,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from comparisons import shape_units, video_objects
-from comparisons.live_video import LiveDecoder, LiveEncoder
-from comparisons.video_objects import flatten_macroblocks, transparent_macroblocks
+from comparisons.transport import shape_units
+from comparisons.video import objects as video_objects
+from comparisons.transport.video import LiveDecoder, LiveEncoder
+from comparisons.video.objects import flatten_macroblocks, transparent_macroblocks
 from media.errors import SigncastError
 from pipeline.live.endpoints import LIVE_GOP, VIDEO_CODECS
 from pipeline.live.session import AccessUnit, SessionDescription

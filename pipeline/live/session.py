@@ -21,7 +21,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from comparisons import rtp
+from comparisons.transport import rtp
 from media.errors import SigncastError
 from pipeline.live.jitter_buffer import JitterBuffer
 from pipeline.live.network import LOOPBACK, MAX_DATAGRAM, udp_socket
@@ -76,7 +76,7 @@ STREAM_PAYLOADS = ("units", "h264", "mp4v")
 
 
 def packetizer_for(payload: str, seed: int = 0):
-    """The RTP packetiser of a payload format (comparisons.rtp)."""
+    """The RTP packetiser of a payload format (comparisons.transport.rtp)."""
     if payload == "units":
         return rtp.ParameterPacketizer(seed=seed)
     if payload == "h264":

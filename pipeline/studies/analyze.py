@@ -1,15 +1,15 @@
 """Statistics of real signing on the avatar (seed 002 ch. 5): per DOF and per joint group of each language's whole
 fingerspelled alphabet. Writes records.jsonl (a "run" record with the versions, then one "motion_statistics" record
-per DOF and per group) and, per language, the tables and plots of comparisons.motion_analysis.write_analysis."""
+per DOF and per group) and, per language, the tables and plots of comparisons.lab.motion_analysis.write_analysis."""
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from comparisons.lab_codecs import alphabet_motion, dof_layout, motion_dofs
-from comparisons.motion_analysis import analyze, write_analysis
-from comparisons.records import versions, write_records
+from comparisons.lab.codecs import alphabet_motion, dof_layout, motion_dofs
+from comparisons.lab.motion_analysis import analyze, write_analysis
+from comparisons.reports.records import versions, write_records
 from media import lexicon
 from media.domain import check_fps
 from media.errors import SigncastError
@@ -34,7 +34,7 @@ def check(settings: AnalyzeSettings) -> None:
 
 def run(settings: AnalyzeSettings, out: str | Path) -> tuple[list[dict], dict]:
     """Analyse every language; write records, tables and plots to out. Returns the records and, per language
-    code, its analysis (comparisons.motion_analysis)."""
+    code, its analysis (comparisons.lab.motion_analysis)."""
     check(settings)
     out = Path(out)
     layout = dof_layout()

@@ -20,7 +20,7 @@ SSV codes the lossless render as video objects; FBA and BBA code the motion, and
 re-renders it at the display size (parameters sent at a reduced frame rate are interpolated back by slerp).
 All solutions carry the same frames over the same duration.
 
-Intelligibility (comparisons.intelligibility): landmarks are extracted from what the viewer sees at every point
+Intelligibility (comparisons.judging.intelligibility): landmarks are extracted from what the viewer sees at every point
 (the decoded video, or the re-render) and measured against the reference's landmarks ("source video": message
 fidelity; for SSV, FBA, BBA this includes the retargeting loss in the video scenario) and, for SSV, FBA and BBA,
 against the lossless render's ("lossless render": codec loss). One point record per (point, reference). In the
@@ -31,10 +31,10 @@ NSV3O, NSV3O+C and SSV, the re-render's label buffer for FBA and BBA; NSV and NS
 reference's mask alone).
 
 Landmarks are extracted from every subject (the uncoded reference and each point) `extractions` times, each
-under one sub-pixel shift, and every measure is the mean over those draws (comparisons.landmark_draws: one
+under one sub-pixel shift, and every measure is the mean over those draws (comparisons.judging.landmark_draws: one
 extraction's PCK moves by 1-1.6 points with the shift).
 
-Matching (comparisons.matching): each solution's (and parameter codec's) operating point is the cheapest rate
+Matching (comparisons.judging.matching): each solution's (and parameter codec's) operating point is the cheapest rate
 whose intelligibility reaches a threshold tied to the uncoded reference: hand PCK@0.2 within PCK_MARGIN points
 of the uncoded reference's own, where "own" is the reference's frames resampled by sub-pixel shifts (invisible, but
 new pixels) and re-extracted, the landmark extractor's noise floor (against itself the reference scores 100 %,
@@ -55,7 +55,7 @@ where a dearer point reads lower the extractor's noise is pooled (a matched reco
 at the matched rate, the measured values under "measured"). A reached match's rate carries kbps_se, its jackknife
 standard error over the extractions (Study.rate_spread). Each matched record also says how clear its verdict is:
 verdict_margin_se, the standard errors between the fit at the dearest point and the threshold, taken extraction by
-extraction against the ceiling (comparisons.matching.verdict_margin), and verdict_clear, whether that is at least
+extraction against the ceiling (comparisons.judging.matching.verdict_margin), and verdict_clear, whether that is at least
 CLEAR_VERDICT_SE.
 """
 from __future__ import annotations
@@ -68,11 +68,15 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from comparisons import image_quality, matching, metrics, param_codecs, video_objects
-from comparisons.landmark_draws import MAX_EXTRACTIONS, SHIFTS, draw_values, extract, extract_draws, leave_out, mean_fields
-from comparisons.param_study import face_joint_fields
-from comparisons.records import INTELLIGIBILITY_FIELDS, make_record, versions, write_records
-from comparisons.report import build_report, operating_points, verdict_note
+from comparisons.video import quality as image_quality
+from comparisons.judging import matching
+from comparisons.judging import metrics
+from comparisons.params import codecs as param_codecs
+from comparisons.video import objects as video_objects
+from comparisons.judging.landmark_draws import MAX_EXTRACTIONS, SHIFTS, draw_values, extract, extract_draws, leave_out, mean_fields
+from comparisons.params.study import face_joint_fields
+from comparisons.reports.records import INTELLIGIBILITY_FIELDS, make_record, versions, write_records
+from comparisons.reports.comparison import build_report, operating_points, verdict_note
 from media.avatar import load_avatar
 from media.domain import MAX_Q, MIN_Q, SKIN_PARTS, check_q, check_size, solution_of
 from media.errors import SigncastError
@@ -100,9 +104,9 @@ MAX_LANDMARK_STEP = 25       # every 25th frame: one a second at 25 fps
 MAX_REFINEMENTS = 5           # halving a Q 1-31 bracket five times leaves adjacent Q
 FACE_MARGIN = 0.02           # face error, interocular distances above the uncoded reference's
 JUDGED_ON = ("each criterion's monotone fit over the swept Q (and frame rates) of the means over the extractions "
-             "(comparisons.matching, monotone=True)")
+             "(comparisons.judging.matching, monotone=True)")
 # a verdict (reached or not) this many standard errors from its threshold is clear; nearer, too close to call for the
-# extractions made (comparisons.matching.verdict_margin)
+# extractions made (comparisons.judging.matching.verdict_margin)
 CLEAR_VERDICT_SE = 2.0
 MIN_HAND_SHARE = 0.1         # a reference showing a hand in fewer frames is matched on the face
 ARM_BONES = ("upperarm01", "upperarm02", "lowerarm01", "lowerarm02", "wrist")   # shoulder to wrist
@@ -123,7 +127,7 @@ class CompareSettings:
     landmark_step: intelligibility is measured on every landmark_step-th frame of what the viewer sees (1: all; the
     reference's landmarks at the same frames; letter spans shrink accordingly); extractions: landmarks are
     extracted this many times from every subject, each under one sub-pixel shift, and the measures averaged
-    (comparisons.landmark_draws); refinements: after the Q sweep, up to this many more Q are measured per series,
+    (comparisons.judging.landmark_draws); refinements: after the Q sweep, up to this many more Q are measured per series,
     each inside its matched bracket, or beyond the swept Q where none or all of them meet the threshold
     (Study.refine, `q_to_refine`), so that the match is interpolated between nearer Q."""
     language: str = "ase"
@@ -425,7 +429,7 @@ class Judge:
         self.spans = _measured_spans(scenario.spans, max(1, step), len(self.measured))
         self.recogniser = None
         if scenario.spans:
-            from comparisons.letter_recognition import Recogniser
+            from comparisons.judging.letters import Recogniser
             self.recogniser = Recogniser.from_lexicon([scenario.language])
         self.reference_skin = np.isin(scenario.labels, SKIN_PARTS)
         self.render_skin = np.isin(scenario.render_labels, SKIN_PARTS)
@@ -434,7 +438,7 @@ class Judge:
         """letter_top1 / letter_top3 (percent) of a fingerspelled word's letters; {} without a word."""
         if self.recogniser is None:
             return {}
-        from comparisons.letter_recognition import recognise_spans, top_k
+        from comparisons.judging.letters import recognise_spans, top_k
         spans = self.spans
         rankings = recognise_spans(self.recogniser, observed, self.scenario.language, spans)
         truths = [letter for letter, _, _ in spans]
@@ -449,13 +453,13 @@ class Judge:
 
     def draws(self, frames: np.ndarray, fps: float, label: str) -> list[SignClip]:
         """The landmarks of frames (M, H, W, 3) uint8 (the measured frames of what the viewer sees, shown at fps),
-        extracted `extractions` times, each under its sub-pixel shift (comparisons.landmark_draws)."""
+        extracted `extractions` times, each under its sub-pixel shift (comparisons.judging.landmark_draws)."""
         return extract_draws(frames, fps, self.extractions, label, self.progress)
 
     def intelligibility(self, solution: str, draws: list[SignClip]) -> list[tuple[str, dict]]:
         """(reference name, intelligibility and letter fields, each the mean over the draws, with their spread) for
         each reference of the solution; draws: the landmarks of the measured frames, one SignClip per extraction."""
-        from comparisons.intelligibility import measure
+        from comparisons.judging.intelligibility import measure
         letters = [self.letters(observed) for observed in draws]
         return [(name, mean_fields([{**measure(reference, observed).fields(), **letter}
                                     for observed, letter in zip(draws, letters)]))
@@ -487,7 +491,7 @@ class Judge:
                     (UNCODED_SUBJECTS[LOSSLESS], LOSSLESS, render, resampled_render)]
         if s.kind == "video":
             subjects.append(("uncoded lossless render", SOURCE, source, [render]))
-        from comparisons.intelligibility import measure
+        from comparisons.judging.intelligibility import measure
         return [{"kind": "uncoded", "subject": subject, "clip": s.name, "reference": name, "fps": s.fps,
                  **mean_fields([{**measure(reference, observed).fields(), **self.letters(observed)}
                                 for observed in draws])}
@@ -704,7 +708,7 @@ class Study:
                 **fields, **found.fitted, "measured": measured}
 
     def verdict_margin(self, series: Series, criteria: list[matching.Criterion]) -> float | None:
-        """The series' verdict margin in standard errors (comparisons.matching.verdict_margin), each point against
+        """The series' verdict margin in standard errors (comparisons.judging.matching.verdict_margin), each point against
         the threshold draw by draw: the ceiling's extractions moved by the threshold's offset from their mean."""
         ceiling = self.ceiling(series.reference)
         threshold_draws = {c.field: _shifted_draws(draw_values(ceiling, c.field),
@@ -932,7 +936,7 @@ def write_summary_csv(records: list[dict], path: Path) -> Path:
 
 
 def _verdict(row: dict) -> str:
-    """"reached" or "not reached", with how clear the call is (comparisons.report.verdict_note)."""
+    """"reached" or "not reached", with how clear the call is (comparisons.reports.comparison.verdict_note)."""
     note = verdict_note(row)
     return ("reached" if row["reached"] else "not reached") + (f" ({note})" if note else "")
 

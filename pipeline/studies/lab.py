@@ -1,9 +1,9 @@
 """The seed-002 study (seed 002 ch. 9) on real signing: for each language the avatar fingerspells its whole
-alphabet (comparisons.lab_codecs.alphabet_motion, 25 fps); every seed-002 coder at every operating point and the
-MPEG-4 FBA/BBA codecs at a set of Q are measured with comparisons.param_study.measure_point.
+alphabet (comparisons.lab.codecs.alphabet_motion, 25 fps); every seed-002 coder at every operating point and the
+MPEG-4 FBA/BBA codecs at a set of Q are measured with comparisons.params.study.measure_point.
 
 Writes in the output folder records.jsonl, lab_points.csv, lab_ranges.csv, lab_waveform_psnr.png and
-lab_model_vpsnr.png (the tables and charts are comparisons.lab_charts', made from the records).
+lab_model_vpsnr.png (the tables and charts are comparisons.reports.lab', made from the records).
 """
 from __future__ import annotations
 
@@ -11,12 +11,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from comparisons.lab_charts import count_points, operating_ranges, write_charts, write_points, write_ranges
-from comparisons.lab_codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec, alphabet_motion
-from comparisons.lab_settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, FPS, MPEG4_Q
-from comparisons.param_codecs import get_codec
-from comparisons.param_study import measure_point
-from comparisons.records import make_record, write_records
+from comparisons.reports.lab import count_points, operating_ranges, write_charts, write_points, write_ranges
+from comparisons.lab.codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec, alphabet_motion
+from comparisons.lab.settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, FPS, MPEG4_Q
+from comparisons.params.codecs import get_codec
+from comparisons.params.study import measure_point
+from comparisons.reports.records import make_record, write_records
 from media import lexicon
 from media.domain import solution_of
 from media.errors import SigncastError

@@ -3,18 +3,18 @@ lossy relay, at each loss rate, and judged by what the receiver shows.
 
 For every solution at its operating point (codec and Q given by the settings) and every loss rate, one session
 runs on real sockets: the sender captures the signing at its own frame rate (pipeline/live/session.py), encodes
-it live, packetises it (comparisons.rtp) and sends it through a relay that drops, delays and reorders datagrams
-with a seeded model (comparisons.loss_models: Bernoulli, or Gilbert-Elliott bursts); the receiver depacketises,
+it live, packetises it (comparisons.transport.rtp) and sends it through a relay that drops, delays and reorders datagrams
+with a seeded model (comparisons.transport.loss: Bernoulli, or Gilbert-Elliott bursts); the receiver depacketises,
 decodes, conceals, renders (FBA, BBA), and time-stamps each frame when it is ready to show. Then the frames it
 showed are judged as `signcast compare` judges a point (pipeline.studies.compare.Judge: landmarks re-extracted,
 hand keypoint error and PCK, letters), against the same references; one extraction per point, under the
-half-pixel shift that is compare's first (comparisons.landmark_draws: a live point is one of --repeats).
+half-pixel shift that is compare's first (comparisons.judging.landmark_draws: a live point is one of --repeats).
 
 Per point the record carries the stream's kbps (its own bytes over the clip's duration), delivered_kbps (whole
 datagrams: IPv4 20 + UDP 8 bytes + the RTP packet), the measured packet loss, the frames lost and concealed, the
 latency median and 95th percentile (capture to ready-to-show, per received frame), and the intelligibility
 fields. At loss 0 each solution is also muxed with a programme video into an MPEG-2 transport stream through PyAV
-(comparisons.transport_stream), demuxed back, and its TS overhead measured from the packets (one "transport
+(comparisons.transport.ts), demuxed back, and its TS overhead measured from the packets (one "transport
 stream" record per solution). The scenario is compare's word or pose scenario (the avatar fingerspelling a word,
 or a .pose retargeted), whose lossless render NSV codes as its natural video.
 """
@@ -28,8 +28,8 @@ from typing import Callable
 import numpy as np
 from tqdm import tqdm
 
-from comparisons import loss_models
-from comparisons.records import make_record, versions, write_records
+from comparisons.transport import loss as loss_models
+from comparisons.reports.records import make_record, versions, write_records
 from media.avatar import load_avatar
 from media.domain import solution_of
 from media.errors import SigncastError
@@ -87,7 +87,7 @@ DEFAULT_VIDEO_CODEC = "mpeg4"
 def parse_send(item: str) -> tuple[str, str, int | None]:
     """(solution, codec, Q or None for the default) of one --codecs item: 'fba-pred', 'fba-pred:8', 'NSV2O',
     'NSV2O:mpeg4:8', 'mpeg4' (NSV) or 'SSV:libx264:26'."""
-    from comparisons import param_codecs
+    from comparisons.params import codecs as param_codecs
     parts = [part.strip() for part in item.strip().split(":")]
     q_text = None
     if parts[0] in param_codecs.codec_names():
@@ -265,7 +265,7 @@ class LiveStudy:
 
 def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -> list[dict]:
     """The loss sweep: records.jsonl (streamed as points finish), live_table.csv, live_loss.png, report.html."""
-    from comparisons import live_report
+    from comparisons.reports import live as live_report
     check(settings)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -312,7 +312,7 @@ def transport_stream_record(scenario: compare.Scenario, delivery: Delivery, out_
 
     import cv2
 
-    from comparisons import transport_stream as ts
+    from comparisons.transport import ts
     from media.video_io import bundled_clip_path, read_video
     description = delivery.received.description
     units = delivery.sent.access_units

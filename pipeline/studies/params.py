@@ -1,5 +1,5 @@
 """The parameter-transmission study (seed 000 Tables 2.1, 3.1, 3.2): each fingerspelled letter retargeted to the
-avatar, coded with each parameter codec at each Q, decoded, and measured (comparisons.param_study.measure_point).
+avatar, coded with each parameter codec at each Q, decoded, and measured (comparisons.params.study.measure_point).
 
 Writes records.jsonl, params_table.csv and params_rate.png in the output folder, and each letter's
 full-precision BAPs as a version 3.2 .bap file in bap/ (for other MPEG-4 body animation tools). The body alone
@@ -13,12 +13,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from comparisons.bap_file import write_bap
-from comparisons.fap_file import write_fap
-from comparisons.fba_mapping import motion_to_baps
-from comparisons.param_codecs import codec_names, get_codec
-from comparisons.param_study import measure_point, write_plots, write_table
-from comparisons.records import make_record, write_records
+from comparisons.params.bap_file import write_bap
+from comparisons.params.fap_file import write_fap
+from comparisons.params.fba_mapping import motion_to_baps
+from comparisons.params.codecs import codec_names, get_codec
+from comparisons.params.study import measure_point, write_plots, write_table
+from comparisons.reports.records import make_record, write_records
 from media import lexicon
 from media.domain import check_fps, solution_of
 from media.errors import SigncastError

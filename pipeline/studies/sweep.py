@@ -1,5 +1,5 @@
 """The lexicon sweep (`signcast sweep`): languages x items x codecs x Q x fps of parameter transmission, each point
-measured as in the params study (comparisons.param_study.measure_point), run on a local process pool or on Ray,
+measured as in the params study (comparisons.params.study.measure_point), run on a local process pool or on Ray,
 and resumable.
 
 - A point is (language, item, codec, Q, fps); its solution follows from the codec (fba-* -> FBA, bba-* -> BBA).
@@ -22,7 +22,7 @@ and resumable.
 - Unlike the other commands' --out (pipeline.outputs.output_folder), a rerun does not clear the folder: it resumes.
   --force starts over. The sweep's files are listed in the folder's manifest from the start, so a killed sweep's
   folder is still recognised as signcast's.
-- One records file holds at most comparisons.records.MAX_RECORD_VALUES JSON values; a point record holds up to
+- One records file holds at most comparisons.reports.records.MAX_RECORD_VALUES JSON values; a point record holds up to
   VALUES_PER_POINT, so a sweep (with the records already in --out) may hold at most MAX_POINTS points: the whole
   lexicon with 5 codecs x 4 Q x 2 frame rates is 25 040. A larger sweep is refused before any work.
 """
@@ -38,10 +38,10 @@ from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
-from comparisons.param_codecs import codec_names, get_codec
-from comparisons.param_study import measure_point
-from comparisons.records import MAX_RECORD_VALUES, make_record, read_records, versions, write_records
-from comparisons.sweep_report import language_item
+from comparisons.params.codecs import codec_names, get_codec
+from comparisons.params.study import measure_point
+from comparisons.reports.records import MAX_RECORD_VALUES, make_record, read_records, versions, write_records
+from comparisons.reports.sweep import language_item
 from media import lexicon
 from media.domain import check_fps, check_q, solution_of
 from media.errors import SigncastError
@@ -400,7 +400,7 @@ class LocalExecutor:
         from concurrent.futures import ProcessPoolExecutor
 
         context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(["pipeline.studies.sweep", "comparisons.param_study",
+        context.set_forkserver_preload(["pipeline.studies.sweep", "comparisons.params.study",
                                         "media.fingerspelling", "media.pose_file"])
         return ProcessPoolExecutor(max_workers=self.slots, mp_context=context, initializer=_ignore_interrupts)
 
@@ -502,7 +502,7 @@ def run(settings: SweepSettings, out: str | Path, *, force: bool = False,
         progress: Callable[[SweepState], object] | None = None, max_units: int | None = None,
         report: bool = True) -> SweepResult:
     """Measure every point of the sweep not finished in out/records.jsonl; append each unit's records as it
-    finishes; write the report (comparisons.sweep_report) unless report is False.
+    finishes; write the report (comparisons.reports.sweep) unless report is False.
 
     progress: called with the SweepState after every change (and about twice a second). max_units: stop after this
     many units (the rest is left for a later run, as after Ctrl-C). A KeyboardInterrupt stops handing out units,
@@ -544,7 +544,7 @@ def run(settings: SweepSettings, out: str | Path, *, force: bool = False,
                           "points_skipped": state.skipped}], append=True)
     records = read_records(path)
     if report:
-        from comparisons.sweep_report import write_report
+        from comparisons.reports.sweep import write_report
         write_report(out, records)
     if interrupted:
         raise KeyboardInterrupt

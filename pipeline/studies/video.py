@@ -31,8 +31,11 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from comparisons import image_quality, report, video_codecs, video_objects
-from comparisons.records import make_record, versions, write_records
+from comparisons.video import quality as image_quality
+from comparisons.reports import comparison as report
+from comparisons.video import codecs as video_codecs
+from comparisons.video import objects as video_objects
+from comparisons.reports.records import make_record, versions, write_records
 from media import faces, segmentation
 from media.errors import SigncastError
 from media.video_io import Clip, crop_even, fit_size, frame_indices_at_rate, read_clip, resolve_video, video_info

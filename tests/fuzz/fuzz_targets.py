@@ -117,8 +117,9 @@ def seal_fba(data: bytes) -> bytes:
 
 
 def fba(data: bytes) -> None:
-    from comparisons import bap_table, fap_table
-    from comparisons.fba_codec import decode_fba, encode_fba
+    from comparisons.params import bap_table
+    from comparisons.params import fap_table
+    from comparisons.params.fba import decode_fba, encode_fba
 
     decoded = decode_fba(data)
     _expect(decoded.baps is not None or decoded.faps is not None, "FBA stream decoded to neither BAPs nor FAPs")
@@ -160,7 +161,7 @@ def _bba_values(stream) -> list:
 
 def _check_bba(stream) -> None:
     """A decoded BBA stream must also be a valid BBA-XML stream (its schema bounds values and IDs)."""
-    from comparisons.bba_xml import from_xml, to_xml
+    from comparisons.params.bba_xml import from_xml, to_xml
 
     _check_fps(float(stream.header.fps))
     _expect(len(stream.frames) >= 1, "decoded BBA stream without frames")
@@ -172,7 +173,7 @@ def _check_bba(stream) -> None:
 
 
 def bba(data: bytes) -> None:
-    from comparisons.bba_codec import read_stream, write_stream
+    from comparisons.params.bba import read_stream, write_stream
 
     stream, lost = read_stream(data)
     _expect(lost == [], f"strict BBA decode reports lost units {lost}")
@@ -189,7 +190,7 @@ def bba(data: bytes) -> None:
 
 
 def bba_resilient(data: bytes) -> None:
-    from comparisons.bba_codec import read_stream
+    from comparisons.params.bba import read_stream
 
     stream, lost = read_stream(data, resilient=True)
     _check_bba(stream)
@@ -199,7 +200,7 @@ def bba_resilient(data: bytes) -> None:
 
 
 def bba_xml(data: bytes) -> None:
-    from comparisons.bba_xml import from_xml, to_xml
+    from comparisons.params.bba_xml import from_xml, to_xml
 
     stream = from_xml(data.decode("utf-8", errors="replace"))
     _check_fps(float(stream.header.fps))
@@ -210,8 +211,8 @@ def bba_xml(data: bytes) -> None:
 # ---------------------------------------------------------------------------------------- .bap
 
 def bap(data: bytes) -> None:
-    from comparisons import bap_table
-    from comparisons.bap_file import format_bap, parse_bap, read_bap
+    from comparisons.params import bap_table
+    from comparisons.params.bap_file import format_bap, parse_bap, read_bap
 
     values, fps, name = read_bap(_as_file(data, ".bap"))
     _check_array(values, (len(values), bap_table.N_BAPS), np.int64)  # a .bap may hold 0 frames
@@ -223,8 +224,8 @@ def bap(data: bytes) -> None:
 
 
 def fap(data: bytes) -> None:
-    from comparisons import fap_table
-    from comparisons.fap_file import format_fap, parse_fap, read_fap
+    from comparisons.params import fap_table
+    from comparisons.params.fap_file import format_fap, parse_fap, read_fap
 
     faps, fps, name = read_fap(_as_file(data, ".fap"))
     _check_array(faps, (len(faps), fap_table.N_FAPS), np.int64)      # a .fap may hold 0 frames
@@ -240,7 +241,7 @@ def fap(data: bytes) -> None:
 def seal_shape(data: bytes) -> bytes:
     """The stream with the header's payload length set to the payload's, and its CRC-32 (the header's
     last field, over the header before it and the payload) recomputed."""
-    from comparisons.shape_coding import _HEADER
+    from comparisons.video.shape import _HEADER
 
     if len(data) < _HEADER.size:
         return data
@@ -252,7 +253,7 @@ def seal_shape(data: bytes) -> bytes:
 
 
 def shape(data: bytes) -> None:
-    from comparisons.shape_coding import _HEADER, decode_shape, encode_shape
+    from comparisons.video.shape import _HEADER, decode_shape, encode_shape
 
     masks = decode_shape(data)
     _, _, width, height, frames, gop = _HEADER.unpack_from(data)[:6]
@@ -268,11 +269,11 @@ def shape(data: bytes) -> None:
 def seal_motion(data: bytes) -> bytes:
     """A motion-coder clip with its CRC-32s repaired: the compact layout's one (coded_streams.write_compact), or the
     inner stream's and the clip's (lab_codecs layout)."""
-    from comparisons.coded_streams import COMPACT_MAGIC
-    from comparisons.lab_codecs import dof_layout
+    from comparisons.lab.streams import COMPACT_MAGIC
+    from comparisons.lab.codecs import dof_layout
 
     if data.startswith(COMPACT_MAGIC):              # its CRC starts from wavelet-cx's model tag
-        from comparisons.waveform_coders import context_priors
+        from comparisons.lab.waveform import context_priors
         return data[:-4] + struct.pack("<I", zlib.crc32(data[:-4], context_priors().tag)) if len(data) > 4 else data
     head = 5 + -(-dof_layout().n_dofs // 8)       # magic, coder id, active-DOF mask
     if len(data) < head + 8:
@@ -285,7 +286,7 @@ def seal_motion(data: bytes) -> bytes:
 
 def _motion_target(name: str) -> Callable[[bytes], None]:
     def decode(data: bytes) -> None:
-        from comparisons.lab_codecs import LabCodec, dof_layout
+        from comparisons.lab.codecs import LabCodec, dof_layout
 
         codec = LabCodec(name)
         dofs, fps = codec.decode_dofs(data)
@@ -344,7 +345,7 @@ def pose(data: bytes) -> None:
 # ------------------------------------------------------------------------------------- records
 
 def records(data: bytes) -> None:
-    from comparisons.records import read_records, write_records
+    from comparisons.reports.records import read_records, write_records
 
     found = read_records(_as_file(data, ".jsonl"))
     _expect(isinstance(found, list) and all(isinstance(r, dict) for r in found), "records are not a list of objects")
@@ -360,18 +361,18 @@ MOTION_CODERS = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavele
                  "posture", "gesture", "hybrid")   # = lab_codecs.LAB_CODEC_NAMES (tested), without importing it
 
 TARGETS: dict[str, Target] = {t.name: t for t in [
-    Target("fba", fba, "comparisons.fba_codec.decode_fba (CRC-32 repaired)", seal_fba),
-    Target("bba", bba, "comparisons.bba_codec.read_stream"),
-    Target("bba-resilient", bba_resilient, "comparisons.bba_codec.read_stream(resilient=True)"),
-    Target("bba-xml", bba_xml, "comparisons.bba_xml.from_xml"),
-    Target("bap", bap, "comparisons.bap_file.read_bap"),
-    Target("fap", fap, "comparisons.fap_file.read_fap"),
-    Target("shape", shape, "comparisons.shape_coding.decode_shape (length and CRC-32 repaired)", seal_shape),
-    *[Target(f"motion-{name}", _motion_target(name), f"comparisons.lab_codecs.LabCodec({name!r}).decode_dofs "
+    Target("fba", fba, "comparisons.params.fba.decode_fba (CRC-32 repaired)", seal_fba),
+    Target("bba", bba, "comparisons.params.bba.read_stream"),
+    Target("bba-resilient", bba_resilient, "comparisons.params.bba.read_stream(resilient=True)"),
+    Target("bba-xml", bba_xml, "comparisons.params.bba_xml.from_xml"),
+    Target("bap", bap, "comparisons.params.bap_file.read_bap"),
+    Target("fap", fap, "comparisons.params.fap_file.read_fap"),
+    Target("shape", shape, "comparisons.video.shape.decode_shape (length and CRC-32 repaired)", seal_shape),
+    *[Target(f"motion-{name}", _motion_target(name), f"comparisons.lab.codecs.LabCodec({name!r}).decode_dofs "
              "(CRC-32s repaired)", seal_motion) for name in MOTION_CODERS],
     Target("bvh", bvh, "media.bvh.read_bvh"),
     Target("pose", pose, "media.pose_file.read_pose"),
-    Target("records", records, "comparisons.records.read_records"),
+    Target("records", records, "comparisons.reports.records.read_records"),
 ]}
 
 CORPUS_DIR = Path(__file__).resolve().parent / "corpus"

@@ -1,0 +1,1 @@
+"""judging: see comparisons/__init__.py."""

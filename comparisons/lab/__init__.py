@@ -1,0 +1,1 @@
+"""lab: see comparisons/__init__.py."""

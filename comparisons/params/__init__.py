@@ -1,0 +1,1 @@
+"""params: see comparisons/__init__.py."""

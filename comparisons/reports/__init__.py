@@ -1,0 +1,1 @@
+"""reports: see comparisons/__init__.py."""

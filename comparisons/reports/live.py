@@ -1,0 +1,212 @@
+"""The report of a loss sweep (`signcast live`), made from its records alone: per solution and loss rate, the rate
+on the wire, what was lost and concealed, what a viewer can still read, and the latency; one figure of
+intelligibility and latency against loss rate per solution; the MPEG-2 TS overhead of each solution.
+
+Point records (kind "point", sweep "loss") carry solution, codec, q, loss_rate, kbps, delivered_kbps,
+packet_loss, frames_lost, frames_concealed, latency_ms_p50 / _p95 and the intelligibility fields, one record per
+reference; this report reads those measured against the source (REFERENCE). Records of kind "transport stream"
+carry the TS figures."""
+from __future__ import annotations
+
+import base64
+import csv
+import html
+from collections import defaultdict
+from pathlib import Path
+
+from comparisons.reports.comparison import RENDER_CHECK, figure_png
+from media.domain import SOLUTION_ORDER
+
+REFERENCE = "source video"
+PREFERRED_MS, HINDERS_MS = 400.0, 800.0        # EN 301 549 guidance on conversation latency
+COLUMNS = (("loss_rate", "loss %", 100.0, 1), ("kbps", "stream kbps", 1.0, 2),
+           ("delivered_kbps", "delivered kbps", 1.0, 2), ("packet_loss", "packets lost %", 1.0, 1),
+           ("frames_lost", "frames lost", 1.0, 0), ("frames_concealed", "frames concealed", 1.0, 0),
+           ("hand_pck_20", "hand PCK@0.2 %", 1.0, 1), ("hand_error", "hand error", 1.0, 3),
+           ("face_error", "face error (interocular)", 1.0, 3),
+           ("letter_top1", "letter top-1 %", 1.0, 0), ("latency_ms_p50", "latency p50 ms", 1.0, 0),
+           ("latency_ms_p95", "latency p95 ms", 1.0, 0))
+
+
+def loss_points(records: list[dict]) -> list[dict]:
+    """The loss sweep's points measured against REFERENCE, by solution order, codec and loss rate."""
+    points = [r for r in records if r.get("kind", "point") == "point" and r.get("sweep") == "loss"
+              and r.get("reference", REFERENCE) == REFERENCE]
+    order = {name: k for k, name in enumerate(SOLUTION_ORDER)}
+    return sorted(points, key=lambda r: (order.get(r["solution"], 99), r["codec"], r.get("loss_rate") or 0.0))
+
+
+def aggregate(points: list[dict]) -> list[dict]:
+    """One row per solution, codec and loss rate: the mean of each column's field over the repeated sessions
+    (each with its own seed), with "sessions" and, per field, its min and max ("<field>_range")."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for record in points:
+        groups[(record["solution"], record["codec"], record.get("loss_rate") or 0.0)].append(record)
+    rows = []
+    for (solution, codec, loss), group in groups.items():
+        row = {"solution": solution, "codec": codec, "q": group[0].get("q"), "loss_rate": loss,
+               "clip": group[0].get("clip"), "sessions": len(group)}
+        for name, _, _, _ in COLUMNS[1:]:
+            values = [r[name] for r in group if r.get(name) is not None]
+            row[name] = sum(values) / len(values) if values else None
+            row[f"{name}_range"] = (min(values), max(values)) if values else None
+        rows.append(row)
+    return rows
+
+
+def series(points: list[dict]) -> dict[tuple[str, str], list[dict]]:
+    out: dict[tuple[str, str], list[dict]] = defaultdict(list)
+    for record in points:
+        out[(record["solution"], record["codec"])].append(record)
+    return dict(out)
+
+
+def _cell(value, scale: float, digits: int) -> str:
+    return "" if value is None else f"{value * scale:.{digits}f}"
+
+
+def write_table(path: Path, points: list[dict]) -> Path:
+    with Path(path).open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["solution", "codec", "q", "sessions", *(label for _, label, _, _ in COLUMNS)])
+        for r in points:
+            writer.writerow([r["solution"], r["codec"], r.get("q"), r.get("sessions", 1),
+                             *(_cell(r.get(name), scale, digits + 1) for name, _, scale, digits in COLUMNS)])
+    return Path(path)
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def chart(points: list[dict]):
+    """Panels against loss rate (percent of datagrams): hand PCK@0.2 (clips that show hands), face error (clips
+    that show a face), letter top-1 (fingerspelling only), and latency median with the 95th percentile as a bar."""
+    plt = _pyplot()
+    groups = series(points)
+    measures = [(field, label, title) for field, label, title in (
+        ("hand_pck_20", "hand PCK@0.2 (%)", "hand keypoints within 0.2 hand sizes\nof the source's, on what the receiver shows"),
+        ("face_error", "face error (interocular distances)",
+         "mean face landmark distance from the source's,\non what the receiver shows"),
+        ("letter_top1", "letters recognised first (%)",
+         "letter top-1 on what the receiver shows\n(recogniser trained on other signers)"))
+        if any(r.get(field) is not None for r in points)]
+    panels = len(measures) + 1
+    figure, axes = plt.subplots(1, panels, figsize=(4.4 * panels, 3.8), squeeze=False)
+    axes = axes[0]
+    for (solution, codec), rows in groups.items():
+        label = f"{solution} ({codec}, Q{rows[0].get('q')})"
+        loss = [100.0 * (r.get("loss_rate") or 0.0) for r in rows]
+        color = None
+        for ax, (field, _, _) in zip(axes, measures):
+            line = ax.plot(loss, [r.get(field) for r in rows], "o-", color=color, label=label)[0]
+            color = line.get_color()
+        p50 = [r.get("latency_ms_p50") for r in rows]
+        p95 = [r.get("latency_ms_p95") for r in rows]
+        kept = [(x, a, b) for x, a, b in zip(loss, p50, p95) if a is not None]
+        if kept:
+            xs, a, b = zip(*kept)
+            axes[-1].errorbar(xs, a, yerr=[[0] * len(a), [bb - aa for aa, bb in zip(a, b)]], fmt="o-", capsize=3,
+                              color=color, label=label)
+    for ax, (_, label, title) in zip(axes, measures):
+        ax.set(xlabel="datagrams lost (%)", ylabel=label, title=title)
+    guidance = [axes[-1].axhline(PREFERRED_MS, color="green", lw=0.8, ls="--", label="EN 301 549: < 0.4 s preferred"),
+                axes[-1].axhline(HINDERS_MS, color="red", lw=0.8, ls="--", label="> 0.8 s hinders conversation")]
+    axes[-1].set(xlabel="datagrams lost (%)", ylabel="ms", title="latency, capture to ready-to-show\n"
+                 "dot: median; bar: to the 95th percentile\n(means over sessions)")
+    axes[-1].set_ylim(bottom=0)
+    rates = sorted({100.0 * (r.get("loss_rate") or 0.0) for r in points})
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        ax.set_xscale("symlog", linthresh=0.5, linscale=0.5)     # 0, 0.5, 1, 2, 5, 10 % spread evenly
+        ax.set_xticks(rates, [f"{rate:g}" for rate in rates])
+    if measures:
+        axes[0].legend(fontsize=7)
+    axes[-1].legend(handles=guidance, fontsize=7, loc="center right")     # the series are named in the first panel
+    figure.tight_layout()
+    return figure
+
+
+def _html_table(name: str, header: list[str], rows: list[list[str]]) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in row) + "</tr>" for row in rows)
+    return f'<table data-table="{name}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+
+def _transport_streams(records: list[dict]) -> str:
+    rows = [r for r in records if r.get("kind") == "transport stream"]
+    if not rows:
+        return ""
+    table = [[r["solution"], r["codec"], _cell(r.get("stream_kbps"), 1, 2), _cell(r.get("signer_payload_kbps"), 1, 2),
+              _cell(r.get("signer_overhead_kbps"), 1, 2), _cell(r.get("psi_kbps"), 1, 2), _cell(r.get("pcr_kbps"), 1, 2),
+              _cell(r.get("total_kbps"), 1, 1), r.get("file", ""),
+              "yes" if r.get("demuxed_intact") else "no",
+              "not installed" if r.get("ffprobe_streams") is None else ", ".join(r["ffprobe_streams"])]
+             for r in rows]
+    return ("<h2>MPEG-2 transport stream</h2><p>Each solution's stream muxed with a programme video (carphone, "
+            "H.264) into one TS through PyAV (FFmpeg's mpegts muxer, default settings), demuxed back and checked. "
+            "Overhead of the signer's stream: its PID's TS headers, adaptation fields and stuffing, and PES headers, "
+            "measured from the TS packets; the tables (PAT, PMT, SDT) and the PCR are shared by the programme and "
+            "stated apart.</p>" + _html_table(
+                "transport stream", ["solution", "codec", "stream kbps", "signer PID payload kbps", "signer TS+PES overhead kbps",
+                 "PSI kbps", "PCR kbps", "whole TS kbps", "file", "demuxed intact", "ffprobe streams"], table))
+
+
+def report_html(records: list[dict], figure_png: bytes) -> str:
+    points = aggregate(loss_points(records))
+    run = next((r for r in records if r.get("kind") == "run"), {})
+    clip = points[0]["clip"] if points else run.get("clip", "")
+    burst = run.get("burst", 1.0) or 1.0
+    model = ("Bernoulli loss" if burst <= 1 else f"Gilbert-Elliott loss, mean burst {burst:g} packets")
+    head = (f"<h1>signcast live: delivery over a lossy network</h1><p>Clip {html.escape(str(clip))}, "
+            f"{run.get('clip_frames', '')} frames at {run.get('clip_fps', '')} fps, sent live over RTP/UDP on the "
+            f"loopback interface through a relay with {model}, jitter {run.get('jitter_ms', 0):g} ms, seed "
+            f"{run.get('seed', '')}, {run.get('repeats', 1)} session(s) per point (means below); FBA/BBA units of {run.get('refresh', '')} frames. Intelligibility is measured "
+            f"on what the receiver showed (frames that never arrived held from the last shown one), against the "
+            f"{REFERENCE}'s landmarks. Latency: from each frame's capture to the moment it was ready to show, over "
+            f"the frames that arrived.</p>")
+    rows = [[r["solution"], r["codec"], r.get("q"), r.get("sessions", 1),
+             *(_cell(r.get(name), scale, digits) for name, _, scale, digits in COLUMNS)] for r in points]
+    table = _html_table("loss sweep", ["solution", "codec", "Q", "sessions", *(label for _, label, _, _ in COLUMNS)], rows)
+    encoded = base64.b64encode(figure_png).decode("ascii")
+    figure = (f"<h2>Intelligibility and latency against loss</h2><p>Measured against the {REFERENCE}'s landmarks; "
+              f"latency against EN 301 549's guidance (under {PREFERRED_MS / 1000:g} s preferred, over "
+              f"{HINDERS_MS / 1000:g} s hinders conversation).</p><img class=\"chart\" data-chart=\"loss\" alt=\"hand PCK, letter accuracy and latency "
+              f"against the share of datagrams lost, per solution\" src=\"data:image/png;base64,{encoded}\">")
+    style = ("body{font-family:sans-serif;max-width:1300px;margin:auto}table{border-collapse:collapse;margin:1em 0}"
+             "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px;text-align:right}img{max-width:100%}")
+    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>signcast live</title><style>{style}</style>"
+            f"</head><body>{head}{figure}<h2>Every point</h2>{table}{_transport_streams(records)}{RENDER_CHECK}"
+            f"</body></html>\n")
+
+
+def write_report(out_dir: str | Path, records: list[dict]) -> Path:
+    """Write report.html, live_table.csv and live_loss.png in out_dir from the records; returns report.html."""
+    out_dir = Path(out_dir)
+    points = aggregate(loss_points(records))
+    write_table(out_dir / "live_table.csv", points)
+    png = figure_png(chart(points) if points else None, empty="no measured point")
+    (out_dir / "live_loss.png").write_bytes(png)
+    path = out_dir / "report.html"
+    path.write_text(report_html(records, png), encoding="utf-8")
+    return path
+
+
+def summary_text(records: list[dict]) -> str:
+    """The loss sweep's table as text for the terminal (means over repeated sessions)."""
+    points = aggregate(loss_points(records))
+    header = f"{'solution':9}{'codec':10}{'loss %':>7}{'kbps':>8}{'wire kbps':>10}{'lost fr':>8}{'PCK@0.2':>8}" \
+             f"{'face':>7}{'letters':>8}{'p50 ms':>8}{'p95 ms':>8}"
+    lines = [header]
+    for r in points:
+        lines.append(f"{r['solution']:9}{r['codec']:10}{_cell(r.get('loss_rate'), 100, 1):>7}"
+                     f"{_cell(r.get('kbps'), 1, 1):>8}{_cell(r.get('delivered_kbps'), 1, 1):>10}"
+                     f"{_cell(r.get('frames_lost'), 1, 0):>8}{_cell(r.get('hand_pck_20'), 1, 1):>8}"
+                     f"{_cell(r.get('face_error'), 1, 3):>7}{_cell(r.get('letter_top1'), 1, 0):>8}"
+                     f"{_cell(r.get('latency_ms_p50'), 1, 0):>8}"
+                     f"{_cell(r.get('latency_ms_p95'), 1, 0):>8}")
+    return "\n".join(lines)

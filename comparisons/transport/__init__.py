@@ -1,0 +1,1 @@
+"""transport: see comparisons/__init__.py."""

@@ -1,0 +1,1 @@
+"""video: see comparisons/__init__.py."""

@@ -1,0 +1,590 @@
+"""Numba-compiled kernels of the binary shape coder (context-based arithmetic encoding, CAE).
+
+They are the per-pixel and per-block loops of comparisons/video/shape.py, which documents the stream format
+and owns the state arrays; it raises SigncastError from the status codes these kernels return. One call codes
+or decodes a whole frame: bounding box, BAB modes, shape motion vectors, the CAE pixels, and on the encoder
+side the shape motion search and the intra / inter decision by estimated bits. Compiled nopython with
+cache=True (once per machine, then loaded from __pycache__); they live outside `comparisons` so that
+coverage-instrumented imports (benchmarks/fuzz.py) leave their bytecode alone, as comparisons/params/arithmetic.py.
+
+Byte-identity with the pure-Python coder they replaced (tests/test_shape_speed_identity.py): the bit
+estimate sums its 256 per-pixel costs in the order of NumPy's pairwise summation (8 accumulators over blocks
+of 128, numpy/_core/src/umath/loops_utils.h.src), and reads -log2(a / (a + b)) from a table that NumPy's
+own log2 fills (`cost_table`), so mode decisions compare the very same floats.
+
+State arrays: a canvas is a flat uint8 array (rows x stride, one 0/1 byte a pixel, a `border` of zero pixels
+around the frame); modes (blocks_y, blocks_x) int64; motion vectors (blocks_y, blocks_x, 2) int64 (dx, dy)
+with has_mv (blocks_y, blocks_x) uint8; a model is zeros, ones (N_CONTEXTS,) int64 counts; encoder registers
+(low, high, pending follow bits, bits written) int64 over a zero-filled uint8 buffer (bits packed, most
+significant first); decoder registers (low, high, value, bit position, status) int64 over the payload.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+I = np.int64    # canvas bytes are uint8: cast before mixing them with int64 (uint8 | int64 is float64)
+
+# format constants (comparisons/video/shape.py re-exports and documents them)
+BAB = 16
+SEARCH_RANGE = 8
+COUNT_LIMIT = 1024
+TRANSPARENT, OPAQUE, INTRA_CAE, INTER_CAE, COPY = 0, 1, 2, 3, 4
+CTX_INTRA = 0                          # 1024 intra pixel contexts
+CTX_INTER = 1024                       # 512 inter pixel contexts
+CTX_MODE_I = 1536                      # 81 neighbour contexts x 2 bins
+CTX_MODE_P = CTX_MODE_I + 81 * 2       # 25 contexts x 4 bins
+CTX_MV = CTX_MODE_P + 25 * 4           # per component: zero, sign, 8 magnitude bins
+CTX_PRESENT = CTX_MV + 2 * 10
+N_CONTEXTS = CTX_PRESENT + 1
+
+TOP = (1 << 32) - 1
+HALF = 1 << 31
+QUARTER = 1 << 30
+LOW, HIGH, PENDING, NBITS = range(4)              # encoder registers
+VALUE, POSITION, STATUS = 2, 3, 4                 # decoder registers (LOW, HIGH as the encoder's)
+OK, PAYLOAD_ENDS, BAD_BOX, BAD_MV = range(4)      # decoder status codes
+# bits one coded symbol can add: after renormalisation the range exceeds 2^30, a symbol keeps >= 1/65536 of
+# it (>= 2^14) and each renormalising shift doubles it, so <= 17 shifts (each one output bit, now or pending)
+BITS_PER_SYMBOL = 18
+SYMBOLS_PER_BLOCK = 4 + 2 * 17 + BAB * BAB         # mode bins, two MV components, the pixels
+SYMBOLS_PER_FRAME = 1 + 4 * 12                     # presence, the bounding box (<= 12 raw bits per field)
+MAX_COUNT = COUNT_LIMIT                            # a context's counts stay in 1..MAX_COUNT - 1
+
+
+def cost_table() -> np.ndarray:
+    """(MAX_COUNT, MAX_COUNT) float64: [a, b] = -log2(a / (a + b)) bits, computed by NumPy as the original
+    estimate did (row and column 0 unused)."""
+    counts = np.arange(MAX_COUNT, dtype=np.float64)
+    a, b = counts[:, None], counts[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return -np.log2(a / (a + b))
+
+
+# ------------------------------------------------------------------------------------------------ the coder
+
+@njit(cache=True)
+def p0(zeros: np.ndarray, ones: np.ndarray, ctx: int) -> int:
+    """P(0) of a context in 1/65536 units, clamped to 1..65535."""
+    z = zeros[ctx]
+    p = (z << 16) // (z + ones[ctx])
+    return max(1, min(p, 65535))
+
+
+@njit(cache=True)
+def update(zeros: np.ndarray, ones: np.ndarray, ctx: int, bit: int) -> None:
+    if bit:
+        ones[ctx] += 1
+    else:
+        zeros[ctx] += 1
+    if zeros[ctx] + ones[ctx] > COUNT_LIMIT:
+        zeros[ctx] = (zeros[ctx] + 1) >> 1
+        ones[ctx] = (ones[ctx] + 1) >> 1
+
+
+@njit(cache=True)
+def _put(buffer: np.ndarray, regs: np.ndarray, bit: int) -> None:
+    n = regs[NBITS]
+    if bit:
+        buffer[n >> 3] |= np.uint8(0x80 >> (n & 7))
+    regs[NBITS] = n + 1
+
+
+@njit(cache=True)
+def _put_with_pending(buffer: np.ndarray, regs: np.ndarray, bit: int) -> None:
+    _put(buffer, regs, bit)
+    for _ in range(regs[PENDING]):
+        _put(buffer, regs, 1 - bit)
+    regs[PENDING] = 0
+
+
+@njit(cache=True)
+def encode_p0(buffer: np.ndarray, regs: np.ndarray, bit: int, p_zero: int) -> None:
+    """One bit at P(0) = p_zero / 65536 (32-bit registers, bits-plus-follow renormalisation)."""
+    low, high = regs[LOW], regs[HIGH]
+    split = low + (((high - low + 1) * p_zero) >> 16) - 1
+    if bit:
+        low = split + 1
+    else:
+        high = split
+    while True:
+        if high < HALF:
+            _put_with_pending(buffer, regs, 0)
+        elif low >= HALF:
+            _put_with_pending(buffer, regs, 1)
+            low -= HALF
+            high -= HALF
+        elif low >= QUARTER and high < HALF + QUARTER:
+            regs[PENDING] += 1
+            low -= QUARTER
+            high -= QUARTER
+        else:
+            break
+        low <<= 1
+        high = (high << 1) | 1
+    regs[LOW], regs[HIGH] = low, high
+
+
+@njit(cache=True)
+def encode(buffer: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray, ctx: int, bit: int) -> int:
+    encode_p0(buffer, regs, bit, p0(zeros, ones, ctx))
+    update(zeros, ones, ctx, bit)
+    return bit
+
+
+@njit(cache=True)
+def encode_raw(buffer: np.ndarray, regs: np.ndarray, value: int, n_bits: int) -> None:
+    """An n-bit unsigned integer at probability 1/2 per bit, most significant first."""
+    for shift in range(n_bits - 1, -1, -1):
+        encode_p0(buffer, regs, (value >> shift) & 1, 32768)
+
+
+@njit(cache=True)
+def finish(buffer: np.ndarray, regs: np.ndarray) -> None:
+    """The final bits that select the last interval (needs PENDING + 2 bits of room)."""
+    regs[PENDING] += 1
+    _put_with_pending(buffer, regs, 0 if regs[LOW] < QUARTER else 1)
+
+
+@njit(cache=True)
+def decode_p0(data: np.ndarray, regs: np.ndarray, p_zero: int) -> int:
+    """One bit at P(0) = p_zero / 65536; past the payload and its 32-bit read-ahead, status PAYLOAD_ENDS and
+    bit 0 from then on."""
+    if regs[STATUS] != OK:
+        return 0
+    low, high, value, position = regs[LOW], regs[HIGH], regs[VALUE], regs[POSITION]
+    n = data.size * 8
+    split = low + (((high - low + 1) * p_zero) >> 16) - 1
+    if value <= split:
+        bit = 0
+        high = split
+    else:
+        bit = 1
+        low = split + 1
+    while True:
+        if high < HALF:
+            pass
+        elif low >= HALF:
+            low -= HALF
+            high -= HALF
+            value -= HALF
+        elif low >= QUARTER and high < HALF + QUARTER:
+            low -= QUARTER
+            high -= QUARTER
+            value -= QUARTER
+        else:
+            break
+        low <<= 1
+        high = (high << 1) | 1
+        if position < n:
+            value = (value << 1) | ((I(data[position >> 3]) >> (7 - (position & 7))) & 1)
+        elif position < n + 32:
+            value <<= 1
+        else:
+            regs[STATUS] = PAYLOAD_ENDS
+            return 0
+        position += 1
+    regs[LOW], regs[HIGH], regs[VALUE], regs[POSITION] = low, high, value, position
+    return bit
+
+
+@njit(cache=True)
+def decode(data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray, ctx: int) -> int:
+    bit = decode_p0(data, regs, p0(zeros, ones, ctx))
+    update(zeros, ones, ctx, bit)
+    return bit
+
+
+@njit(cache=True)
+def decode_raw(data: np.ndarray, regs: np.ndarray, n_bits: int) -> int:
+    value = 0
+    for _ in range(n_bits):
+        value = (value << 1) | decode_p0(data, regs, 32768)
+    return value
+
+
+# -------------------------------------------------------------------------------------------- the syntax
+
+@njit(cache=True)
+def _bits_for(count: int) -> int:
+    """Bits of a raw field holding 0..count-1 (at least 1)."""
+    bits = 1
+    while (1 << bits) < count:
+        bits += 1
+    return bits
+
+
+@njit(cache=True)
+def _coarse(mode: int) -> int:
+    return min(mode, INTRA_CAE)
+
+
+@njit(cache=True)
+def _mode_context(modes: np.ndarray, previous_modes: np.ndarray, by: int, bx: int, inter: int) -> int:
+    """The first context of a BAB's mode bins: the co-located previous mode and the left mode (inter), or the
+    left, top, top-left and top-right modes reduced to transparent / opaque / CAE (intra)."""
+    if inter:
+        left = modes[by, bx - 1] if bx > 0 else TRANSPARENT
+        return CTX_MODE_P + (previous_modes[by, bx] * 5 + left) * 4
+    blocks_x = modes.shape[1]
+    left = _coarse(modes[by, bx - 1]) if bx > 0 else 0
+    top = _coarse(modes[by - 1, bx]) if by > 0 else 0
+    top_left = _coarse(modes[by - 1, bx - 1]) if by > 0 and bx > 0 else 0
+    top_right = _coarse(modes[by - 1, bx + 1]) if by > 0 and bx + 1 < blocks_x else 0
+    return CTX_MODE_I + (((left * 3 + top) * 3 + top_left) * 3 + top_right) * 2
+
+
+@njit(cache=True)
+def _mode_order(inter: int) -> np.ndarray:
+    if inter:
+        return np.array((TRANSPARENT, OPAQUE, COPY, INTER_CAE, INTRA_CAE), np.int64)
+    return np.array((TRANSPARENT, OPAQUE, INTRA_CAE), np.int64)
+
+
+@njit(cache=True)
+def _mv_predictor(mvs: np.ndarray, has_mv: np.ndarray, by: int, bx: int) -> tuple[int, int]:
+    """The motion vector of the left, else top, else top-right BAB of this frame that has one, else (0, 0)."""
+    blocks_x = has_mv.shape[1]
+    if bx > 0 and has_mv[by, bx - 1]:
+        return mvs[by, bx - 1, 0], mvs[by, bx - 1, 1]
+    if by > 0 and has_mv[by - 1, bx]:
+        return mvs[by - 1, bx, 0], mvs[by - 1, bx, 1]
+    if by > 0 and bx + 1 < blocks_x and has_mv[by - 1, bx + 1]:
+        return mvs[by - 1, bx + 1, 0], mvs[by - 1, bx + 1, 1]
+    return 0, 0
+
+
+@njit(cache=True)
+def _intra_context(cur: np.ndarray, i: int, stride: int) -> int:
+    s2 = 2 * stride
+    return (I(cur[i - 1]) | I(cur[i - 2]) << 1 | I(cur[i - stride + 2]) << 2 | I(cur[i - stride + 1]) << 3
+            | I(cur[i - stride]) << 4 | I(cur[i - stride - 1]) << 5 | I(cur[i - stride - 2]) << 6
+            | I(cur[i - s2 + 1]) << 7 | I(cur[i - s2]) << 8 | I(cur[i - s2 - 1]) << 9)
+
+
+@njit(cache=True)
+def _inter_context(cur: np.ndarray, prev: np.ndarray, i: int, j: int, stride: int) -> int:
+    return CTX_INTER + (I(cur[i - 1]) | I(cur[i - stride + 1]) << 1 | I(cur[i - stride]) << 2
+                        | I(cur[i - stride - 1]) << 3 | I(prev[j + stride]) << 4 | I(prev[j + 1]) << 5 | I(prev[j]) << 6 | I(prev[j - 1]) << 7
+                        | I(prev[j - stride]) << 8)
+
+
+@njit(cache=True)
+def _fill_block(cur: np.ndarray, prev: np.ndarray, stride: int, start: int, mode: int, shift: int) -> None:
+    """Transparent, opaque or copy (of the previous frame `shift` flat pixels away) BAB at flat index start."""
+    for r in range(BAB):
+        row = start + r * stride
+        for c in range(BAB):
+            if mode == COPY:
+                cur[row + c] = prev[row + shift + c]
+            else:
+                cur[row + c] = 1 if mode == OPAQUE else 0
+
+
+@njit(cache=True)
+def _clear_right(cur: np.ndarray, stride: int, start: int) -> None:
+    """Clear the two not-yet-decoded pixels right of each BAB row that CAE replicated there."""
+    for r in range(BAB):
+        row = start + r * stride
+        cur[row + BAB] = 0
+        cur[row + BAB + 1] = 0
+
+
+# ----------------------------------------------------------------------------- encoder-side decisions
+
+@njit(cache=True)
+def _sum_128(values: np.ndarray, start: int) -> float:
+    """NumPy's pairwise sum of 128 float64 values: 8 accumulators, then a balanced tree of them."""
+    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
+    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
+    for i in range(start + 8, start + 128, 8):
+        r0 += values[i]
+        r1 += values[i + 1]
+        r2 += values[i + 2]
+        r3 += values[i + 3]
+        r4 += values[i + 4]
+        r5 += values[i + 5]
+        r6 += values[i + 6]
+        r7 += values[i + 7]
+    return ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+
+
+@njit(cache=True)
+def numpy_sum_256(values: np.ndarray) -> float:
+    """np.sum of 256 contiguous float64 values, rounding for rounding (pairwise: 128 + 128)."""
+    return 0.0 + (_sum_128(values, 0) + _sum_128(values, 128))
+
+
+@njit(cache=True)
+def estimate_cae_bits(frame: np.ndarray, y0: int, x0: int, cur: np.ndarray, prev: np.ndarray, stride: int,
+                      border: int, inter: int, mv_x: int, mv_y: int, zeros: np.ndarray, ones: np.ndarray,
+                      costs: np.ndarray, window: np.ndarray, bits: np.ndarray) -> float:
+    """Approximate CAE cost in bits of the BAB of frame (padded (Hb, Wb) uint8) at pixel (y0, x0): intra
+    (inter 0) or inter with motion vector (mv_x, mv_y). Pixels right of the BAB read as its last column;
+    those above and left are the decoded canvas. window (BAB + 2, BAB + 4) and bits (BAB * BAB,) are scratch."""
+    for r in range(BAB + 2):
+        y = y0 - 2 + r
+        for c in range(BAB + 4):
+            x = x0 - 2 + c
+            if r < 2 or c < 2:
+                window[r, c] = cur[(y + border) * stride + x + border]
+            elif c < BAB + 2:
+                window[r, c] = frame[y, x]
+            else:
+                window[r, c] = frame[y, x0 + BAB - 1]
+    for r in range(BAB):
+        for c in range(BAB):
+            wr, wc = r + 2, c + 2
+            if inter:
+                j = (y0 + mv_y + r + border) * stride + x0 + mv_x + c + border
+                ctx = CTX_INTER + (window[wr, wc - 1] | window[wr - 1, wc + 1] << 1 | window[wr - 1, wc] << 2
+                                   | window[wr - 1, wc - 1] << 3 | I(prev[j + stride]) << 4 | I(prev[j + 1]) << 5
+                                   | I(prev[j]) << 6 | I(prev[j - 1]) << 7 | I(prev[j - stride]) << 8)
+            else:
+                ctx = (window[wr, wc - 1] | window[wr, wc - 2] << 1 | window[wr - 1, wc + 2] << 2
+                       | window[wr - 1, wc + 1] << 3 | window[wr - 1, wc] << 4 | window[wr - 1, wc - 1] << 5
+                       | window[wr - 1, wc - 2] << 6 | window[wr - 2, wc + 1] << 7 | window[wr - 2, wc] << 8
+                       | window[wr - 2, wc - 1] << 9)
+            if frame[y0 + r, x0 + c]:
+                bits[r * BAB + c] = costs[ones[ctx], zeros[ctx]]
+            else:
+                bits[r * BAB + c] = costs[zeros[ctx], ones[ctx]]
+    return numpy_sum_256(bits)
+
+
+@njit(cache=True)
+def row_words(prev: np.ndarray, words: np.ndarray) -> None:
+    """words (prev.size,) uint16: [i] holds the 16 pixels prev[i .. i + 15] in bits 15 .. 0 (zeros past the end)."""
+    n = prev.size
+    word = 0
+    for i in range(n - 1, -1, -1):
+        word = (word >> 1) | (I(prev[i]) << 15)
+        words[i] = word
+
+
+@njit(cache=True)
+def _popcount16(x: int) -> int:
+    x = x - ((x >> 1) & 0x5555)
+    x = (x & 0x3333) + ((x >> 2) & 0x3333)
+    x = (x + (x >> 4)) & 0x0F0F
+    return (x + (x >> 8)) & 0x1F
+
+
+@njit(cache=True)
+def motion_search(frame: np.ndarray, y0: int, x0: int, words: np.ndarray, stride: int, border: int,
+                  pred_x: int, pred_y: int) -> tuple[int, int, int]:
+    """(dx, dy, mismatches) of integer-pel block matching of the BAB at (y0, x0) against the previous frame
+    (its row_words) over [-SEARCH_RANGE, SEARCH_RANGE]^2: fewest mismatching pixels, then nearest (L1) to the
+    predictor, then first in raster order of (dy, dx)."""
+    block = np.empty(BAB, np.int64)
+    for r in range(BAB):
+        word = 0
+        for c in range(BAB):
+            word = (word << 1) | I(frame[y0 + r, x0 + c])
+        block[r] = word
+    best_score, best_x, best_y, best_errors = 1 << 62, 0, 0, 0
+    for dy in range(-SEARCH_RANGE, SEARCH_RANGE + 1):
+        for dx in range(-SEARCH_RANGE, SEARCH_RANGE + 1):
+            distance = abs(dx - pred_x) + abs(dy - pred_y)
+            start = (y0 + dy + border) * stride + x0 + dx + border
+            errors = 0
+            for r in range(BAB):
+                errors += _popcount16(I(words[start + r * stride]) ^ block[r])
+                if errors * 64 + distance >= best_score:   # cannot win any more: ties keep the earlier one
+                    break
+            score = errors * 64 + distance
+            if score < best_score:
+                best_score, best_x, best_y, best_errors = score, dx, dy, errors
+    return best_x, best_y, best_errors
+
+
+# --------------------------------------------------------------------------------------------- frames
+
+@njit(cache=True)
+def _bounding_box(frame: np.ndarray) -> tuple[int, int, int, int]:
+    """(by0, by1, bx0, bx1) BABs holding an opaque pixel, or by0 = -1 when none does."""
+    height, width = frame.shape
+    y_min, y_max, x_min, x_max = height, -1, width, -1
+    for y in range(height):
+        for x in range(width):
+            if frame[y, x]:
+                y_min = min(y_min, y)
+                y_max = max(y_max, y)
+                x_min = min(x_min, x)
+                x_max = max(x_max, x)
+    if y_max < 0:
+        return -1, -1, -1, -1
+    return y_min // BAB, y_max // BAB, x_min // BAB, x_max // BAB
+
+
+@njit(cache=True)
+def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int, border: int,
+                 modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
+                 zeros: np.ndarray, ones: np.ndarray, buffer: np.ndarray, regs: np.ndarray, counts: np.ndarray,
+                 inter: int, costs: np.ndarray, words: np.ndarray) -> None:
+    """Code one frame (padded (blocks_y * BAB, blocks_x * BAB) uint8 mask) into buffer, writing the decoded
+    result into cur (flat canvas) and modes / mvs / has_mv; counts (5,) gets the modes used. The caller
+    leaves room in buffer for BITS_PER_SYMBOL x (SYMBOLS_PER_FRAME + SYMBOLS_PER_BLOCK x blocks) bits."""
+    blocks_y, blocks_x = modes.shape
+    by0, by1, bx0, bx1 = _bounding_box(frame)
+    if not encode(buffer, regs, zeros, ones, CTX_PRESENT, 1 if by0 >= 0 else 0):
+        return
+    nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
+    encode_raw(buffer, regs, by0, nby)
+    encode_raw(buffer, regs, by1, nby)
+    encode_raw(buffer, regs, bx0, nbx)
+    encode_raw(buffer, regs, bx1, nbx)
+    order = _mode_order(inter)
+    window = np.zeros((BAB + 2, BAB + 4), np.int64)
+    bits = np.zeros(BAB * BAB, np.float64)
+    if inter:
+        row_words(prev, words)
+    for by in range(by0, by1 + 1):
+        for bx in range(bx0, bx1 + 1):
+            y0, x0 = by * BAB, bx * BAB
+            start = (y0 + border) * stride + x0 + border
+            # the mode decision: uniform BABs are transparent / opaque; in predicted frames an exact match of the
+            # motion-compensated previous shape is copied, else inter or intra CAE, whichever the estimate favours
+            opaque = 0
+            for r in range(BAB):
+                for c in range(BAB):
+                    opaque += I(frame[y0 + r, x0 + c])
+            mode, mv_x, mv_y = INTRA_CAE, 0, 0
+            if opaque == 0:
+                mode = TRANSPARENT
+            elif opaque == BAB * BAB:
+                mode = OPAQUE
+            elif inter:
+                pred_x, pred_y = _mv_predictor(mvs, has_mv, by, bx)
+                mv_x, mv_y, errors = motion_search(frame, y0, x0, words, stride, border, pred_x, pred_y)
+                if errors == 0:
+                    mode = COPY
+                else:
+                    mv_bits = 2.0 + 2.0 * (abs(mv_x - pred_x) + abs(mv_y - pred_y))
+                    inter_bits = estimate_cae_bits(frame, y0, x0, cur, prev, stride, border, 1, mv_x, mv_y,
+                                                   zeros, ones, costs, window, bits) + mv_bits
+                    intra_bits = estimate_cae_bits(frame, y0, x0, cur, prev, stride, border, 0, 0, 0,
+                                                   zeros, ones, costs, window, bits)
+                    if inter_bits < intra_bits:
+                        mode = INTER_CAE
+                    else:
+                        mode, mv_x, mv_y = INTRA_CAE, 0, 0
+            # the mode, as binary decisions along `order`
+            ctx0 = _mode_context(modes, previous_modes, by, bx, inter)
+            for position in range(order.size - 1):
+                if encode(buffer, regs, zeros, ones, ctx0 + position, 1 if mode == order[position] else 0):
+                    break
+            if mode == COPY or mode == INTER_CAE:
+                pred_x, pred_y = _mv_predictor(mvs, has_mv, by, bx)
+                _encode_mv_component(buffer, regs, zeros, ones, 0, mv_x - pred_x)
+                _encode_mv_component(buffer, regs, zeros, ones, 1, mv_y - pred_y)
+                mvs[by, bx, 0], mvs[by, bx, 1], has_mv[by, bx] = mv_x, mv_y, 1
+            modes[by, bx] = mode
+            counts[mode] += 1
+            shift = mv_y * stride + mv_x
+            if mode == INTRA_CAE or mode == INTER_CAE:
+                for r in range(BAB):
+                    row = start + r * stride
+                    for c in range(BAB):
+                        i = row + c
+                        if mode == INTRA_CAE:
+                            ctx = _intra_context(cur, i, stride)
+                        else:
+                            ctx = _inter_context(cur, prev, i, i + shift, stride)
+                        cur[i] = encode(buffer, regs, zeros, ones, ctx, I(frame[y0 + r, x0 + c]))
+                    cur[row + BAB] = cur[row + BAB + 1] = cur[row + BAB - 1]
+                _clear_right(cur, stride, start)
+            else:
+                _fill_block(cur, prev, stride, start, mode, shift)
+
+
+@njit(cache=True)
+def _encode_mv_component(buffer: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray,
+                         component: int, value: int) -> None:
+    """A motion-vector difference: nonzero flag, sign, then unary magnitude bins (the last 8+ share one)."""
+    base = CTX_MV + component * 10
+    if not encode(buffer, regs, zeros, ones, base, 1 if value != 0 else 0):
+        return
+    encode(buffer, regs, zeros, ones, base + 1, 1 if value < 0 else 0)
+    magnitude, limit = 1, 2 * SEARCH_RANGE
+    while magnitude < limit and encode(buffer, regs, zeros, ones, base + 2 + min(magnitude - 1, 7),
+                                       1 if abs(value) > magnitude else 0):
+        magnitude += 1
+
+
+@njit(cache=True)
+def _decode_mv_component(data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray,
+                         component: int) -> int:
+    base = CTX_MV + component * 10
+    if not decode(data, regs, zeros, ones, base):
+        return 0
+    negative = decode(data, regs, zeros, ones, base + 1)
+    magnitude, limit = 1, 2 * SEARCH_RANGE
+    while magnitude < limit and decode(data, regs, zeros, ones, base + 2 + min(magnitude - 1, 7)):
+        magnitude += 1
+    return -magnitude if negative else magnitude
+
+
+@njit(cache=True)
+def decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
+                 border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
+                 zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int) -> int:
+    """Decode one frame from the payload into cur (flat canvas), modes, mvs, has_mv; counts (5,) gets the
+    modes. Returns OK, or the first error met: PAYLOAD_ENDS, BAD_BOX, BAD_MV (nothing is read or written
+    outside the canvas after an error)."""
+    blocks_y, blocks_x = modes.shape
+    present = decode(data, regs, zeros, ones, CTX_PRESENT)
+    if regs[STATUS] != OK or not present:
+        return regs[STATUS]
+    nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
+    by0 = decode_raw(data, regs, nby)
+    by1 = decode_raw(data, regs, nby)
+    bx0 = decode_raw(data, regs, nbx)
+    bx1 = decode_raw(data, regs, nbx)
+    if regs[STATUS] != OK:
+        return regs[STATUS]
+    if not (by0 <= by1 < blocks_y and bx0 <= bx1 < blocks_x):
+        return BAD_BOX
+    order = _mode_order(inter)
+    for by in range(by0, by1 + 1):
+        for bx in range(bx0, bx1 + 1):
+            y0, x0 = by * BAB, bx * BAB
+            start = (y0 + border) * stride + x0 + border
+            ctx0 = _mode_context(modes, previous_modes, by, bx, inter)
+            mode = order[order.size - 1]
+            for position in range(order.size - 1):
+                if decode(data, regs, zeros, ones, ctx0 + position):
+                    mode = order[position]
+                    break
+            mv_x, mv_y = 0, 0
+            if mode == COPY or mode == INTER_CAE:
+                pred_x, pred_y = _mv_predictor(mvs, has_mv, by, bx)
+                mv_x = pred_x + _decode_mv_component(data, regs, zeros, ones, 0)
+                mv_y = pred_y + _decode_mv_component(data, regs, zeros, ones, 1)
+                if regs[STATUS] != OK:
+                    return regs[STATUS]
+                if abs(mv_x) > SEARCH_RANGE or abs(mv_y) > SEARCH_RANGE:
+                    return BAD_MV
+                mvs[by, bx, 0], mvs[by, bx, 1], has_mv[by, bx] = mv_x, mv_y, 1
+            if regs[STATUS] != OK:
+                return regs[STATUS]
+            modes[by, bx] = mode
+            counts[mode] += 1
+            shift = mv_y * stride + mv_x
+            if mode == INTRA_CAE or mode == INTER_CAE:
+                for r in range(BAB):
+                    row = start + r * stride
+                    for c in range(BAB):
+                        i = row + c
+                        if mode == INTRA_CAE:
+                            ctx = _intra_context(cur, i, stride)
+                        else:
+                            ctx = _inter_context(cur, prev, i, i + shift, stride)
+                        cur[i] = decode(data, regs, zeros, ones, ctx)
+                    cur[row + BAB] = cur[row + BAB + 1] = cur[row + BAB - 1]
+                _clear_right(cur, stride, start)
+                if regs[STATUS] != OK:
+                    return regs[STATUS]
+            else:
+                _fill_block(cur, prev, stride, start, mode, shift)
+    return OK

@@ -1,0 +1,173 @@
+"""Numba kernels of the FAPs -> face-bone path (media/face_rig.py `face_bone_rotations`), as few calls per
+clip: `face_targets` (every bone's displacement from the FAP values), `turn_directions`, `turn_sides` and
+`turn_quaternions` (the jaw's and lids' turns around NumPy's arctan2 / arccos and arm products, which stay
+NumPy calls on the same arrays) and `eye_rotations`. Their arithmetic is + - * /, sqrt, min / max: exact IEEE
+operations, written in the NumPy forms' order (no fused multiply-adds without fastmath), so the same numbers;
+tests/test_face_rig_speed.py compares them bitwise with the NumPy rig on real FAPs of several languages.
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from media.scipy_rotation import from_rotvec
+
+
+@njit(cache=True)
+def face_targets(values, cols, fapu, shares, angle_unit):
+    """The face rig's displacements from FAP values (media/face_rig.py `_turned_bones` and `_carried_bones`,
+    each entry by the same IEEE operations in the same order as their NumPy forms, so the same numbers).
+
+    values (T, 68) float64 FAP values; cols (27, 2) int64: FAP columns (index = id - 1) per name of
+    media/face_rig.py `_TARGET_FAPS`, L then R (one-sided names repeat); fapu (5,) irisd, es, ens, mns, mw
+    metres; shares (4,) corner shares of oris03.L/R, oris07.L/R. Returns turned (5, T, 3) the jaw's and
+    per side the upper and lower lid's displacements, eye_angles (4, T) yaw L, pitch L, yaw R, pitch R
+    (radians: the FAP values times angle_unit), head and tail (T, 11, 3) of the head-carried bones, jaw (T, 3, 3) of the jaw-carried ones.
+    """
+    n = values.shape[0]
+    irisd, es, ens, mns, mw = fapu[0], fapu[1], fapu[2], fapu[3], fapu[4]
+    turned = np.zeros((5, n, 3))
+    eye = np.empty((4, n))
+    head = np.zeros((n, 11, 3))
+    tail = np.zeros((n, 11, 3))
+    jaw = np.zeros((n, 3, 3))
+    for t in range(n):
+        v = values[t]
+        opening = max(v[cols[0, 0]], 0.0)
+        turned[0, t, 0] = -v[cols[1, 0]] * mw
+        turned[0, t, 1] = -opening * mns
+        push_t = v[cols[10, 0]] * mns
+        push_b = v[cols[11, 0]] * mns
+        nose_lift = v[cols[12, 0]] * ens
+        for s in range(2):
+            outward = 1.0 if s == 0 else -1.0
+            turned[1 + 2 * s, t, 1] = -v[cols[2, s]] * irisd
+            turned[2 + 2 * s, t, 1] = v[cols[3, s]] * irisd
+            eye[2 * s, t] = v[cols[4, s]] * angle_unit
+            eye[2 * s + 1, t] = v[cols[5, s]] * angle_unit
+            corner_x = outward * ((v[cols[13, s]] + v[cols[14, s]]) / 2) * mw
+            corner_y = ((v[cols[15, s]] + v[cols[16, s]]) / 2) * mns
+            lift_x, lift_y, lift_z = corner_x * 0.0, corner_y * 1.0, 0.0 * 0.0
+            squeeze = -outward * v[cols[6, s]] * es
+            b = 4 * s
+            upper, lower = shares[s], shares[2 + s]
+            for moved in (head, tail):
+                moved[t, b, 0], moved[t, b, 1] = corner_x, corner_y
+                moved[t, b + 1, 0] = outward * v[cols[7, s]] * es
+                moved[t, b + 1, 1] = max(v[cols[8, s]], 0.0) * ens
+                moved[t, b + 2, 0] = squeeze
+                moved[t, 8, 1], moved[t, 8, 2] = -((v[cols[17, 0]] + v[cols[18, 0]]) / 2) * mns, push_t
+                moved[t, 9 + s, 0] = 0.0 + upper * lift_x
+                moved[t, 9 + s, 1] = -((v[cols[19, s]] + v[cols[20, s]]) / 2) * mns + upper * lift_y
+                moved[t, 9 + s, 2] = push_t + upper * lift_z
+            head[t, b + 2, 1] = v[cols[9, s]] * ens
+            tail[t, b + 2, 1] = v[cols[21, s]] * ens
+            head[t, b + 3, 1] = nose_lift
+            tail[t, b + 3, 0] = 0.0 + outward * v[cols[22, s]] * ens
+            tail[t, b + 3, 1] = nose_lift + 0.0
+            tail[t, b + 3, 2] = 0.0 + 0.0
+            jaw[t, 1 + s, 0] = 0.0 + lower * lift_x
+            jaw[t, 1 + s, 1] = ((v[cols[23, s]] + v[cols[24, s]]) / 2) * mns + lower * lift_y
+            jaw[t, 1 + s, 2] = push_b + lower * lift_z
+        jaw[t, 0, 1] = ((v[cols[25, 0]] + v[cols[26, 0]]) / 2) * mns
+        jaw[t, 0, 2] = push_b
+    return turned, eye, head, tail, jaw
+
+
+@njit(cache=True)
+def eye_rotations(eye_angles):
+    """(2, T, 4) quaternions (w, x, y, z) of the eyeballs, L then R, from eye_angles (4, T) radians (yaw L, pitch L,
+    yaw R, pitch R): per eye the yaw about +Y times the pitch about +X, as media/face_rig.py did it in NumPy
+    (from_axis_angle of the unit axes: rotvec (0 a, 1 a, 0 a) or (1 a, 0 a, 0 a), then rotations.multiply's
+    Hamilton product term by term), so the same numbers."""
+    n = eye_angles.shape[1]
+    rotvec = np.empty((4 * n, 3))
+    for k in range(4):
+        about_y = k % 2 == 0
+        for t in range(n):
+            a = eye_angles[k, t]
+            row = k * n + t
+            if about_y:
+                rotvec[row, 0], rotvec[row, 1], rotvec[row, 2] = 0.0 * a, 1.0 * a, 0.0 * a
+            else:
+                rotvec[row, 0], rotvec[row, 1], rotvec[row, 2] = 1.0 * a, 0.0 * a, 0.0 * a
+    q = from_rotvec(rotvec)
+    out = np.empty((2, n, 4))
+    for e in range(2):
+        for t in range(n):
+            aw, ax, ay, az = q[2 * e * n + t, 0], q[2 * e * n + t, 1], q[2 * e * n + t, 2], q[2 * e * n + t, 3]
+            bw, bx, by, bz = (q[(2 * e + 1) * n + t, 0], q[(2 * e + 1) * n + t, 1], q[(2 * e + 1) * n + t, 2],
+                              q[(2 * e + 1) * n + t, 3])
+            out[e, t, 0] = aw * bw - ax * bx - ay * by - az * bz
+            out[e, t, 1] = aw * bx + ax * bw + ay * bz - az * by
+            out[e, t, 2] = aw * by - ax * bz + ay * bw + az * bx
+            out[e, t, 3] = aw * bz + ax * by - ay * bx + az * bw
+    return out
+
+
+@njit(cache=True)
+def turn_directions(displacements):
+    """media/face_rig.py `_turns`' first step: displacements (N, T, 3) metres -> (distance (N, T), unit direction
+    (N, T, 3)); distance sqrt((x x + y y) + z z) (NumPy's norm of three terms), direction the displacement
+    divided by max(distance, 1e-300)."""
+    n, m = displacements.shape[0], displacements.shape[1]
+    distance = np.empty((n, m))
+    direction = np.empty((n, m, 3))
+    for a in range(n):
+        for t in range(m):
+            x, y, z = displacements[a, t, 0], displacements[a, t, 1], displacements[a, t, 2]
+            d = math.sqrt(x * x + y * y + z * z)
+            distance[a, t] = d
+            d = max(d, 1e-300)
+            direction[a, t, 0], direction[a, t, 1], direction[a, t, 2] = x / d, y / d, z / d
+    return distance, direction
+
+
+@njit(cache=True)
+def turn_along(arms, direction):
+    """`_turns`' dot products: along (N, T) = (d0 a0 + d1 a1) + d2 a2 of each arm (N, 3) and its directions
+    (N, T, 3), in that order (not BLAS's, whose order and fused multiply-adds depend on the CPU)."""
+    n, m = direction.shape[0], direction.shape[1]
+    along = np.empty((n, m))
+    for a in range(n):
+        for t in range(m):
+            along[a, t] = (direction[a, t, 0] * arms[a, 0] + direction[a, t, 1] * arms[a, 1]) + direction[a, t, 2] * arms[a, 2]
+    return along
+
+
+@njit(cache=True)
+def turn_sides(arms, direction, along, distance, reach):
+    """`_turns`' second step: across (N, T) = |arm - along direction| (the arm's part across the displacement)
+    and the clipped cosine (N, T) clip((distance + along) / reach, -1, 1), the arccos argument; arms (N, 3),
+    direction (N, T, 3), along and distance (N, T), reach (N,) (each arm's length, NumPy's)."""
+    n, m = direction.shape[0], direction.shape[1]
+    across = np.empty((n, m))
+    ratio = np.empty((n, m))
+    for a in range(n):
+        for t in range(m):
+            x = arms[a, 0] - along[a, t] * direction[a, t, 0]
+            y = arms[a, 1] - along[a, t] * direction[a, t, 1]
+            z = arms[a, 2] - along[a, t] * direction[a, t, 2]
+            across[a, t] = math.sqrt(x * x + y * y + z * z)
+            ratio[a, t] = min(max((distance[a, t] + along[a, t]) / reach[a], -1.0), 1.0)
+    return across, ratio
+
+
+@njit(cache=True)
+def turn_quaternions(arms, direction, angle):
+    """`_turns`' last step: (N, T, 4) quaternions (w, x, y, z) of the turns by angle (N, T) radians about
+    arm x direction (NumPy's cross: a1 b2 - a2 b1, a2 b0 - a0 b2, a0 b1 - a1 b0) made a unit axis as
+    media/rotations.py from_axis_angle does (divided by max(norm, 1e-300), times the angle), then
+    `from_rotvec`."""
+    n, m = direction.shape[0], direction.shape[1]
+    rotvec = np.empty((n * m, 3))
+    for a in range(n):
+        a0, a1, a2 = arms[a, 0], arms[a, 1], arms[a, 2]
+        for t in range(m):
+            b0, b1, b2 = direction[a, t, 0], direction[a, t, 1], direction[a, t, 2]
+            x, y, z = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+            norm = max(math.sqrt(x * x + y * y + z * z), 1e-300)
+            row = a * m + t
+            g = angle[a, t]
+            rotvec[row, 0], rotvec[row, 1], rotvec[row, 2] = x / norm * g, y / norm * g, z / norm * g
+    return from_rotvec(rotvec).reshape((n, m, 4))
