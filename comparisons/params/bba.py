@@ -1536,6 +1536,44 @@ def decode_motion(data: bytes, skeleton: Skeleton | None = None) -> Motion:
                            kfi, skeleton)
 
 
+@dataclass(frozen=True, eq=False)
+class BBALevels:
+    """The integers a BBA stream defines, before any rotation arithmetic: header; kfi (F,) int64
+    KeyFrameIndex of every coded frame (F frames: key frames only when header.keyframes); bone_ids (B,)
+    int64 ascending and bone_masks (B,) int64 (bit k = MASK_FIELDS[k]) of the frames' one bone list;
+    values (F, P) int64 in stream order (bones ascending, mask bits ascending): angles in 1e-5 rad,
+    translations in mm. This is what tests/test_conformance.py pins exactly."""
+    header: BBAHeader
+    kfi: np.ndarray
+    bone_ids: np.ndarray
+    bone_masks: np.ndarray
+    values: np.ndarray
+
+
+def decode_levels(data: bytes) -> BBALevels:
+    """The decoder's integer output of a strict (non-resilient) decode of a BBA stream whose frames all
+    carry one bone list (what encode_motion writes), muscle data ignored: the fast reader (_read_uniform)
+    when it takes the stream, otherwise read_stream's frames. SigncastError on damage, and for a stream whose
+    bone list changes between frames (read_stream returns those frames one by one)."""
+    data = bytes(data)
+    uniform = _read_uniform(data)
+    if uniform is not None:
+        state, bones, rows, kfi = uniform
+        header = state.header
+    else:
+        stream, _ = read_stream(data, skip_muscles=True)
+        header, frames = stream.header, stream.frames
+        bones = frames[0].bones if frames else {}
+        if any(frame.bones != bones for frame in frames):
+            raise SigncastError("the stream's bone list changes between frames: read it with read_stream")
+        rows = np.array([_flat_values(frame) for frame in frames], dtype=np.int64).reshape(
+            len(frames), sum(mask.bit_count() for mask in bones.values()))
+        kfi = np.array([frame.kfi for frame in frames], dtype=np.int64)
+    ids = np.array(sorted(bones), dtype=np.int64)
+    masks = np.array([bones[b] for b in sorted(bones)], dtype=np.int64)
+    return BBALevels(header, kfi.astype(np.int64), ids, masks, rows.astype(np.int64))
+
+
 def _read_uniform(data: bytes) -> tuple[_DecoderState, dict[int, int], np.ndarray, np.ndarray] | None:
     """Strict decoding (_read_units(data, False, False)) of a stream whose units all carry the first unit's
     bone list and no muscle data, every unit in one kernel call (comparisons/params/bba_units.py): (decoder state,
