@@ -26,7 +26,6 @@ intelligibility, and the requirement lines of EN 301 549 clause 6.5 and Tran et 
 """
 from __future__ import annotations
 
-import base64
 import html
 import io
 import math
@@ -42,6 +41,7 @@ import numpy as np  # noqa: E402
 
 from comparisons.judging.criteria import SOLUTIONS, criteria_table  # noqa: E402
 from comparisons.judging.landmark_draws import standard_error  # noqa: E402
+from comparisons.reports import page  # noqa: E402
 from comparisons.reports.records import normalize_records  # noqa: E402
 from comparisons.video.codecs import CODECS as VIDEO_CODECS  # noqa: E402
 from media.domain import BBA, FBA, PARAMETER_SOLUTIONS, SOLUTION_ORDER, VIDEO_SOLUTIONS  # noqa: E402
@@ -51,25 +51,6 @@ REQUIREMENTS = (("broadcast", 100.0), ("webcast", 56.0), ("phone line", 64.0))
 MIN_COMFORT_FPS = 15.0
 
 
-# The page checks itself when a browser loads it: every chart decoded, every table with rows (tests read the line)
-RENDER_CHECK = """<p id="render-check">not checked</p>
-<script>
-window.addEventListener("load", () => {
-  const charts = [...document.querySelectorAll("img.chart")];
-  const tables = [...document.querySelectorAll("table[data-table]")];
-  const brokenCharts = charts.filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.dataset.chart);
-  const emptyTables = tables.filter(t => t.tBodies[0].rows.length === 0).map(t => t.dataset.table);
-  const body = document.body.getBoundingClientRect();
-  const design = parseFloat(getComputedStyle(document.body).maxWidth);   // tables must fit the body's max-width
-  const page = Math.max(body.right, body.left + (isNaN(design) ? 0 : design));
-  const wide = tables.filter(t => t.getBoundingClientRect().right > page + 1).map(t => `${t.dataset.table} (too wide)`);
-  document.getElementById("render-check").textContent =
-    `rendered ${charts.length - brokenCharts.length}/${charts.length} charts, ${tables.length - emptyTables.length}/${tables.length} tables` +
-    (brokenCharts.length || emptyTables.length || wide.length
-     ? `; broken: ${[...brokenCharts, ...emptyTables, ...wide].join(", ")}` : "; all ok");
-});
-</script>
-"""
 
 
 class Channel(NamedTuple):
@@ -190,11 +171,12 @@ def figure_png(figure, *, empty: str | None = None) -> bytes:
     return buffer.getvalue()
 
 
-def _png(figure) -> str:
+def _png(figure) -> bytes:
+    """The figure as PNG bytes (110 dpi, tight), closed afterwards."""
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
     plt.close(figure)
-    return base64.b64encode(buffer.getvalue()).decode("ascii")
+    return buffer.getvalue()
 
 
 def _groups(records: list[dict], key) -> dict:
@@ -426,13 +408,8 @@ def _meets(kbps: float) -> str:
 
 
 def _table(name: str, header: list[str], rows: list[list]) -> str:
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in row) + "</tr>" for row in rows)
-    return f'<table data-table="{name}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
-
-
-def _image(name: str, b64: str, alt: str) -> str:
-    return f'<img class="chart" data-chart="{name}" alt="{html.escape(alt)}" src="data:image/png;base64,{b64}">'
+    """A table whose cells are HTML already (formatted by _fmt and the section builders)."""
+    return page.table(name, header, rows, escape=False)
 
 
 def _list(names) -> str:
@@ -905,10 +882,10 @@ def _matched_section(records: list[dict], styles: dict) -> str:
                if shared_threshold(matched_records(records)) else "")
             + _matched_table(records))
     if _swept_for_intelligibility(records, "hand_pck_20"):
-        parts.append(_image("rate_vs_intelligibility", _png(chart_rate_intelligibility(records, styles)),
+        parts.append(page.image("rate_vs_intelligibility", _png(chart_rate_intelligibility(records, styles)),
                             "rate against intelligibility"))
     if _fps_sweeps_for_intelligibility(records):
-        parts.append(_image("intelligibility_vs_fps", _png(chart_intelligibility_vs_fps(records, styles)),
+        parts.append(page.image("intelligibility_vs_fps", _png(chart_intelligibility_vs_fps(records, styles)),
                             "intelligibility against frame rate"))
     return "".join(parts) if len(parts) > 1 else ""
 
@@ -994,14 +971,14 @@ def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes
     if poster_png:
         sections.append("<h2>Side by side</h2><p><code>side_by_side.mp4</code> shows every solution's decoded output at its "
                         "operating point; this is one frame of it.</p>"
-                        + _image("poster", base64.b64encode(poster_png).decode("ascii"), "poster frame of side_by_side.mp4"))
+                        + page.image("poster", poster_png, "poster frame of side_by_side.mp4"))
     if quantiser_sweeps(records):
         sections.append("<h2>Bitrate against quantizer</h2>"
-                        + _image("kbps_vs_q", _png(chart_kbps_vs_q(records, styles)), "kbps vs Q"))
+                        + page.image("kbps_vs_q", _png(chart_kbps_vs_q(records, styles)), "kbps vs Q"))
     fits = linear_fits(records)
     if fits:
         sections.append("<h2>Bitrate against frame rate</h2>"
-                        + _image("kbps_vs_fps", _png(chart_kbps_vs_fps(records, styles)), "kbps vs fps")
+                        + page.image("kbps_vs_fps", _png(chart_kbps_vs_fps(records, styles)), "kbps vs fps")
                         + _table("linear_fits", ["series", "quantiser", "slope kbps/fps", "intercept kbps", "R²"],
                                  [[_fmt(f["series"]), _fmt(f"Q {f['q']}" if f["q"] is not None else None),
                                    _fmt(f["slope_kbps_per_fps"], 2), _fmt(f["intercept_kbps"], 1), _fmt(f["r2"], 3)]
@@ -1012,12 +989,12 @@ def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes
         sections.append("<h2>Rate and image quality</h2><p>" + html.escape(measured_against(records))
                         + ". Object solutions send no background, so their whole-frame figures count the dropped pixels as "
                         "error; the face-and-hands region carries the message.</p>"
-                        + "".join(_image(f"{metric}_vs_kbps", _png(chart_rate_quality(records, metric, styles)), alt)
+                        + "".join(page.image(f"{metric}_vs_kbps", _png(chart_rate_quality(records, metric, styles)), alt)
                                   for metric, alt in charts))
     if any(r.get("param_psnr") is not None or r.get("vpsnr") is not None for r in parameters):
         sections.append("<h2>Rate and parameter quality</h2><p>Each clip's decoded parameters against the same motion before "
                         "coding (full-precision BAPs); parameter PSNR and VPSNR are not image figures.</p>"
-                        + _image("parameter_quality", _png(chart_parameter_quality(records, styles)),
+                        + page.image("parameter_quality", _png(chart_parameter_quality(records, styles)),
                                  "parameter PSNR and VPSNR vs kbps"))
     sections.append(_requirements(records))
     if operating_points(records):
@@ -1025,22 +1002,9 @@ def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes
     sections.append(_every_point(records))
     sections.append(_run(records))
 
-    page = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
-<style>
-body {{ font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1150px; color: #222; }}
-table {{ border-collapse: collapse; margin: 0.8em 0 1.6em; font-size: 0.8em; }}
-th, td {{ border: 1px solid #ccc; padding: 0.2em 0.4em; text-align: left; vertical-align: top; }}
-th {{ background: #f0f0f0; }}
-table[data-table=points], table[data-table=matched] {{ font-size: 0.72em; }}
-img.chart {{ max-width: 100%; display: block; margin: 0.5em 0 1.2em; }}
-.nowrap {{ white-space: nowrap; }}
-#render-check {{ color: #888; font-size: 0.8em; }}
-</style></head><body>
-<h1>{html.escape(title)}</h1>
-<p>{len(measured)} measured points. Every rate is the size of bytes that a decoder turned back into data.</p>
-{''.join(sections)}
-{RENDER_CHECK}</body></html>"""
+    body = (f"<p>{len(measured)} measured points. Every rate is the size of bytes that a decoder turned back into "
+            f"data.</p>\n" + "".join(sections))
+    html_page = page.page(title, body)
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    out_path.write_text(page, encoding="utf-8")
+    out_path.write_text(html_page, encoding="utf-8")
     return out_path

@@ -8,13 +8,13 @@ reference; this report reads those measured against the source (REFERENCE). Reco
 carry the TS figures."""
 from __future__ import annotations
 
-import base64
 import csv
 import html
 from collections import defaultdict
 from pathlib import Path
 
-from comparisons.reports.comparison import RENDER_CHECK, figure_png
+from comparisons.reports import page
+from comparisons.reports.comparison import figure_png
 from media.domain import SOLUTION_ORDER
 
 REFERENCE = "source video"
@@ -130,10 +130,7 @@ def chart(points: list[dict]):
     return figure
 
 
-def _html_table(name: str, header: list[str], rows: list[list[str]]) -> str:
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in row) + "</tr>" for row in rows)
-    return f'<table data-table="{name}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+_html_table = page.table
 
 
 
@@ -162,7 +159,7 @@ def report_html(records: list[dict], figure_png: bytes) -> str:
     clip = points[0]["clip"] if points else run.get("clip", "")
     burst = run.get("burst", 1.0) or 1.0
     model = ("Bernoulli loss" if burst <= 1 else f"Gilbert-Elliott loss, mean burst {burst:g} packets")
-    head = (f"<h1>signcast live: delivery over a lossy network</h1><p>Clip {html.escape(str(clip))}, "
+    head = (f"<p>Clip {html.escape(str(clip))}, "
             f"{run.get('clip_frames', '')} frames at {run.get('clip_fps', '')} fps, sent live over RTP/UDP on the "
             f"loopback interface through a relay with {model}, jitter {run.get('jitter_ms', 0):g} ms, seed "
             f"{run.get('seed', '')}, {run.get('repeats', 1)} session(s) per point (means below); FBA/BBA units of {run.get('refresh', '')} frames. Intelligibility is measured "
@@ -172,16 +169,14 @@ def report_html(records: list[dict], figure_png: bytes) -> str:
     rows = [[r["solution"], r["codec"], r.get("q"), r.get("sessions", 1),
              *(_cell(r.get(name), scale, digits) for name, _, scale, digits in COLUMNS)] for r in points]
     table = _html_table("loss sweep", ["solution", "codec", "Q", "sessions", *(label for _, label, _, _ in COLUMNS)], rows)
-    encoded = base64.b64encode(figure_png).decode("ascii")
     figure = (f"<h2>Intelligibility and latency against loss</h2><p>Measured against the {REFERENCE}'s landmarks; "
               f"latency against EN 301 549's guidance (under {PREFERRED_MS / 1000:g} s preferred, over "
-              f"{HINDERS_MS / 1000:g} s hinders conversation).</p><img class=\"chart\" data-chart=\"loss\" alt=\"hand PCK, letter accuracy and latency "
-              f"against the share of datagrams lost, per solution\" src=\"data:image/png;base64,{encoded}\">")
-    style = ("body{font-family:sans-serif;max-width:1300px;margin:auto}table{border-collapse:collapse;margin:1em 0}"
-             "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px;text-align:right}img{max-width:100%}")
-    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>signcast live</title><style>{style}</style>"
-            f"</head><body>{head}{figure}<h2>Every point</h2>{table}{_transport_streams(records)}{RENDER_CHECK}"
-            f"</body></html>\n")
+              f"{HINDERS_MS / 1000:g} s hinders conversation).</p>"
+              + page.image("loss", figure_png, "hand PCK, letter accuracy and latency against the share of datagrams "
+                           "lost, per solution"))
+    return page.page("signcast live: delivery over a lossy network",
+                     f"{head}{figure}<h2>Every point</h2>{table}{_transport_streams(records)}", max_width_px=1300,
+                     extra_style="td { text-align: right; }")
 
 
 def write_report(out_dir: str | Path, records: list[dict]) -> Path:

@@ -23,7 +23,6 @@ for a motion with a face, face_sent: whether the codec sent it, and face_joint_e
 """
 from __future__ import annotations
 
-import base64
 import csv
 import html
 from collections import defaultdict
@@ -32,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from comparisons.judging import matching
+from comparisons.reports import page
 from media.domain import SOLUTION_ORDER
 
 JOINT_ERROR_MM = 2.0        # the FBA root-translation step, and the key-frame analyser's translation bound
@@ -217,10 +217,8 @@ def face_note(records: list[dict]) -> str | None:
             "(each frame's worst face point, in the head's frame).")
 
 
-def _html_table(header: list[str], rows: list[list[str]]) -> str:
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in row) + "</tr>" for row in rows)
-    return f"<table><tr>{head}</tr>{body}</table>"
+def _html_table(header: list[str], rows: list[list[str]], name: str = "table") -> str:
+    return page.table(name, header, rows)
 
 
 def _failed_section(records: list[dict]) -> str:
@@ -244,7 +242,7 @@ def report_html(records: list[dict], table: list[dict], figure_png: bytes) -> st
     languages = sorted({language_item(r)[0] for r in points})
     items = {language_item(r) for r in points}
     wanted = columns(table)
-    swept = (f"<h1>signcast sweep</h1><p>{len(points)} points measured, {failed} failed; {len(languages)} "
+    swept = (f"<p>{len(points)} points measured, {failed} failed; {len(languages)} "
              f"languages ({html.escape(', '.join(languages))}), {len(items)} items, codecs "
              f"{html.escape(', '.join(sorted({r['codec'] for r in points})))}, Q "
              f"{', '.join(str(q) for q in sorted({r['q'] for r in points}))}.</p>")
@@ -259,16 +257,12 @@ def report_html(records: list[dict], table: list[dict], figure_png: bytes) -> st
     for fps, languages_rows in _grid(table).items():
         header = ["language", *(f"{s}: {c}" for s, c in wanted)]
         rows = [[language, *(cell_text(row.get(c)) for c in wanted)] for language, row in languages_rows.items()]
-        sections.append(f"<h2>{fps:g} fps</h2>" + _html_table(header, rows))
-    encoded = base64.b64encode(figure_png).decode("ascii")
+        sections.append(f"<h2>{fps:g} fps</h2>" + _html_table(header, rows, f"sweep_{fps:g}fps"))
     sections.append(f"<h2>Figure</h2><p>Measured against {MEASURED_AGAINST}; threshold {html.escape(THRESHOLD_TEXT)}."
-                    f"</p><img alt=\"median kbps at the matched operating point per language and codec\" "
-                    f"src=\"data:image/png;base64,{encoded}\">")
+                    "</p>" + page.image("sweep_kbps", figure_png,
+                                        "median kbps at the matched operating point per language and codec"))
     sections.append(_failed_section(records))
-    style = ("body{font-family:sans-serif;max-width:1200px;margin:auto}table{border-collapse:collapse;margin:1em 0}"
-             "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px;text-align:right}img{max-width:100%}")
-    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>signcast sweep</title><style>{style}</style>"
-            f"</head><body>{''.join(sections)}</body></html>\n")
+    return page.page("signcast sweep", "".join(sections), max_width_px=1200, extra_style="td { text-align: right; }")
 
 
 def write_report(out_dir: str | Path, records: list[dict]) -> Path:
