@@ -218,14 +218,22 @@ class LabCodec:
         recon[:, active] = recon_active
         return body + struct.pack("<I", zlib.crc32(body)), recon
 
-    def decode_dofs(self, data: bytes) -> tuple[np.ndarray, float]:
+    def decode_levels(self, data: bytes) -> tuple[dict[str, np.ndarray], np.ndarray, int, float]:
+        """The decoder's exact part: bytes -> (the integers the coder sent for the active DOFs, before
+        dequantisation ({name: int64 array}, the coder's `_read` names them), active mask (D,) bool of the layout,
+        frames T, fps). Conformance streams pin these (tests/test_lab_conformance.py). SigncastError on damage."""
         data = bytes(data)
         layout = dof_layout()
         if self.compact:
-            recon_active, active, fps = CODER_CLASSES[self.name].decode_compact(data, layout.n_dofs)
-            recon = np.zeros((len(recon_active), layout.n_dofs))
-            recon[:, active] = recon_active
-            return recon, fps
+            indices, active, stream = CODER_CLASSES[self.name].read_compact_levels(data, layout.n_dofs)
+            return {"indices": indices}, active, stream.n_frames, stream.fps
+        active, inner = self._unwrap(data)
+        levels, info = make_coder(self.name, active, self.stage).read_levels(inner)
+        return levels, active, info.n_frames, info.fps
+
+    def _unwrap(self, data: bytes) -> tuple[np.ndarray, bytes]:
+        """An SCL1 stream -> (active mask (D,) bool, the inner SCM1 stream), checked and bounded."""
+        layout = dof_layout()
         mask_bytes = -(-layout.n_dofs // 8)
         if len(data) < 5 + mask_bytes + 4 or data[:4] != MAGIC:
             raise SigncastError(f"not a {self.name} motion stream (bad magic or truncated)")
@@ -240,6 +248,18 @@ class LabCodec:
         inner = body[5 + mask_bytes:]
         frames = StreamReader(inner, CODER_IDS[self.name], self.name).info.n_frames
         check_size(frames, layout.n_dofs, f"corrupt {self.name} motion stream")
+        return active, inner
+
+    def decode_dofs(self, data: bytes) -> tuple[np.ndarray, float]:
+        """Bytes -> ((T, D) radians of the whole layout, fps); SigncastError on damage."""
+        data = bytes(data)
+        layout = dof_layout()
+        if self.compact:
+            recon_active, active, fps = CODER_CLASSES[self.name].decode_compact(data, layout.n_dofs)
+            recon = np.zeros((len(recon_active), layout.n_dofs))
+            recon[:, active] = recon_active
+            return recon, fps
+        active, inner = self._unwrap(data)
         recon_active, fps = make_coder(self.name, active, self.stage).decode_with_fps(inner)
         recon = np.zeros((len(recon_active), layout.n_dofs))
         recon[:, active] = recon_active

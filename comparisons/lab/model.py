@@ -406,12 +406,18 @@ class PostureCoder(_GroupCoder):
             recon[:, group] = hermite_fill(keys, table[index], len(dofs))
         return recon
 
-    def _decode(self, reader, n_frames, fps, distance):
+    def _read(self, reader, n_frames, distance):
+        """Per group g: {"keys.g": (K,) key frames (0 first, T - 1 last), "index.g": (K,) posture-table indices}."""
+        read = {}
+        for g, table in enumerate(self.postures):
+            read[f"keys.{g}"] = keys = self._read_keys(reader, n_frames)
+            read[f"index.{g}"] = reader.symbols(len(table), len(keys))
+        return read
+
+    def _rebuild(self, read, n_frames, fps, distance):
         recon = np.empty((n_frames, self.n_dofs))
-        for group, table in zip(self.groups, self.postures):
-            keys = self._read_keys(reader, n_frames)
-            index = reader.symbols(len(table), len(keys))
-            recon[:, group] = hermite_fill(keys, table[index], n_frames)
+        for g, (group, table) in enumerate(zip(self.groups, self.postures)):
+            recon[:, group] = hermite_fill(read[f"keys.{g}"], table[read[f"index.{g}"]], n_frames)
         return recon
 
 
@@ -485,16 +491,25 @@ class GestureCoder(_GroupCoder):
                                                indices, fallbacks, n_blend)
         return recon
 
-    def _decode(self, reader, n_frames, fps, setting):
+    def _read(self, reader, n_frames, setting):
+        """Per group g: {"bounds.g": (S + 1,) segment boundaries (0 first, T - 1 last), "flags.g": (S,) 1 = gesture
+        entry, 0 = posture fallback, "gestures.g": (flags.sum(),) gesture-table indices, "postures.g":
+        (1 + fallbacks,) posture-table indices (the start posture, then each fallback's target)}."""
+        read = {}
+        for g, (postures, table) in enumerate(zip(self.postures, self.gestures)):
+            read[f"bounds.{g}"] = bounds = self._read_keys(reader, n_frames)
+            read[f"flags.{g}"] = flags = reader.symbols(2, len(bounds) - 1)
+            read[f"gestures.{g}"] = reader.symbols(len(table), int(flags.sum()))
+            read[f"postures.{g}"] = reader.symbols(len(postures), 1 + int((flags == 0).sum()))
+        return read
+
+    def _rebuild(self, read, n_frames, fps, setting):
         n_blend = _frames(self.blend_at_30, fps)
         recon = np.empty((n_frames, self.n_dofs))
-        for group, postures, table in zip(self.groups, self.postures, self.gestures):
-            bounds = self._read_keys(reader, n_frames)
-            flags = reader.symbols(2, len(bounds) - 1)
-            indices = reader.symbols(len(table), int(flags.sum()))
-            posture_index = reader.symbols(len(postures), 1 + int((flags == 0).sum()))
-            recon[:, group] = self._synthesise(table, postures, postures[posture_index[0]], np.diff(bounds),
-                                               flags, indices, posture_index[1:], n_blend)
+        for g, (group, postures, table) in enumerate(zip(self.groups, self.postures, self.gestures)):
+            posture_index = read[f"postures.{g}"]
+            recon[:, group] = self._synthesise(table, postures, postures[posture_index[0]], np.diff(read[f"bounds.{g}"]),
+                                               read[f"flags.{g}"], read[f"gestures.{g}"], posture_index[1:], n_blend)
         return recon
 
 
@@ -563,19 +578,30 @@ class HybridCoder(_GroupCoder):
             recon[:, group] = self._synthesise(group, bounds, index, quantisers, n_blend)
         return recon
 
-    def _decode(self, reader, n_frames, fps, bits):
+    def _read(self, reader, n_frames, bits):
+        """Per group g of K DOFs: {"bounds.g": (S + 1,) segment boundaries (0 first, T - 1 last), "coeffs.g":
+        (S, 3, K) cells of each segment's mean and two cosine amplitudes (0 .. 2^bits - 1, 2^bits - 2, ...)}."""
         quantisers = self._quantisers(bits)
-        n_blend = _frames(self.blend_at_30, fps)
-        recon = np.empty((n_frames, self.n_dofs))
-        for group in self.groups:
-            bounds = self._read_keys(reader, n_frames)
+        read = {}
+        for g, group in enumerate(self.groups):
+            read[f"bounds.{g}"] = bounds = self._read_keys(reader, n_frames)
             n_segments = len(bounds) - 1
             index = [np.cumsum(reader.signed(n_segments * len(group)).reshape(n_segments, len(group)), axis=0)]
             if index[0].min() < 0 or index[0].max() >= quantisers[0][2]:
                 raise SigncastError("corrupt hybrid stream: segment mean out of range")
             for k in (1, 2):
                 index.append(reader.symbols(quantisers[k][2], n_segments * len(group)).reshape(n_segments, len(group)))
-            recon[:, group] = self._synthesise(group, bounds, index, quantisers, n_blend)
+            read[f"coeffs.{g}"] = np.stack(index, axis=1)
+        return read
+
+    def _rebuild(self, read, n_frames, fps, bits):
+        quantisers = self._quantisers(bits)
+        n_blend = _frames(self.blend_at_30, fps)
+        recon = np.empty((n_frames, self.n_dofs))
+        for g, group in enumerate(self.groups):
+            coeffs = read[f"coeffs.{g}"]
+            index = [coeffs[:, k] for k in range(3)]
+            recon[:, group] = self._synthesise(group, read[f"bounds.{g}"], index, quantisers, n_blend)
         return recon
 
 

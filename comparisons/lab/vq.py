@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from comparisons.lab.waveform import DofCoder, read_first_frame, write_first_frame
+from comparisons.lab.waveform import DofCoder, first_frame_value, read_first_frame, write_first_frame
 from media.errors import SigncastError
 
 TABLES_DIR = Path(__file__).resolve().parents[1] / "tables"
@@ -150,10 +150,14 @@ class SpatialVQ(DofCoder):
             recon[:, group] = books[size][index]
         return recon
 
-    def _decode(self, reader, n_frames, fps, size):
+    def _read(self, reader, n_frames, size):
+        """{"index.g": (T,) codebook indices of group g, g = 0, 1, ...}."""
+        return {f"index.{g}": reader.symbols(size, n_frames) for g in range(len(self.groups))}
+
+    def _rebuild(self, read, n_frames, fps, size):
         recon = np.empty((n_frames, self.n_dofs))
-        for group, books in zip(self.groups, self.codebooks):
-            recon[:, group] = books[size][reader.symbols(size, n_frames)]
+        for g, (group, books) in enumerate(zip(self.groups, self.codebooks)):
+            recon[:, group] = books[size][read[f"index.{g}"]]
         return recon
 
 
@@ -190,11 +194,15 @@ class TemporalVQ(DofCoder):
         writer.symbols(symbols, size)
         return recon
 
-    def _decode(self, reader, n_frames, fps, size):
+    def _read(self, reader, n_frames, size):
+        """{"first": (D,) first-frame cells, "symbols": (n_blocks, D) codebook indices of the 6-sample blocks}."""
         first = read_first_frame(reader, self)
         n_blocks = -(-(n_frames - 1) // TEMPORAL_DIMENSION)
-        symbols = reader.symbols(size, n_blocks * self.n_dofs).reshape(n_blocks, self.n_dofs)
-        return self._run(first, n_frames, self.codebooks[size], symbols=symbols)[0]
+        return {"first": first, "symbols": reader.symbols(size, n_blocks * self.n_dofs).reshape(n_blocks, self.n_dofs)}
+
+    def _rebuild(self, read, n_frames, fps, size):
+        return self._run(first_frame_value(read["first"], self), n_frames, self.codebooks[size],
+                         symbols=read["symbols"])[0]
 
 
 def spatial_vq(lower, upper, dof_names: list[str], tables: dict | None = None, stage: str | None = None) -> SpatialVQ:

@@ -41,7 +41,7 @@ import numpy as np
 from scipy.fft import dct, idct
 
 from comparisons.lab import streams as coded_streams
-from comparisons.lab.streams import StreamReader, StreamWriter, check_size
+from comparisons.lab.streams import StreamInfo, StreamReader, StreamWriter, check_size
 from comparisons.lab import context as lab_context
 from comparisons.lab import predictive as lab_predictive
 from comparisons.params import libm
@@ -98,23 +98,40 @@ class DofCoder:
     def decode(self, data: bytes) -> np.ndarray:
         return self.decode_with_fps(data)[0]
 
-    def decode_with_fps(self, data: bytes) -> tuple[np.ndarray, float]:
-        """Bytes -> ((T, D) radians, fps). Raises SigncastError on damaged input."""
+    def read_levels(self, data: bytes) -> tuple[dict[str, np.ndarray], StreamInfo]:
+        """Bytes -> (the integers the stream carries, before dequantisation: {name: int64 array}, the header).
+        This is the decoder's exact part, what conformance streams pin (tests/test_lab_conformance.py); each
+        coder's `_read` documents its names and shapes. Raises SigncastError on damaged input."""
         reader = StreamReader(data, self.coder_id, self.name)
         info = reader.info
         if info.n_dofs != self.n_dofs or info.q >= len(self.settings):
             raise SigncastError(f"corrupt {self.name} stream: layout does not match this coder")
         try:
-            recon = self._decode(reader, info.n_frames, info.fps, self.settings[info.q])
+            levels = self._read(reader, info.n_frames, self.settings[info.q])
         except (IndexError, ValueError, OverflowError, struct.error) as error:
             raise SigncastError(f"corrupt {self.name} stream: {error}") from None
         reader.finish()
+        return levels, info
+
+    def decode_with_fps(self, data: bytes) -> tuple[np.ndarray, float]:
+        """Bytes -> ((T, D) radians, fps): read_levels, then the coder's dequantisation. Raises SigncastError on
+        damaged input."""
+        levels, info = self.read_levels(data)
+        try:
+            recon = self._rebuild(levels, info.n_frames, info.fps, self.settings[info.q])
+        except (IndexError, ValueError, OverflowError) as error:
+            raise SigncastError(f"corrupt {self.name} stream: {error}") from None
         return recon, info.fps
 
     def _encode(self, writer: StreamWriter, dofs: np.ndarray, fps: float, setting) -> np.ndarray:
         raise NotImplementedError
 
-    def _decode(self, reader: StreamReader, n_frames: int, fps: float, setting) -> np.ndarray:
+    def _read(self, reader: StreamReader, n_frames: int, setting) -> dict[str, np.ndarray]:
+        """The stream's integers, in the order the encoder wrote them (checked against the header's layout)."""
+        raise NotImplementedError
+
+    def _rebuild(self, levels: dict[str, np.ndarray], n_frames: int, fps: float, setting) -> np.ndarray:
+        """The integers of `_read` -> (T, D) radians."""
         raise NotImplementedError
 
 
@@ -147,9 +164,12 @@ def write_first_frame(writer: StreamWriter, coder: DofCoder, first: np.ndarray) 
 
 
 def read_first_frame(reader: StreamReader, coder: DofCoder) -> np.ndarray:
-    levels = 1 << FIRST_FRAME_BITS
-    index = reader.raw(np.full(coder.n_dofs, FIRST_FRAME_BITS))
-    return uniform_value(index, coder.lower, coder.width, levels)
+    """The first frame's cell indices (D,) int64 (FIRST_FRAME_BITS each)."""
+    return reader.raw(np.full(coder.n_dofs, FIRST_FRAME_BITS))
+
+
+def first_frame_value(index: np.ndarray, coder: DofCoder) -> np.ndarray:
+    return uniform_value(index, coder.lower, coder.width, 1 << FIRST_FRAME_BITS)
 
 
 def _diff_limit_codes(dofs: np.ndarray) -> np.ndarray:
@@ -168,11 +188,11 @@ def _write_diff_limits(writer: StreamWriter, dofs: np.ndarray) -> np.ndarray:
     return _diff_limits(codes)
 
 
-def _read_diff_limits(reader: StreamReader, n_dofs: int) -> np.ndarray:
+def _read_diff_limit_codes(reader: StreamReader, n_dofs: int) -> np.ndarray:
     payload = reader.header()
     if len(payload) != n_dofs:
         raise SigncastError("corrupt stream: difference-limit header has the wrong size")
-    return _diff_limits(np.frombuffer(payload, dtype=np.uint8).astype(np.int64))
+    return np.frombuffer(payload, dtype=np.uint8).astype(np.int64)
 
 
 def _loop_input(dofs: np.ndarray | None, n_dofs: int) -> np.ndarray:
@@ -197,9 +217,12 @@ class UniformQuantizer(DofCoder):
         writer.symbol_rows(index.T, levels)  # one section, and adaptive context, per DOF
         return uniform_value(index, self.lower, self.width, levels)
 
-    def _decode(self, reader, n_frames, fps, levels):
-        index = reader.symbol_rows(levels, self.n_dofs, n_frames).T
-        return uniform_value(index, self.lower, self.width, levels)
+    def _read(self, reader, n_frames, levels):
+        """{"index": (T, D) cells 0 .. levels - 1}."""
+        return {"index": reader.symbol_rows(levels, self.n_dofs, n_frames).T}
+
+    def _rebuild(self, read, n_frames, fps, levels):
+        return uniform_value(read["index"], self.lower, self.width, levels)
 
 
 class CompandedQuantizer(DofCoder):
@@ -223,10 +246,13 @@ class CompandedQuantizer(DofCoder):
         writer.symbol_rows(index.T, 2 * half + 1)
         return np.take_along_axis(self._table(levels), index, axis=0)
 
-    def _decode(self, reader, n_frames, fps, levels):
+    def _read(self, reader, n_frames, levels):
+        """{"index": (T, D) levels 0 .. 2 half (half = (levels - 2) // 2; half is the range centre)}."""
         half = (levels - 2) // 2
-        index = reader.symbol_rows(2 * half + 1, self.n_dofs, n_frames).T
-        return np.take_along_axis(self._table(levels), index, axis=0)
+        return {"index": reader.symbol_rows(2 * half + 1, self.n_dofs, n_frames).T}
+
+    def _rebuild(self, read, n_frames, fps, levels):
+        return np.take_along_axis(self._table(levels), read["index"], axis=0)
 
 
 # ---------------------------------------------------------------- predictive coders
@@ -244,12 +270,18 @@ class ResidualCoder(DofCoder):
         writer.symbols(symbols, 2 * ((levels - 2) // 2) + 1)
         return recon
 
-    def _decode(self, reader, n_frames, fps, levels):
+    def _read(self, reader, n_frames, levels):
+        """{"first": (D,) first-frame cells, "limits": (D,) difference-limit codes 0..255, "symbols": (T - 1, D)
+        residual levels 0 .. 2 half}."""
         first = read_first_frame(reader, self)
-        limits = _read_diff_limits(reader, self.n_dofs)
+        codes = _read_diff_limit_codes(reader, self.n_dofs)
         alphabet = 2 * ((levels - 2) // 2) + 1
         symbols = reader.symbols(alphabet, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs)
-        return self._predict(first, limits, levels, n_frames, fps, symbols=symbols)[0]
+        return {"first": first, "limits": codes, "symbols": symbols}
+
+    def _rebuild(self, read, n_frames, fps, levels):
+        return self._predict(first_frame_value(read["first"], self), _diff_limits(read["limits"]), levels, n_frames,
+                             fps, symbols=read["symbols"])[0]
 
 
 class DpcmCoder(ResidualCoder):
@@ -342,16 +374,23 @@ class DeadReckoningCoder(DofCoder):
         writer.signed(velocity_codes[:used])
         return recon
 
-    def _decode(self, reader, n_frames, fps, threshold_deg):
-        threshold = np.radians(threshold_deg)
-        value_step, velocity_step = threshold / 2.0, threshold / 8.0
-        recon = np.empty((n_frames, self.n_dofs))
-        recon[0] = read_first_frame(reader, self)
-        flags = reader.symbols(2, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs).astype(bool)
+    def _read(self, reader, n_frames, threshold_deg):
+        """{"first": (D,) first-frame cells, "flags": (T - 1, D) 0/1 (a correction sent), "value", "velocity":
+        (number of corrections,) signed corrections in steps E/2 and E/8, in frame then DOF order}."""
+        first = read_first_frame(reader, self)
+        flags = reader.symbols(2, (n_frames - 1) * self.n_dofs).reshape(n_frames - 1, self.n_dofs)
         n_updates = int(flags.sum())
         value_codes = reader.signed(n_updates)
         velocity_codes = reader.signed(n_updates)
-        lab_predictive.deadreck_decode(flags, value_codes, velocity_codes, value_step, velocity_step, recon)
+        return {"first": first, "flags": flags, "value": value_codes, "velocity": velocity_codes}
+
+    def _rebuild(self, read, n_frames, fps, threshold_deg):
+        threshold = np.radians(threshold_deg)
+        value_step, velocity_step = threshold / 2.0, threshold / 8.0
+        recon = np.empty((n_frames, self.n_dofs))
+        recon[0] = first_frame_value(read["first"], self)
+        lab_predictive.deadreck_decode(read["flags"].astype(bool), read["value"], read["velocity"], value_step,
+                                       velocity_step, recon)
         return recon
 
 
@@ -425,26 +464,34 @@ class DctCoder(DofCoder):
                 writer.symbols(ac_index[k] + half, levels)
         return self._reconstruct(dc_index, ac_index, ranges, allocation, len(dofs))
 
-    def _decode(self, reader, n_frames, fps, row):
+    def _read(self, reader, n_frames, row):
+        """{"ranges": (16,) the AC ranges' float32 bit patterns (little-endian, as int64), "dc": (D, n_blocks) DC
+        cells, "ac": (D, n_blocks, 16) signed AC levels (0 where the allocation codes none; column 0 unused)}."""
         allocation = DCT_ALLOCATIONS[row]
         payload = reader.header()
         if len(payload) != 4 * BLOCK:
             raise SigncastError("corrupt dct stream: coefficient-range header has the wrong size")
         with np.errstate(invalid="ignore"):  # a damaged range may be a signalling NaN: rejected just below
-            ranges = np.frombuffer(payload, dtype=np.float32).astype(np.float64)
+            ranges = np.frombuffer(payload, dtype="<f4").astype(np.float64)
         if not np.all(np.isfinite(ranges)) or np.any(ranges <= 0):
             raise SigncastError("corrupt dct stream: bad coefficient ranges")
         n_blocks = -(-n_frames // BLOCK)
         dc_index = np.cumsum(reader.signed(self.n_dofs * n_blocks).reshape(self.n_dofs, n_blocks), axis=1)
         if dc_index.min() < 0 or dc_index.max() >= 1 << allocation[0]:
             raise SigncastError("corrupt dct stream: DC index out of range")
-        ac_index = {}
+        ac = np.zeros((self.n_dofs, n_blocks, BLOCK), dtype=np.int64)
         for k in range(1, BLOCK):
             levels = self._ac_levels(allocation[k])
             if levels > 1:
                 half = (levels - 1) // 2
-                ac_index[k] = reader.symbols(levels, self.n_dofs * n_blocks).reshape(self.n_dofs, n_blocks) - half
-        return self._reconstruct(dc_index, ac_index, ranges, allocation, n_frames)
+                ac[:, :, k] = reader.symbols(levels, self.n_dofs * n_blocks).reshape(self.n_dofs, n_blocks) - half
+        return {"ranges": np.frombuffer(payload, dtype="<u4").astype(np.int64), "dc": dc_index, "ac": ac}
+
+    def _rebuild(self, read, n_frames, fps, row):
+        allocation = DCT_ALLOCATIONS[row]
+        ranges = read["ranges"].astype("<u4").view("<f4").astype(np.float64)
+        ac_index = {k: read["ac"][:, :, k] for k in range(1, BLOCK) if self._ac_levels(allocation[k]) > 1}
+        return self._reconstruct(read["dc"], ac_index, ranges, allocation, n_frames)
 
 
 def haar_forward(blocks: np.ndarray) -> list[np.ndarray]:
@@ -484,7 +531,9 @@ class WaveletCoder(DofCoder):
             writer.signed(index)
         return from_blocks(haar_inverse([index * step for index in indices]), len(dofs))
 
-    def _decode(self, reader, n_frames, fps, step):
+    def _read(self, reader, n_frames, step):
+        """{"indices": (D, n_blocks, 16) coefficient indices (multiples of the step) in the dyadic layout
+        [approximation, level 1 (1), level 2 (2), level 3 (4), level 4 (8)]}."""
         n_blocks = -(-n_frames // BLOCK)
         approx = np.cumsum(reader.signed(self.n_dofs * n_blocks).reshape(self.n_dofs, n_blocks), axis=1)
         indices = [approx[..., None]]
@@ -492,7 +541,10 @@ class WaveletCoder(DofCoder):
         while width < BLOCK:
             indices.append(reader.signed(self.n_dofs * n_blocks * width).reshape(self.n_dofs, n_blocks, width))
             width *= 2
-        return from_blocks(haar_inverse([index * step for index in indices]), n_frames)
+        return {"indices": np.concatenate(indices, axis=-1)}
+
+    def _rebuild(self, read, n_frames, fps, step):
+        return ContextWaveletCoder._reconstruct(read["indices"], step, n_frames)
 
 
 PRIORS_PATH = Path(__file__).resolve().parents[1] / "tables" / "context_priors.npz"
@@ -638,10 +690,14 @@ class ContextWaveletCoder(DofCoder):
             start, width = start + width, 2 * width
         return from_blocks(haar_inverse([band * step for band in bands]), n_frames)
 
-    def _decode(self, reader, n_frames, fps, step):
+    def _read(self, reader, n_frames, step):
+        """{"indices": (D, n_blocks, 16)}, as `wavelet`'s."""
         indices = reader.context_coded(self.n_dofs, -(-n_frames // BLOCK))
         indices[..., 0] = np.cumsum(indices[..., 0], axis=1)
-        return self._reconstruct(indices, step, n_frames)
+        return {"indices": indices}
+
+    def _rebuild(self, read, n_frames, fps, step):
+        return self._reconstruct(read["indices"], step, n_frames)
 
     # ------------------------------------------------------------ compact layout
 
@@ -674,6 +730,14 @@ class ContextWaveletCoder(DofCoder):
     def decode_compact(cls, data: bytes, n_layout: int) -> tuple[np.ndarray, np.ndarray, float]:
         """Compact stream -> (reconstruction (T, D) radians of the active DOFs, active mask (n_layout,) bool, fps).
         Every size is bounded before allocation (T by the header, D <= n_layout); SigncastError on any damage."""
+        indices, active, stream = cls.read_compact_levels(data, n_layout)
+        return cls._reconstruct(indices, cls.settings[stream.q], stream.n_frames), active, stream.fps
+
+    @classmethod
+    def read_compact_levels(cls, data: bytes, n_layout: int
+                            ) -> tuple[np.ndarray, np.ndarray, coded_streams.CompactStream]:
+        """Compact stream -> (indices (D, n_blocks, 16) int64 of the D active DOFs, as `_read`'s, prediction and
+        approximation differencing undone; active mask (n_layout,) bool; the header): the decoder's exact part."""
         priors = context_priors()
         stream = coded_streams.read_compact(data, cls.coder_id, cls.name, priors.tag)
         if n_layout != priors.n_layout:
@@ -695,8 +759,7 @@ class ContextWaveletCoder(DofCoder):
             raise SigncastError(f"corrupt {cls.name} stream: payload undecodable (damaged or truncated)")
         unpredict_dofs(coeffs, prediction_pairs(mask.astype(bool), priors.predictor, priors.weight))
         coeffs[..., 0] = np.cumsum(coeffs[..., 0], axis=1)
-        recon = cls._reconstruct(coeffs, cls.settings[q], stream.n_frames)
-        return recon, mask.astype(bool), stream.fps
+        return coeffs, mask.astype(bool), stream
 
 
 WAVEFORM_CODERS = {cls.name: cls for cls in (UniformQuantizer, CompandedQuantizer, DpcmCoder, AdpcmCoder,
