@@ -1,5 +1,6 @@
-"""The compiled and batched paths of the seed-002 coders and the Motion <-> BAP conversion against the NumPy/scipy
-computations they replace (the stream hashes themselves are tests/test_stream_identity.py)."""
+"""The compiled and batched paths of the seed-002 coders and the Motion <-> BAP conversion against the plain
+NumPy/scipy computations they stand for, to rounding (the streams themselves are pinned by
+tests/test_lab_conformance.py)."""
 import struct
 import zlib
 
@@ -30,7 +31,6 @@ from comparisons.lab.model import (
     warp_segments,
 )
 from comparisons.lab.vq import nearest
-from comparisons.params import libm
 from media import rotations
 from media.errors import SigncastError
 
@@ -54,7 +54,7 @@ def test_baps_to_motion_rotations_stay_within_1e_12_of_the_scipy_euler_path():
         assert np.all(got[..., 0] >= 0.0)
 
 
-def test_motion_to_baps_is_bitwise_the_numpy_product_chain():
+def test_motion_to_baps_is_the_numpy_product_chain_to_a_unit():
     motion = smooth_motion(n_frames=40, seed=2)
     frames, neutrals, columns, signs = avatar_bap_map().arrays
     names = {n: k for k, n in enumerate(motion.bone_names)}
@@ -67,7 +67,9 @@ def test_motion_to_baps_is_bitwise_the_numpy_product_chain():
     anatomical = rotations.multiply(rotations.multiply(rotations.conjugate(frames), relative), frames)
     angles = rotations.to_euler(anatomical, EULER_ORDER) * signs
     expected = np.round(angles / bap_table.ROTATION_UNIT_RAD).astype(np.int64)
-    assert np.array_equal(motion_to_baps(motion)[:, columns], expected)
+    got = motion_to_baps(motion)[:, columns]
+    assert np.abs(got - expected).max() <= 1          # a value on a rounding boundary may go either way
+    assert np.mean(got == expected) > 0.99
 
 
 def test_compiled_sections_use_the_entropy_coders_model_limits():
@@ -133,11 +135,13 @@ def test_signed_sections_match_magnitude_classes_and_pack_bits():
         _writer().signed(np.array([1 << 40]))
 
 
-def test_savgol_slope_is_bitwise_scipys_savgol_filter():
+def test_savgol_slope_is_scipys_savgol_filter():
     rng = np.random.default_rng(4)
-    for shape in [(7,), (8, 1), (9, 5), (31, 57), (100,)]:
+    for shape in [(7,), (8, 1), (9, 5), (31, 57), (100,), (12, 3, 2)]:
         x = rng.standard_normal(shape)
-        assert savgol_slope(x).tobytes() == savgol_filter(x, 7, 3, deriv=1, axis=0).tobytes()
+        np.testing.assert_allclose(savgol_slope(x), savgol_filter(x, 7, 3, deriv=1, axis=0), rtol=0, atol=1e-13)
+    with pytest.raises(SigncastError):
+        savgol_slope(np.zeros((6, 2)))
 
 
 def test_group_speeds_of_all_groups_at_once_equal_each_groups_own():
@@ -146,8 +150,8 @@ def test_group_speeds_of_all_groups_at_once_equal_each_groups_own():
     for (omega, alpha), group in zip(group_speeds(dofs, groups), groups):
         velocity = savgol_filter(dofs[:, group], 7, 3, deriv=1, axis=0)
         expected_omega = np.linalg.norm(velocity, axis=1)
-        assert np.array_equal(omega, expected_omega)
-        assert np.array_equal(alpha, savgol_filter(expected_omega, 7, 3, deriv=1))
+        np.testing.assert_allclose(omega, expected_omega, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(alpha, savgol_filter(expected_omega, 7, 3, deriv=1), rtol=0, atol=1e-13)
         assert np.array_equal(group_speed(dofs[:, group])[0], omega)
 
 
@@ -157,7 +161,7 @@ def test_warp_is_np_interp_per_column():
         segment = rng.standard_normal((n, 4))
         source, target = np.linspace(0.0, 1.0, n), np.linspace(0.0, 1.0, length)
         expected = np.stack([np.interp(target, source, segment[:, k]) for k in range(4)], axis=1)
-        assert warp(segment, length).tobytes() == expected.tobytes()
+        np.testing.assert_allclose(warp(segment, length), expected, rtol=0, atol=1e-14)
 
 
 def test_hermite_fill_equals_the_per_interval_formula():
@@ -173,21 +177,21 @@ def test_hermite_fill_equals_the_per_interval_formula():
     for m in range(len(keys) - 1):
         a, b = keys[m], keys[m + 1]
         t = (np.arange(a, b + 1) - a) / (b - a)
-        cube = libm.power(t, 3.0)          # libm's pow, as the coder (NumPy's t ** 3 depends on the CPU)
+        cube = t ** 3
         h00, h10 = 2 * cube - 3 * t ** 2 + 1, cube - 2 * t ** 2 + t
         h01, h11 = -2 * cube + 3 * t ** 2, cube - t ** 2
         expected[a:b + 1] = (h00[:, None] * values[m] + h10[:, None] * (b - a) * slopes[m]
                              + h01[:, None] * values[m + 1] + h11[:, None] * (b - a) * slopes[m + 1])
-    assert got.tobytes() == expected.tobytes()
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-13)
 
 
-def test_warp_segments_are_bitwise_each_segments_warp():
+def test_warp_segments_are_each_segments_warp():
     rng = np.random.default_rng(11)
     source = rng.standard_normal((60, 5))
     starts, counts, lengths = np.array([0, 3, 10, 30, 58]), np.array([4, 2, 21, 29, 2]), np.array([16, 7, 1, 16, 40])
     expected = np.concatenate([warp(source[a:a + n], m) for a, n, m in zip(starts, counts, lengths)])
-    assert warp_segments(source, starts, counts, lengths).tobytes() == expected.tobytes()
-    assert warp_segments(source, [5], [1], [4]).tobytes() == warp(source[5:6], 4).tobytes()
+    np.testing.assert_allclose(warp_segments(source, starts, counts, lengths), expected, rtol=0, atol=1e-14)
+    assert np.array_equal(warp_segments(source, [5], [1], [4]), warp(source[5:6], 4))
 
 
 def test_gesture_matcher_is_gesture_distance_and_argmin_even_on_ties():

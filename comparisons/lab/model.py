@@ -39,16 +39,12 @@ from pathlib import Path
 
 import numpy as np
 from scipy.fft import dct
-from scipy.linalg import get_lapack_funcs
-from scipy.linalg.lapack import _compute_lwork
 from scipy.ndimage import convolve1d
 from scipy.signal import savgol_coeffs
 
 from comparisons.lab.streams import StreamReader, StreamWriter
 from comparisons.lab.vq import TABLES_DIR, group_layout, load_table_file, nearest
 from comparisons.lab.waveform import DofCoder, uniform_index, uniform_value
-from comparisons.params import libm
-from comparisons.params import ordered_products
 from comparisons.lab.gesture import warp_rows
 from media.errors import SigncastError
 
@@ -101,53 +97,34 @@ SAVGOL_WINDOW, SAVGOL_ORDER = 7, 3
 
 
 @functools.lru_cache(maxsize=1)
-def _savgol_tables() -> tuple:
-    """What scipy.signal.savgol_filter(x, 7, 3, deriv=1) computes before it sees x: its convolution
-    coefficients, polyfit's scaled Vandermonde matrix of the 7 edge samples and column scales, and
-    the LAPACK least-squares routine scipy.linalg.lstsq calls."""
-    coeffs = savgol_coeffs(SAVGOL_WINDOW, SAVGOL_ORDER, deriv=1)
-    t = np.arange(0, SAVGOL_WINDOW, dtype=np.float64)
-    powers = np.flip(np.arange(SAVGOL_ORDER + 1, dtype=np.float64))
-    lhs = libm.power(t[:, None], powers[None, :])
-    scale = np.sqrt(np.sum(lhs * lhs, axis=0))
-    lhs /= scale
-    gelsd, gelsd_lwork = get_lapack_funcs(("gelsd", "gelsd_lwork"), (lhs, lhs))
-    return coeffs, lhs, scale, gelsd, gelsd_lwork
-
-
-@functools.lru_cache(maxsize=64)
-def _gelsd_work(n_rhs: int) -> tuple[int, int]:
-    gelsd_lwork = _savgol_tables()[4]
-    return _compute_lwork(gelsd_lwork, SAVGOL_WINDOW, SAVGOL_ORDER + 1, n_rhs, _POLYFIT_RCOND)
-
-
-_POLYFIT_RCOND = SAVGOL_WINDOW * np.finfo(np.float64).eps
+def _savgol_weights() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """scipy.signal.savgol_coeffs of the 7-sample cubic fit's slope: the interior convolution kernel, and the dot
+    weights (3, 7) of the slope at the first three and the last three samples of an edge window (savgol_filter's
+    mode "interp" fits the polynomial to those 7 samples; its slope there is this dot product), read-only."""
+    half = SAVGOL_WINDOW // 2
+    interior = savgol_coeffs(SAVGOL_WINDOW, SAVGOL_ORDER, deriv=1)
+    first = np.stack([savgol_coeffs(SAVGOL_WINDOW, SAVGOL_ORDER, deriv=1, pos=k, use="dot") for k in range(half)])
+    last = np.stack([savgol_coeffs(SAVGOL_WINDOW, SAVGOL_ORDER, deriv=1, pos=k, use="dot")
+                     for k in range(SAVGOL_WINDOW - half, SAVGOL_WINDOW)])
+    for array in (interior, first, last):
+        array.setflags(write=False)
+    return interior, first, last
 
 
 def savgol_slope(x: np.ndarray) -> np.ndarray:
-    """scipy.signal.savgol_filter(x, 7, 3, deriv=1, axis=0) (mode "interp"), bitwise: x (T >= 7, ...) ->
-    (T, ...) per-frame slopes. The same convolution, and at each end the same polyfit (the same LAPACK
-    gelsd call scipy.linalg.lstsq makes, with its work sizes), derivative and Horner evaluation, without
-    scipy's per-call set-up (coefficients, work-size queries, array-API dispatch), which cost 5-10x
-    the arithmetic on these short clips."""
-    coeffs, lhs, scale, gelsd, _ = _savgol_tables()
+    """scipy.signal.savgol_filter(x, 7, 3, deriv=1, axis=0) (mode "interp"), to rounding (~1e-15 relative):
+    x (T >= 7, ...) -> (T, ...) per-frame slopes (units of x per frame). The coefficients are scipy's
+    (savgol_coeffs, computed once); the convolution and the two edge fits are applied here, without
+    savgol_filter's per-call set-up, which costs 5-10x the arithmetic on these short clips."""
+    interior, first, last = _savgol_weights()
     x = np.asarray(x, dtype=np.float64)
-    n, half = len(x), SAVGOL_WINDOW // 2
-    slopes = convolve1d(x, coeffs, axis=0, mode="constant")
-    powers = np.arange(SAVGOL_ORDER, 0, -1, dtype=np.float64).reshape((SAVGOL_ORDER, 1))
-    for window_start, out_start in ((0, 0), (n - SAVGOL_WINDOW, n - half)):
-        edge = x[window_start:window_start + SAVGOL_WINDOW].reshape(SAVGOL_WINDOW, -1)
-        lwork, iwork = _gelsd_work(edge.shape[1])
-        solution, _, _, info = gelsd(lhs, edge, lwork, iwork, _POLYFIT_RCOND, False, False)
-        if info != 0:
-            raise SigncastError("speed estimate failed: least-squares fit did not converge")
-        polynomial = (solution[:SAVGOL_ORDER + 1].T / scale).T
-        derivative = polynomial[:-1] * powers
-        at = np.arange(out_start - window_start, out_start - window_start + half, dtype=np.float64).reshape(-1, 1)
-        values = np.zeros_like(at)
-        for row in derivative:
-            values = values * at + row
-        slopes[out_start:out_start + half] = values.reshape((half,) + x.shape[1:])
+    if len(x) < SAVGOL_WINDOW:
+        raise SigncastError(f"speed estimate needs at least {SAVGOL_WINDOW} frames, got {len(x)}")
+    half = SAVGOL_WINDOW // 2
+    slopes = convolve1d(x, interior, axis=0, mode="constant")
+    flat = x.reshape(len(x), -1)
+    slopes[:half] = (first @ flat[:SAVGOL_WINDOW]).reshape((half,) + x.shape[1:])
+    slopes[len(x) - half:] = (last @ flat[len(x) - SAVGOL_WINDOW:]).reshape((half,) + x.shape[1:])
     return slopes
 
 
@@ -209,7 +186,7 @@ def hermite_fill(keys: np.ndarray, values: np.ndarray, n_frames: int) -> np.ndar
     m = np.minimum(np.searchsorted(keys, frames, side="right") - 1, len(keys) - 2)
     a, r = keys[m], keys[m + 1] - keys[m]
     t = (frames - a) / r
-    cube = libm.power(t, 3.0)
+    cube = t * t * t
     h00, h10 = 2 * cube - 3 * t ** 2 + 1, cube - 2 * t ** 2 + t
     h01, h11 = -2 * cube + 3 * t ** 2, cube - t ** 2
     out[:] = (h00[:, None] * values[m] + h10[:, None] * r[:, None] * slopes[m]
@@ -220,7 +197,7 @@ def hermite_fill(keys: np.ndarray, values: np.ndarray, n_frames: int) -> np.ndar
 @functools.lru_cache(maxsize=512)
 def raised_cosine(n: int) -> np.ndarray:
     """w(t) = (1 + cos(pi t)) / 2 at t = 0, 1/(n-1), ..., 1 (eq. 8-9): 1 -> 0. (n,), read-only (shared)."""
-    w = np.ones(1) if n == 1 else (1.0 + libm.cos(np.pi * np.arange(n) / (n - 1))) / 2.0
+    w = np.ones(1) if n == 1 else (1.0 + np.cos(np.pi * np.arange(n) / (n - 1))) / 2.0
     w.setflags(write=False)
     return w
 
@@ -532,7 +509,7 @@ class HybridCoder(_GroupCoder):
 
     def _segment_values(self, coefficients: np.ndarray, length: int) -> np.ndarray:
         """(3, K) mean and cosine amplitudes -> (length, K)."""
-        return ordered_products.matmul(_cosine_basis(length).T, coefficients)
+        return _cosine_basis(length).T @ coefficients
 
     def _synthesise(self, group, bounds, index, quantisers, n_blend):
         """Receiver: segments [a, b) (the last one includes the final frame) from quantised coefficients
@@ -609,7 +586,7 @@ class HybridCoder(_GroupCoder):
 def _cosine_basis(length: int) -> np.ndarray:
     """(3, length): 1, cos(pi k (2n + 1) / (2 length)) for k = 1, 2 (the hybrid coder's DCT basis), read-only."""
     n = np.arange(length)
-    basis = np.stack([np.ones(length)] + [libm.cos(np.pi * k * (2 * n + 1) / (2 * length)) for k in (1, 2)])
+    basis = np.stack([np.ones(length)] + [np.cos(np.pi * k * (2 * n + 1) / (2 * length)) for k in (1, 2)])
     basis.setflags(write=False)
     return basis
 

@@ -44,7 +44,6 @@ from comparisons.lab import streams as coded_streams
 from comparisons.lab.streams import StreamInfo, StreamReader, StreamWriter, check_size
 from comparisons.lab import context as lab_context
 from comparisons.lab import predictive as lab_predictive
-from comparisons.params import libm
 from media.errors import SigncastError
 
 FIRST_FRAME_BITS = 16
@@ -149,11 +148,11 @@ def uniform_value(index: np.ndarray, lower: np.ndarray, width: np.ndarray, level
 
 def mu_compress(u: np.ndarray, mu: float) -> np.ndarray:
     """Bipolar mu-law on u in [-1, 1] (seed 002 eq. 7-5, expander form)."""
-    return np.sign(u) * libm.log1p(mu * np.abs(u)) / libm.log1p(mu)
+    return np.sign(u) * np.log1p(mu * np.abs(u)) / np.log1p(mu)
 
 
 def mu_expand(c: np.ndarray, mu: float) -> np.ndarray:
-    return np.sign(c) * libm.expm1(np.abs(c) * libm.log1p(mu)) / mu
+    return np.sign(c) * np.expm1(np.abs(c) * np.log1p(mu)) / mu
 
 
 def write_first_frame(writer: StreamWriter, coder: DofCoder, first: np.ndarray) -> np.ndarray:
@@ -174,12 +173,12 @@ def first_frame_value(index: np.ndarray, coder: DofCoder) -> np.ndarray:
 
 def _diff_limit_codes(dofs: np.ndarray) -> np.ndarray:
     largest = np.abs(np.diff(dofs, axis=0)).max(axis=0) if len(dofs) > 1 else np.zeros(dofs.shape[1])
-    codes = np.ceil(8 * libm.log2(np.maximum(largest, DIFF_LIMIT_BASE) / DIFF_LIMIT_BASE))
+    codes = np.ceil(8 * np.log2(np.maximum(largest, DIFF_LIMIT_BASE) / DIFF_LIMIT_BASE))
     return np.clip(codes, 0, 255).astype(np.int64)
 
 
 def _diff_limits(codes: np.ndarray) -> np.ndarray:
-    return DIFF_LIMIT_BASE * libm.exp2(codes / 8.0)
+    return DIFF_LIMIT_BASE * np.exp2(codes / 8.0)
 
 
 def _write_diff_limits(writer: StreamWriter, dofs: np.ndarray) -> np.ndarray:
