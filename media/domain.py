@@ -1,5 +1,5 @@
 """signcast's domain types and limits, defined once: part labels, colours, the frame-rate, Q and frame-size
-rules, and which solution a codec belongs to.
+rules, the solutions (`Solution`) and which one a codec belongs to, and the one rate computation (`kbps`).
 
 Every check raises the one error type (SigncastError) with a one-line message that names the bad value and
 the allowed range; `what` names the option or field in that message (e.g. "--fps", "--q"). This module
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from enum import StrEnum
 
 from kernels.raster import FLAT_PALETTE, SHADED_ALBEDO, STUDIO_BACKGROUND
 from media.errors import SigncastError
@@ -37,7 +38,7 @@ __all__ = ["BACKGROUND", "BODY", "HEAD", "LEFT_HAND", "RIGHT_HAND", "PART_NAMES"
            "OVERLAY_COLOURS", "MAX_FPS", "check_fps", "MIN_Q", "MAX_Q", "check_q", "parse_qs", "MIN_SIDE", "MAX_SIDE", "SIZES",
            "DEFAULT_SIZE", "check_size", "parse_size", "FBA", "BBA", "MOTION_CODER", "VIDEO_SOLUTIONS",
            "PARAMETER_SOLUTIONS", "SOLUTION_ORDER", "WAVEFORM_NAMES", "MODEL_NAMES", "MOTION_CODER_NAMES",
-           "solution_of"]
+           "solution_of", "Solution", "SOURCE_VIDEO", "LOSSLESS_RENDER", "is_mpeg4_parameters", "kbps"]
 
 # --------------------------------------------------------------------------- frame rate
 # One limit for every frame rate a user asks for (motion, rendering, coding, analysis). 240 fps is above any
@@ -116,31 +117,112 @@ def parse_size(text: str, what: str = "--size") -> tuple[int, int]:
 
 
 # --------------------------------------------------------------------------- solutions and codecs
-FBA, BBA = "FBA", "BBA"
 # The seed-002 motion-coding laboratory's coders (comparisons.lab.codecs): waveform coders of each degree of
 # freedom and model-based coders. They code the same motion as FBA/BBA but are not MPEG-4 streams, so their
 # records carry a solution of their own.
-MOTION_CODER = "motion coder"
 WAVEFORM_NAMES = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavelet", "wavelet-cx", "svq", "tvq")
 MODEL_NAMES = ("posture", "gesture", "hybrid")
 MOTION_CODER_NAMES = WAVEFORM_NAMES + MODEL_NAMES
-# Solutions that send pixels; their solution is the study's choice of objects, not the video codec's.
-VIDEO_SOLUTIONS = ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV")
-PARAMETER_SOLUTIONS = (FBA, BBA, MOTION_CODER)
-SOLUTION_ORDER = VIDEO_SOLUTIONS + PARAMETER_SOLUTIONS          # the order of tables and legends
+
+SOURCE_VIDEO = "source video"          # reference: the signer's own video (message fidelity)
+LOSSLESS_RENDER = "lossless render"    # reference: the avatar's lossless render (codec loss of an avatar solution)
 
 
-def solution_of(codec: str) -> str:
+class Solution(StrEnum):
+    """The one list of solutions (DESIGN.md), in the order of tables and legends. A member is its name as a str
+    (records and tables carry the name; `Solution("NSV3O+C")` reads one back, unknown names raise ValueError,
+    `Solution.of` raises SigncastError).
+
+    kind: "video" (pixels are sent; the objects are the study's choice, not the video codec's) or "parameters"
+    (animation parameters the terminal renders). natural: codes the natural video (the NSV family). avatar: carries
+    the synthetic signer (SSV, FBA, BBA). reference: what a point's codec loss is matched against: the source video
+    for the NSV family, the lossless render for the avatar solutions (and the seed-002 motion coders)."""
+
+    NSV = "NSV"
+    NSV2O = "NSV2O"
+    NSV3O = "NSV3O"
+    NSV3O_C = "NSV3O+C"
+    SSV = "SSV"
+    FBA = "FBA"
+    BBA = "BBA"
+    MOTION_CODER = "motion coder"
+
+    @property
+    def kind(self) -> str:
+        return "parameters" if self in (Solution.FBA, Solution.BBA, Solution.MOTION_CODER) else "video"
+
+    @property
+    def natural(self) -> bool:
+        return self in (Solution.NSV, Solution.NSV2O, Solution.NSV3O, Solution.NSV3O_C)
+
+    @property
+    def avatar(self) -> bool:
+        return self in (Solution.SSV, Solution.FBA, Solution.BBA)
+
+    @property
+    def mpeg4_parameters(self) -> bool:
+        """FBA or BBA: an MPEG-4 animation stream (a parameter codec's fba-*/bba-* name)."""
+        return self in (Solution.FBA, Solution.BBA)
+
+    @property
+    def reference(self) -> str:
+        return SOURCE_VIDEO if self.natural else LOSSLESS_RENDER
+
+    @classmethod
+    def of(cls, name: str, what: str = "solution") -> "Solution":
+        """The member named name; SigncastError naming the known ones otherwise."""
+        try:
+            return cls(str(name))
+        except ValueError:
+            raise SigncastError(f"unknown {what} {name!r}: choose {', '.join(cls)}") from None
+
+    @classmethod
+    def video(cls) -> tuple["Solution", ...]:
+        return tuple(s for s in cls if s.kind == "video")
+
+    @classmethod
+    def parameters(cls) -> tuple["Solution", ...]:
+        return tuple(s for s in cls if s.kind == "parameters")
+
+    @classmethod
+    def natural_family(cls) -> tuple["Solution", ...]:
+        return tuple(s for s in cls if s.natural)
+
+    @classmethod
+    def avatars(cls) -> tuple["Solution", ...]:
+        return tuple(s for s in cls if s.avatar)
+
+
+FBA, BBA, MOTION_CODER = Solution.FBA, Solution.BBA, Solution.MOTION_CODER
+VIDEO_SOLUTIONS = Solution.video()
+PARAMETER_SOLUTIONS = Solution.parameters()
+SOLUTION_ORDER = tuple(Solution)          # the order of tables and legends
+
+
+def is_mpeg4_parameters(solution: str) -> bool:
+    """Whether a solution's name is FBA or BBA (a record's or a table's solution field)."""
+    return solution in (Solution.FBA, Solution.BBA)
+
+
+def kbps(bits: float, duration_s: float) -> float:
+    """The rate of bits sent over duration_s seconds, in kbit/s (1 kbit = 1000 bits); ValueError for a duration
+    that is not positive."""
+    if not duration_s > 0:
+        raise ValueError(f"a rate needs a positive duration, got {duration_s!r} s")
+    return bits / duration_s / 1000.0
+
+
+def solution_of(codec: str) -> Solution:
     """The solution a parameter codec's records belong to: fba-* -> FBA, bba-* -> BBA, a seed-002 motion coder
     -> MOTION_CODER. Video codecs (mpeg4, libx264, ...) serve several solutions, so they and unknown names raise
     SigncastError."""
     name = str(codec)
     if name.startswith("fba-"):
-        return FBA
+        return Solution.FBA
     if name.startswith("bba-"):
-        return BBA
+        return Solution.BBA
     if name in MOTION_CODER_NAMES:
-        return MOTION_CODER
+        return Solution.MOTION_CODER
     raise SigncastError(f"no solution for codec {name!r}: parameter codecs are fba-*, bba-* or a motion coder "
                         f"({', '.join(MOTION_CODER_NAMES)}); a video codec's solution is the study's "
                         f"({', '.join(VIDEO_SOLUTIONS)})")

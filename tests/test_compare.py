@@ -12,7 +12,7 @@ from comparisons.reports.records import INTELLIGIBILITY_FIELDS
 from media.video_io import read_video, write_video
 from pipeline.cli import main
 from pipeline.studies.compare import CompareSettings, LOSSLESS, SOURCE, UNCODED_SUBJECTS, run as run_compare
-from pipeline.studies.video import VideoSweep
+from pipeline.studies.shared import VideoSweep
 
 SMALL = CompareSettings(word="AB", video=VideoSweep(qs=(12, 31), frame_rates=(25.0, 10.0), other_codecs=()),
                         param_codecs=("fba-pred", "bba-key"), param_qs=(2, 31), size=(176, 144), max_clip_frames=48,
@@ -131,7 +131,7 @@ def test_a_reached_rate_carries_its_jackknife_over_the_extractions(result):
     again on the replicate thresholds (2 PCK points and half a letter of the word under the ceiling)."""
     from comparisons.judging.landmark_draws import leave_out
     from comparisons.judging.matching import Criterion, cheapest_rate
-    from pipeline.studies.compare import LETTER_MARGIN, PCK_MARGIN
+    from comparisons.judging.operating import LETTER_MARGIN, PCK_MARGIN
     ceiling = next(r for r in result.records if r.get("kind") == "uncoded" and r["subject"] == UNCODED_SUBJECTS[LOSSLESS])
     below = {"hand_pck_20": PCK_MARGIN, "letter_top1": 100.0 * LETTER_MARGIN / len(SMALL.word)}
     checked = 0
@@ -281,7 +281,7 @@ def test_compare_rejects_bad_settings(tmp_path, capsys):
 
 def test_a_refinement_measures_the_geometric_middle_of_a_reached_bracket_or_beyond_the_sweep():
     from comparisons.judging.matching import Match
-    from pipeline.studies.compare import q_to_refine
+    from comparisons.judging.operating import q_to_refine
 
     def bracket(low_q, high_q, reached=True):
         return Match(10.0, {"q": high_q, "kbps": 20.0}, {"q": low_q, "kbps": 5.0}, 0.5, reached)
@@ -304,7 +304,7 @@ def test_a_refinement_measures_the_geometric_middle_of_a_reached_bracket_or_beyo
 
 
 def test_the_threshold_follows_the_ceiling_and_drops_letters_the_ceiling_cannot_read():
-    from pipeline.studies.compare import criteria_for
+    from comparisons.judging.operating import criteria_for
     hands = criteria_for({"hand_pck_20": 98.5, "face_error": 0.03, "letter_top1": 80.0}, 0.9, 5)
     assert [(c.field, c.threshold, c.higher_is_better) for c in hands] == [
         ("hand_pck_20", pytest.approx(96.5), True), ("letter_top1", pytest.approx(70.0), True)]   # half a letter of 5

@@ -3,7 +3,8 @@ of what they measure."""
 import numpy as np
 import pytest
 
-from comparisons.judging.landmark_draws import MAX_EXTRACTIONS, SHIFTS, extract_draws, leave_out, mean_fields, shifted
+from comparisons.judging.landmark_draws import MAX_EXTRACTIONS, SHIFTS, leave_out, mean_fields, shifted
+from pipeline.studies.shared import extract_draws
 
 
 def test_the_shifts_are_distinct_sub_pixel_offsets_starting_at_the_half_pixel_diagonal():
@@ -50,7 +51,7 @@ def test_each_draw_is_moved_back_onto_the_pictures_own_pixel_grid():
     from media.fingerspelling import fingerspell
     from media.render import AvatarRenderer, RenderSettings
     from media.avatar import load_avatar
-    from comparisons.judging.landmark_draws import extract
+    from pipeline.studies.shared import extract_landmarks as extract
     motion = fingerspell("ase", "B", 25.0)
     renderer = AvatarRenderer(load_avatar(), RenderSettings(width=352, height=288, look="shaded", backend="numpy"))
     frames = np.stack([rgb for rgb, _ in renderer.frames(motion)])[::3]

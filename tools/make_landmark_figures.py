@@ -20,7 +20,7 @@ from media.retarget import retarget
 from media.segmentation import overlay
 from media.segmentation_landmarks import segment_by_landmarks
 from media.video_io import read_clip, resolve_video
-from pipeline.studies.pose import draw_landmarks
+from pipeline.studies.shared import draw_landmarks
 from pipeline.studies.video import segment_clip
 
 TILE_SCALE = 2          # the natural clip is 176x144: shown twice as large

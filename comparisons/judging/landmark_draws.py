@@ -12,12 +12,15 @@ kept with it.
 Every subject (the uncoded reference that sets the ceiling, and every coded point) is extracted at the same first
 `count` shifts of SHIFTS, so all are draws from the same perturbations; the first is the half-pixel diagonal shift
 the ceiling has always used. No shift is zero: the reference at zero shift is its own landmarks (100 %).
+
+This module is pure: the shifts, moving a picture by one (`shifted`) and its landmarks back (`unshift`), and the
+statistics of the draws (`mean_fields`, `draw_values`, `leave_out`, `standard_error`). Running the landmark model
+on the shifted pictures, with progress bars, is the study layer's (pipeline.studies.shared.extract_draws).
 """
 from __future__ import annotations
 
 import cv2
 import numpy as np
-from tqdm import tqdm
 
 from media.lexicon import SignClip
 
@@ -29,13 +32,6 @@ SHIFTS = ((0.5, 0.5), (0.5, 0.0), (0.0, 0.5), (0.25, 0.75), (0.75, 0.25), (0.25,
 MAX_EXTRACTIONS = len(SHIFTS)
 
 
-def extract(frames: np.ndarray, fps: float, label: str, progress: bool) -> SignClip:
-    """Landmarks (pixels) of frames (T, H, W, 3) uint8 RGB shown at fps, with a progress bar (counts, ETA)."""
-    from media.landmarks.holistic import extract_landmarks
-    with tqdm(total=len(frames), desc=label, unit="frame", disable=not progress, leave=False) as bar:
-        return extract_landmarks(frames, fps, progress=bar.update)
-
-
 def shifted(frames: np.ndarray, shift: tuple[float, float]) -> np.ndarray:
     """frames (T, H, W, 3) uint8 moved by shift (dx, dy) pixels right and down (bilinear, edges replicated)."""
     matrix = np.float32([[1, 0, shift[0]], [0, 1, shift[1]]])
@@ -43,19 +39,14 @@ def shifted(frames: np.ndarray, shift: tuple[float, float]) -> np.ndarray:
                                     borderMode=cv2.BORDER_REPLICATE) for frame in frames])
 
 
-def extract_draws(frames: np.ndarray, fps: float, count: int, label: str, progress: bool) -> list[SignClip]:
-    """count extractions of frames (T, H, W, 3) uint8, each at one of the first count SHIFTS, with the found points
-    moved back by the shift onto the frames' own pixel grid (missing points stay at 0)."""
-    draws = []
-    for k, shift in enumerate(SHIFTS[:count]):
-        observed = extract(shifted(frames, shift), fps, label + (f" ({k + 1}/{count})" if count > 1 else ""),
-                           progress)
-        for name, points in observed.points.items():
-            seen = observed.confidence[name] > 0
-            points[..., 0] -= shift[0] * seen
-            points[..., 1] -= shift[1] * seen
-        draws.append(observed)
-    return draws
+def unshift(observed: SignClip, shift: tuple[float, float]) -> SignClip:
+    """observed (landmarks found on frames moved by shift, pixels) moved back by the shift onto the frames' own pixel
+    grid, in place (missing points, confidence 0, stay at 0); returns observed."""
+    for name, points in observed.points.items():
+        seen = observed.confidence[name] > 0
+        points[..., 0] -= shift[0] * seen
+        points[..., 1] -= shift[1] * seen
+    return observed
 
 
 def mean_fields(draws: list[dict]) -> dict:

@@ -18,7 +18,8 @@ before any arrived).
 - NSV: a live PyAV decoder with FFmpeg's error concealment (comparisons.transport.video.LiveDecoder); access units
   lost entirely are announced to it, partial ones are decoded as they are.
 - FBA / BBA: units are found by a resynchronising scanner, decoded, and rendered by the terminal's renderer.
-The video-object solutions (NSV2O, NSV3O, NSV3O+C, SSV) have their own source and sink: pipeline/live/objects.py.
+The video-object solutions (NSV2O, NSV3O, NSV3O+C, SSV) have their own source and sink: pipeline/live/objects.py,
+which this module imports (objects imports only pipeline.live.session, so the two do not import each other).
 """
 from __future__ import annotations
 
@@ -31,10 +32,12 @@ from comparisons.params.bits import START_CODE_PREFIX
 from comparisons.transport.video import LiveDecoder, LiveEncoder
 from media.errors import SigncastError
 from media.motion import Motion
-from pipeline.live.session import AccessUnit, SessionDescription
+from media.domain import Solution
+from pipeline.live import objects
+from pipeline.live.session import LIVE_GOP, VIDEO_CODECS, AccessUnit, SessionDescription
 
-VIDEO_CODECS = {"mpeg4": "mp4v", "libx264": "h264"}     # live video codec -> RTP payload format
-LIVE_GOP = 12
+__all__ = ["VIDEO_CODECS", "LIVE_GOP", "VideoSource", "ParameterSource", "VideoSink", "ParameterSink", "source_for",
+           "sink_for", "warm_up", "payload_prefix"]
 
 
 class VideoSource:
@@ -195,21 +198,19 @@ def source_for(solution: str, codec: str, q: int, *, frames: np.ndarray | None =
     """(payload format, the sender's source) of one solution: NSV codes frames (T, H, W, 3) uint8; the object
     solutions (NSV2O, NSV3O, NSV3O+C, SSV: pipeline/live/objects.py) code frames cut by part labels (T, H, W)
     uint8, with shape units of shape_gop frames; FBA and BBA code the motion in units of refresh frames."""
-    from pipeline.live import objects
     if solution in objects.OBJECT_SOLUTIONS:
         return "objects", objects.ObjectSource(solution, frames, labels, fps, codec, q, shape_gop=shape_gop)
     if solution == "NSV":
         if codec not in VIDEO_CODECS:
             raise SigncastError(f"NSV is sent live with {' or '.join(VIDEO_CODECS)}, not {codec!r}")
         return VIDEO_CODECS[codec], VideoSource(codec, frames, fps, q)
-    if solution in ("FBA", "BBA"):
+    if solution in (Solution.FBA, Solution.BBA):
         return "units", ParameterSource(codec, motion, q, refresh)
     raise SigncastError(f"unknown solution {solution!r}: choose NSV, {', '.join(objects.OBJECT_SOLUTIONS)}, FBA or BBA")
 
 
 def sink_for(description: SessionDescription, renderer_for):
     """The receiver's sink for a session; renderer_for(width, height) gives the terminal's renderer."""
-    from pipeline.live import objects
     if description.solution in objects.OBJECT_SOLUTIONS:
         return objects.ObjectSink(description)
     if description.solution == "NSV":

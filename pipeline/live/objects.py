@@ -38,8 +38,7 @@ from comparisons.video import objects as video_objects
 from comparisons.transport.video import LiveDecoder, LiveEncoder
 from comparisons.video.objects import flatten_macroblocks, transparent_macroblocks
 from media.errors import SigncastError
-from pipeline.live.endpoints import LIVE_GOP, VIDEO_CODECS
-from pipeline.live.session import AccessUnit, SessionDescription
+from pipeline.live.session import LIVE_GOP, VIDEO_CODECS, AccessUnit, SessionDescription
 
 TEXTURE_PAYLOADS = VIDEO_CODECS                             # live texture codec -> RTP payload format
 TEXTURE_GOP = LIVE_GOP                                      # frames between texture keyframes

@@ -71,6 +71,8 @@ class SessionDescription:
         return self.t0_ns + np.round(np.asarray(index) * 1e9 / self.fps).astype(np.int64)
 
 
+VIDEO_CODECS = {"mpeg4": "mp4v", "libx264": "h264"}     # live video codec -> RTP payload format
+LIVE_GOP = 12               # frames per intra period of the live video encoders
 PAYLOADS = ("units", "h264", "mp4v", "objects")
 STREAM_PAYLOADS = ("units", "h264", "mp4v")
 

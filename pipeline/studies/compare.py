@@ -68,50 +68,35 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from comparisons.video import quality as image_quality
-from comparisons.judging import matching
-from comparisons.judging import metrics
+from comparisons.judging import matching, metrics
+from comparisons.judging import operating
+from comparisons.judging.judge import LOSSLESS, SOURCE, UNCODED_SUBJECTS, Judge, Viewed, hand_share, hold_indices, select_frames
+from comparisons.judging.landmark_draws import MAX_EXTRACTIONS, SHIFTS
+from comparisons.judging.operating import (CLEAR_VERDICT_SE, FACE_MARGIN, LETTER_MARGIN, MIN_HAND_SHARE, PCK_MARGIN,
+                                           Series, criteria_for, q_to_refine)
 from comparisons.params import codecs as param_codecs
-from comparisons.video import objects as video_objects
-from comparisons.judging.landmark_draws import MAX_EXTRACTIONS, SHIFTS, draw_values, extract, extract_draws, leave_out, mean_fields
 from comparisons.params.study import face_joint_fields
-from comparisons.reports.records import INTELLIGIBILITY_FIELDS, make_record, versions, write_records
 from comparisons.reports.comparison import build_report, operating_points, verdict_note
-from media.avatar import load_avatar
-from media.domain import MAX_Q, MIN_Q, SKIN_PARTS, check_q, check_size, solution_of
+from comparisons.reports.records import make_record, versions, write_records
+from comparisons.video import objects as video_objects
+from media.domain import SKIN_PARTS, Solution, check_q, solution_of
 from media.errors import SigncastError
 from media.face_rig import with_face_bones
 from media.lexicon import SignClip
 from media.motion import Motion, resample
-from media.render import AvatarRenderer, RenderSettings
+from media.render import AvatarRenderer
 from media.tiling import tile_videos
-from media.video_io import frame_indices_at_rate, resolve_video, video_info, write_video
+from media.video_io import frame_indices_at_rate, write_video
 from pipeline.stages import StageClock
-from pipeline.studies import video as video_study
+from pipeline.studies import shared
+from pipeline.studies.shared import DISPLAY_FPS, Scenario, ScenarioSettings, fit_length, render_frames, renderers
 
-DISPLAY_FPS = 25.0           # frame rate of the avatar scenarios ("word"; "pose" keeps the file's own)
-SOURCE = "source video"      # reference: the reference video's landmarks (message fidelity)
-LOSSLESS = "lossless render"  # reference: the lossless render's landmarks (codec loss of an avatar solution)
-# the ceiling of each reference: its own frames, resampled by sub-pixel shifts and re-extracted (Judge.uncoded)
-UNCODED_SUBJECTS = {SOURCE: "uncoded reference, resampled", LOSSLESS: "uncoded lossless render, resampled"}
-NATURAL_SOLUTIONS = ("NSV", "NSV2O", "NSV3O", "NSV3O+C")
-AVATAR_SOLUTIONS = ("SSV", "FBA", "BBA")
-PCK_MARGIN = 2.0             # hand PCK@0.2 points below the uncoded reference's (re-extracted after resampling)
-# letter top-1 below the uncoded reference's, in letters of the word: with several extractions, a letter the ceiling
-# reads may be missed in fewer than half of them (one extraction: no letter may be lost)
-LETTER_MARGIN = 0.5
-MAX_LANDMARK_STEP = 25       # every 25th frame: one a second at 25 fps
+__all__ = ["CompareSettings", "run", "check", "LOSSLESS", "SOURCE", "UNCODED_SUBJECTS", "PCK_MARGIN", "LETTER_MARGIN",
+           "FACE_MARGIN", "MIN_HAND_SHARE", "CLEAR_VERDICT_SE", "criteria_for", "q_to_refine", "DISPLAY_FPS"]
+
 MAX_REFINEMENTS = 5           # halving a Q 1-31 bracket five times leaves adjacent Q
-FACE_MARGIN = 0.02           # face error, interocular distances above the uncoded reference's
-JUDGED_ON = ("each criterion's monotone fit over the swept Q (and frame rates) of the means over the extractions "
-             "(comparisons.judging.matching, monotone=True)")
-# a verdict (reached or not) this many standard errors from its threshold is clear; nearer, too close to call for the
-# extractions made (comparisons.judging.matching.verdict_margin)
-CLEAR_VERDICT_SE = 2.0
-MIN_HAND_SHARE = 0.1         # a reference showing a hand in fewer frames is matched on the face
 ARM_BONES = ("upperarm01", "upperarm02", "lowerarm01", "lowerarm02", "wrist")   # shoulder to wrist
 HAND_BONE_PREFIXES = ("metacarpal", "finger")
-QUALITY_FIELDS = ("image_psnr", "ssim", "skin_psnr", "skin_ssim")
 SIZE_RULE = ("the avatar is rendered at the natural frame's size; the renderer frames the signing space for "
              "that aspect, so the avatar fills the frame as the renderer frames it")
 
@@ -134,20 +119,27 @@ class CompareSettings:
     word: str = "HELLO"
     clip: str | None = None
     pose: str | None = None
-    video: video_study.VideoSweep = video_study.VideoSweep(other_codecs=())
+    video: shared.VideoSweep = shared.VideoSweep(other_codecs=())
     param_codecs: tuple[str, ...] = ("fba-pred", "fba-dct", "bba-pred", "bba-dct", "bba-key")
     param_qs: tuple[int, ...] = (1, 2, 4, 8, 16, 31)
     size: tuple[int, int] = (352, 288)
     backend: str = "auto"
     max_clip_frames: int | None = None
-    max_clip_size: tuple[int, int] | None = video_study.DEFAULT_MAX_SIZE
+    max_clip_size: tuple[int, int] | None = shared.DEFAULT_MAX_SIZE
     landmark_step: int = 1
     extractions: int = 4
     refinements: int = 2
 
     @property
+    def signing(self) -> ScenarioSettings:
+        """The scenario's own settings (pipeline.studies.shared.load_scenario)."""
+        return ScenarioSettings(self.language, self.word, self.clip, self.pose, self.size, self.backend,
+                                self.max_clip_frames, self.max_clip_size)
+
+    @property
     def scenario(self) -> str:
-        return "video" if self.clip is not None else "pose" if self.pose is not None else "word"
+        """"video", "pose" or "word" (see the module's description)."""
+        return self.signing.scenario
 
     @classmethod
     def demo(cls) -> "CompareSettings":
@@ -156,38 +148,9 @@ class CompareSettings:
         frame rates 25 and 12.5; one FBA and one BBA codec at parameter Q 1, 4, 31; 352x288 render (at 176x144
         the hands are about 15 pixels and the landmarks' own noise exceeds the threshold); intelligibility measured
         on every 3rd frame, four extractions each (landmark extraction, 30-70 ms a frame, is most of the work)."""
-        return cls(video=video_study.VideoSweep(qs=(4, 12, 31), frame_rates=(25.0, 12.5), other_codecs=()),
+        return cls(video=shared.VideoSweep(qs=(4, 12, 31), frame_rates=(25.0, 12.5), other_codecs=()),
                    param_codecs=("fba-pred", "bba-key"), param_qs=(1, 4, 31), size=(352, 288), landmark_step=3,
                    extractions=4, refinements=1)
-
-
-@dataclass
-class Scenario:
-    """The signing every solution carries. frames: (T, H, W, 3) uint8 reference frames; labels: (T, H, W) uint8
-    part labels of them (for the NSV family); landmarks: the reference's; motion: the avatar's (T frames at fps);
-    render, render_labels, render_landmarks: its lossless render (the reference itself in the avatar scenarios);
-    spans: (letter, first frame, end frame) of a fingerspelled word, else None."""
-    kind: str
-    name: str
-    fps: float
-    timing: video_study.Timing
-    frames: np.ndarray
-    labels: np.ndarray
-    landmarks: SignClip
-    motion: Motion
-    render: np.ndarray
-    render_labels: np.ndarray
-    render_landmarks: SignClip
-    spans: list | None = None
-    language: str | None = None
-
-    @property
-    def n_frames(self) -> int:
-        return len(self.frames)
-
-    @property
-    def size(self) -> tuple[int, int]:
-        return self.frames.shape[2], self.frames.shape[1]
 
 
 @dataclass
@@ -218,27 +181,12 @@ def check(settings: CompareSettings, command: str = "compare") -> None:
     from pipeline.checks import check_memory
     check_backend(settings.backend)
     check_settings(settings)
-    n_frames, width, height = _expected_frames(settings)
+    n_frames, width, height = shared.expected_frames(settings.signing)
     check_memory(n_frames, width, height, bytes_per_pixel(settings), command,
                  "choose a smaller --size or --max-size, or fewer frames")
     if len(range(0, n_frames, settings.landmark_step)) < 2:
         raise SigncastError(f"--landmark-step {settings.landmark_step} measures fewer than 2 of the {n_frames} frames: "
                             "choose a smaller step")
-
-
-def _expected_frames(settings: CompareSettings) -> tuple[int, int, int]:
-    """(frames, width, height) the scenario will hold, known before reading the video's frames."""
-    if settings.scenario == "video":
-        info = video_info(resolve_video(settings.clip))
-        width, height = settings.max_clip_size or (info.width, info.height)
-        count = min(filter(None, (info.announced_frames, settings.max_clip_frames)), default=1)
-        return count, min(width, info.width), min(height, info.height)
-    if settings.scenario == "pose":
-        count = _read_pose(settings.pose).n_frames
-    else:
-        from media.fingerspelling import fingerspell
-        count = fingerspell(settings.language, settings.word, fps=DISPLAY_FPS).n_frames
-    return min(count, settings.max_clip_frames or count), *settings.size
 
 
 def bytes_per_pixel(settings: CompareSettings) -> int:
@@ -249,6 +197,7 @@ def bytes_per_pixel(settings: CompareSettings) -> int:
 
 
 def check_settings(settings: CompareSettings) -> None:
+    """Refuse bad sweeps, codecs, counts and scenarios (one-line SigncastError); reads no frames."""
     sweep = settings.video
     if not sweep.qs:
         raise SigncastError("give at least one video Q")
@@ -262,240 +211,12 @@ def check_settings(settings: CompareSettings) -> None:
     if sweep.other_codecs:
         raise SigncastError(f"compare codes video with MPEG-4 Part 2 only for now: --video-codecs "
                             f"{','.join(sweep.other_codecs)} is not measured; give --video-codecs none")
-    check_size(*settings.size, "the rendered signer")
-    if settings.max_clip_frames is not None and settings.max_clip_frames < 2:
-        raise SigncastError(f"bad frame count {settings.max_clip_frames}: at least 2")
     if not 1 <= settings.extractions <= MAX_EXTRACTIONS:
         raise SigncastError(f"bad extraction count {settings.extractions}: choose 1 to {MAX_EXTRACTIONS}")
-    if not 1 <= settings.landmark_step <= MAX_LANDMARK_STEP:
-        raise SigncastError(f"bad landmark step {settings.landmark_step}: choose 1 to {MAX_LANDMARK_STEP} (every Nth frame)")
+    shared.check_landmark_step(settings.landmark_step)
     if not 0 <= settings.refinements <= MAX_REFINEMENTS:
         raise SigncastError(f"bad refinement count {settings.refinements}: choose 0 to {MAX_REFINEMENTS}")
-    if settings.scenario == "word":
-        from media import lexicon
-        lexicon.split_word(lexicon.check_language(settings.language), settings.word)
-    if settings.scenario == "video":
-        resolve_video(settings.clip)
-
-
-def _read_pose(path: str) -> SignClip:
-    from media.pose_file import read_pose
-    clip = read_pose(path)
-    if clip.n_frames < 2:
-        raise SigncastError(f"pose file {path} holds {clip.n_frames} frames: at least 2 are needed")
-    return clip
-
-
-# ------------------------------------------------------------------------------------------------------------
-# the scenario
-
-def load_scenario(settings: CompareSettings, renderer_for: Callable[[int, int], AvatarRenderer], *,
-                  progress: bool = True, notify: Callable[[str], object] | None = None) -> Scenario:
-    """The reference, its landmarks, the avatar's motion and its lossless render (see the module's description)."""
-    if settings.scenario == "video":
-        return _video_scenario(settings, renderer_for, progress, notify)
-    return _avatar_scenario(settings, renderer_for, progress)
-
-
-def _video_scenario(settings, renderer_for, progress, notify) -> Scenario:
-    from media.retarget import retarget
-    clip, notes = video_study.read_natural_clip(settings.clip, settings.max_clip_frames, settings.max_clip_size,
-                                                progress=progress)
-    for line in notes:
-        if notify:
-            notify(line)
-    frames = clip.frames
-    if settings.pose is not None:
-        landmarks = _clip_frames(_read_pose(settings.pose), len(frames), settings.pose)
-        landmarks = SignClip(clip.fps, landmarks.points, landmarks.confidence)
-    else:
-        landmarks = extract(frames, clip.fps, "landmarks: source video", progress)
-    if not np.any(landmarks.confidence["POSE_LANDMARKS"] > 0):
-        raise SigncastError(f"no person found in {clip.path.name}: no body pose in any of its {len(frames)} frames")
-    labels = video_study.segment_clip(frames, progress=progress, landmarks=landmarks, fps=clip.fps)
-    retargeted = retarget(landmarks, load_avatar().skeleton)
-    if not retargeted.hands and notify:
-        notify(f"{clip.path.name} shows no hand in enough frames: the avatar's arms rest")
-    motion = _fit_length(retargeted.motion, len(frames))
-    height, width = frames.shape[1:3]
-    render, render_labels = render_frames(renderer_for(width, height), motion, "render: lossless", progress)
-    render_landmarks = extract(render, clip.fps, "landmarks: lossless render", progress)
-    return Scenario("video", clip.path.stem, clip.fps, video_study.Timing.of_clip(clip), frames, labels, landmarks,
-                    motion, render, render_labels, render_landmarks)
-
-
-def _avatar_scenario(settings, renderer_for, progress) -> Scenario:
-    spans, language = None, None
-    if settings.scenario == "pose":
-        from media.retarget import retarget
-        clip = _read_pose(settings.pose)
-        motion = retarget(clip, load_avatar().skeleton).motion
-        name = Path(settings.pose).stem
-    else:
-        from media import fingerspelling
-        language = settings.language
-        motion = fingerspelling.fingerspell(language, settings.word, fps=DISPLAY_FPS)
-        spans = fingerspelling.letter_spans(language, settings.word, DISPLAY_FPS)
-        name = f"{language}-{settings.word}"
-    if settings.max_clip_frames is not None and motion.n_frames > settings.max_clip_frames:
-        motion = motion.frames(0, settings.max_clip_frames)
-    if spans is not None:
-        spans = [(letter, start, end) for letter, start, end in spans if end <= motion.n_frames]
-    render, render_labels = render_frames(renderer_for(*settings.size), motion, "render: reference", progress)
-    landmarks = extract(render, motion.fps, "landmarks: reference", progress)
-    labels = video_study.segment_clip(render, progress=progress, landmarks=landmarks, fps=motion.fps)
-    timing = video_study.Timing.regular(motion.n_frames, motion.fps)
-    return Scenario(settings.scenario, name, motion.fps, timing, render, labels, landmarks, motion, render,
-                    render_labels, landmarks, spans or None, language)
-
-
-def _clip_frames(clip: SignClip, n_frames: int, where: str) -> SignClip:
-    """The first n_frames of a clip's landmarks; SigncastError when it holds fewer."""
-    if clip.n_frames < n_frames:
-        raise SigncastError(f"pose file {where} holds {clip.n_frames} frames, the video {n_frames}: "
-                            "give the .pose of the same video (signcast pose, same --max-size)")
-    return SignClip(clip.fps, {k: v[:n_frames] for k, v in clip.points.items()},
-                    {k: v[:n_frames] for k, v in clip.confidence.items()})
-
-
-def _fit_length(motion: Motion, n_frames: int) -> Motion:
-    """The motion cut or held (last pose) to exactly n_frames frames."""
-    if motion.n_frames >= n_frames:
-        return motion.frames(0, n_frames) if motion.n_frames > n_frames else motion
-    pad = n_frames - motion.n_frames
-    faps = None if motion.faps is None else np.concatenate([motion.faps, np.repeat(motion.faps[-1:], pad, axis=0)])
-    return Motion(motion.fps, motion.bone_names,
-                  np.concatenate([motion.rotations, np.repeat(motion.rotations[-1:], pad, axis=0)]),
-                  np.concatenate([motion.root_translation, np.repeat(motion.root_translation[-1:], pad, axis=0)]), faps)
-
-
-def render_frames(renderer: AvatarRenderer, motion: Motion, label: str, progress: bool) -> tuple[np.ndarray, np.ndarray]:
-    """frames (T, H, W, 3) uint8 and labels (T, H, W) uint8 of the motion, with a progress bar."""
-    s = renderer.settings
-    frames = np.empty((motion.n_frames, s.height, s.width, 3), np.uint8)
-    labels = np.empty((motion.n_frames, s.height, s.width), np.uint8)
-    with tqdm(total=motion.n_frames, desc=label, unit="frame", disable=not progress, leave=False) as bar:
-        for t, (rgb, label_frame) in enumerate(renderer.frames(motion)):
-            frames[t], labels[t] = rgb, label_frame
-            bar.update(1)
-    return frames, labels
-
-
-def hold_indices(times_s: np.ndarray, fps: float, n_sent: int) -> np.ndarray:
-    """(T,) for each reference frame time (seconds), the index of the sent frame on screen then: frames sent at
-    the ticks 0, 1/fps, ... are held until the next tick."""
-    ticks = np.floor(np.asarray(times_s, np.float64) * fps + 1e-6).astype(int)
-    return np.clip(ticks, 0, n_sent - 1)
-
-
-def select_frames(clip: SignClip, indices: np.ndarray, fps: float | None = None) -> SignClip:
-    """The landmarks of the frames at indices (M,), in that order (repeats allowed), at fps (None: the clip's)."""
-    return SignClip(clip.fps if fps is None else fps, {k: v[indices] for k, v in clip.points.items()},
-                    {k: v[indices] for k, v in clip.confidence.items()})
-
-
-def _measured_spans(spans: list | None, step: int, n_measured: int) -> list | None:
-    """Letter spans (letter, first, end exclusive) in the measured frames' indices (every step-th frame); a span
-    keeps at least one measured frame."""
-    if not spans:
-        return None
-    out = []
-    for letter, start, end in spans:
-        first = min(-(-start // step), n_measured - 1)
-        out.append((letter, first, min(max(-(-end // step), first + 1), n_measured)))
-    return out
-
-
-# ------------------------------------------------------------------------------------------------------------
-# measuring what the viewer sees
-
-@dataclass
-class Viewed:
-    """What the viewer sees at one point: frames (T, H, W, 3) uint8 at the reference's times, the decoded skin
-    mask (T, H, W) bool or None where the solution sends no skin shape, and the point's record fields."""
-    frames: np.ndarray
-    skin: np.ndarray | None
-    fields: dict
-
-
-class Judge:
-    """Measures what the viewer sees against a scenario's references (intelligibility, letters, image quality)."""
-
-    def __init__(self, scenario: Scenario, progress: bool, step: int = 1, extractions: int = 1):
-        self.scenario, self.progress, self.extractions = scenario, progress, extractions
-        self.measured = np.arange(0, scenario.n_frames, max(1, step))     # (M,) frames measured
-        self.reference = select_frames(scenario.landmarks, self.measured)
-        self.render_reference = select_frames(scenario.render_landmarks, self.measured)
-        self.spans = _measured_spans(scenario.spans, max(1, step), len(self.measured))
-        self.recogniser = None
-        if scenario.spans:
-            from comparisons.judging.letters import Recogniser
-            self.recogniser = Recogniser.from_lexicon([scenario.language])
-        self.reference_skin = np.isin(scenario.labels, SKIN_PARTS)
-        self.render_skin = np.isin(scenario.render_labels, SKIN_PARTS)
-
-    def letters(self, observed: SignClip) -> dict:
-        """letter_top1 / letter_top3 (percent) of a fingerspelled word's letters; {} without a word."""
-        if self.recogniser is None:
-            return {}
-        from comparisons.judging.letters import recognise_spans, top_k
-        spans = self.spans
-        rankings = recognise_spans(self.recogniser, observed, self.scenario.language, spans)
-        truths = [letter for letter, _, _ in spans]
-        return {"letter_top1": top_k(rankings, truths, 1), "letter_top3": top_k(rankings, truths, 3)}
-
-    def references(self, solution: str) -> list[tuple[str, SignClip]]:
-        """The references a solution's points are measured against, at the measured frames."""
-        refs = [(SOURCE, self.reference)]
-        if solution in AVATAR_SOLUTIONS:
-            refs.append((LOSSLESS, self.render_reference))
-        return refs
-
-    def draws(self, frames: np.ndarray, fps: float, label: str) -> list[SignClip]:
-        """The landmarks of frames (M, H, W, 3) uint8 (the measured frames of what the viewer sees, shown at fps),
-        extracted `extractions` times, each under its sub-pixel shift (comparisons.judging.landmark_draws)."""
-        return extract_draws(frames, fps, self.extractions, label, self.progress)
-
-    def intelligibility(self, solution: str, draws: list[SignClip]) -> list[tuple[str, dict]]:
-        """(reference name, intelligibility and letter fields, each the mean over the draws, with their spread) for
-        each reference of the solution; draws: the landmarks of the measured frames, one SignClip per extraction."""
-        from comparisons.judging.intelligibility import measure
-        letters = [self.letters(observed) for observed in draws]
-        return [(name, mean_fields([{**measure(reference, observed).fields(), **letter}
-                                    for observed, letter in zip(draws, letters)]))
-                for name, reference in self.references(solution)]
-
-    def records(self, solution: str, viewed: Viewed, draws: list[SignClip]) -> list[dict]:
-        """One record per reference of the solution, each with the point's fields, image quality and
-        intelligibility (draws: the landmarks of what the viewer sees, one SignClip per extraction)."""
-        s = self.scenario
-        avatar = solution in AVATAR_SOLUTIONS
-        reference_frames = s.render if avatar else s.frames
-        reference_skin = self.render_skin if avatar else self.reference_skin
-        skin = reference_skin if viewed.skin is None else reference_skin | viewed.skin
-        quality = image_quality.quality_fields(reference_frames, viewed.frames, skin)
-        return [dict(viewed.fields, **quality, reference=name, **fields)
-                for name, fields in self.intelligibility(solution, draws)]
-
-    def uncoded(self) -> list[dict]:
-        """The ceilings: each reference's measured frames re-extracted under the same sub-pixel shifts as every
-        point (invisible, but new pixels: the landmark extractor's own noise floor), against the reference's
-        landmarks, the mean over the draws; and (video scenario) the lossless render's landmarks against the
-        source video's (the retargeting loss alone)."""
-        s = self.scenario
-        source, render = self.reference, self.render_reference
-        resampled_source = self.draws(s.frames[self.measured], s.fps, "re-extract the reference")
-        resampled_render = (resampled_source if s.render is s.frames
-                            else self.draws(s.render[self.measured], s.fps, "re-extract the lossless render"))
-        subjects = [(UNCODED_SUBJECTS[SOURCE], SOURCE, source, resampled_source),
-                    (UNCODED_SUBJECTS[LOSSLESS], LOSSLESS, render, resampled_render)]
-        if s.kind == "video":
-            subjects.append(("uncoded lossless render", SOURCE, source, [render]))
-        from comparisons.judging.intelligibility import measure
-        return [{"kind": "uncoded", "subject": subject, "clip": s.name, "reference": name, "fps": s.fps,
-                 **mean_fields([{**measure(reference, observed).fields(), **self.letters(observed)}
-                                for observed in draws])}
-                for subject, name, reference, draws in subjects]
+    shared.check_scenario(settings.signing)
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -555,7 +276,7 @@ class ParamPoints:
         shown = decoded if full else resample(Motion(fps, decoded.bone_names, decoded.rotations,
                                                      decoded.root_translation, decoded.faps), s.fps)
         shown = Motion(s.fps, shown.bone_names, shown.rotations, shown.root_translation, shown.faps)
-        return _fit_length(shown, s.n_frames), 8 * len(data), sent.n_frames
+        return fit_length(shown, s.n_frames), 8 * len(data), sent.n_frames
 
     def code(self, codec_name: str, q: int, fps: float, progress: bool = False) -> tuple[Viewed, np.ndarray]:
         """(what the viewer sees, the re-rendered frames (T, H, W, 3))."""
@@ -581,33 +302,15 @@ class ParamPoints:
 # ------------------------------------------------------------------------------------------------------------
 # the run
 
-@dataclass(frozen=True)
-class Series:
-    """One solution with one codec, swept over Q."""
-    solution: str
-    codec: str
-
-    @property
-    def avatar(self) -> bool:
-        return self.solution in AVATAR_SOLUTIONS
-
-    @property
-    def reference(self) -> str:
-        """The reference the series is matched against (see the module's description)."""
-        return LOSSLESS if self.avatar else SOURCE
-
-    def points(self, records: list[dict], sweep: str = "q") -> list[dict]:
-        return [r for r in records if r.get("kind") == "point" and r["solution"] == self.solution
-                and r["codec"] == self.codec and r.get("sweep") == sweep and r.get("reference") == self.reference]
-
-
 class Study:
-    """One run: points measured and appended to records.jsonl as they are measured, observed landmarks kept."""
+    """One run: points coded, viewed, their landmarks extracted (with progress bars) and judged
+    (comparisons.judging.judge, .operating), appended to records.jsonl as they are measured; observed landmarks kept
+    for the side by side."""
 
     def __init__(self, settings: CompareSettings, scenario: Scenario, renderer: AvatarRenderer,
                  records_path: Path, progress: bool):
         self.settings, self.scenario, self.progress = settings, scenario, progress
-        self.judge = Judge(scenario, progress, settings.landmark_step, settings.extractions)
+        self.judge = Judge(scenario, settings.landmark_step, shared.letter_recogniser(scenario))
         self.video = VideoPoints(scenario)
         self.params = ParamPoints(scenario, renderer)
         self.records_path = records_path
@@ -615,27 +318,41 @@ class Study:
         self.observed: dict[tuple, SignClip] = {}
 
     def series(self) -> list[Series]:
-        return ([Series(s, "mpeg4") for s in (*NATURAL_SOLUTIONS, "SSV")]
+        return ([Series(s, "mpeg4") for s in (*Solution.natural_family(), Solution.SSV)]
                 + [Series(solution_of(c), c) for c in self.settings.param_codecs])
 
     def lower_rates(self) -> list[float]:
         return sorted({f for f in self.settings.video.frame_rates if f < self.scenario.fps * (1 - 1e-3)}, reverse=True)
 
+    def draws(self, frames: np.ndarray, fps: float, label: str) -> list[SignClip]:
+        """The landmarks of frames (M, H, W, 3) uint8 shown at fps, extracted `extractions` times, each under its
+        sub-pixel shift (pipeline.studies.shared.extract_draws)."""
+        return shared.extract_draws(frames, fps, self.settings.extractions, label, self.progress)
+
+    def uncoded(self) -> list[dict]:
+        """The ceilings: each reference's measured frames re-extracted and judged (Judge.uncoded)."""
+        s, measured = self.scenario, self.judge.measured
+        source = self.draws(s.frames[measured], s.fps, "re-extract the reference")
+        render = source if s.render is s.frames else self.draws(s.render[measured], s.fps,
+                                                                 "re-extract the lossless render")
+        return self.judge.uncoded(source, render)
+
     def measure(self, series: Series, q: int, fps: float, bar, **extra) -> list[dict]:
         """Code one point, extract the landmarks of what the viewer sees, measure it; its records (with the extra
         fields)."""
         s = self.scenario
-        label = f"landmarks: {series.codec if series.solution in ('FBA', 'BBA') else series.solution} Q{q} {fps:g} fps"
+        parameters = Solution(series.solution).mpeg4_parameters
+        label = f"landmarks: {series.codec if parameters else series.solution} Q{q} {fps:g} fps"
         measured = self.judge.measured
-        if series.solution in ("FBA", "BBA"):
+        if parameters:
             viewed, _ = self.params.code(series.codec, q, fps)
-            draws = self.judge.draws(viewed.frames[measured], s.fps, label)
+            draws = self.draws(viewed.frames[measured], s.fps, label)
         else:
             viewed, sent, hold = self.video.code(series.solution, q, fps)
             # the distinct sent frames on screen at the measured frames, extracted once each
             distinct, on_screen = np.unique(hold[measured], return_inverse=True)
             draws = [select_frames(observed, on_screen, s.fps)
-                     for observed in self.judge.draws(sent[distinct], min(fps, s.fps), label)]
+                     for observed in self.draws(sent[distinct], min(fps, s.fps), label)]
         records = [dict(record, **extra) for record in self.judge.records(series.solution, viewed, draws)]
         self.observed[(series.solution, series.codec, q, records[0]["fps"])] = draws[0]
         self.add(records)
@@ -648,7 +365,7 @@ class Study:
 
     def sweep_q(self) -> None:
         qs = {False: self.settings.video.qs, True: self.settings.param_qs}
-        jobs = [(series, q) for series in self.series() for q in qs[series.solution in ("FBA", "BBA")]]
+        jobs = [(series, q) for series in self.series() for q in qs[Solution(series.solution).mpeg4_parameters]]
         with tqdm(total=len(jobs), desc="points (Q sweep)", unit="point", disable=not self.progress) as bar:
             for series, q in jobs:
                 self.measure(series, q, self.scenario.fps, bar)
@@ -663,7 +380,7 @@ class Study:
             for series in self.series():
                 criteria = self.criteria(series.reference)
                 found = self.refine(series, criteria, bar)
-                _mark_operating(series.points(self.records), found.kbps, criteria)
+                operating.mark_operating(series.points(self.records), found.kbps, criteria)
                 q = found.upper["q"]
                 for fps in rates:
                     self.measure(series, q, fps, bar)
@@ -688,135 +405,31 @@ class Study:
         return found
 
     def matched_record(self, series: Series, found: matching.Match, criteria, fps_holds) -> dict:
-        """The series at its matched rate: the criteria's fields are their monotone fits there (what the match was
-        judged on; the measured values, interpolated, under "measured"), every other field interpolated in log-rate
-        between the bracketing points (the point's own without a lower bracket)."""
-        lower = found.lower
-        qs = [found.upper["q"]] + ([lower["q"]] if lower is not None else [])
-        fields_at = "interpolated in log-rate between the bracketing points" if lower is not None else "the point's own"
-        fields = matching.fields_at(found, (*INTELLIGIBILITY_FIELDS, *QUALITY_FIELDS, "joint_error_mm_mean"))
-        measured = {name: fields.get(name) for name in found.fitted}
-        margin = self.verdict_margin(series, criteria)
-        return {"kind": "matched", "solution": series.solution, "codec": series.codec, "clip": self.scenario.name,
-                "reference": series.reference, "kbps": found.kbps, "kbps_se": self.rate_spread(series, found),
-                "q_low": min(qs), "q_high": max(qs),
-                "bracket_kbps": [lower["kbps"] if lower is not None else found.upper["kbps"], found.upper["kbps"]],
-                "q_shown": found.upper["q"], "threshold": matching.threshold_text(criteria),
-                "reached": found.reached, "verdict_margin_se": margin if margin is not None and np.isfinite(margin) else None,
-                "verdict_clear": None if margin is None else bool(abs(margin) >= CLEAR_VERDICT_SE),
-                "fps_holds": fps_holds, "fields_at": fields_at, "judged_on": JUDGED_ON,
-                **fields, **found.fitted, "measured": measured}
+        """The series at its matched rate (comparisons.judging.operating.matched_record)."""
+        return operating.matched_record(series, found, criteria, clip=self.scenario.name, fps_holds=fps_holds,
+                                        kbps_se=self.rate_spread(series, found),
+                                        margin=self.verdict_margin(series, criteria))
 
     def verdict_margin(self, series: Series, criteria: list[matching.Criterion]) -> float | None:
-        """The series' verdict margin in standard errors (comparisons.judging.matching.verdict_margin), each point against
-        the threshold draw by draw: the ceiling's extractions moved by the threshold's offset from their mean."""
-        ceiling = self.ceiling(series.reference)
-        threshold_draws = {c.field: _shifted_draws(draw_values(ceiling, c.field),
-                                                   c.threshold - (ceiling.get(c.field) or 0.0)) for c in criteria}
-        return matching.verdict_margin(series.points(self.records), criteria, draw_values, threshold_draws)
+        """The series' verdict margin in standard errors (comparisons.judging.operating.verdict_margin)."""
+        return operating.verdict_margin(series.points(self.records), criteria, self.ceiling(series.reference))
 
     def rate_spread(self, series: Series, found: matching.Match) -> float | None:
-        """The jackknife standard error (kbps) of a reached match's rate over the landmark extractions: replicate k
-        leaves extraction k out of every point of the series and of the ceiling (landmark_draws.leave_out: the same
-        draw everywhere, as the draws are paired) and matches again; SE = sqrt((K - 1) / K * sum (rate_k - mean)^2).
-        None for a match not reached (its rate is the best point's, not a crossing) or with one extraction."""
-        count = self.settings.extractions
-        if count < 2 or not found.reached:
-            return None
-        ceiling, points = self.ceiling(series.reference), series.points(self.records)
-        rates = np.array([matching.cheapest_rate([leave_out(point, k) for point in points],
-                                                 self.criteria(series.reference, leave_out(ceiling, k)),
-                                                 monotone=True).kbps for k in range(count)])
-        return float(np.sqrt((count - 1) / count * np.sum((rates - rates.mean()) ** 2)))
+        """The jackknife standard error (kbit/s) of a reached match's rate over the landmark extractions
+        (comparisons.judging.operating.rate_spread); None where not reached or extracted once."""
+        return operating.rate_spread(series.points(self.records), self.ceiling(series.reference),
+                                     lambda ceiling: self.criteria(series.reference, ceiling), found,
+                                     self.settings.extractions)
 
     def ceiling(self, reference: str) -> dict:
-        return next(r for r in self.records if r.get("kind") == "uncoded" and r["reference"] == reference
-                    and r["subject"] == UNCODED_SUBJECTS[reference])
+        return operating.ceiling(self.records, reference)
 
     def criteria(self, reference: str, ceiling: dict | None = None) -> list[matching.Criterion]:
-        """The threshold tied to the uncoded reference (see the module's description); ceiling: the reference's
-        ceiling record (None: the measured one; `rate_spread` passes its jackknife replicates)."""
+        """The threshold tied to the uncoded reference (comparisons.judging.operating.criteria_for); ceiling: the
+        reference's ceiling record (None: the measured one; `rate_spread` passes its jackknife replicates)."""
         ceiling = self.ceiling(reference) if ceiling is None else ceiling
         landmarks = self.scenario.landmarks if reference == SOURCE else self.scenario.render_landmarks
-        return criteria_for(ceiling, _hand_share(landmarks), len(self.judge.spans or ()))
-
-
-def criteria_for(ceiling: dict, hand_share: float, n_letters: int) -> list[matching.Criterion]:
-    """The threshold tied to a ceiling record (the uncoded reference re-extracted): hand PCK@0.2 within PCK_MARGIN
-    points of it where the reference shows a hand in at least MIN_HAND_SHARE of its frames (hand_share, 0-1), else
-    face error within FACE_MARGIN; and letter top-1 within LETTER_MARGIN letters of a word of n_letters, where the
-    ceiling reads any letter (a ceiling that reads none leaves letters nothing to hold)."""
-    if hand_share >= MIN_HAND_SHARE and ceiling.get("hand_pck_20") is not None:
-        found = [matching.Criterion("hand_pck_20", ceiling["hand_pck_20"] - PCK_MARGIN, label="hand PCK@0.2 %")]
-    else:
-        found = [matching.Criterion("face_error", (ceiling.get("face_error") or 0.0) + FACE_MARGIN,
-                                    higher_is_better=False, label="face error (interocular)")]
-    if ceiling.get("letter_top1"):
-        margin = 100.0 * LETTER_MARGIN / max(n_letters, 1)
-        found.append(matching.Criterion("letter_top1", ceiling["letter_top1"] - margin, label="letter top-1 %"))
-    return found
-
-
-def _shifted_draws(values: list[float | None] | None, offset: float) -> list[float | None] | None:
-    """A ceiling's values in each extraction moved by its threshold's offset from its mean: the threshold draw by
-    draw."""
-    return None if values is None else [None if v is None else v + offset for v in values]
-
-
-def q_to_refine(found: matching.Match, measured: set[int]) -> int | None:
-    """The Q to measure next for a match, one step of its refinement; None when there is none to measure:
-    - reached between two swept Q: the rounded geometric middle of the two, moved off them (None where the two are
-      adjacent);
-    - not reached (even the dearest point misses): the geometric middle of MIN_Q and the finest swept Q, moved off
-      it (None where that is MIN_Q): the match is looked for beyond the sweep, at finer Q;
-    - reached at the cheapest swept point (no lower bracket): the geometric middle of its Q and MAX_Q, moved off it
-      (None where that is MAX_Q), for a bracket below it.
-    None also where that Q is measured already. measured: the series' swept Q."""
-    if not found.reached:
-        finest = min(measured)
-        q = _geometric_middle(MIN_Q, finest, MIN_Q, finest - 1) if finest > MIN_Q else None
-    elif found.lower is None:
-        coarsest = int(found.upper["q"])
-        q = _geometric_middle(coarsest, MAX_Q, coarsest + 1, MAX_Q) if coarsest < MAX_Q else None
-    else:
-        low, high = sorted((int(found.lower["q"]), int(found.upper["q"])))
-        q = _geometric_middle(low, high, low + 1, high - 1) if high - low >= 2 else None
-    return None if q in measured else q
-
-
-def _geometric_middle(low: int, high: int, least: int, most: int) -> int:
-    """round(sqrt(low * high)), held within least..most."""
-    return min(max(round((low * high) ** 0.5), least), most)
-
-
-def _hand_share(clip: SignClip) -> float:
-    """Share of frames showing either hand (all 21 points)."""
-    from media.lexicon import HAND_COMPONENTS
-    shown = np.zeros(clip.n_frames, bool)
-    for component in HAND_COMPONENTS.values():
-        shown |= np.all(clip.confidence[component] > 0, axis=1)
-    return float(shown.mean()) if clip.n_frames else 0.0
-
-
-def _mark_operating(points: list[dict], kbps: float, criteria) -> None:
-    """operating_point on the swept point nearest the matched rate (log-rate), with the rule."""
-    nearest = min(points, key=lambda r: abs(np.log(max(r["kbps"], 1e-9)) - np.log(max(kbps, 1e-9))))
-    nearest["operating_point"] = True
-    nearest["operating_rule"] = f"nearest the matched rate: {matching.threshold_text(criteria)}"
-
-
-def renderers(backend: str) -> Callable[[int, int], AvatarRenderer]:
-    """renderer_for(width, height): the vendored avatar's shaded renderer at that size, made once per size."""
-    avatar = load_avatar()
-    made: dict[tuple[int, int], AvatarRenderer] = {}
-
-    def renderer_for(width: int, height: int) -> AvatarRenderer:
-        if (width, height) not in made:
-            made[(width, height)] = AvatarRenderer(avatar, RenderSettings(width=width, height=height, look="shaded",
-                                                                          backend=backend))
-        return made[(width, height)]
-
-    return renderer_for
+        return criteria_for(ceiling, hand_share(landmarks), len(self.judge.spans or ()))
 
 
 def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True,
@@ -832,10 +445,10 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
     clock = StageClock()
     renderer_for = renderers(settings.backend)
     with clock.stage("scenario: reference, landmarks, retargeting, lossless render"):
-        scenario = load_scenario(settings, renderer_for, progress=progress, notify=notify)
+        scenario = shared.load_scenario(settings.signing, renderer_for, progress=progress, notify=notify)
     study = Study(settings, scenario, renderer_for(*scenario.size), records_path, progress)
     with clock.stage("uncoded references"):
-        study.add(study.judge.uncoded())
+        study.add(study.uncoded())
     with clock.stage("Q sweep: code, view, extract landmarks, measure"):
         study.sweep_q()
     with clock.stage("matching and frame-rate sweep"):
@@ -843,7 +456,7 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
     side_by_side = out_dir / "side_by_side.mp4"
     with clock.stage("side-by-side video"):
         poster = _write_side_by_side(_tiles(study, matched), side_by_side, scenario.fps)
-    run_record = {"kind": "run", "backend": _backend_name(settings.backend), "versions": versions(),
+    run_record = {"kind": "run", "backend": shared.backend_name(settings.backend), "versions": versions(),
                   "scenario": scenario.kind, "clip": scenario.name, "clip_fps": scenario.fps,
                   "clip_duration_s": scenario.timing.duration_s, "clip_frames": scenario.n_frames,
                   "clip_size": list(scenario.size), "display_fps": scenario.fps, "signer_size": list(scenario.size),
@@ -868,27 +481,26 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
 def _tiles(study: Study, matched: list[dict]) -> list[Received]:
     """The reference (and the lossless render) and each solution at its matched point's upper bracket Q (for FBA and
     BBA the cheapest codec), each with the landmarks extracted from it drawn on it."""
-    from pipeline.studies.pose import draw_landmarks
     s = study.scenario
-    tiles = [Received(draw_landmarks(s.frames, s.landmarks), f"reference: {s.name} (uncoded)")]
+    tiles = [Received(shared.draw_landmarks(s.frames, s.landmarks), f"reference: {s.name} (uncoded)")]
     # each frame shows the landmarks of the last measured frame (every landmark_step-th)
     last_measured = np.maximum(np.searchsorted(study.judge.measured, np.arange(s.n_frames), side="right") - 1, 0)
     if s.kind == "video":
-        tiles.append(Received(draw_landmarks(s.render, s.render_landmarks), "avatar: lossless render"))
-    for solution in (*NATURAL_SOLUTIONS, *AVATAR_SOLUTIONS):
+        tiles.append(Received(shared.draw_landmarks(s.render, s.render_landmarks), "avatar: lossless render"))
+    for solution in (*Solution.natural_family(), *Solution.avatars()):
         candidates = [m for m in matched if m["solution"] == solution]
         if not candidates:
             continue
         best = min(candidates, key=lambda m: (not m["reached"], m["kbps"]))
         q = best["q_shown"]
-        if solution in ("FBA", "BBA"):
+        if solution.mpeg4_parameters:
             _, frames = study.params.code(best["codec"], q, s.fps)
         else:
             viewed, _, _ = study.video.code(solution, q, s.fps)
             frames = viewed.frames
         observed = select_frames(study.observed[(solution, best["codec"], q, s.fps)], last_measured)
-        codec = f" {best['codec']}" if solution in ("FBA", "BBA") else ""
-        tiles.append(Received(draw_landmarks(frames, observed),
+        codec = f" {best['codec']}" if solution.mpeg4_parameters else ""
+        tiles.append(Received(shared.draw_landmarks(frames, observed),
                               f"{solution}{codec} Q{q}, matched {best['kbps']:.1f} kbps"
                               f"{'' if best['reached'] else ' (not reached)'}", solution))
     return tiles
@@ -902,12 +514,6 @@ def _write_side_by_side(received: list[Received], path: Path, fps: float) -> byt
     if not ok:
         raise SigncastError("could not encode the poster frame")
     return png.tobytes()
-
-
-def _backend_name(backend: str) -> str:
-    from kernels.backends import resolve, warp_device
-    resolved = resolve(backend)
-    return f"warp ({warp_device()})" if resolved == "warp" else resolved
 
 
 # ------------------------------------------------------------------------------------------------------------

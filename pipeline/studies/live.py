@@ -6,7 +6,7 @@ runs on real sockets: the sender captures the signing at its own frame rate (pip
 it live, packetises it (comparisons.transport.rtp) and sends it through a relay that drops, delays and reorders datagrams
 with a seeded model (comparisons.transport.loss: Bernoulli, or Gilbert-Elliott bursts); the receiver depacketises,
 decodes, conceals, renders (FBA, BBA), and time-stamps each frame when it is ready to show. Then the frames it
-showed are judged as `signcast compare` judges a point (pipeline.studies.compare.Judge: landmarks re-extracted,
+showed are judged as `signcast compare` judges a point (comparisons.judging.judge.Judge: landmarks re-extracted,
 hand keypoint error and PCK, letters), against the same references; one extraction per point, under the
 half-pixel shift that is compare's first (comparisons.judging.landmark_draws: a live point is one of --repeats).
 
@@ -28,17 +28,18 @@ from typing import Callable
 import numpy as np
 from tqdm import tqdm
 
-from comparisons.transport import loss as loss_models
+from comparisons.judging.judge import Judge, Viewed
 from comparisons.reports.records import make_record, versions, write_records
+from comparisons.transport import loss as loss_models
 from media.avatar import load_avatar
-from media.domain import solution_of
+from media.domain import Solution, kbps, solution_of
 from media.errors import SigncastError
 from media.render import AvatarRenderer, RenderSettings
 from pipeline.live import endpoints
 from pipeline.live.network import LossyRelay
 from pipeline.live.session import Listener, SessionDescription, receive, send
 from pipeline.stages import StageClock
-from pipeline.studies import compare
+from pipeline.studies import shared
 
 LOSS_RATES = (0.0, 0.5, 1.0, 2.0, 5.0, 10.0)        # percent of datagrams
 EN_301_549_PREFERRED_MS = 400.0                      # EN 301 549 guidance: under 0.4 s preferred,
@@ -75,12 +76,13 @@ class LiveSettings:
     landmark_step: int = 3
     backend: str = "auto"
 
-    def compare_settings(self) -> compare.CompareSettings:
-        return compare.CompareSettings(language=self.language, word=self.word, pose=self.pose, size=self.size,
-                                       backend=self.backend, landmark_step=self.landmark_step)
+    def signing(self) -> shared.ScenarioSettings:
+        """The scenario (compare's word or pose scenario)."""
+        return shared.ScenarioSettings(language=self.language, word=self.word, pose=self.pose, size=self.size,
+                                       backend=self.backend)
 
 
-VIDEO_SOLUTIONS = ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV")
+VIDEO_SOLUTIONS = Solution.video()
 DEFAULT_VIDEO_CODEC = "mpeg4"
 
 
@@ -93,7 +95,7 @@ def parse_send(item: str) -> tuple[str, str, int | None]:
     if parts[0] in param_codecs.codec_names():
         solution, codec = solution_of(parts[0]), parts[0]
         rest = parts[1:]
-        if solution not in ("FBA", "BBA"):
+        if not solution.mpeg4_parameters:
             raise SigncastError(f"{codec!r} is a {solution}, not an MPEG-4 stream: live delivery sends FBA and BBA")
     else:
         solution = "NSV" if parts[0] in endpoints.VIDEO_CODECS else parts[0].upper()
@@ -115,7 +117,7 @@ def parse_send(item: str) -> tuple[str, str, int | None]:
             q = int(q_text)
         except ValueError:
             raise SigncastError(f"bad Q {q_text!r} in {item!r}: give a whole number") from None
-        low, high = (1, 31) if solution in ("FBA", "BBA") or codec == "mpeg4" else (0, 51)
+        low, high = (1, 31) if Solution(solution).mpeg4_parameters or codec == "mpeg4" else (0, 51)
         if not low <= q <= high:
             raise SigncastError(f"Q {q} in {item!r} is outside {low}..{high}")
         return solution, codec, q
@@ -148,7 +150,8 @@ def check(settings: LiveSettings) -> None:
         raise SigncastError(f"--repeats must be 1..100, got {settings.repeats}")
     if not 1 <= settings.param_q <= 31:
         raise SigncastError(f"--param-q must be 1..31, got {settings.param_q}")
-    compare.check_settings(settings.compare_settings())
+    shared.check_landmark_step(settings.landmark_step)
+    shared.check_scenario(settings.signing())
 
 
 def network_model(settings: LiveSettings, rate_percent: float, seed: int) -> loss_models.NetworkModel:
@@ -203,9 +206,9 @@ def _damaged_frames(sink_stats: dict) -> int:
 
 
 class LiveStudy:
-    def __init__(self, settings: LiveSettings, scenario: compare.Scenario, renderer_for, progress: bool):
+    def __init__(self, settings: LiveSettings, scenario: shared.Scenario, renderer_for, progress: bool):
         self.settings, self.scenario, self.renderer_for, self.progress = settings, scenario, renderer_for, progress
-        self.judge = compare.Judge(scenario, progress, settings.landmark_step)
+        self.judge = Judge(scenario, settings.landmark_step, shared.letter_recogniser(scenario))
 
     def q_of(self, solution: str, q: int | None = None) -> int:
         """The item's own Q, or the settings' video / parameter Q."""
@@ -216,7 +219,7 @@ class LiveStudy:
     def description(self, solution: str, codec: str, payload: str, q: int) -> SessionDescription:
         s, scenario = self.settings, self.scenario
         width, height = scenario.size
-        details = ({"refresh": s.refresh} if solution in ("FBA", "BBA") else
+        details = ({"refresh": s.refresh} if Solution(solution).mpeg4_parameters else
                    {"shape_gop": s.shape_gop} if solution != "NSV" else {})
         return SessionDescription(solution, codec, payload, q, scenario.fps, scenario.n_frames,
                                   width, height, clip=scenario.name, details=details)
@@ -251,15 +254,16 @@ class LiveStudy:
         fields = make_record(description.solution, s.name, codec, description.q, s.fps, *s.size,
                              8 * sent.media_bytes, duration, sweep="loss", loss_rate=rate_percent / 100.0,
                              packet_loss=100.0 * (1 - got.packets / max(1, sent.packets)),
-                             delivered_kbps=delivered_bits / duration / 1000.0,
-                             overhead_kbps=(delivered_bits - 8 * sent.media_bytes) / duration / 1000.0,
+                             delivered_kbps=kbps(delivered_bits, duration),
+                             overhead_kbps=kbps(delivered_bits - 8 * sent.media_bytes, duration),
                              frames_lost=frames_lost, frames_concealed=frames_lost + damaged,
                              latency_ms_p50=p50, latency_ms_p95=p95, packets=sent.packets,
                              late_packets=got.late_packets, refresh=description.details.get("refresh"),
                              shape_gop=description.details.get("shape_gop"),
                              burst=self.settings.burst, jitter_ms=self.settings.jitter_ms, seed=seed)
-        draws = self.judge.draws(got.shown[self.judge.measured], s.fps, f"landmarks: {codec} at {rate_percent:g} % loss")
-        viewed = compare.Viewed(got.shown, None, fields)
+        draws = shared.extract_draws(got.shown[self.judge.measured], s.fps, 1,
+                                     f"landmarks: {codec} at {rate_percent:g} % loss", self.progress)
+        viewed = Viewed(got.shown, None, fields)
         return self.judge.records(description.solution, viewed, draws), delivery
 
 
@@ -271,9 +275,9 @@ def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -
     out_dir.mkdir(parents=True, exist_ok=True)
     records_path = write_records(out_dir / "records.jsonl", [])
     clock = StageClock()
-    renderer_for = compare.renderers(settings.backend)
+    renderer_for = shared.renderers(settings.backend)
     with clock.stage("scenario: reference, landmarks, lossless render"):
-        scenario = compare.load_scenario(settings.compare_settings(), renderer_for, progress=progress)
+        scenario = shared.load_scenario(settings.signing(), renderer_for, progress=progress)
         renderer_for(*scenario.size)
     study = LiveStudy(settings, scenario, renderer_for, progress)
     records: list[dict] = []
@@ -303,7 +307,7 @@ def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -
     return all_records
 
 
-def transport_stream_record(scenario: compare.Scenario, delivery: Delivery, out_dir: Path) -> dict:
+def transport_stream_record(scenario: shared.Scenario, delivery: Delivery, out_dir: Path) -> dict:
     """The session's access units muxed with a programme video (carphone, the bundled natural clip, scaled to the
     signer's size and looped to the clip's duration, H.264) into an MPEG-2 TS written to out_dir/ts/, demuxed back
     and checked against what was sent, and the signer stream's TS overhead measured from the TS packets."""
@@ -368,7 +372,7 @@ def transport_stream_record(scenario: compare.Scenario, delivery: Delivery, out_
             "file": f"ts/{path.name}", "ts_bytes": len(data),
             "signer_payload_kbps": sum(row["payload_kbps"] for row in ours),
             "signer_overhead_kbps": sum(row["overhead_kbps"] for row in ours),
-            "stream_kbps": 8 * delivery.sent.media_bytes / scenario.timing.duration_s / 1000,
+            "stream_kbps": kbps(8 * delivery.sent.media_bytes, scenario.timing.duration_s),
             "programme_payload_kbps": programme_row[0]["payload_kbps"] if programme_row else None,
             "psi_kbps": costs["psi_kbps"], "pcr_kbps": costs["pcr_kbps"], "total_kbps": costs["total_kbps"],
             "demuxed_intact": intact, "ffprobe_streams": probed}
@@ -423,16 +427,16 @@ def _signing(settings: SendSettings, solution: str, progress: bool):
     from media import fingerspelling
     if settings.pose is not None:
         from media.retarget import retarget
-        motion = retarget(compare._read_pose(settings.pose), load_avatar().skeleton).motion
+        motion = retarget(shared.read_pose(settings.pose), load_avatar().skeleton).motion
         name = Path(settings.pose).stem
     else:
-        motion = fingerspelling.fingerspell(settings.language, settings.word, fps=compare.DISPLAY_FPS)
+        motion = fingerspelling.fingerspell(settings.language, settings.word, fps=shared.DISPLAY_FPS)
         name = f"{settings.language}-{settings.word}"
     frames = labels = None
     if solution in VIDEO_SOLUTIONS:
         renderer = AvatarRenderer(load_avatar(), RenderSettings(width=settings.size[0], height=settings.size[1],
                                                                 backend=settings.backend))
-        frames, labels = compare.render_frames(renderer, motion, "render", progress)
+        frames, labels = shared.render_frames(renderer, motion, "render", progress)
     return name, motion, frames, labels
 
 
@@ -444,7 +448,7 @@ def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
     name, motion, frames, labels = _signing(settings, solution, progress)
     payload, source = endpoints.source_for(solution, codec, settings.q, frames=frames, labels=labels, motion=motion,
                                            fps=motion.fps, refresh=settings.refresh, shape_gop=settings.shape_gop)
-    details = ({"refresh": settings.refresh} if solution in ("FBA", "BBA") else
+    details = ({"refresh": settings.refresh} if Solution(solution).mpeg4_parameters else
                {"shape_gop": settings.shape_gop} if solution != "NSV" else {})
     description = SessionDescription(solution, codec, payload, settings.q, motion.fps, motion.n_frames,
                                      *settings.size, clip=name, details=details)
@@ -462,8 +466,8 @@ def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
     duration = motion.n_frames / motion.fps
     return {"clip": name, "solution": solution, "codec": codec, "q": settings.q, "frames": motion.n_frames,
             "fps": motion.fps, "packets": sent.packets, "dropped_by_relay": dropped,
-            "kbps": 8 * sent.media_bytes / duration / 1000,
-            "delivered_kbps": 8 * (sent.rtp_bytes + IP_UDP_BYTES * sent.packets) / duration / 1000,
+            "kbps": kbps(8 * sent.media_bytes, duration),
+            "delivered_kbps": kbps(8 * (sent.rtp_bytes + IP_UDP_BYTES * sent.packets), duration),
             "late_frames": sent.late_frames}
 
 
@@ -472,7 +476,7 @@ def run_receive(port: int, out_dir: Path, *, timeout_s: float = 60.0, backend: s
     """Receives one session on port (TCP control and UDP media), writes what was shown to out_dir/shown.mkv
     (lossless FFV1) and a delivery record to out_dir/records.jsonl; returns the record."""
     from media.video_io import write_video
-    renderer_for = compare.renderers(backend)
+    renderer_for = shared.renderers(backend)
     listener = Listener(host, port)
     try:
         if on_listening is not None:
@@ -489,7 +493,7 @@ def run_receive(port: int, out_dir: Path, *, timeout_s: float = 60.0, backend: s
                          frames_concealed=frames_lost + int(got.sink_stats.get("damaged", 0)),
                          latency_ms_p50=p50, latency_ms_p95=p95, packets_received=got.packets,
                          late_packets=got.late_packets,
-                         received_kbps=8 * (got.rtp_bytes + IP_UDP_BYTES * got.packets) / duration / 1000)
+                         received_kbps=kbps(8 * (got.rtp_bytes + IP_UDP_BYTES * got.packets), duration))
     record["bits"] = None
     record["kbps"] = None
     write_video(out_dir / "shown.mkv", got.shown, d.fps)

@@ -23,6 +23,7 @@ from media import lexicon
 from media.domain import check_fps, solution_of
 from media.errors import SigncastError
 from media.fingerspelling import letter_motion
+from pipeline.studies.shared import pose_file_kbps
 
 DEFAULT_CODECS = ("fba-pred", "fba-dct", "bba-pred", "bba-dct", "bba-key")
 DEFAULT_Q = (1, 2, 4, 8, 16, 31)
@@ -57,13 +58,6 @@ def check(settings: ParamsSettings) -> None:
 
 def count_points(settings: ParamsSettings) -> int:
     return len(settings.units()) * len(settings.codecs) * len(settings.qs)
-
-
-def pose_file_kbps(language: str, unit: str) -> float:
-    """Size of the lexicon clip's .pose file over the clip's duration, kbit/s."""
-    entry = lexicon.lookup(language, unit)
-    clip = lexicon.read_clip(entry)
-    return entry.path.stat().st_size * 8 / (clip.n_frames / clip.fps) / 1000.0
 
 
 def run(settings: ParamsSettings, out: str | Path, *, progress: Callable[[int], object] | None = None) -> list[dict]:

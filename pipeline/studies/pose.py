@@ -8,20 +8,16 @@ picture or hidden) is only noted: those frames are masked in the file.
 """
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
-import cv2
 import numpy as np
-from tqdm import tqdm
 
 from media.errors import SigncastError
 from media.lexicon import SignClip
 from media.video_io import resolve_video, video_info
-from pipeline.studies.video import DEFAULT_MAX_SIZE
+from pipeline.studies.shared import DEFAULT_MAX_SIZE, draw_landmarks, extract_landmarks, read_natural_clip
 
 POSE_SUFFIXES = (".pose",)
 PREVIEW_SUFFIXES = (".mkv", ".avi", ".nut", ".mp4")   # containers that hold FFV1
@@ -60,18 +56,16 @@ def check(settings: PoseSettings) -> Path:
 
 def run(settings: PoseSettings, *, progress: bool = True) -> PoseResult:
     """Read, extract, check and write (see the module's docstring)."""
-    from media.landmarks.holistic import extract_landmarks, found_shares
+    from media.landmarks.holistic import found_shares
     from media.pose_file import write_pose
     from media.video_io import write_video
-    from pipeline.studies.video import read_natural_clip
 
     path = check(settings)
     video, notes = read_natural_clip(str(path), settings.frames, settings.max_size, progress=progress)
     frames = video.frames
     height, width = frames.shape[1:3]
     started = time.perf_counter()
-    with tqdm(total=len(frames), desc="landmarks", unit="frame", file=sys.stderr, disable=not progress) as bar:
-        clip = extract_landmarks(frames, video.fps, progress=bar.update)
+    clip = extract_landmarks(frames, video.fps, "landmarks", progress, leave=True)
     speed = len(frames) / max(time.perf_counter() - started, 1e-9)
     shares = found_shares(clip)
     if shares["pose"] == 0.0:
@@ -118,35 +112,3 @@ def summary(settings: PoseSettings, result: PoseResult) -> str:
     return (f"{settings.output}: {result.clip.n_frames} frames at {result.clip.fps:.4g} fps, "
             f"{result.width}x{result.height}; found in frames: {shares}; "
             f"extracted at {result.frames_per_second:.1f} frames/s")
-
-
-# MediaPipe's drawing connections: pose (POSE_CONNECTIONS, without the face) and hand (HAND_CONNECTIONS)
-POSE_LINES = ((11, 12), (11, 13), (13, 15), (15, 17), (15, 19), (15, 21), (17, 19), (12, 14), (14, 16), (16, 18),
-              (16, 20), (16, 22), (18, 20), (11, 23), (12, 24), (23, 24), (23, 25), (24, 26), (25, 27), (26, 28),
-              (27, 29), (28, 30), (29, 31), (30, 32), (27, 31), (28, 32))
-HAND_LINES = ((0, 1), (1, 2), (2, 3), (3, 4), (0, 5), (5, 6), (6, 7), (7, 8), (5, 9), (9, 10), (10, 11), (11, 12),
-              (9, 13), (13, 14), (14, 15), (15, 16), (13, 17), (0, 17), (17, 18), (18, 19), (19, 20))
-COLOURS = {"POSE_LANDMARKS": (255, 255, 255), "LEFT_HAND_LANDMARKS": (255, 128, 0),
-           "RIGHT_HAND_LANDMARKS": (0, 200, 255), "FACE_LANDMARKS": (80, 255, 80)}
-
-
-def draw_landmarks(frames: np.ndarray, clip: SignClip, progress: Callable[[int], object] | None = None) -> np.ndarray:
-    """frames (T, H, W, 3) uint8 RGB with the clip's landmarks drawn: skeleton lines for pose and hands, dots for
-    the face; only points with confidence > 0. Returns a new (T, H, W, 3) uint8 array."""
-    drawn = np.array(frames, copy=True)
-    lines = {"POSE_LANDMARKS": POSE_LINES, "LEFT_HAND_LANDMARKS": HAND_LINES, "RIGHT_HAND_LANDMARKS": HAND_LINES}
-    for t, picture in enumerate(drawn):
-        face = clip.points["FACE_LANDMARKS"][t]
-        for x, y in face[clip.confidence["FACE_LANDMARKS"][t] > 0, :2]:
-            cv2.circle(picture, (int(round(x)), int(round(y))), 0, COLOURS["FACE_LANDMARKS"], -1)
-        for name, connections in lines.items():
-            points, seen = clip.points[name][t], clip.confidence[name][t] > 0
-            for a, b in connections:
-                if seen[a] and seen[b]:
-                    cv2.line(picture, tuple(int(round(v)) for v in points[a, :2]),
-                             tuple(int(round(v)) for v in points[b, :2]), COLOURS[name], 1, cv2.LINE_AA)
-            for x, y in points[seen, :2]:
-                cv2.circle(picture, (int(round(x)), int(round(y))), 2, COLOURS[name], -1)
-        if progress is not None:
-            progress(1)
-    return drawn

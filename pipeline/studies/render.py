@@ -45,7 +45,7 @@ def check(settings: RenderWordSettings) -> str:
     from kernels import backends
     from media.domain import check_size
     from media.render import check_backend, check_look
-    from pipeline.studies.motion import check_source
+    from pipeline.studies.shared import check_source
     check_size(*settings.size)
     check_backend(settings.backend)
     check_look(settings.look)
@@ -62,7 +62,7 @@ def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable
     from media.render import RenderSettings, render_motion
     from media.video_io import write_video
     from pipeline.checks import check_memory
-    from pipeline.studies.motion import source_motion
+    from pipeline.studies.shared import source_motion
 
     width, height = settings.size
     motion, source = source_motion(settings.language, settings.word, settings.pose, settings.fps,

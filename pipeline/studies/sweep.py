@@ -234,7 +234,7 @@ def unit_motion(unit: Unit, fps: float) -> tuple[Motion, float | None]:
     """The avatar's Motion of a unit's item at fps frames per second, and the kbps of its lexicon .pose file
     (None for a word)."""
     from media.fingerspelling import fingerspell, letter_motion
-    from pipeline.studies.params import pose_file_kbps
+    from pipeline.studies.shared import pose_file_kbps
     if unit.word:
         return fingerspell(unit.language, unit.item, fps), None
     return letter_motion(unit.language, unit.item, fps), pose_file_kbps(unit.language, unit.item)

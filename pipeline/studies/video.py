@@ -36,44 +36,12 @@ from comparisons.reports import comparison as report
 from comparisons.video import codecs as video_codecs
 from comparisons.video import objects as video_objects
 from comparisons.reports.records import make_record, versions, write_records
-from media import faces, segmentation
+from media import segmentation
 from media.errors import SigncastError
-from media.video_io import Clip, crop_even, fit_size, frame_indices_at_rate, read_clip, resolve_video, video_info
+from media.video_io import frame_indices_at_rate
 from pipeline.checks import check_memory
-
-DEFAULT_MAX_SIZE = (352, 288)   # (width, height), CIF: larger clips are scaled down to fit unless asked otherwise
-
-
-@dataclass(frozen=True)
-class VideoSweep:
-    """qs: MPEG-4 quantisers; frame_rates: the rates swept (those below source_fps are used); source_fps: the
-    rate of the frames given to the study, frames per second."""
-
-    qs: tuple[int, ...] = (2, 6, 12, 24, 31)
-    operating_q: int = 12
-    frame_rates: tuple[float, ...] = (25.0, 20.0, 15.0, 10.0)
-    source_fps: float = 25.0
-    solutions: tuple[str, ...] = ("NSV", "NSV2O", "NSV3O", "NSV3O+C")
-    other_codecs: tuple[str, ...] = ("libx264", "libsvtav1")
-    half_resolution: bool = True
-
-
-@dataclass(frozen=True)
-class Timing:
-    """When the frames given to the study are shown."""
-
-    times_s: np.ndarray      # (T,) presentation time of each frame from the first one, seconds
-    duration_s: float        # the clip's real duration for these frames, seconds
-    native_fps: float        # the clip's own frame rate, frames per second
-
-    @classmethod
-    def regular(cls, n_frames: int, fps: float) -> "Timing":
-        """n_frames shown every 1/fps seconds."""
-        return cls(np.arange(n_frames) / fps, n_frames / fps, fps)
-
-    @classmethod
-    def of_clip(cls, clip: Clip) -> "Timing":
-        return cls(clip.times_s, clip.duration_s, clip.native_fps)
+from pipeline.studies.shared import (DEFAULT_MAX_SIZE, DEFAULT_SEGMENTATION, SEGMENTATIONS, Timing, VideoSweep,
+                                     check_segmentation, extract_clip_landmarks, read_natural_clip, segment_clip)
 
 
 @dataclass
@@ -132,90 +100,7 @@ def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, code
     return make_record(coded.solution, clip, codec, q, config.fps, width, height, coded.bits, duration_s, **fields)
 
 
-def read_natural_clip(name_or_path: str, max_frames: int | None = None,
-                      max_size: tuple[int, int] | None = DEFAULT_MAX_SIZE, fps: float | None = None,
-                      *, progress: bool = True) -> tuple[Clip, list[str]]:
-    """A natural signer clip, and one-line notes on what was read (for the user).
-
-    The frames keep the clip's own timing, or are taken at the lower rate fps (frames per second) by keeping
-    the frame on screen at each tick; they are scaled down to fit max_size (width, height) when larger (None:
-    keep the size) and cropped to even sides. Refused (SigncastError) before the long work: fewer than 2
-    decodable frames, or no face in a sample of frames.
-    """
-    path = resolve_video(name_or_path)
-    info = video_info(path)
-    expected = min(filter(None, (info.announced_frames, max_frames)), default=None)
-    if expected:                    # the decoded frames alone, before anything else is held
-        check_memory(expected, *fit_size(info.width, info.height, max_size), 3, f"reading {path.name}",
-                     "choose a smaller --max-size or fewer --frames")
-    with tqdm(total=expected, desc=f"read {path.name}", unit="frame", disable=not progress) as bar:
-        clip = read_clip(path, max_frames, max_size, progress=bar.update)
-    read = len(clip.frames)
-    notes = [f"read {read} frames of {path.name}: {clip.source_size[0]}x{clip.source_size[1]} at "
-             f"{clip.native_fps:.4g} fps, {clip.duration_s:.2f} s"]
-    if clip.announced_frames > read and not (max_frames and read >= max_frames):
-        stopped = f" (decoding stopped: {clip.decode_error})" if clip.decode_error else ""
-        notes.append(f"warning: read {read} of {clip.announced_frames} frames announced by the container{stopped}")
-    if read < 2:
-        raise SigncastError(f"video {path} holds {read} decodable frame"
-                            f"{f' of {clip.announced_frames} announced' if clip.announced_frames > read else ''}: "
-                            f"at least 2 are needed")
-    clip = replace(clip, frames=crop_even(clip.frames))
-    if clip.size != clip.source_size and max_size is not None:
-        notes.append(f"downscaled {path.name} from {clip.source_size[0]}x{clip.source_size[1]} to "
-                     f"{clip.size[0]}x{clip.size[1]} to fit --max-size {max_size[0]}x{max_size[1]} "
-                     f"(--max-size none keeps the size)")
-    with tqdm(total=min(faces.SAMPLED_FRAMES, read), desc="look for a face", unit="frame", disable=not progress) as bar:
-        faces.check_person(clip.frames, path.name, progress=bar.update)
-    if fps is not None and abs(fps - clip.fps) > 1e-3 * clip.fps:     # 29.97 asks for 30000/1001's own rate
-        clip = clip.at_rate(fps)
-        notes.append(f"coding at {fps:g} fps: {len(clip.frames)} of {read} frames, kept by presentation time")
-    return clip, notes
-
-
-SEGMENTATIONS = {
-    "landmarks": "landmarks (selfie segmentation + face and hand landmarks + skin colour)",
-    "colour": "colour (GrabCut border model + clothes clusters)",
-}
-DEFAULT_SEGMENTATION = "landmarks"
 COVERED_SHARE = 0.9     # a landmark-detected part is covered when this share of its landmarks is on its own label
-
-
-def check_segmentation(method: str) -> str:
-    if method not in SEGMENTATIONS:
-        raise SigncastError(f"unknown --segmentation {method!r}: choose {' or '.join(SEGMENTATIONS)}")
-    return method
-
-
-def extract_clip_landmarks(frames: np.ndarray, fps: float, *, progress: bool = True):
-    """Landmarks (media.lexicon.SignClip, pixels) of frames (T, H, W, 3) uint8 RGB shown at fps, with a progress bar."""
-    from media.landmarks.holistic import extract_landmarks
-
-    with tqdm(total=len(frames), desc="landmarks", unit="frame", disable=not progress) as bar:
-        return extract_landmarks(frames, fps, progress=bar.update)
-
-
-def segment_clip(frames: np.ndarray, *, progress: bool = True, method: str = DEFAULT_SEGMENTATION,
-                 landmarks=None, fps: float = 25.0) -> np.ndarray:
-    """Part labels (T, H, W) uint8 of frames (T, H, W, 3) uint8 RGB, with progress bars.
-
-    method: "colour" (media.segmentation) or "landmarks" (media.segmentation_landmarks; landmarks: the clip's
-    SignClip, extracted here at fps frames per second when not given)."""
-    check_segmentation(method)
-    if method == "colour":
-        with tqdm(total=len(frames), desc="segment signer", unit="frame", disable=not progress) as bar:
-            signer = segmentation.segment_signer(frames, progress=bar.update)
-        with tqdm(total=len(frames), desc="segment parts", unit="frame", disable=not progress) as bar:
-            return segmentation.segment_parts(frames, signer, progress=bar.update)
-    from media.landmarks.person_mask import person_masks
-    from media.segmentation_landmarks import segment_by_landmarks
-
-    if landmarks is None:
-        landmarks = extract_clip_landmarks(frames, fps, progress=progress)
-    with tqdm(total=len(frames), desc="person mask", unit="frame", disable=not progress) as bar:
-        person = person_masks(frames, progress=bar.update)
-    with tqdm(total=len(frames), desc="segment parts", unit="frame", disable=not progress) as bar:
-        return segment_by_landmarks(frames, landmarks, person, progress=bar.update)
 
 
 def coverage_line(method: str, coverage: dict) -> str:

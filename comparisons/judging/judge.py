@@ -1,0 +1,165 @@
+"""What a viewer sees, measured against the signing's references: intelligibility (landmarks), letters and image
+quality of one point, and the ceilings (the uncoded references re-extracted).
+
+Inputs are data: a signing (`Signing`: reference frames and labels, its landmarks, the lossless render with its
+labels and landmarks, letter spans), what the viewer sees at a point (`Viewed`: frames (T, H, W, 3) uint8 at the
+reference's times, the decoded skin mask (T, H, W) bool or None, the point's record fields), and the landmarks
+extracted from it (one media.lexicon.SignClip per extraction, at the measured frames). Extracting landmarks (the
+landmark model, progress bars) is the study layer's (pipeline.studies.shared.extract_draws); this module computes.
+
+References: SOURCE ("source video", the reference's landmarks: message fidelity) for every solution, and LOSSLESS
+("lossless render": codec loss) for the avatar solutions (SSV, FBA, BBA). Each measure is the mean over the
+extractions (comparisons.judging.landmark_draws.mean_fields), with their spread.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from comparisons.judging.intelligibility import measure
+from comparisons.judging.landmark_draws import mean_fields
+from comparisons.video import quality as image_quality
+from media.domain import LOSSLESS_RENDER, SKIN_PARTS, SOURCE_VIDEO, Solution
+from media.lexicon import HAND_COMPONENTS, SignClip
+
+SOURCE = SOURCE_VIDEO          # reference: the reference video's landmarks (message fidelity)
+LOSSLESS = LOSSLESS_RENDER     # reference: the lossless render's landmarks (codec loss of an avatar solution)
+# the ceiling of each reference: its own frames, resampled by sub-pixel shifts and re-extracted (Judge.uncoded)
+UNCODED_SUBJECTS = {SOURCE: "uncoded reference, resampled", LOSSLESS: "uncoded lossless render, resampled"}
+
+
+class Signing(Protocol):
+    """What Judge reads of a signing (pipeline.studies.shared.Scenario is one): kind ("video", "word", "pose"),
+    name, fps; frames (T, H, W, 3) uint8 and labels (T, H, W) uint8 of the reference, landmarks its landmarks;
+    render, render_labels, render_landmarks: the avatar's lossless render (the reference itself in the avatar
+    scenarios); spans: (letter, first frame, end frame exclusive) of a fingerspelled word or None; language."""
+    kind: str
+    name: str
+    fps: float
+    frames: np.ndarray
+    labels: np.ndarray
+    landmarks: SignClip
+    render: np.ndarray
+    render_labels: np.ndarray
+    render_landmarks: SignClip
+    spans: list | None
+    language: str | None
+
+    @property
+    def n_frames(self) -> int: ...
+
+
+@dataclass
+class Viewed:
+    """What the viewer sees at one point: frames (T, H, W, 3) uint8 at the reference's times, the decoded skin
+    mask (T, H, W) bool or None where the solution sends no skin shape, and the point's record fields."""
+    frames: np.ndarray
+    skin: np.ndarray | None
+    fields: dict
+
+
+def hold_indices(times_s: np.ndarray, fps: float, n_sent: int) -> np.ndarray:
+    """(T,) for each reference frame time (seconds), the index of the sent frame on screen then: frames sent at
+    the ticks 0, 1/fps, ... are held until the next tick."""
+    ticks = np.floor(np.asarray(times_s, np.float64) * fps + 1e-6).astype(int)
+    return np.clip(ticks, 0, n_sent - 1)
+
+
+def select_frames(clip: SignClip, indices: np.ndarray, fps: float | None = None) -> SignClip:
+    """The landmarks of the frames at indices (M,), in that order (repeats allowed), at fps (None: the clip's)."""
+    return SignClip(clip.fps if fps is None else fps, {k: v[indices] for k, v in clip.points.items()},
+                    {k: v[indices] for k, v in clip.confidence.items()})
+
+
+def measured_spans(spans: list | None, step: int, n_measured: int) -> list | None:
+    """Letter spans (letter, first, end exclusive) in the measured frames' indices (every step-th frame); a span
+    keeps at least one measured frame."""
+    if not spans:
+        return None
+    out = []
+    for letter, start, end in spans:
+        first = min(-(-start // step), n_measured - 1)
+        out.append((letter, first, min(max(-(-end // step), first + 1), n_measured)))
+    return out
+
+
+def hand_share(clip: SignClip) -> float:
+    """Share of frames (0-1) showing either hand (all 21 points)."""
+    shown = np.zeros(clip.n_frames, bool)
+    for component in HAND_COMPONENTS.values():
+        shown |= np.all(clip.confidence[component] > 0, axis=1)
+    return float(shown.mean()) if clip.n_frames else 0.0
+
+
+class Judge:
+    """Measures what the viewer sees against a signing's references (intelligibility, letters, image quality).
+
+    step: intelligibility is measured on every step-th frame (`measured`, (M,) indices); recogniser: a
+    comparisons.judging.letters.Recogniser for a fingerspelled word's letters (None: no letter fields)."""
+
+    def __init__(self, signing: Signing, step: int = 1, recogniser=None):
+        self.signing = signing
+        self.measured = np.arange(0, signing.n_frames, max(1, step))     # (M,) frames measured
+        self.reference = select_frames(signing.landmarks, self.measured)
+        self.render_reference = select_frames(signing.render_landmarks, self.measured)
+        self.spans = measured_spans(signing.spans, max(1, step), len(self.measured))
+        self.recogniser = recogniser if signing.spans else None
+        self.reference_skin = np.isin(signing.labels, SKIN_PARTS)
+        self.render_skin = np.isin(signing.render_labels, SKIN_PARTS)
+
+    def letters(self, observed: SignClip) -> dict:
+        """letter_top1 / letter_top3 (percent) of a fingerspelled word's letters; {} without a word."""
+        if self.recogniser is None:
+            return {}
+        from comparisons.judging.letters import recognise_spans, top_k
+        rankings = recognise_spans(self.recogniser, observed, self.signing.language, self.spans)
+        truths = [letter for letter, _, _ in self.spans]
+        return {"letter_top1": top_k(rankings, truths, 1), "letter_top3": top_k(rankings, truths, 3)}
+
+    def references(self, solution: str) -> list[tuple[str, SignClip]]:
+        """The references a solution's points are measured against, at the measured frames."""
+        refs = [(SOURCE, self.reference)]
+        if Solution(solution).avatar:
+            refs.append((LOSSLESS, self.render_reference))
+        return refs
+
+    def intelligibility(self, solution: str, draws: list[SignClip]) -> list[tuple[str, dict]]:
+        """(reference name, intelligibility and letter fields, each the mean over the draws, with their spread) for
+        each reference of the solution; draws: the landmarks of the measured frames, one SignClip per extraction."""
+        letters = [self.letters(observed) for observed in draws]
+        return [(name, mean_fields([{**measure(reference, observed).fields(), **letter}
+                                    for observed, letter in zip(draws, letters)]))
+                for name, reference in self.references(solution)]
+
+    def records(self, solution: str, viewed: Viewed, draws: list[SignClip]) -> list[dict]:
+        """One record per reference of the solution, each with the point's fields, image quality (against the
+        frames the solution codes: the lossless render for an avatar solution, else the reference; skin: the
+        union of the reference's and the decoded skin mask) and intelligibility (draws: the landmarks of what the
+        viewer sees, one SignClip per extraction)."""
+        s = self.signing
+        avatar = Solution(solution).avatar
+        reference_frames = s.render if avatar else s.frames
+        reference_skin = self.render_skin if avatar else self.reference_skin
+        skin = reference_skin if viewed.skin is None else reference_skin | viewed.skin
+        quality = image_quality.quality_fields(reference_frames, viewed.frames, skin)
+        return [dict(viewed.fields, **quality, reference=name, **fields)
+                for name, fields in self.intelligibility(solution, draws)]
+
+    def uncoded(self, resampled_source: list[SignClip], resampled_render: list[SignClip]) -> list[dict]:
+        """The ceilings ("uncoded" records): each reference's measured frames re-extracted under the same sub-pixel
+        shifts as every point (resampled_source, resampled_render: one SignClip per extraction; invisible shifts,
+        but new pixels: the landmark extractor's own noise floor), against the reference's landmarks, the mean over
+        the draws; and (video scenario) the lossless render's landmarks against the source video's (the
+        retargeting loss alone)."""
+        s = self.signing
+        source, render = self.reference, self.render_reference
+        subjects = [(UNCODED_SUBJECTS[SOURCE], SOURCE, source, resampled_source),
+                    (UNCODED_SUBJECTS[LOSSLESS], LOSSLESS, render, resampled_render)]
+        if s.kind == "video":
+            subjects.append(("uncoded lossless render", SOURCE, source, [render]))
+        return [{"kind": "uncoded", "subject": subject, "clip": s.name, "reference": name, "fps": s.fps,
+                 **mean_fields([{**measure(reference, observed).fields(), **self.letters(observed)}
+                                for observed in draws])}
+                for subject, name, reference, draws in subjects]
