@@ -70,6 +70,15 @@ def test_stored_stream_decodes_within_the_stored_error_of_its_letter(name, case)
     assert error.max() <= stored["max_rad"] * (1 + relative) + absolute
 
 
+@pytest.mark.parametrize("case", _cases("wavelet-cx-container"))
+def test_stored_container_stream_of_wavelet_cx_decodes_to_exactly_the_stored_integers(case):
+    stored = _stored("wavelet-cx-container", case)
+    coder = make_coder("wavelet-cx", stored["active"])
+    levels, info = coder.read_levels(stored["stream"].tobytes())
+    assert info.n_frames == stored["n_frames"] and info.fps == stored["fps"] and info.q == _q(case) - 1
+    assert sorted(levels) == ["indices"] and np.array_equal(levels["indices"], stored["levels.indices"])
+
+
 def _stated_bound(name: str, q: int, dofs: np.ndarray, recon: np.ndarray, active: np.ndarray) -> None:
     """The hard error bounds the coders' docstrings state."""
     coder = make_coder(name, active)

@@ -16,6 +16,10 @@ middle operating point and the finest. Each case <letter>_q<q> of a coder's file
   tests/test_lab_conformance.py re-encodes the letter and checks the rate and the error against these within
   stated tolerances (an encoder may write other bytes on another CPU or after a change that keeps its quality).
 
+wavelet-cx-container.npz holds the same cases of wavelet-cx's other layout, the SCM1 container with one b"C"
+section and untrained models (ContextWaveletCoder.encode over the letter's active DOFs; `<case>/stream` is that
+SCM1 stream, decoded by DofCoder.read_levels; no figures).
+
 When re-storing is legitimate: only when a stream format changes on purpose (another table, context model, binarisation,
 header field or entropy stage: the decoder then reads other integers from the same bytes, and the stored streams
 stop decoding as before). Say so in the commit and re-measure the figures of docs/motion-lab.md that change. An
@@ -85,11 +89,36 @@ def main(argv: list[str] | None = None) -> None:
         for letter in LETTERS:
             for q in operating_points(len(LabCodec(name).settings())):
                 entries.update(case_entries(name, letter, q))
-        path = args.out / f"{name}.npz"
-        np.savez_compressed(path, **entries)
-        sizes = [len(v) for k, v in entries.items() if k.endswith("/stream")]
-        print(f"{path.relative_to(ROOT) if path.is_relative_to(ROOT) else path}: {len(sizes)} streams, "
-              f"{min(sizes)}-{max(sizes)} bytes")
+        _save(args.out / f"{name}.npz", entries)
+        if name == "wavelet-cx":
+            entries = {}
+            for letter in LETTERS:
+                for q in operating_points(len(LabCodec(name).settings())):
+                    entries.update(container_entries(letter, q))
+            _save(args.out / "wavelet-cx-container.npz", entries)
+
+
+def container_entries(letter: str, q: int) -> dict[str, np.ndarray]:
+    """wavelet-cx's SCM1 layout (ContextWaveletCoder.encode) of the letter's active DOFs."""
+    from comparisons.lab.codecs import make_coder
+    dofs, fps = letter_dofs(letter)
+    active = np.any(dofs != 0.0, axis=0)
+    coder = make_coder("wavelet-cx", active)
+    data, _ = coder.encode(dofs[:, active], fps, q - 1)
+    levels, info = coder.read_levels(data)
+    case = f"{letter}_q{q}"
+    entries = {f"{case}/stream": np.frombuffer(data, dtype=np.uint8).copy(), f"{case}/active": active,
+               f"{case}/n_frames": np.int64(info.n_frames), f"{case}/fps": np.float64(info.fps)}
+    for key, value in levels.items():
+        entries[f"{case}/levels.{key}"] = np.asarray(value, dtype=np.int64)
+    return entries
+
+
+def _save(path: Path, entries: dict[str, np.ndarray]) -> None:
+    np.savez_compressed(path, **entries)
+    sizes = [len(v) for k, v in entries.items() if k.endswith("/stream")]
+    print(f"{path.relative_to(ROOT) if path.is_relative_to(ROOT) else path}: {len(sizes)} streams, "
+          f"{min(sizes)}-{max(sizes)} bytes")
 
 
 if __name__ == "__main__":

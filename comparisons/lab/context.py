@@ -100,46 +100,66 @@ def _next_byte(state: np.ndarray, data: np.ndarray) -> int:
 
 
 @njit(cache=True)
+def _encode_bit(state: np.ndarray, out: np.ndarray, p: int, bit: int) -> None:
+    """The range coder's encoding step: `bit` with P(0) = p / 65536, then renormalisation."""
+    rng = state[RANGE]
+    bound = (rng >> PROB_BITS) * p
+    if bit == 0:
+        state[RANGE] = bound
+    else:
+        state[LOW] += bound
+        state[RANGE] = rng - bound
+    while state[RANGE] < TOP:
+        state[RANGE] = (state[RANGE] << 8) & MASK32
+        _shift_low(state, out)
+
+
+@njit(cache=True)
+def _decode_bit(state: np.ndarray, data: np.ndarray, p: int) -> int:
+    """The range coder's decoding step with P(0) = p / 65536, then renormalisation; returns the bit."""
+    rng = state[DRANGE]
+    bound = (rng >> PROB_BITS) * p
+    if state[CODE] < bound:
+        state[DRANGE] = bound
+        bit = 0
+    else:
+        state[CODE] -= bound
+        state[DRANGE] = rng - bound
+        bit = 1
+    while state[DRANGE] < TOP:
+        state[DRANGE] = (state[DRANGE] << 8) & MASK32
+        state[CODE] = ((state[CODE] << 8) | _next_byte(state, data)) & MASK32
+    return bit
+
+
+@njit(cache=True)
+def _adapt(probs: np.ndarray, counts: np.ndarray, ctx: int, bit: int) -> None:
+    """Moves context ctx's P(0) towards the coded bit (see the module docstring)."""
+    p = probs[ctx]
+    n = counts[ctx]
+    target = 0 if bit else PROB_ONE
+    if n + 2 < (1 << RATE_SHIFT):
+        p += (target - p) // (n + 2)
+        counts[ctx] = n + 1
+    else:
+        p += (target - p) >> RATE_SHIFT
+    probs[ctx] = min(max(p, PROB_MIN), PROB_ONE - PROB_MIN)
+
+
+@njit(cache=True)
 def _code_bit(decoding: bool, state: np.ndarray, buf: np.ndarray, probs: np.ndarray, counts: np.ndarray,
               tally: np.ndarray, ctx: int, bit: int) -> int:
     """Encodes `bit` (or decodes and returns one) with context ctx (ctx < 0: P = 1/2, no adaptation); with a
     non-empty tally (n_contexts, 2), counts the coded bit there (training, tools/train_context_priors.py)."""
     p = PROB_ONE >> 1 if ctx < 0 else probs[ctx]
     if decoding:
-        rng = state[DRANGE]
-        bound = (rng >> PROB_BITS) * p
-        if state[CODE] < bound:
-            state[DRANGE] = bound
-            bit = 0
-        else:
-            state[CODE] -= bound
-            state[DRANGE] = rng - bound
-            bit = 1
-        while state[DRANGE] < TOP:
-            state[DRANGE] = (state[DRANGE] << 8) & MASK32
-            state[CODE] = ((state[CODE] << 8) | _next_byte(state, buf)) & MASK32
+        bit = _decode_bit(state, buf, p)
     else:
-        rng = state[RANGE]
-        bound = (rng >> PROB_BITS) * p
-        if bit == 0:
-            state[RANGE] = bound
-        else:
-            state[LOW] += bound
-            state[RANGE] = rng - bound
-        while state[RANGE] < TOP:
-            state[RANGE] = (state[RANGE] << 8) & MASK32
-            _shift_low(state, buf)
+        _encode_bit(state, buf, p, bit)
     if ctx >= 0:
         if len(tally):
             tally[ctx, bit] += 1
-        n = counts[ctx]
-        target = 0 if bit else PROB_ONE
-        if n + 2 < (1 << RATE_SHIFT):
-            p += (target - p) // (n + 2)
-            counts[ctx] = n + 1
-        else:
-            p += (target - p) >> RATE_SHIFT
-        probs[ctx] = min(max(p, PROB_MIN), PROB_ONE - PROB_MIN)
+        _adapt(probs, counts, ctx, bit)
     return bit
 
 
@@ -219,25 +239,21 @@ def _run(decoding: bool, coeffs: np.ndarray, state: np.ndarray, buf: np.ndarray,
 
 @njit(cache=True)
 def encode(coeffs: np.ndarray, out: np.ndarray) -> int:
-    """Codes coeffs (D, n_blocks, 16) int64 (|v| < 2^MAX_CLASS) into out; returns the payload length (more
-    than len(out): call again with that many bytes), or -1 when a value is too large."""
-    limit = np.int64(1) << MAX_CLASS
-    for v in coeffs.ravel():
-        if v >= limit or v <= -limit:
-            return -1
-    state = encoder_state()
+    """The b"C" section's payload: coeffs (D, n_blocks, 16) int64 (|v| < 2^MAX_CLASS) with untrained models into
+    out (a compact payload without a mask); returns the payload length (more than len(out): call again with that
+    many bytes), or -1 when a value is too large."""
     probs, counts = uniform_models(N_CONTEXTS)
-    _run(False, coeffs, state, out, probs, counts, np.zeros((0, 2), dtype=np.int64))
-    return finish_encoder(state, out)
+    no_mask = np.zeros(0, dtype=np.int64)
+    return encode_payload(no_mask, coeffs, no_mask, no_mask, probs, counts, out)
 
 
 @njit(cache=True)
 def decode(data: np.ndarray, coeffs: np.ndarray) -> int:
-    """Fills coeffs (D, n_blocks, 16) int64 from the payload `data`; 0, or -1 when the payload is damaged
-    (read past its end by more than MAX_OVERRUN bytes, or not ending where the coefficients do)."""
+    """Fills coeffs (D, n_blocks, 16) int64 from the b"C" section's payload `data`; 0, or -1 when the payload is
+    damaged (read past its end by more than MAX_OVERRUN bytes, or not ending where the coefficients do)."""
     state = decoder_state(data)
     probs, counts = uniform_models(N_CONTEXTS)
-    _run(True, coeffs, state, data, probs, counts, np.zeros((0, 2), dtype=np.int64))
+    decode_coefficients(state, data, coeffs, probs, counts)
     return finish_decoder(state, data)
 
 
