@@ -10,10 +10,16 @@ comparisons/tables/lab_dof_ranges.npz with the codebooks.
 A coded clip is b"SCL1" | coder id (u8) | active-DOF mask (ceil(D/8) bytes) | inner stream | CRC-32:
 DOFs that stay exactly 0 (the rest pose) in the clip are not coded, the others go to the coder.
 A coder whose class says `framing = "compact"` (wavelet-cx) writes the whole clip itself instead, mask included,
-in the compact layout of comparisons/coded_streams.write_compact (b"Sc" ... CRC-32, ~10 bytes of framing in
+in the compact layout of comparisons/lab/streams.write_compact (b"Sc" ... CRC-32, ~10 bytes of framing in
 place of ~58): `encode_compact(active dofs, fps, index, mask)` and `decode_compact(bytes, D)`.
-Both ends bound the clip to T x D <= coded_streams.MAX_VALUES with D the whole layout (the decoder's
+Both ends bound the clip to T x D <= streams.MAX_VALUES with D the whole layout (the decoder's
 output size), before coding or allocating anything.
+
+LabCodec: encode(Motion, q) -> bytes and decode(bytes) -> Motion (the Motion codec interface of
+comparisons/params/codecs.py); encode_dofs((T, D) radians, fps, index) -> (bytes, (T, D) reconstruction) and
+decode_dofs(bytes) -> ((T, D) radians, fps) on the layout's DOFs; decode_levels(bytes) -> the integers the
+stream carries (the decoder's exact part, pinned by tests/data/conformance/lab/). Errors: SigncastError for an
+unknown coder, a q outside 1..len(settings()), DOFs of the wrong shape, and any damaged or foreign stream.
 """
 from __future__ import annotations
 

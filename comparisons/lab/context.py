@@ -23,10 +23,11 @@ pc = bit length of 2 |previous coefficient of the band in time| + |parent| (the 
 block's difference), j relative to pc (clamped to -3..3), pc's bucket (0, 1-2, 3-5, 6+: how far the relative
 j is to be trusted differs between small and large coefficients) and j = 0.
 
+The range coder is written once (`_encode_bit`, `_decode_bit`, `_adapt`, `_code_bit`); both ways in below use it.
 Two ways in: `encode` / `decode` code one b"C" section of the SCM1 container with every model at P = 1/2; the
 compact stream (ContextWaveletCoder.encode_compact) codes the active-DOF mask (one bin per DOF of the signing
 layout, context: the DOF and the previous DOF's bit) and then the coefficients in one payload (there, the inter-DOF
-prediction residuals of comparisons/waveform_coders.predict_dofs: these kernels code any integers), its models starting
+prediction residuals of comparisons/lab/waveform.predict_dofs: these kernels code any integers), its models starting
 from trained states (encode_payload; decode_mask then decode_coefficients on one decoder state, since the decoder
 sizes the coefficients from the mask). `code_mask` / `code_coefficients` with a tally (n_contexts, 2) count the
 bits each context codes: tools/train_context_priors.py trains the states from that.

@@ -1,10 +1,10 @@
 """Numba kernel of the seed-002 gesture coder's time warp (comparisons/lab/model.py documents the coder).
 
-warp_rows is np.interp of every column of each segment onto a uniform grid, bitwise: the source and
-target grids are np.linspace(0, 1, n)'s values (i * (1 / (n - 1)), the last exactly 1.0), the interval
-of a target time t is searchsorted(source, t, "right") - 1 clipped to the last interval, and a row is
-(y[j + 1] - y[j]) / (x[j + 1] - x[j]) * (t - x[j]) + y[j], or the sample itself where t hits one, the
-element-wise operations of model_coders.warp in the same order. One call warps every segment of a clip.
+warp_rows is the linear time warp of comparisons/lab/model.warp (np.interp of every column of each segment onto
+a uniform grid, to rounding) for every segment of a clip in one call: the source and target grids are
+np.linspace(0, 1, n)'s values (i * (1 / (n - 1)), the last exactly 1.0), the interval of a target time t is
+searchsorted(source, t, "right") - 1 clipped to the last interval, and a row is
+(y[j + 1] - y[j]) / (x[j + 1] - x[j]) * (t - x[j]) + y[j], or the sample itself where t hits one.
 
 Arrays: source (R, K) float64; starts, counts, lengths (S,) int64 (segment s is source[starts[s]:
 starts[s] + counts[s]], counts >= 2, warped to lengths[s] >= 1 rows); out (sum(lengths), K) float64.

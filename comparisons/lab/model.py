@@ -24,13 +24,16 @@ They are scored with VPSNR (motion is re-synthesised, not waveform-matched).
   +-1/2 and +-1/4 of it; the first frames of a segment are blended with the previous one.
 Frame counts of the seed (30 Hz) are scaled to `fps`.
 
-Speed without changing a bit: the speed fits are scipy's savgol_filter arithmetic without its per-call
-set-up, for all groups in one pass (`savgol_slope`, `group_speeds`); the time warp is np.interp's
-arithmetic on all columns at once; Hermite fills and the hybrid coder's quantisers work on all frames or
-segments at once with the same element-wise operations; the gesture coder warps all segments in one
-compiled call (comparisons/lab/gesture.py) and screens table entries with one matrix product, computing
-gesture_distance's and nearest's exact arithmetic only for the entries that can win (GestureMatcher,
-PostureMatcher: the bounds are in their docstrings).
+Contract: the DofCoder interface of comparisons/lab/waveform.py (encode, read_levels, decode, SigncastError on
+bad input or damaged streams), with dofs of at least 2 frames; the coders are built from the shipped tables
+(comparisons/tables/model_tables.npz) cut to the active DOFs (posture_coder, gesture_coder, hybrid_coder). What
+the streams carry (key frames, table indices, segment flags, DCT cells) is listed in each coder's `_read`.
+
+Speed: the speed fits are scipy.signal.savgol_filter's (its coefficients, savgol_coeffs, applied to all groups in
+one pass: `savgol_slope`, `group_speeds`); the time warp runs on all columns at once, and the gesture coder warps
+all segments in one compiled call (comparisons/lab/gesture.py); Hermite fills and the hybrid coder's quantisers
+work on all frames or segments at once; table entries are screened with one matrix product, computing the exact
+distance only for the entries that can win (GestureMatcher, PostureMatcher: the bounds are in their docstrings).
 """
 from __future__ import annotations
 
@@ -233,8 +236,8 @@ def warp(segment: np.ndarray, length: int) -> np.ndarray:
 
 def warp_segments(source: np.ndarray, starts, counts, lengths) -> np.ndarray:
     """warp(source[start:start + count], length) of every (start, count, length), concatenated:
-    (sum(lengths), K), bitwise: kernels/lab_gesture.warp_rows does warp's element-wise arithmetic for all
-    segments in one call."""
+    (sum(lengths), K): comparisons/lab/gesture.warp_rows does warp's element-wise arithmetic for all segments in
+    one call."""
     starts, counts, lengths = (np.asarray(v, dtype=np.int64) for v in (starts, counts, lengths))
     if np.any(counts < 2):
         return np.concatenate([warp(source[a:a + n], m) for a, n, m in zip(starts, counts, lengths)])
@@ -310,7 +313,7 @@ class GestureMatcher:
 
 
 class PostureMatcher:
-    """vector_quantization.nearest(row[None], codebook) of many rows, bitwise, one matrix product for all.
+    """comparisons/lab/vq.nearest(row[None], codebook) of many rows, bitwise, one matrix product for all.
     nearest's value norms_m - 2 v.c_m is within (K + 2) eps (norms_m + 2 |v| |c_m|) of exact whatever the
     summation order of the dot product, so a row whose screened values leave a single entry within twice
     that bound (4 (K + 16) eps (max norms + 2 |v| max |c|)) of its minimum has nearest's answer; rows with

@@ -2,11 +2,10 @@
 documents the coders: DPCM, ADPCM, dead reckoning).
 
 Each loop runs frame by frame (a frame's prediction needs the previous decoded frame) over all DOFs,
-one call per clip instead of a dozen NumPy calls per frame. The arithmetic is the NumPy reference's,
-operation for operation and in the same order (sums accumulated frame by frame as NumPy reduces
-along the frame axis, ties of the nearest-level search going to the lower index as argmin's, rint
-rounding half to even), so the symbols and reconstructions are bitwise those of the NumPy loops that
-recorded the stream references (tests/test_stream_identity.py).
+one call per clip instead of a dozen NumPy calls per frame, and serves both ends: the encoder chooses the
+symbols (ties of the nearest-level search go to the lower index, rint rounds half to even) and both ends rebuild
+the same reconstruction from them, since they run the same loop on the same machine. The symbols are what the
+stream carries; the reconstruction is floating point and may differ between machines by rounding.
 
 Arrays: dofs (T, D) float64 radians (the encoder's input, or an empty (0, D) array when decoding);
 symbols (T - 1, D) int64 (filled when encoding, read when decoding); recon (T, D) float64 with row 0

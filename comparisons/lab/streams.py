@@ -511,9 +511,9 @@ class StreamReader:
 
 # ---------------------------------------------------------------- compact framing (one payload, one CRC)
 # A second container layout, for coders whose whole stream is one self-delimiting payload (ContextWaveletCoder,
-# `framing = "compact"`; comparisons/lab_codecs.LabCodec writes it instead of its SCL1 wrapper around SCM1). On a
-# one-second clip at 10 fps the SCL1 + SCM1 framing (two magics, fixed-width header, raw 183-bit DOF mask, section
-# header, two CRCs: ~58 bytes) is ~10 % of the stream; this one is 10 bytes plus what the payload spends:
+# `framing = "compact"`; comparisons/lab/codecs.LabCodec writes it instead of its SCL1 wrapper around SCM1). The
+# SCL1 + SCM1 framing (two magics, fixed-width header, raw 183-bit DOF mask, section header, two CRCs) takes ~58
+# bytes (docs/motion-lab.md: its share of short clips); this one is 10 bytes plus what the payload spends:
 #
 #     magic "Sc" | coder id (u8) | q (u8) | varint(T) | varint(fps code) | payload | CRC-32 of everything before
 #

@@ -10,6 +10,11 @@ comparisons/tables/vq_codebooks.npz; they are part of the codec, known to both e
   nearest code vector of (block - last decoded sample of the previous block), a closed-loop
   (predictive) VQ so one codebook serves every DOF whatever its mean. The first frame is sent as
   16-bit values.
+
+Contract: the DofCoder interface of comparisons/lab/waveform.py (encode, read_levels, decode, SigncastError on bad
+input or damaged streams); `nearest(vectors (N, K), codebook (M, K)) -> (N,) int64` indices of the nearest code
+vectors (squared Euclidean distance, first index on ties); training (train_codebooks) raises SigncastError for a
+size that is not a power of two.
 """
 from __future__ import annotations
 

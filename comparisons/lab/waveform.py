@@ -1,11 +1,26 @@
 """Waveform coders of DOF trajectories (seed 002 ch. 7): each DOF coded on its own, no model of the action.
 
-Every coder works on DOF trajectories `dofs` (T, D) float64 radians sampled at `fps` Hz, with per-DOF
-ranges `lower`, `upper` (D,) radians (the quantiser limits, the role of seed 002's joint limits: known to
-both ends, never sent).
-`encode(dofs, fps, q) -> (bytes, reconstruction (T, D))`; `decode(bytes) -> (T, D)` returns exactly the
-encoder's reconstruction. `q` indexes the coder's `settings` (0 = coarsest, lowest rate).
-The container, entropy stage and corruption checks are comparisons/lab/streams.py.
+Contract of every coder (DofCoder; the vector-quantising and model-based coders of comparisons/lab/vq.py and
+model.py share it):
+- built from per-DOF ranges `lower`, `upper` (D,) radians, finite, upper >= lower (the quantiser limits, the role
+  of seed 002's joint limits: known to both ends, never sent), and an entropy stage name (streams.STAGE_NAMES);
+- `encode(dofs, fps, q) -> (bytes, reconstruction (T, D) float64 radians)`: dofs (T >= min_frames, D) float64
+  radians, finite; fps > 0 Hz (0.001 .. streams.MAX_FPS); q an int indexing the coder's `settings`
+  (0 = coarsest, lowest rate); T x D within streams.MAX_VALUES;
+- `read_levels(bytes) -> ({name: int64 array}, StreamInfo)`: the integers the stream carries, before
+  dequantisation (each coder's `_read` names them and their shapes); exact on every CPU, and what the
+  conformance streams pin (tests/data/conformance/lab/, tests/test_lab_conformance.py);
+- `decode(bytes) -> (T, D)` / `decode_with_fps(bytes) -> ((T, D), fps)`: read_levels, then the coder's
+  dequantisation (`_rebuild`); the decoder returns exactly the reconstruction the encoder returned on the same
+  machine (both run the same code);
+- errors: SigncastError for bad input (shape, NaN, fps, q) and for any damaged, truncated or foreign stream
+  (the container's CRC, lengths and layout checks, comparisons/lab/streams.py), never another exception.
+
+Error bounds the coders guarantee (tests/test_lab_conformance.py checks them on real letters):
+- quant: |x - x^| <= (upper - lower) / (2 N) for x clamped to its range (N levels);
+- deadreck: |x - x^| <= E after the first frame (threshold E);
+- wavelet, wavelet-cx: |x - x^| <= 2 step (each of a block's 16 orthonormal coefficients within step / 2).
+The others have no worst-case bound; their error on the conformance letters is held within 5 % of the stored figure.
 
 Choices the seed leaves open (digest §7.4) and the values used here:
 - quantiser ranges: the DOF ranges; first frames of predictive coders: 16-bit uniform in the range;
@@ -26,8 +41,7 @@ Choices the seed leaves open (digest §7.4) and the values used here:
   uniform step 0.32 / 2^k rad, k = 0..10 (dead zone of rounding = the thresholding that keeps the largest
   coefficients), approximation predicted.
 
-The closed loops of DPCM, ADPCM and dead reckoning run frame by frame in comparisons/lab/predictive.py, with
-the NumPy formulation's arithmetic operation for operation (the streams are bitwise those it recorded).
+The closed loops of DPCM, ADPCM and dead reckoning run frame by frame in comparisons/lab/predictive.py (Numba).
 """
 from __future__ import annotations
 
@@ -321,7 +335,7 @@ class AdpcmCoder(ResidualCoder):
         (r0, r1, r2) of the last `window` decoded samples (mean removed, Hamming taper, r0 (1 + 1e-3) + 1e-18),
         used while its forgetting sum of squared errors (0.8) is below the previous-value predictor's;
         the quantiser's offsets scale x grid adapt by Jayant's multiplier within [limit / 2, 2 limit].
-        The loop is kernels/lab_predictive.adpcm_loop."""
+        The loop is comparisons/lab/predictive.adpcm_loop."""
         window = max(int(round(fps)), 8)
         recon = np.empty((n_frames, self.n_dofs))
         recon[0] = first
@@ -518,8 +532,7 @@ class WaveletCoder(DofCoder):
     """Time-frequency coder (§7.8.2): Haar wavelet of 16-sample blocks, uniform step per q."""
 
     name, coder_id, unit = "wavelet", 7, "step (rad)"
-    # 0.32 rad (coarsest) down to 0.3 mrad: the finest three reach the mean rotation errors of MPEG-4 FBA at
-    # Q 1-2 (~0.01 deg, benchmarks/vs_gltf.py)
+    # 0.32 rad (coarsest) down to 0.3 mrad (docs/motion-lab.md: what the finest steps reach)
     settings = tuple(0.32 / 2 ** k for k in range(11))
 
     def _encode(self, writer, dofs, fps, step):
@@ -650,9 +663,10 @@ class ContextWaveletCoder(DofCoder):
     Two stream layouts:
     - `encode` / `decode`: the SCM1 container (comparisons/lab/streams.py), one b"C" section holding every
       coefficient, models starting at P = 1/2;
-    - `encode_compact` / `decode_compact` (`framing = "compact"`: what comparisons/lab_codecs.LabCodec sends):
-      the compact layout of coded_streams.write_compact, whose payload is one range-coded run of the active-DOF
-      mask of the signing layout (one bin per DOF, kernels/lab_context.code_mask) and then the coefficients of
+    - `encode_compact` / `decode_compact` (`framing = "compact"`: what comparisons/lab/codecs.LabCodec sends):
+      the compact layout of comparisons/lab/streams.write_compact, whose payload is one range-coded run of the
+      active-DOF mask of the signing layout (one bin per DOF, comparisons/lab/context.code_mask) and then the
+      coefficients of
       the active DOFs, every model starting from the state trained offline on other sign languages' clips
       (comparisons/tables/context_priors.npz, tools/train_context_priors.py; per q): on a one-second clip the
       models otherwise spend a good part of the stream learning what every clip looks like. Joints of a finger
