@@ -357,18 +357,30 @@ def dct_symbol_counts(segments: list[tuple[np.ndarray, np.ndarray, bool]]) -> di
 
 
 def frame_rate_fields(fps: float) -> tuple[int, int, int]:
-    """(frame_rate 8 bits, seconds 4 bits, frequency_offset) with fps = (rate + seconds/16) [x 1000/1001]."""
+    """(frame_rate 8 bits, seconds 4 bits, frequency_offset) with fps = (rate + seconds/16) [x 1000/1001].
+
+    `fps` in frames per second, exact (30000/1001) or as a camera states it (29.97, 23.976, 59.94): the nearest
+    sixteenth of a frame is taken, with or without the 1000/1001 offset, where it lies within 0.005 fps.
+    Raises SigncastError for a rate that neither form can signal (above 255 15/16 fps, under 1 fps, or not
+    near a sixteenth).
+    """
+    candidates = []
     for offset in (0, 1):
         nominal = fps * (1001 / 1000 if offset else 1)
-        rate = int(np.floor(nominal + 1e-6))
-        seconds = int(round((nominal - rate) * 16))
-        if seconds < 16 and 1 <= rate <= 255 and abs(rate + seconds / 16 - nominal) < 1e-3:
-            return rate, seconds, offset
-    raise SigncastError(f"frame rate {fps} cannot be signalled (rate + n/16 fps, optionally x 1000/1001)")
+        sixteenths = int(round(nominal * 16))
+        rate, seconds = divmod(sixteenths, 16)
+        error = abs(fps_from_fields(rate, seconds, offset) - fps) if rate >= 1 else np.inf
+        if rate <= 255 and error < 5e-3:
+            candidates.append((error, offset, (rate, seconds, offset)))
+    if candidates:
+        return min(candidates)[2]
+    raise SigncastError(f"frame rate {fps:g} fps cannot be signalled (rate + n/16 fps, optionally x 1000/1001)")
 
 
 def fps_from_fields(rate: int, seconds: int, offset: int) -> float:
+    """The frame rate in fps that the header fields signal: (rate + seconds/16) x 1000/1001 where offset is 1,
+    exactly (30, 0, 1) is 30000/1001. Raises SigncastError for rate 0."""
     if rate == 0:
         raise SigncastError("corrupt stream: frame rate 0")
     fps = rate + seconds / 16
-    return round(fps * 1000 / 1001, 2) if offset else fps
+    return fps * 1000 / 1001 if offset else fps
