@@ -1,8 +1,9 @@
 """Coverage-guided fuzzing of every decoder and reader (atheris / libFuzzer), one subprocess per target.
 
 Targets and their oracles: tests/fuzz/fuzz_targets.py; seed corpora: tests/fuzz/corpus/<target>/
-(regenerate with tools/make_fuzz_corpus.py), copied to a temporary folder so the repository is
-never written. Each target runs for --seconds under libFuzzer with -rss_limit_mb=1024 (and an
+(regenerate with tools/make_fuzz_corpus.py). comparisons, media and pose_format are instrumented, except the
+modules that import Numba (compiled_modules: Numba cannot type instrumented bytecode); their Python callers are.
+The corpora are copied to a temporary folder so the repository is never written. Each target runs for --seconds under libFuzzer with -rss_limit_mb=1024 (and an
 address-space limit 1.5 GB above the warmed-up process, so that one huge allocation fails at once
 as MemoryError instead of swapping the machine).
 
@@ -41,6 +42,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 FUZZ_DIR = ROOT / "tests" / "fuzz"
 INSTRUMENTED = ["comparisons", "media", "pose_format"]
+_IMPORTS_NUMBA = re.compile(r"^\s*(import numba|from numba[ .])", re.M)
 HANG_CPU_S = 1.0                                # a hang: one input takes more CPU time than this
 WALL_TIMEOUT_S = 10                             # libFuzzer's -timeout: the backstop for endless loops
 RSS_LIMIT_MB = 1024
@@ -63,6 +65,22 @@ class Result:
 
 # ---------------------------------------------------------------------------------- the worker
 
+def compiled_modules(packages: list[str] = INSTRUMENTED) -> list[str]:
+    """Dotted names of the modules of `packages` (those inside this repository) that import Numba.
+
+    atheris rewrites a module's bytecode to trace its branches, and Numba cannot type the rewritten
+    functions (a TypingError at their first call), so these modules are imported plain: their
+    compiled loops are fuzzed through the instrumented Python that calls them."""
+    names = []
+    for package in packages:
+        folder = ROOT / package
+        for path in sorted(folder.rglob("*.py")) if folder.is_dir() else ():
+            if _IMPORTS_NUMBA.search(path.read_text(encoding="utf-8", errors="replace")):
+                parts = path.relative_to(ROOT).with_suffix("").parts
+                names.append(".".join(parts[:-1] if parts[-1] == "__init__" else parts))
+    return names
+
+
 def _where(error: BaseException) -> tuple[str, str]:
     """(innermost frame in signcast's code, innermost frame overall), as 'path:line in function'."""
     frames = traceback.extract_tb(error.__traceback__)
@@ -84,7 +102,7 @@ def _worker(target: str, findings: Path, libfuzzer_args: list[str]) -> None:
     sys.path.insert(0, str(FUZZ_DIR))
     findings.mkdir(parents=True, exist_ok=True)
     seen: set[tuple] = set()
-    with atheris.instrument_imports(include=INSTRUMENTED):
+    with atheris.instrument_imports(include=INSTRUMENTED, exclude=compiled_modules()):
         import fuzz_targets
         # warm up inside the instrumented import: the targets import their decoders and load their
         # tables on first use, which must neither escape instrumentation nor count against -timeout
