@@ -3,9 +3,9 @@
 Targets and their oracles: tests/fuzz/fuzz_targets.py; seed corpora: tests/fuzz/corpus/<target>/
 (regenerate with tools/make_fuzz_corpus.py). comparisons, media and pose_format are instrumented, except the
 modules that import Numba (compiled_modules: Numba cannot type instrumented bytecode); their Python callers are.
-The corpora are copied to a temporary folder so the repository is never written. Each target runs for --seconds under libFuzzer with -rss_limit_mb=1024 (and an
-address-space limit 1.5 GB above the warmed-up process, so that one huge allocation fails at once
-as MemoryError instead of swapping the machine).
+The corpora are copied to a temporary folder so the repository is never written. Each target runs for
+--seconds under libFuzzer with -rss_limit_mb=1024 (and an address-space limit 1.5 GB above the warmed-up
+process, so that one huge allocation fails at once as MemoryError instead of swapping the machine).
 
 A finding is any outcome but a clean rejection (SigncastError) or a correct decode: another
 exception type (crash), DecodeMismatch (a decode that fails its oracle), a timeout, or memory
