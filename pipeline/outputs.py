@@ -210,3 +210,94 @@ def add_force_argument(parser) -> None:
     parser.add_argument("--force", action="store_true",
                         help=f"write into a non-empty --out folder, first removing the files an earlier signcast run "
                              f"wrote there (listed in {MANIFEST}); other files are kept")
+
+
+# ------------------------------------------------------------------------------------------------------------
+# writing: the only place files are written from what comparisons/ returns (text, bytes, rows, figures, records)
+
+def write_text(path: str | Path, text: str) -> Path:
+    """text written to path as UTF-8 (folders made); returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def write_bytes(path: str | Path, data: bytes) -> Path:
+    """data written to path (folders made); returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data)
+    return path
+
+
+def write_rows(path: str | Path, rows: list[list]) -> Path:
+    """rows (the header first) written as CSV; returns the path."""
+    import csv
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        csv.writer(handle).writerows(rows)
+    return path
+
+
+def write_dicts(path: str | Path, rows: list[dict], fieldnames: list[str] | None = None) -> Path:
+    """rows (dicts) written as CSV with a header (fieldnames, or the first row's keys); returns the path."""
+    import csv
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=fieldnames or (list(rows[0]) if rows else []))
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+def save_figure(figure, path: str | Path, **options) -> Path:
+    """A matplotlib figure saved as PNG (options: savefig's, e.g. dpi) and closed; returns the path."""
+    import matplotlib.pyplot as plt
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        figure.savefig(path, **options)
+    finally:
+        plt.close(figure)
+    return path
+
+
+def write_records(path: str | Path, records: list, *, append: bool = False) -> Path:
+    """Records (comparisons.reports.records.Record or dicts) written as JSON lines
+    (comparisons.reports.records.records_text); append: added to the end of the file, closed (so flushed) on
+    return, so an interrupted run keeps them. A record the schema rejects raises SigncastError, nothing written."""
+    from comparisons.reports.records import records_text
+    path = Path(path)
+    text = records_text(records, where=str(path))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("a" if append else "w", encoding="utf-8") as handle:
+        handle.write(text)
+    return path
+
+
+def write_outputs(folder: str | Path, outputs: dict) -> list[Path]:
+    """Each of outputs (file name -> str: text, bytes, a list of CSV rows with the header first, or a matplotlib
+    figure: PNG at the figure's dpi) written under folder; returns the paths in outputs' order."""
+    folder = Path(folder)
+    written = []
+    for name, content in outputs.items():
+        path = folder / name
+        if isinstance(content, str):
+            written.append(write_text(path, content))
+        elif isinstance(content, (bytes, bytearray)):
+            written.append(write_bytes(path, bytes(content)))
+        elif isinstance(content, list):
+            written.append(write_rows(path, content))
+        else:
+            written.append(save_figure(content, path))
+    return written
+
+
+def build_report(records: list, out_path: str | Path, *, poster_png: bytes | None = None, **options) -> Path:
+    """The comparison's HTML report (comparisons.reports.comparison.report_html) written to out_path; returns it.
+    SigncastError when the records hold no measured point."""
+    from comparisons.reports.comparison import report_html
+    return write_text(out_path, report_html(records, poster_png=poster_png, **options))

@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from comparisons.lab.motion_analysis import analyze, energy_shares, frequency_down, power_spectrum, write_analysis
+from comparisons.lab.motion_analysis import analyze, energy_shares, frequency_down, power_spectrum
+from pipeline.studies.analyze import write_analysis
 from pipeline.cli import main
 
 FPS = 25.0

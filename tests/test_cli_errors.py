@@ -7,7 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from comparisons.reports.records import make_record, read_records, write_records
+from comparisons.reports.records import make_record, read_records
+
+from pipeline.outputs import write_records
 from media.errors import SigncastError
 from pipeline.cli import main
 from pipeline.outputs import MANIFEST, output_folder

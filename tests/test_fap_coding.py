@@ -20,7 +20,8 @@ from comparisons.params import fap_table
 from comparisons.params import fba as fba_codec
 from comparisons.params import coding as pc
 from comparisons.params.bits import BitReader, BitWriter, find_start_codes
-from comparisons.params.fap_file import format_fap, parse_fap, read_fap, write_fap
+from comparisons.params.fap_file import format_fap, parse_fap, read_fap
+from pipeline.outputs import write_text
 from comparisons.params.fap_rates import fap_bits, synthetic_faps
 from comparisons.params.fba import decode_fba, encode_fba
 from comparisons.params.codecs import get_codec
@@ -373,7 +374,7 @@ def test_fap_file_round_trips_exactly(tmp_path):
     assert all(line.split()[:2] == ["0", "0"] for line in text.splitlines()[2::2])   # FAPs 1, 2 masked out
     back, fps, name = parse_fap(text)
     assert np.array_equal(back, faps) and fps == 25 and name == "face-A"
-    back, fps, _ = read_fap(write_fap(tmp_path / "face.fap", faps, 29.97))
+    back, fps, _ = read_fap(write_text(tmp_path / "face.fap", format_fap(faps, 29.97)))
     assert np.array_equal(back, faps) and fps == 29.97
 
 

@@ -4,8 +4,9 @@ import json
 
 import pytest
 
-from comparisons.reports.records import (SCHEMA_VERSION, Record, make_record, normalize_records, read_records,
-                                 read_typed_records, write_records)
+from comparisons.reports.records import (SCHEMA_VERSION, Record, make_record, normalize_records, read_records, read_typed_records)
+
+from pipeline.outputs import write_records
 from media.errors import SigncastError
 
 

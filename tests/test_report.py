@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from comparisons.judging.criteria import bandwidth_scores, criteria_table
-from comparisons.reports.comparison import build_report, chart_kbps_vs_q, chart_rate_quality, linear_fits, quantiser
+from comparisons.reports.comparison import chart_kbps_vs_q, chart_rate_quality, linear_fits, quantiser
+from pipeline.outputs import build_report
 from report_page import ReportPage
 
 

@@ -10,8 +10,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from comparisons.reports.records import read_records, write_records
-from comparisons.reports.comparison import (DELIVERY_CHANNELS, MATCHED_SOLUTIONS, MOBILE_PHONE, MODEM, build_report,
+from comparisons.reports.records import read_records
+
+from pipeline.outputs import write_records
+from pipeline.outputs import build_report
+from comparisons.reports.comparison import (DELIVERY_CHANNELS, MATCHED_SOLUTIONS, MOBILE_PHONE, MODEM,
                                 chart_rate_intelligibility, fits, threshold_value)
 from report_page import ReportPage
 

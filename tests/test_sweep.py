@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 from comparisons.reports import sweep as sweep_report
-from comparisons.reports.records import make_record, read_records, write_records
+from comparisons.reports.records import make_record, read_records
+from pipeline.outputs import write_records
 from pipeline.cli import main
 from pipeline.outputs import MANIFEST
 from pipeline.studies import sweep

@@ -8,7 +8,8 @@ import pytest
 from comparisons.video import quality as image_quality
 from comparisons.video import codecs as video_codecs
 from comparisons.video import objects as video_objects
-from comparisons.reports.records import SCHEMA_VERSION, make_record, read_records, versions, write_records
+from comparisons.reports.records import SCHEMA_VERSION, make_record, read_records, versions
+from pipeline.outputs import write_records
 from media.errors import SigncastError
 from media.video_io import read_video, resolve_video
 

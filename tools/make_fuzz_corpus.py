@@ -190,7 +190,8 @@ def pose_seeds() -> dict[str, bytes]:
 
 def records_seeds() -> dict[str, bytes]:
     from comparisons.params.fba import encode_fba
-    from comparisons.reports.records import make_record, versions, write_records
+    from comparisons.reports.records import make_record, versions
+    from pipeline.outputs import write_records
     a = _letter("A")
     records = [{"kind": "run", "backend": "numpy", "versions": versions()}]
     for q in (1, 8, 31):

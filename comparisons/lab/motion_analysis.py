@@ -15,9 +15,7 @@ Per group the PSD is averaged over its moving DOFs (the seed's long-term PSD per
 """
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from scipy.signal import welch
@@ -130,47 +128,36 @@ def analyze(dofs: np.ndarray, fps: float, names: list[str], groups: dict[str, np
                           [names[i] for i in finger_idx], np.atleast_2d(correlation), values, differences)
 
 
-def _write_rows(path: Path, rows: list[dict]) -> Path:
+def _rows(rows: list[dict]) -> list[list]:
+    """dict rows as CSV rows, the header (every key, in order of appearance) first; floats to 6 digits."""
     fields = list(dict.fromkeys(k for row in rows for k in row))
-    with Path(path).open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=fields)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: f"{v:.6g}" if isinstance(v, (float, np.floating)) else v for k, v in row.items()})
-    return Path(path)
+    return [fields] + [[(lambda v: f"{v:.6g}" if isinstance(v, (float, np.floating)) else ("" if v is None else v))(
+        row.get(k)) for k in fields] for row in rows]
 
 
-def write_analysis(out_dir: Path, prefix: str, analysis: MotionAnalysis) -> list[Path]:
-    """CSV tables and PNG plots of one analysis; returns the written paths."""
+def analysis_outputs(prefix: str, analysis: MotionAnalysis) -> dict:
+    """The CSV tables (lists of rows, the header first) and PNG plots (matplotlib figures) of one analysis, by file
+    name ({prefix}_dofs.csv, _groups.csv, _finger_correlation.csv, _histograms.csv, _distributions.png, _psd.png,
+    _finger_correlation.png with more than one moving finger flexion); the study layer writes them
+    (pipeline.outputs.write_outputs)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = [_write_rows(out_dir / f"{prefix}_dofs.csv", analysis.dof_rows),
-             _write_rows(out_dir / f"{prefix}_groups.csv", analysis.group_rows)]
-    correlation_path = out_dir / f"{prefix}_finger_correlation.csv"
-    with correlation_path.open("w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow([""] + analysis.finger_names)
-        for name, row in zip(analysis.finger_names, analysis.finger_correlation):
-            writer.writerow([name] + [f"{v:.4f}" for v in row])
-    paths.append(correlation_path)
-
-    histogram_path = out_dir / f"{prefix}_histograms.csv"
-    with histogram_path.open("w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["group", "quantity", "bin_low_deg", "bin_high_deg", "density_per_deg"])
-        for group in analysis.values:
-            for quantity, samples in (("value", analysis.values[group]), ("difference", analysis.differences[group])):
-                density, edges = np.histogram(np.degrees(samples), bins=60, density=True)
-                for low, high, value in zip(edges[:-1], edges[1:], density):
-                    writer.writerow([group, quantity, f"{low:.4g}", f"{high:.4g}", f"{value:.6g}"])
-    paths.append(histogram_path)
+    outputs: dict = {f"{prefix}_dofs.csv": _rows(analysis.dof_rows), f"{prefix}_groups.csv": _rows(analysis.group_rows)}
+    outputs[f"{prefix}_finger_correlation.csv"] = [[""] + analysis.finger_names] + [
+        [name] + [f"{v:.4f}" for v in row] for name, row in zip(analysis.finger_names, analysis.finger_correlation)]
+    histogram = [["group", "quantity", "bin_low_deg", "bin_high_deg", "density_per_deg"]]
+    for group in analysis.values:
+        for quantity, samples in (("value", analysis.values[group]), ("difference", analysis.differences[group])):
+            density, edges = np.histogram(np.degrees(samples), bins=60, density=True)
+            for low, high, value in zip(edges[:-1], edges[1:], density):
+                histogram.append([group, quantity, f"{low:.4g}", f"{high:.4g}", f"{value:.6g}"])
+    outputs[f"{prefix}_histograms.csv"] = histogram
 
     groups = list(analysis.group_psd)
-    figure, axes = plt.subplots(2, max(len(groups), 1), figsize=(3.6 * max(len(groups), 1), 6.2), squeeze=False)
+    figure, axes = plt.subplots(2, max(len(groups), 1), figsize=(3.6 * max(len(groups), 1), 6.2), squeeze=False,
+                             dpi=100)
     for k, group in enumerate(groups):
         axes[0][k].hist(np.degrees(analysis.values[group]), bins=60, density=True, color="tab:blue")
         axes[0][k].set(title=f"{group}: values", xlabel="degrees")
@@ -184,11 +171,9 @@ def write_analysis(out_dir: Path, prefix: str, analysis: MotionAnalysis) -> list
         axes[1][k].set(title=f"{group}: frame differences", xlabel="degrees per frame")
     figure.suptitle(f"{prefix}: distributions of values and frame differences (moving DOFs)")
     figure.tight_layout()
-    figure.savefig(out_dir / f"{prefix}_distributions.png", dpi=100)
-    plt.close(figure)
-    paths.append(out_dir / f"{prefix}_distributions.png")
+    outputs[f"{prefix}_distributions.png"] = figure
 
-    figure, axis = plt.subplots(figsize=(7, 4.5))
+    figure, axis = plt.subplots(figsize=(7, 4.5), dpi=100)
     for group in groups:
         psd = analysis.group_psd[group]
         axis.plot(analysis.frequencies[1:], 10 * np.log10(psd[1:] / psd.max()), label=group)
@@ -199,19 +184,15 @@ def write_analysis(out_dir: Path, prefix: str, analysis: MotionAnalysis) -> list
     axis.grid(True, alpha=0.3)
     axis.legend(fontsize=8)
     figure.tight_layout()
-    figure.savefig(out_dir / f"{prefix}_psd.png", dpi=100)
-    plt.close(figure)
-    paths.append(out_dir / f"{prefix}_psd.png")
+    outputs[f"{prefix}_psd.png"] = figure
 
     if len(analysis.finger_names) > 1:
-        figure, axis = plt.subplots(figsize=(6.5, 5.5))
+        figure, axis = plt.subplots(figsize=(6.5, 5.5), dpi=100)
         image = axis.imshow(analysis.finger_correlation, vmin=-1, vmax=1, cmap="coolwarm")
         axis.set_xticks(range(len(analysis.finger_names)), analysis.finger_names, rotation=90, fontsize=7)
         axis.set_yticks(range(len(analysis.finger_names)), analysis.finger_names, fontsize=7)
         figure.colorbar(image, ax=axis, label="correlation")
         axis.set_title(f"{prefix}: correlation between finger flexions")
         figure.tight_layout()
-        figure.savefig(out_dir / f"{prefix}_finger_correlation.png", dpi=100)
-        plt.close(figure)
-        paths.append(out_dir / f"{prefix}_finger_correlation.png")
-    return paths
+        outputs[f"{prefix}_finger_correlation.png"] = figure
+    return outputs

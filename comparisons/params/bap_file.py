@@ -35,12 +35,6 @@ def format_bap(values: np.ndarray, fps: float, name: str = "signcast") -> str:
     return format_text(LAYOUT, values, fps, name)
 
 
-def write_bap(path: str | Path, values: np.ndarray, fps: float, name: str = "signcast") -> Path:
-    path = Path(path)
-    path.write_text(format_bap(values, fps, name))
-    return path
-
-
 def parse_bap(text: str) -> tuple[np.ndarray, float, str]:
     """(values (T, 296) int64 BAP units, fps, name) from .bap text of version 3.1 or 3.2."""
     return parse_text(LAYOUT, text.splitlines())

@@ -52,12 +52,6 @@ def format_fap(faps: np.ndarray, fps: float, name: str = "signcast") -> str:
     return format_text(LAYOUT, faps, fps, name)
 
 
-def write_fap(path: str | Path, faps: np.ndarray, fps: float, name: str = "signcast") -> Path:
-    path = Path(path)
-    path.write_text(format_fap(faps, fps, name))
-    return path
-
-
 def parse_fap(text: str) -> tuple[np.ndarray, float, str]:
     """(FAP values (T, 68) int64 FAP units, fps, name) from .fap text of version 2.1."""
     return parse_text(LAYOUT, text.splitlines())

@@ -10,9 +10,7 @@ adds the size of the letter's `.pose` file as kbps, the baseline of today's pose
 """
 from __future__ import annotations
 
-import csv
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -85,30 +83,29 @@ def _face_fields(motion: Motion, decoded: Motion, codec, q: int, bits: int) -> d
     return fields
 
 
-def write_table(path: Path, records: list[dict], codecs: list[str], qs: list[int]) -> Path:
-    """Rows: letters; columns: pose-file kbps, then kbps and distortion per (Q, codec), like Tables 2.1/3.1/3.2."""
+def table_rows(records: list[dict], codecs: list[str], qs: list[int]) -> list[list]:
+    """CSV rows, the header first. Rows: letters; columns: pose-file kbps, then kbps and distortion per (Q, codec),
+    like Tables 2.1/3.1/3.2."""
     clips = list(dict.fromkeys(r["clip"] for r in records))
     lookup = {(r["clip"], r["codec"], r["q"]): r for r in records}
     header = ["sign", "frames", "pose_kbps"]
     for q in qs:
         for name in codecs:
             header += [f"Q={q} {name} kbps", f"Q={q} {name} D"]
-    with Path(path).open("w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(header)
-        for clip in clips:
-            first = next(r for r in records if r["clip"] == clip)
-            row = [clip.split(":", 1)[-1], first["frames"], f"{first['pose_kbps']:.2f}"]
-            for q in qs:
-                for name in codecs:
-                    r = lookup.get((clip, name, q))
-                    row += [f"{r['kbps']:.2f}", f"{r['distortion']:.3g}"] if r else ["", ""]
-            writer.writerow(row)
-    return Path(path)
+    rows = [header]
+    for clip in clips:
+        first = next(r for r in records if r["clip"] == clip)
+        row = [clip.split(":", 1)[-1], first["frames"], f"{first['pose_kbps']:.2f}"]
+        for q in qs:
+            for name in codecs:
+                r = lookup.get((clip, name, q))
+                row += [f"{r['kbps']:.2f}", f"{r['distortion']:.3g}"] if r else ["", ""]
+        rows.append(row)
+    return rows
 
 
-def write_plots(out_dir: Path, records: list[dict], codecs: list[str]) -> None:
-    """kbps vs Q and distortion vs kbps, averaged over letters, one line per codec."""
+def rate_figure(records: list[dict], codecs: list[str]):
+    """A matplotlib figure: kbps vs Q and distortion vs kbps, averaged over letters, one line per codec."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -127,5 +124,4 @@ def write_plots(out_dir: Path, records: list[dict], codecs: list[str]) -> None:
         axes.grid(True, alpha=0.3)
         axes.legend()
     figure.tight_layout()
-    figure.savefig(out_dir / "params_rate.png", dpi=110)
-    plt.close(figure)
+    return figure

@@ -30,7 +30,6 @@ import html
 import io
 import math
 import re
-from pathlib import Path
 from typing import NamedTuple
 
 import matplotlib
@@ -948,13 +947,13 @@ def _guidance_section(records: list[dict]) -> str:
                                   "Tran et al. 2013", "source's lines"], rows))
 
 
-def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes | None = None,
-                 title: str = "signcast: cost and quality of transmitting sign language") -> Path:
-    """Write the HTML report to out_path and return it: the sections the records have data for.
+def report_html(records: list, *, poster_png: bytes | None = None,
+                title: str = "signcast: cost and quality of transmitting sign language") -> str:
+    """The HTML report (one page) of records (Records or dicts): the sections the records have data for;
+    poster_png: the side by side's poster frame. The study layer writes it (pipeline.outputs.build_report).
 
     Raises SigncastError when the records hold no measured point.
     """
-    out_path = Path(out_path)
     records = normalize_records(records)
     measured = points(records)
     if not measured:
@@ -1004,7 +1003,4 @@ def build_report(records: list[dict], out_path: str | Path, *, poster_png: bytes
 
     body = (f"<p>{len(measured)} measured points. Every rate is the size of bytes that a decoder turned back into "
             f"data.</p>\n" + "".join(sections))
-    html_page = page.page(title, body)
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    out_path.write_text(html_page, encoding="utf-8")
-    return out_path
+    return page.page(title, body)

@@ -12,8 +12,6 @@ in grey for reference.
 """
 from __future__ import annotations
 
-import csv
-from pathlib import Path
 
 import numpy as np
 
@@ -42,14 +40,11 @@ def count_points(codecs: list[str], mpeg4_q=MPEG4_Q) -> int:
     return sum(len(LabCodec(n).settings()) if n in WAVEFORM_NAMES + MODEL_NAMES else len(mpeg4_q) for n in codecs)
 
 
-def write_points(path: Path, records: list[dict]) -> Path:
+def points_rows(records: list[dict]) -> list[list]:
+    """lab_points.csv: one row per operating point (the header first)."""
     columns = ["clip", "codec", "q", "setting", "frames", "bits", "kbps", "param_psnr", "vpsnr", "joint_error_mm_mean"]
-    with Path(path).open("w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(columns)
-        for r in records:
-            writer.writerow([r.get(c, "") if not isinstance(r.get(c), float) else f"{r[c]:.4g}" for c in columns])
-    return Path(path)
+    return [columns] + [[r.get(c, "") if not isinstance(r.get(c), float) else f"{r[c]:.4g}" for c in columns]
+                        for r in records]
 
 
 def operating_ranges(records: list[dict]) -> list[dict]:
@@ -65,23 +60,19 @@ def operating_ranges(records: list[dict]) -> list[dict]:
     return rows
 
 
-def write_ranges(path: Path, records: list[dict]) -> Path:
+def ranges_rows(records: list[dict]) -> list[list]:
+    """lab_ranges.csv: `operating_ranges` as CSV rows (the header first)."""
     rows = operating_ranges(records)
-    with Path(path).open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: f"{v:.4g}" if isinstance(v, float) else v for k, v in row.items()})
-    return Path(path)
+    return [list(rows[0])] + [[f"{v:.4g}" if isinstance(v, float) else v for v in row.values()] for row in rows]
 
 
-def _chart(path: Path, records: list[dict], names: list[str], quality: str, title: str) -> None:
+def _chart(records: list[dict], names: list[str], quality: str, title: str):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     clips = list(dict.fromkeys(r["clip"] for r in records))
-    figure, axes = plt.subplots(1, len(clips), figsize=(5.2 * len(clips), 4.6), squeeze=False)
+    figure, axes = plt.subplots(1, len(clips), figsize=(5.2 * len(clips), 4.6), squeeze=False, dpi=110)
     colours = plt.get_cmap("tab20")
     for axis, clip in zip(axes[0], clips):
         for k, name in enumerate(names):
@@ -100,12 +91,13 @@ def _chart(path: Path, records: list[dict], names: list[str], quality: str, titl
     axes[0][0].legend(fontsize=7, ncol=2, title="dotted x: seed 002 (conv., 30 Hz)", title_fontsize=7)
     figure.suptitle(title)
     figure.tight_layout()
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
+    return figure
 
 
-def write_charts(out_dir: Path, records: list[dict]) -> None:
-    _chart(Path(out_dir) / "lab_waveform_psnr.png", records, list(WAVEFORM_NAMES) + list(MPEG4_CODECS), "param_psnr",
-           "Waveform coders (seed 002 ch. 7) and MPEG-4 FBA/BBA: PSNR vs rate")
-    _chart(Path(out_dir) / "lab_model_vpsnr.png", records, list(MODEL_NAMES) + ["dpcm", "dct"] + list(MPEG4_CODECS),
-           "vpsnr", "Model-based coders (seed 002 ch. 8), two waveform coders and MPEG-4 FBA/BBA: VPSNR vs rate")
+def charts(records: list[dict]) -> dict:
+    """The two charts (matplotlib figures) by file name: lab_waveform_psnr.png and lab_model_vpsnr.png."""
+    return {"lab_waveform_psnr.png": _chart(records, list(WAVEFORM_NAMES) + list(MPEG4_CODECS), "param_psnr",
+                                            "Waveform coders (seed 002 ch. 7) and MPEG-4 FBA/BBA: PSNR vs rate"),
+            "lab_model_vpsnr.png": _chart(records, list(MODEL_NAMES) + ["dpcm", "dct"] + list(MPEG4_CODECS), "vpsnr",
+                                          "Model-based coders (seed 002 ch. 8), two waveform coders and MPEG-4 FBA/BBA: "
+                                          "VPSNR vs rate")}

@@ -8,10 +8,8 @@ reference; this report reads those measured against the source (REFERENCE). Reco
 carry the TS figures."""
 from __future__ import annotations
 
-import csv
 import html
 from collections import defaultdict
-from pathlib import Path
 
 from comparisons.reports import page
 from comparisons.reports.comparison import figure_png
@@ -65,14 +63,11 @@ def _cell(value, scale: float, digits: int) -> str:
     return "" if value is None else f"{value * scale:.{digits}f}"
 
 
-def write_table(path: Path, points: list[dict]) -> Path:
-    with Path(path).open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["solution", "codec", "q", "sessions", *(label for _, label, _, _ in COLUMNS)])
-        for r in points:
-            writer.writerow([r["solution"], r["codec"], r.get("q"), r.get("sessions", 1),
-                             *(_cell(r.get(name), scale, digits + 1) for name, _, scale, digits in COLUMNS)])
-    return Path(path)
+def table_rows(points: list[dict]) -> list[list]:
+    """live_table.csv: one row per aggregated point (the header first)."""
+    return [["solution", "codec", "q", "sessions", *(label for _, label, _, _ in COLUMNS)]] + [
+        [r["solution"], r["codec"], r.get("q"), r.get("sessions", 1),
+         *(_cell(r.get(name), scale, digits + 1) for name, _, scale, digits in COLUMNS)] for r in points]
 
 
 def _pyplot():
@@ -179,16 +174,12 @@ def report_html(records: list[dict], figure_png: bytes) -> str:
                      extra_style="td { text-align: right; }")
 
 
-def write_report(out_dir: str | Path, records: list[dict]) -> Path:
-    """Write report.html, live_table.csv and live_loss.png in out_dir from the records; returns report.html."""
-    out_dir = Path(out_dir)
+def report_outputs(records: list[dict]) -> dict:
+    """live_table.csv (rows), live_loss.png (bytes) and report.html (text) from the records, by file name; the study
+    layer writes them (pipeline.outputs.write_outputs)."""
     points = aggregate(loss_points(records))
-    write_table(out_dir / "live_table.csv", points)
     png = figure_png(chart(points) if points else None, empty="no measured point")
-    (out_dir / "live_loss.png").write_bytes(png)
-    path = out_dir / "report.html"
-    path.write_text(report_html(records, png), encoding="utf-8")
-    return path
+    return {"live_table.csv": table_rows(points), "live_loss.png": png, "report.html": report_html(records, png)}
 
 
 def summary_text(records: list[dict]) -> str:

@@ -27,7 +27,7 @@ cannot be placed (no width and height, or not on a point) is rejected; a null on
 Reading checks each line before anything uses it, and names the line when it rejects one:
 - a line is a JSON object of at most media/text_files.MAX_LINE_CHARS characters, in UTF-8;
 - "schema", where present, is SCHEMA_VERSION, and a schema line carries none of the legacy names;
-- numbers anywhere are finite (NaN is read as null, as write_records writes it);
+- numbers anywhere are finite (NaN is read as null, as records_text writes it);
 - the fields the report reads have their types: STRING_FIELDS strings, NUMBER_FIELDS numbers or null,
   CONTAINER_FIELDS objects or lists; point and stage records carry the fields in NEEDED;
 - a file holds at most MAX_RECORD_VALUES JSON values (a record holds 10 to 140), checked as it is read,
@@ -280,22 +280,17 @@ def normalize_records(records: list[Record | dict]) -> list[dict]:
     return [as_record(r).to_json() for r in records]
 
 
-def write_records(path: str | Path, records: list[Record | dict], *, append: bool = False) -> Path:
-    """Write records (Records or dicts, legacy names renamed) as JSON lines with "schema" (NaN and infinities
-    become null); returns the path. A record that Record.from_json rejects raises SigncastError, nothing written.
-
-    append: add them to the end of the file (closed, so flushed, on return: an interrupted run keeps them)."""
-    path = Path(path)
+def records_text(records: list[Record | dict], where: str = "records.jsonl") -> str:
+    """records (Records or dicts, legacy names renamed) as JSON lines with "schema" (NaN and infinities become
+    null), one per line, each ending in a newline. A record that Record.from_json rejects raises SigncastError
+    naming it (where: the file it was meant for). pipeline.outputs.write_records writes them."""
     lines = []
     for number, record in enumerate(records, 1):
         try:
             lines.append(json.dumps(as_record(record).to_json(), sort_keys=False) + "\n")
         except SigncastError as error:
-            raise SigncastError(f"record {number} of {len(records)} to {path}: {error}") from None
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("a" if append else "w", encoding="utf-8") as handle:
-        handle.writelines(lines)
-    return path
+            raise SigncastError(f"record {number} of {len(records)} to {where}: {error}") from None
+    return "".join(lines)
 
 
 def read_typed_records(path: str | Path) -> list[Record]:
@@ -331,7 +326,7 @@ def read_records(path: str | Path) -> list[dict]:
 
 
 def _nan_as_null(constant: str) -> float | None:
-    """NaN means not measured, as null does (write_records writes it so); Infinity stays, to be rejected."""
+    """NaN means not measured, as null does (records_text writes it so); Infinity stays, to be rejected."""
     return None if constant == "NaN" else float(constant)
 
 

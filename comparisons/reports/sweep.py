@@ -23,10 +23,8 @@ for a motion with a face, face_sent: whether the codec sent it, and face_joint_e
 """
 from __future__ import annotations
 
-import csv
 import html
 from collections import defaultdict
-from pathlib import Path
 
 import numpy as np
 
@@ -156,16 +154,12 @@ def summary_text(table: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def write_table(path: Path, table: list[dict]) -> Path:
-    """The cells as CSV: fps, language, solution, codec, n, n_reached, median_kbps, q1_kbps, q3_kbps."""
-    with Path(path).open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["fps", "language", "solution", "codec", "items", "items_reached", "median_kbps", "q1_kbps",
-                         "q3_kbps"])
-        for c in table:
-            writer.writerow([f"{c['fps']:g}", c["language"], c["solution"], c["codec"], c["n"], c["n_reached"],
-                             *("" if c[k] is None else f"{c[k]:.3f}" for k in ("median", "q1", "q3"))])
-    return Path(path)
+def table_rows(table: list[dict]) -> list[list]:
+    """The cells as CSV rows (the header first): fps, language, solution, codec, items, items_reached, median_kbps,
+    q1_kbps, q3_kbps."""
+    return [["fps", "language", "solution", "codec", "items", "items_reached", "median_kbps", "q1_kbps", "q3_kbps"]] + [
+        [f"{c['fps']:g}", c["language"], c["solution"], c["codec"], c["n"], c["n_reached"],
+         *("" if c[k] is None else f"{c[k]:.3f}" for k in ("median", "q1", "q3"))] for c in table]
 
 
 def _pyplot():
@@ -265,14 +259,10 @@ def report_html(records: list[dict], table: list[dict], figure_png: bytes) -> st
     return page.page("signcast sweep", "".join(sections), max_width_px=1200, extra_style="td { text-align: right; }")
 
 
-def write_report(out_dir: str | Path, records: list[dict]) -> Path:
-    """Write report.html, sweep_table.csv and sweep_kbps.png in out_dir from the records; returns report.html."""
+def report_outputs(records: list[dict]) -> dict:
+    """sweep_table.csv (rows), sweep_kbps.png (bytes) and report.html (text) from the records, by file name; the
+    study layer writes them (pipeline.outputs.write_outputs)."""
     from comparisons.reports.comparison import figure_png        # matplotlib: not in the sweep's workers, which import this module
-    out_dir = Path(out_dir)
     table = cells(matched_points(records))
-    write_table(out_dir / "sweep_table.csv", table)
     png = figure_png(chart(table) if table else None, empty="no measured point yet")
-    (out_dir / "sweep_kbps.png").write_bytes(png)
-    path = out_dir / "report.html"
-    path.write_text(report_html(records, table, png), encoding="utf-8")
-    return path
+    return {"sweep_table.csv": table_rows(table), "sweep_kbps.png": png, "report.html": report_html(records, table, png)}

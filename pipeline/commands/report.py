@@ -17,7 +17,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from comparisons.reports.records import read_records
-    from comparisons.reports.comparison import build_report
+    from pipeline.outputs import build_report
     from pipeline.outputs import output_files
     records = read_records(args.records)
     output = args.output or args.records.with_name("report.html")

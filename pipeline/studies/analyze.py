@@ -1,6 +1,6 @@
 """Statistics of real signing on the avatar (seed 002 ch. 5): per DOF and per joint group of each language's whole
 fingerspelled alphabet. Writes records.jsonl (a "run" record with the versions, then one "motion_statistics" record
-per DOF and per group) and, per language, the tables and plots of comparisons.lab.motion_analysis.write_analysis."""
+per DOF and per group) and, per language, the tables and plots of comparisons.lab.motion_analysis.analysis_outputs (`write_analysis`)."""
 from __future__ import annotations
 
 import math
@@ -8,8 +8,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from comparisons.lab.codecs import alphabet_motion, dof_layout, motion_dofs
-from comparisons.lab.motion_analysis import analyze, write_analysis
-from comparisons.reports.records import versions, write_records
+from comparisons.lab.motion_analysis import MotionAnalysis, analysis_outputs, analyze
+from comparisons.reports.records import versions
+from pipeline.outputs import write_outputs, write_records
 from media import lexicon
 from media.domain import check_fps
 from media.errors import SigncastError
@@ -30,6 +31,11 @@ def check(settings: AnalyzeSettings) -> None:
         raise SigncastError("give at least one sign language, e.g. ase")
     for language in settings.languages:
         lexicon.check_language(language)
+
+
+def write_analysis(out_dir: str | Path, prefix: str, analysis: MotionAnalysis) -> list[Path]:
+    """The CSV tables and PNG plots of one analysis written to out_dir; the written paths."""
+    return write_outputs(out_dir, analysis_outputs(prefix, analysis))
 
 
 def run(settings: AnalyzeSettings, out: str | Path) -> tuple[list[dict], dict]:

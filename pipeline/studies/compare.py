@@ -76,8 +76,9 @@ from comparisons.judging.operating import (CLEAR_VERDICT_SE, FACE_MARGIN, LETTER
                                            Series, criteria_for, q_to_refine)
 from comparisons.params import codecs as param_codecs
 from comparisons.params.study import face_joint_fields
-from comparisons.reports.comparison import build_report, operating_points, verdict_note
-from comparisons.reports.records import make_record, versions, write_records
+from comparisons.reports.comparison import operating_points, verdict_note
+from comparisons.reports.records import make_record, versions
+from pipeline.outputs import build_report, write_bytes, write_dicts, write_records
 from comparisons.video import objects as video_objects
 from media.domain import SKIN_PARTS, Solution, check_q, solution_of
 from media.errors import SigncastError
@@ -469,7 +470,7 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                   "matched_against": {"NSV family": SOURCE, "SSV, FBA, BBA": LOSSLESS}}
     all_records = [run_record] + study.records + clock.records()
     write_records(out_dir / "records.jsonl", all_records)
-    (out_dir / "side_by_side_poster.png").write_bytes(poster)
+    write_bytes(out_dir / "side_by_side_poster.png", poster)
     report = build_report(all_records, out_dir / "report.html", poster_png=poster)
     write_summary_csv(all_records, out_dir / "summary.csv")
     return CompareResult(all_records, report, side_by_side, out_dir, operating_points(all_records), matched)
@@ -532,13 +533,9 @@ def summary_rows(records: list[dict]) -> list[dict]:
 
 
 def write_summary_csv(records: list[dict], path: Path) -> Path:
-    import csv
+    """summary.csv: `summary_rows`."""
     rows = summary_rows(records)
-    with path.open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=list(rows[0]) if rows else ["solution"])
-        writer.writeheader()
-        writer.writerows(rows)
-    return path
+    return write_dicts(path, rows, list(rows[0]) if rows else ["solution"])
 
 
 def _verdict(row: dict) -> str:

@@ -11,12 +11,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from comparisons.reports.lab import count_points, operating_ranges, write_charts, write_points, write_ranges
+from comparisons.reports.lab import charts, count_points, operating_ranges, points_rows, ranges_rows
 from comparisons.lab.codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec, alphabet_motion
 from comparisons.lab.settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, FPS, MPEG4_Q
 from comparisons.params.codecs import get_codec
 from comparisons.params.study import measure_point
-from comparisons.reports.records import make_record, write_records
+from comparisons.reports.records import make_record
+from pipeline.outputs import write_outputs, write_records
 from media import lexicon
 from media.domain import solution_of
 from media.errors import SigncastError
@@ -76,9 +77,8 @@ def run(settings: LabSettings, out: str | Path, *, progress: Callable[[int], obj
     for language in settings.languages:
         records += measure_language(lexicon.check_language(language), settings.codecs, settings.mpeg4_q, progress)
     write_records(out / "records.jsonl", records)
-    write_points(out / "lab_points.csv", records)
-    write_ranges(out / "lab_ranges.csv", records)
-    write_charts(out, records)
+    write_outputs(out, {"lab_points.csv": points_rows(records), "lab_ranges.csv": ranges_rows(records),
+                        **charts(records)})
     return records
 
 

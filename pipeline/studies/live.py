@@ -29,7 +29,8 @@ import numpy as np
 from tqdm import tqdm
 
 from comparisons.judging.judge import Judge, Viewed
-from comparisons.reports.records import make_record, versions, write_records
+from comparisons.reports.records import make_record, versions
+from pipeline.outputs import write_outputs, write_records
 from comparisons.transport import loss as loss_models
 from media.avatar import load_avatar
 from media.domain import Solution, kbps, solution_of
@@ -303,7 +304,7 @@ def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -
                   "seed": settings.seed, "repeats": settings.repeats, "latency_guidance_ms": [EN_301_549_PREFERRED_MS, EN_301_549_HINDERS_MS]}
     all_records = [run_record] + records + clock.records()
     write_records(out_dir / "records.jsonl", all_records)
-    live_report.write_report(out_dir, all_records)
+    write_outputs(out_dir, live_report.report_outputs(all_records))
     return all_records
 
 

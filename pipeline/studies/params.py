@@ -13,12 +13,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from comparisons.params.bap_file import write_bap
-from comparisons.params.fap_file import write_fap
+from comparisons.params.bap_file import format_bap
+from comparisons.params.fap_file import format_fap
 from comparisons.params.fba_mapping import motion_to_baps
 from comparisons.params.codecs import codec_names, get_codec
-from comparisons.params.study import measure_point, write_plots, write_table
-from comparisons.reports.records import make_record, write_records
+from comparisons.params.study import measure_point, rate_figure, table_rows
+from comparisons.reports.records import make_record
+from pipeline.outputs import save_figure, write_records, write_rows, write_text
 from media import lexicon
 from media.domain import check_fps, solution_of
 from media.errors import SigncastError
@@ -73,11 +74,9 @@ def run(settings: ParamsSettings, out: str | Path, *, progress: Callable[[int], 
         if not settings.face or motion.faps is None:
             motion = motion.without_face()
         else:
-            (out / "fap").mkdir(exist_ok=True)
-            write_fap(out / "fap" / f"{language}_{unit}.fap", motion.faps, fps, f"{language}_{unit}")
+            write_text(out / "fap" / f"{language}_{unit}.fap", format_fap(motion.faps, fps, f"{language}_{unit}"))
         pose_kbps = pose_file_kbps(language, unit)
-        (out / "bap").mkdir(exist_ok=True)
-        write_bap(out / "bap" / f"{language}_{unit}.bap", motion_to_baps(motion), fps, f"{language}_{unit}")
+        write_text(out / "bap" / f"{language}_{unit}.bap", format_bap(motion_to_baps(motion), fps, f"{language}_{unit}"))
         for name in settings.codecs:
             solution = solution_of(name)
             for q in settings.qs:
@@ -87,8 +86,8 @@ def run(settings: ParamsSettings, out: str | Path, *, progress: Callable[[int], 
                 if progress:
                     progress(1)
     write_records(out / "records.jsonl", records)
-    write_table(out / "params_table.csv", records, list(settings.codecs), list(settings.qs))
-    write_plots(out, records, list(settings.codecs))
+    write_rows(out / "params_table.csv", table_rows(records, list(settings.codecs), list(settings.qs)))
+    save_figure(rate_figure(records, list(settings.codecs)), out / "params_rate.png", dpi=110)
     return records
 
 

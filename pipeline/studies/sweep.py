@@ -40,7 +40,8 @@ from pathlib import Path
 
 from comparisons.params.codecs import codec_names, get_codec
 from comparisons.params.study import measure_point
-from comparisons.reports.records import MAX_RECORD_VALUES, make_record, read_records, versions, write_records
+from comparisons.reports.records import MAX_RECORD_VALUES, make_record, read_records, versions
+from pipeline.outputs import write_outputs, write_records
 from comparisons.reports.sweep import language_item
 from media import lexicon
 from media.domain import check_fps, check_q, solution_of
@@ -544,8 +545,8 @@ def run(settings: SweepSettings, out: str | Path, *, force: bool = False,
                           "points_skipped": state.skipped}], append=True)
     records = read_records(path)
     if report:
-        from comparisons.reports.sweep import write_report
-        write_report(out, records)
+        from comparisons.reports.sweep import report_outputs
+        write_outputs(out, report_outputs(records))
     if interrupted:
         raise KeyboardInterrupt
     return SweepResult(state, records, wall_s=wall_s)

@@ -35,7 +35,8 @@ from comparisons.video import quality as image_quality
 from comparisons.reports import comparison as report
 from comparisons.video import codecs as video_codecs
 from comparisons.video import objects as video_objects
-from comparisons.reports.records import make_record, versions, write_records
+from comparisons.reports.records import make_record, versions
+from pipeline.outputs import write_records
 from media import segmentation
 from media.errors import SigncastError
 from media.video_io import frame_indices_at_rate

@@ -345,7 +345,8 @@ def pose(data: bytes) -> None:
 # ------------------------------------------------------------------------------------- records
 
 def records(data: bytes) -> None:
-    from comparisons.reports.records import read_records, write_records
+    from comparisons.reports.records import read_records
+    from pipeline.outputs import write_records
 
     found = read_records(_as_file(data, ".jsonl"))
     _expect(isinstance(found, list) and all(isinstance(r, dict) for r in found), "records are not a list of objects")
