@@ -208,10 +208,10 @@ def update(counts: np.ndarray, tree: np.ndarray, scalars: np.ndarray, symbol: in
 
 
 @njit(cache=True)
-def emit(buffer: np.ndarray, writer_state: np.ndarray, registers: np.ndarray, bit: int) -> None:
-    put_bit(buffer, writer_state, bit)
-    for _ in range(registers[2]):
-        put_bit(buffer, writer_state, 1 - bit)
+def finish_state(buffer: np.ndarray, writer_state: np.ndarray, registers: np.ndarray) -> None:
+    """finish_encoder on the state arrays: writer (bits written, zero run), registers (low, high, pending)."""
+    writer_state[0], writer_state[1] = finish_encoder(buffer, writer_state[0], writer_state[1], registers[0],
+                                                      registers[2])
     registers[2] = 0
 
 
@@ -226,23 +226,10 @@ def encode_symbol(buffer: np.ndarray, writer_state: np.ndarray, registers: np.nd
     span = high - low + 1
     high = low + span * sym_high // total - 1
     low = low + span * sym_low // total
-    while True:
-        if high < HALF:
-            emit(buffer, writer_state, registers, 0)
-        elif low >= HALF:
-            emit(buffer, writer_state, registers, 1)
-            low -= HALF
-            high -= HALF
-        elif low >= QUARTER and high < THREE_QUARTERS:
-            registers[2] += 1
-            low -= QUARTER
-            high -= QUARTER
-        else:
-            break
-        low <<= 1
-        high = (high << 1) | 1
-    registers[0] = low
-    registers[1] = high
+    pos, run, low, high, pending = renormalise_encoder(buffer, writer_state[0], writer_state[1], low, high,
+                                                       registers[2])
+    writer_state[0], writer_state[1] = pos, run
+    registers[0], registers[1], registers[2] = low, high, pending
     update(counts, tree, scalars, symbol)
 
 
@@ -281,22 +268,10 @@ def decode_symbol(data: np.ndarray, end_bit: int, reader_state: np.ndarray, hist
     sym_high = sym_low + counts[symbol]
     high = low + span * sym_high // total - 1
     low = low + span * sym_low // total
-    while True:
-        if high < HALF:
-            pass
-        elif low >= HALF:
-            low -= HALF
-            high -= HALF
-            value -= HALF
-        elif low >= QUARTER and high < THREE_QUARTERS:
-            low -= QUARTER
-            high -= QUARTER
-            value -= QUARTER
-        else:
-            break
-        low <<= 1
-        high = (high << 1) | 1
+    low, high, n_bits, subtract = renormalise_decoder(low, high)
+    for _ in range(n_bits):
         value = (value << 1) | next_bit(data, end_bit, reader_state, history, history_at)
+    value -= subtract
     registers[0] = low
     registers[1] = high
     registers[2] = value
@@ -312,14 +287,20 @@ def init_bank(sizes, offsets, tree, scalars, limit) -> None:
         start = offsets[m] + m
         for i in range(n + 1):
             tree[start + i] = i & -i
-        top = 1
-        while top * 2 <= n:
-            top *= 2
-        scalars[m, TOTAL] = n
-        scalars[m, TOP_BIT] = top
-        scalars[m, INCREMENT] = 1
-        scalars[m, LIMIT] = limit
-        scalars[m, N] = n
+        set_uniform_scalars(scalars, m, n, limit)
+
+
+@njit(cache=True, inline="always")
+def set_uniform_scalars(scalars, m: int, n: int, limit: int) -> None:
+    """Model m's scalars (total, top bit, increment 1, limit, n) for n symbols of count 1."""
+    top = 1
+    while top * 2 <= n:
+        top *= 2
+    scalars[m, TOTAL] = n
+    scalars[m, TOP_BIT] = top
+    scalars[m, INCREMENT] = 1
+    scalars[m, LIMIT] = limit
+    scalars[m, N] = n
 
 
 @njit(cache=True)
@@ -330,8 +311,7 @@ def encode_frame(buffer, writer_state, counts, tree, scalars, offsets, members, 
         start, n = offsets[m], scalars[m, N]
         encode_symbol(buffer, writer_state, registers, counts[start:start + n], tree[start + m:start + m + n + 1],
                       scalars[m], symbols[k])
-    registers[2] += 1
-    emit(buffer, writer_state, registers, 0 if registers[0] < QUARTER else 1)
+    finish_state(buffer, writer_state, registers)
 
 
 @njit(cache=True)
@@ -367,8 +347,7 @@ def encode_run(buffer, writer_state, counts, tree, scalars, symbols) -> None:
     registers = np.array([0, TOP, 0], dtype=np.int64)
     for k in range(len(symbols)):
         encode_symbol(buffer, writer_state, registers, counts, tree, scalars, symbols[k])
-    registers[2] += 1
-    emit(buffer, writer_state, registers, 0 if registers[0] < QUARTER else 1)
+    finish_state(buffer, writer_state, registers)
 
 
 @njit(cache=True)
@@ -664,40 +643,15 @@ def decode_frame_local(data, end_bit: int, pos: int, run: int, over: int, counts
         if fresh:
             symbol, sym_low, sym_high = target, target, target + 1
         else:
-            base = offsets[m]
-            tbase = base + m
-            position, remaining, step, n = 0, target, scalars[m, TOP_BIT], scalars[m, N]
-            while step:
-                nxt = position + step
-                if nxt <= n:
-                    weight = tree[tbase + nxt]
-                    if weight <= remaining:
-                        position = nxt
-                        remaining -= weight
-                step >>= 1
-            symbol = position
-            sym_low = target - remaining
-            sym_high = sym_low + counts[base + position]
+            symbol, sym_low, sym_high = _bank_find(counts, tree, scalars, offsets, m, target)
         high = low + _scale(span, sym_high, total) - 1
         low = low + _scale(span, sym_low, total)
-        while True:
-            if high < HALF:
-                pass
-            elif low >= HALF:
-                low -= HALF
-                high -= HALF
-                value -= HALF
-            elif low >= QUARTER and high < THREE_QUARTERS:
-                low -= QUARTER
-                high -= QUARTER
-                value -= QUARTER
-            else:
-                break
-            low <<= 1
-            high = (high << 1) | 1
+        low, high, n_bits, subtract = renormalise_decoder(low, high)
+        for _ in range(n_bits):
             bit, pos, run, over = look_local(data, end_bit, pos, run, over)
             value = (value << 1) | bit
-            n_read += 1
+        value -= subtract
+        n_read += n_bits
         if not fresh:
             update_member(counts, tree, scalars, offsets, m, symbol)
         out[out_start + k] = symbol
@@ -930,6 +884,24 @@ def _open_window(data, end_bit: int, pos: int, run: int):
 
 
 @njit(cache=True, inline="always")
+def _bank_find(counts, tree, scalars, offsets, m: int, target: int) -> tuple[int, int, int]:
+    """The symbol of model m of a bank whose interval holds the cumulative count target (0 <= target < total):
+    (symbol, its cumulative count, the next symbol's), by a Fenwick search without data-dependent branches."""
+    base = offsets[m]
+    tbase = base + m
+    position, remaining, step, n = 0, target, scalars[m, TOP_BIT], scalars[m, N]
+    while step:
+        nxt = position + step
+        weight = tree[np.uint64(tbase + min(nxt, n))]
+        take = (nxt <= n) & (weight <= remaining)
+        position = nxt if take else position
+        remaining = remaining - weight if take else remaining
+        step >>= 1
+    sym_low = target - remaining
+    return position, sym_low, sym_low + counts[np.uint64(base + position)]
+
+
+@njit(cache=True, inline="always")
 def _window_target(value: int, low: int, span: int, total: int) -> int:
     """The cumulative count the decoder's value points at in the interval [low, low + span) of a model with this
     total, or -1 for a value outside it (damage)."""
@@ -942,23 +914,14 @@ def _window_target(value: int, low: int, span: int, total: int) -> int:
 @njit(cache=True, inline="always")
 def _renormalise_window(low: int, high: int, value: int, buf: int, n_buf: int, byte_at: int, source,
                         source_end: int):
-    """The decoder's renormalisation after a symbol, on the bit window: E1/E2, the leading bits low and high
-    share; then E3, after the top bit, the bits where low is 1 and high is 0 (no branches: a count of 0 changes
-    nothing). Returns (low, high, value, buf, n_buf, byte_at, bits consumed)."""
-    shifts = _clz32(low ^ high)
-    out_bits = (low >> (PRECISION - shifts)) << PRECISION
-    low = (low << shifts) - out_bits
-    high = (high << shifts) - out_bits + ((1 << shifts) - 1)
-    follow = _clz32(~(low & ~high) & (HALF - 1)) - 1
-    if n_buf < shifts + follow:
+    """renormalise_decoder with its bits taken from the bit window at once. Returns (low, high, value, buf,
+    n_buf, byte_at, bits consumed)."""
+    low, high, n_bits, subtract = renormalise_decoder(low, high)
+    if n_buf < n_bits:
         buf, n_buf, byte_at = _refill(source, source_end, buf, n_buf, byte_at)
-    n_buf -= shifts
-    value = (value << shifts) - out_bits + ((buf >> n_buf) & ((1 << shifts) - 1))
-    n_buf -= follow
-    low = (low << follow) & (HALF - 1)
-    high = (((high << follow) | ((1 << follow) - 1)) & TOP) | HALF
-    value = (value << follow) - ((1 << follow) - 1) * HALF + ((buf >> n_buf) & ((1 << follow) - 1))
-    return low, high, value, buf, n_buf, byte_at, shifts + follow
+    n_buf -= n_bits
+    value = (value << n_bits) - subtract + ((buf >> n_buf) & ((1 << n_bits) - 1))
+    return low, high, value, buf, n_buf, byte_at, n_bits
 
 
 @njit(cache=True)
@@ -991,19 +954,7 @@ def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, count
         if fresh:
             symbol, sym_low, sym_high = target, target, target + 1
         else:
-            base = offsets[m]
-            tbase = base + m
-            position, remaining, step, n = 0, target, scalars[m, TOP_BIT], scalars[m, N]
-            while step:
-                nxt = position + step
-                weight = tree[np.uint64(tbase + min(nxt, n))]
-                take = (nxt <= n) & (weight <= remaining)
-                position = nxt if take else position
-                remaining = remaining - weight if take else remaining
-                step >>= 1
-            symbol = position
-            sym_low = target - remaining
-            sym_high = sym_low + counts[np.uint64(base + position)]
+            symbol, sym_low, sym_high = _bank_find(counts, tree, scalars, offsets, m, target)
         high = low + _scale(span, sym_high, total) - 1
         low = low + _scale(span, sym_low, total)
         low, high, value, buf, n_buf, byte_at, n_bits = _renormalise_window(low, high, value, buf, n_buf, byte_at,
@@ -1019,38 +970,62 @@ def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, count
     return status, pos, run, over
 
 
-# ------------------------------------------------------------------ encoder on local state (shared by the stream writers)
+# ------------------------------------------------------------------ the arithmetic coder's primitives
+# Every arithmetic-coded stream (the FBA and BBA levels through entropy.py, frames.py and bba_writer.py /
+# bba_units.py, seed 002's lab streams, the shape CAE of comparisons/video/shape_cae.py) narrows its interval and
+# renormalises with these functions; Numba inlines them into each caller's loop, so each caller keeps its own
+# bit source and sink (state arrays, local state, a bit window) and its model (Fenwick banks, sparse models,
+# binary contexts). Registers are PRECISION = 32-bit low and high (Witten, Neal and Cleary 1987, bits plus
+# follow); the encoder's bits go through start-code emulation prevention (a 1 after MAX_ZERO_RUN zeros) unless
+# the caller passes max_run = NO_STUFFING (the shape payload, which has no start codes).
+
+NO_STUFFING = 1 << 62            # a zero run no stream reaches: no emulation-prevention bits
+
 
 @njit(cache=True, inline="always")
-def put_bit_local(buffer, pos: int, run: int, bit: int) -> tuple[int, int]:
-    """put_bit on local state: one data bit with emulation prevention; (position, zero run) after it."""
+def put_bit_run(buffer, pos: int, run: int, bit: int, max_run: int) -> tuple[int, int]:
+    """One bit into a zero-filled buffer at bit pos, a 1 inserted after max_run zeros in a row; (pos, run)."""
     if bit:
         buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
         return pos + 1, 0
     pos += 1
     run += 1
-    if run == MAX_ZERO_RUN:
+    if run == max_run:
         buffer[pos >> 3] |= np.uint8(0x80 >> (pos & 7))
         return pos + 1, 0
     return pos, run
 
 
 @njit(cache=True, inline="always")
-def finish_encoder(buffer, pos: int, run: int, low: int, pending: int) -> tuple[int, int]:
+def put_bit_local(buffer, pos: int, run: int, bit: int) -> tuple[int, int]:
+    """put_bit on local state: one data bit with emulation prevention; (position, zero run) after it."""
+    return put_bit_run(buffer, pos, run, bit, MAX_ZERO_RUN)
+
+
+@njit(cache=True, inline="always")
+def finish_coder(buffer, pos: int, run: int, low: int, pending: int, max_run: int) -> tuple[int, int]:
     """The coder's flush: the bit that selects the final quarter (0 below QUARTER, else 1), then pending + 1
     copies of its complement; (position, zero run)."""
     bit = 0 if low < QUARTER else 1
-    pos, run = put_bit_local(buffer, pos, run, bit)
+    pos, run = put_bit_run(buffer, pos, run, bit, max_run)
     for _ in range(pending + 1):
-        pos, run = put_bit_local(buffer, pos, run, 1 - bit)
+        pos, run = put_bit_run(buffer, pos, run, 1 - bit, max_run)
     return pos, run
 
 
 @njit(cache=True, inline="always")
-def renormalise_encoder(buffer, pos: int, run: int, low: int, high: int,
-                        pending: int) -> tuple[int, int, int, int, int]:
-    """encode_symbol's interval renormalisation on local state: emits the settled bits and their pending follow
-    bits; returns (position, zero run, low, high, pending)."""
+def finish_encoder(buffer, pos: int, run: int, low: int, pending: int) -> tuple[int, int]:
+    """finish_coder with emulation prevention."""
+    return finish_coder(buffer, pos, run, low, pending, MAX_ZERO_RUN)
+
+
+@njit(cache=True, inline="always")
+def renormalise_coder(buffer, pos: int, run: int, low: int, high: int, pending: int,
+                      max_run: int) -> tuple[int, int, int, int, int]:
+    """The encoder's renormalisation after narrowing [low, high] to a symbol: emits the settled bits (E1: the
+    interval in the lower half, bit 0; E2: upper half, bit 1) each followed by the pending follow bits, and
+    counts a follow bit for each E3 (the interval straddles the middle within the second and third quarters);
+    returns (position, zero run, low, high, pending)."""
     while True:
         if high < HALF:
             bit = 0
@@ -1067,10 +1042,34 @@ def renormalise_encoder(buffer, pos: int, run: int, low: int, high: int,
             continue
         else:
             break
-        pos, run = put_bit_local(buffer, pos, run, bit)
+        pos, run = put_bit_run(buffer, pos, run, bit, max_run)
         for _ in range(pending):
-            pos, run = put_bit_local(buffer, pos, run, 1 - bit)
+            pos, run = put_bit_run(buffer, pos, run, 1 - bit, max_run)
         pending = 0
         low <<= 1
         high = (high << 1) | 1
     return pos, run, low, high, pending
+
+
+@njit(cache=True, inline="always")
+def renormalise_encoder(buffer, pos: int, run: int, low: int, high: int,
+                        pending: int) -> tuple[int, int, int, int, int]:
+    """renormalise_coder with emulation prevention."""
+    return renormalise_coder(buffer, pos, run, low, high, pending, MAX_ZERO_RUN)
+
+
+@njit(cache=True, inline="always")
+def renormalise_decoder(low: int, high: int) -> tuple[int, int, int, int]:
+    """The decoder's renormalisation after narrowing to a symbol (low <= high): the E1/E2 shifts (the leading
+    bits low and high share) and then the E3 shifts (after the top bit, the bits where low is 1 and high 0),
+    all at once. Returns (low, high, n_bits, subtract): the caller reads the next n_bits code bits into its value
+    register, value = (value << n_bits) - subtract + those bits (int64 arithmetic, exact modulo 2^64), which is
+    the bit-by-bit loop's value."""
+    shifts = _clz32(low ^ high)
+    out_bits = (low >> (PRECISION - shifts)) << PRECISION
+    low = (low << shifts) - out_bits
+    high = (high << shifts) - out_bits + ((1 << shifts) - 1)
+    follow = _clz32(~(low & ~high) & (HALF - 1)) - 1
+    low = (low << follow) & (HALF - 1)
+    high = (((high << follow) | ((1 << follow) - 1)) & TOP) | HALF
+    return low, high, shifts + follow, (out_bits << follow) + ((1 << follow) - 1) * HALF

@@ -27,8 +27,8 @@ import heapq
 
 import numpy as np
 
-from comparisons.params.bits import BitReader, BitWriter
 from comparisons.params import arithmetic as kc
+from comparisons.params.bits import BitReader, BitWriter
 from media.errors import SigncastError
 
 PRECISION = kc.PRECISION
@@ -36,6 +36,7 @@ TOP = kc.TOP
 HALF = kc.HALF
 QUARTER = kc.QUARTER
 THREE_QUARTERS = kc.THREE_QUARTERS
+MAX_LIMIT = kc.QUARTER        # totals stay at or below the coder's smallest span (2^30) so no symbol's interval is empty
 MAX_TOTAL = 1 << 16          # keeps span * total well inside the coder's precision
 HISTORY = kc.HISTORY      # reader states the decoder remembers, to give back its over-read bits
 
@@ -51,6 +52,9 @@ class FrequencyModel:
     def __init__(self, n_symbols: int, increment: int = 1, limit: int = MAX_TOTAL) -> None:
         if n_symbols < 1:
             raise SigncastError(f"an alphabet needs at least one symbol, got {n_symbols}")
+        if not 2 <= limit <= MAX_LIMIT or not 0 <= increment <= limit:
+            raise SigncastError(f"a frequency limit must be 2..{MAX_LIMIT} and the increment 0..limit, got {limit} "
+                                f"and {increment}")
         if n_symbols > limit // 2:
             raise SigncastError(f"alphabet of {n_symbols} symbols is too large for a frequency limit of {limit}")
         self.n = n_symbols
@@ -95,9 +99,8 @@ class ArithmeticEncoder:
 
     def finish(self) -> None:
         """Two bits (plus pending follow bits) pin the final interval; any bits may follow."""
-        self.registers[2] += 1
-        self.writer.reserve(2 * int(self.registers[2]) + 4)
-        kc.emit(self.writer.buffer, self.writer.state, self.registers, 0 if self.registers[0] < QUARTER else 1)
+        self.writer.reserve(2 * int(self.registers[2]) + 6)
+        kc.finish_state(self.writer.buffer, self.writer.state, self.registers)
 
 
 class ArithmeticDecoder:

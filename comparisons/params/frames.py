@@ -21,14 +21,11 @@ import numpy as np
 from numba import njit
 
 from comparisons.params.arithmetic import (
-    HALF,
     HISTORY,
     INCREMENT,
     LIMIT,
     MAX_ZERO_RUN,
     PRECISION,
-    QUARTER,
-    THREE_QUARTERS,
     TOP,
     TOP_BIT,
     TOTAL,
@@ -38,10 +35,13 @@ from comparisons.params.arithmetic import (
     get_bit,
     get_bits,
     get_local,
+    look_local,
     put_bit,
     put_bit_local,
     put_bits,
+    renormalise_decoder,
     renormalise_encoder,
+    set_uniform_scalars,
 )
 
 END_OF_DATA, CORRUPT_CODE, CODE_ENDS_EARLY = -1, -2, -3
@@ -314,14 +314,7 @@ def new_scalars(sizes, limit: int):
     for m in range(len(sizes)):
         n = sizes[m]
         offsets[m + 1] = offsets[m] + n
-        top = 1
-        while top * 2 <= n:
-            top *= 2
-        scalars[m, TOTAL] = n
-        scalars[m, TOP_BIT] = top
-        scalars[m, INCREMENT] = 1
-        scalars[m, LIMIT] = limit
-        scalars[m, N] = n
+        set_uniform_scalars(scalars, m, n, limit)
     return offsets, scalars
 
 
@@ -464,23 +457,11 @@ def _decode_track(data, end_bit: int, state, ring, a: int, b: int, offsets, coun
             excess = counts[base + symbol]
         high = low + span * (cumulative + 1 + excess) // total - 1
         low = low + span * cumulative // total
-        while True:
-            if high < HALF:
-                pass
-            elif low >= HALF:
-                low -= HALF
-                high -= HALF
-                value -= HALF
-            elif low >= QUARTER and high < THREE_QUARTERS:
-                low -= QUARTER
-                high -= QUARTER
-                value -= QUARTER
-            else:
-                break
-            low <<= 1
-            high = (high << 1) | 1
+        low, high, n_bits, subtract = renormalise_decoder(low, high)
+        for _ in range(n_bits):
             bit, at, pos, run, over = _look(data, end_bit, ring, at, pos, run, over)
             value = (value << 1) | bit
+        value -= subtract
         if not fresh:
             _update(counts, tree, scalars, m, base, symbol)
         out[p] = symbol
@@ -705,34 +686,17 @@ def write_sparse_frames(buffer, state, header: int, header_bits: int, levels, lo
     state[0], state[1] = pos, run
 
 
-@njit(cache=True, inline="always")
-def _next(data, end_bit: int, pos: int, run: int, over: int) -> tuple[int, int, int, int]:
-    """_look without the ring (and without a branch on the bit): (bit, pos, run, over) after one data bit."""
-    if pos >= end_bit:
-        return 0, pos + 1, (run + 1) % MAX_ZERO_RUN, over + 1
-    bit = np.int64((data[pos >> 3] >> (7 - (pos & 7))) & 1)
-    pos += 1
-    run = (run + 1) * (1 - bit)
-    if run == MAX_ZERO_RUN:
-        run = 0
-        if pos < end_bit and (data[pos >> 3] >> (7 - (pos & 7))) & 1:
-            pos += 1                              # a stuffing bit; a 0 (start code, or damage) is left unread
-    return bit, pos, run, over
-
-
 @njit(cache=True)
 def _sparse_decode_track(data, end_bit: int, state, a: int, b: int, sizes, totals, keys, extra, used,
                          limit: int, out) -> int:
-    """_decode_track of columns a:b (model p for column p) with sparse models. The renormalisation shifts all
-    the leading bits that low and high share at once (value_n = value 2^n - (those bits of low) 2^32 + the n
-    bits read: the per-bit steps' arithmetic, summed), and the reader state that the encoder's bits end at
+    """_decode_track of columns a:b (model p for column p) with sparse models. The reader state that the encoder's bits end at
     (the state HISTORY bits before the last read) is found by reading again from the start instead of keeping
     a ring of states."""
     pos0, run0, over0 = state[0], state[1], state[2]
     pos, run, over = pos0, run0, over0
     value = 0
     for _ in range(PRECISION):
-        bit, pos, run, over = _next(data, end_bit, pos, run, over)
+        bit, pos, run, over = look_local(data, end_bit, pos, run, over)
         value = (value << 1) | bit
     at = PRECISION
     low, high = 0, TOP
@@ -745,33 +709,17 @@ def _sparse_decode_track(data, end_bit: int, state, a: int, b: int, sizes, total
         slot, symbol, cumulative, excess = _sparse_find(keys, extra, used, p, target)
         high = low + span * (cumulative + 1 + excess) // total - 1
         low = low + span * cumulative // total
-        while True:
-            shared = low ^ high
-            if shared < HALF:                      # high < HALF or low >= HALF, for n leading bits
-                n = 1
-                while n < PRECISION and not (shared >> (PRECISION - 1 - n)) & 1:
-                    n += 1
-                bits = 0
-                for _ in range(n):
-                    bit, pos, run, over = _next(data, end_bit, pos, run, over)
-                    bits = (bits << 1) | bit
-                value = (value << n) - ((low >> (PRECISION - n)) << PRECISION) + bits
-                low = (low << n) & TOP
-                high = ((high << n) | ((1 << n) - 1)) & TOP
-                at += n
-            elif low >= QUARTER and high < THREE_QUARTERS:
-                bit, pos, run, over = _next(data, end_bit, pos, run, over)
-                low = (low - QUARTER) << 1
-                high = ((high - QUARTER) << 1) | 1
-                value = ((value - QUARTER) << 1) | bit
-                at += 1
-            else:
-                break
+        low, high, n_bits, subtract = renormalise_decoder(low, high)
+        for _ in range(n_bits):
+            bit, pos, run, over = look_local(data, end_bit, pos, run, over)
+            value = (value << 1) | bit
+        value -= subtract
+        at += n_bits
         _sparse_add(keys, extra, used, totals, limit, sizes[p], p, slot, symbol)
         out[p] = symbol
     pos, run, over = pos0, run0, over0
     for _ in range(at - HISTORY):
-        _, pos, run, over = _next(data, end_bit, pos, run, over)
+        _, pos, run, over = look_local(data, end_bit, pos, run, over)
     state[0], state[1], state[2] = pos, run, over
     return CODE_ENDS_EARLY if pos > end_bit else 0
 

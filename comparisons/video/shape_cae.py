@@ -23,6 +23,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from comparisons.params.arithmetic import (  # the one arithmetic coder (32-bit registers, bits plus follow)
+    NO_STUFFING,
+    TOP,  # noqa: F401  (comparisons/video/shape.py starts its registers at kc.TOP)
+    finish_coder,
+    renormalise_coder,
+    renormalise_decoder,
+)
+
 I = np.int64    # canvas bytes are uint8: cast before mixing them with int64 (uint8 | int64 is float64)
 
 # format constants (comparisons/video/shape.py re-exports and documents them)
@@ -38,9 +46,6 @@ CTX_MV = CTX_MODE_P + 25 * 4           # per component: zero, sign, 8 magnitude 
 CTX_PRESENT = CTX_MV + 2 * 10
 N_CONTEXTS = CTX_PRESENT + 1
 
-TOP = (1 << 32) - 1
-HALF = 1 << 31
-QUARTER = 1 << 30
 LOW, HIGH, PENDING, NBITS = range(4)              # encoder registers
 VALUE, POSITION, STATUS = 2, 3, 4                 # decoder registers (LOW, HIGH as the encoder's)
 OK, PAYLOAD_ENDS, BAD_BOX, BAD_MV = range(4)      # decoder status codes
@@ -83,46 +88,16 @@ def update(zeros: np.ndarray, ones: np.ndarray, ctx: int, bit: int) -> None:
 
 
 @njit(cache=True)
-def _put(buffer: np.ndarray, regs: np.ndarray, bit: int) -> None:
-    n = regs[NBITS]
-    if bit:
-        buffer[n >> 3] |= np.uint8(0x80 >> (n & 7))
-    regs[NBITS] = n + 1
-
-
-@njit(cache=True)
-def _put_with_pending(buffer: np.ndarray, regs: np.ndarray, bit: int) -> None:
-    _put(buffer, regs, bit)
-    for _ in range(regs[PENDING]):
-        _put(buffer, regs, 1 - bit)
-    regs[PENDING] = 0
-
-
-@njit(cache=True)
 def encode_p0(buffer: np.ndarray, regs: np.ndarray, bit: int, p_zero: int) -> None:
-    """One bit at P(0) = p_zero / 65536 (32-bit registers, bits-plus-follow renormalisation)."""
+    """One bit at P(0) = p_zero / 65536 (comparisons/params/arithmetic.py's coder, no emulation prevention)."""
     low, high = regs[LOW], regs[HIGH]
     split = low + (((high - low + 1) * p_zero) >> 16) - 1
     if bit:
         low = split + 1
     else:
         high = split
-    while True:
-        if high < HALF:
-            _put_with_pending(buffer, regs, 0)
-        elif low >= HALF:
-            _put_with_pending(buffer, regs, 1)
-            low -= HALF
-            high -= HALF
-        elif low >= QUARTER and high < HALF + QUARTER:
-            regs[PENDING] += 1
-            low -= QUARTER
-            high -= QUARTER
-        else:
-            break
-        low <<= 1
-        high = (high << 1) | 1
-    regs[LOW], regs[HIGH] = low, high
+    regs[NBITS], _, regs[LOW], regs[HIGH], regs[PENDING] = renormalise_coder(
+        buffer, regs[NBITS], 0, low, high, regs[PENDING], NO_STUFFING)
 
 
 @njit(cache=True)
@@ -142,8 +117,8 @@ def encode_raw(buffer: np.ndarray, regs: np.ndarray, value: int, n_bits: int) ->
 @njit(cache=True)
 def finish(buffer: np.ndarray, regs: np.ndarray) -> None:
     """The final bits that select the last interval (needs PENDING + 2 bits of room)."""
-    regs[PENDING] += 1
-    _put_with_pending(buffer, regs, 0 if regs[LOW] < QUARTER else 1)
+    regs[NBITS], _ = finish_coder(buffer, regs[NBITS], 0, regs[LOW], regs[PENDING], NO_STUFFING)
+    regs[PENDING] = 0
 
 
 @njit(cache=True)
@@ -161,29 +136,14 @@ def decode_p0(data: np.ndarray, regs: np.ndarray, p_zero: int) -> int:
     else:
         bit = 1
         low = split + 1
-    while True:
-        if high < HALF:
-            pass
-        elif low >= HALF:
-            low -= HALF
-            high -= HALF
-            value -= HALF
-        elif low >= QUARTER and high < HALF + QUARTER:
-            low -= QUARTER
-            high -= QUARTER
-            value -= QUARTER
-        else:
-            break
-        low <<= 1
-        high = (high << 1) | 1
-        if position < n:
-            value = (value << 1) | ((I(data[position >> 3]) >> (7 - (position & 7))) & 1)
-        elif position < n + 32:
-            value <<= 1
-        else:
-            regs[STATUS] = PAYLOAD_ENDS
-            return 0
+    low, high, n_bits, subtract = renormalise_decoder(low, high)
+    if position + n_bits > n + 32:
+        regs[STATUS] = PAYLOAD_ENDS
+        return 0
+    for _ in range(n_bits):
+        value = (value << 1) | ((I(data[position >> 3]) >> (7 - (position & 7))) & 1 if position < n else 0)
         position += 1
+    value -= subtract
     regs[LOW], regs[HIGH], regs[VALUE], regs[POSITION] = low, high, value, position
     return bit
 
