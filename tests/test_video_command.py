@@ -9,7 +9,7 @@ from pipeline.cli import main
 
 
 @pytest.mark.slow
-def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_path, capsys):
+def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_path, capsys, check_png):
     out = tmp_path / "carphone"
     code = main(["video", "--video", "carphone", "--frames", "12", "--video-q", "12,31", "--video-codecs", "libx264",
                  "--out", str(out), "--no-progress"])
@@ -32,9 +32,17 @@ def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_
     assert plus["kbps"] == pytest.approx(nsv3o["kbps"] + plus["clothes_overload_kbps"])
     assert all(r["versions"]["av"] for r in points)
     for name in ("table_rate_vs_q.csv", "table_rate_vs_fps.csv", "table_rate_vs_resolution.csv", "table_codecs.csv",
-                 "fits_rate_vs_fps.csv", "table_clothes_overload.csv", "table_shape_coding.csv", "kbps_vs_q.png",
-                 "kbps_vs_fps.png", "psnr_vs_kbps.png", "masks_overlay.png"):
-        assert (out / name).stat().st_size > 0
+                 "fits_rate_vs_fps.csv", "table_clothes_overload.csv", "table_shape_coding.csv"):
+        with (out / name).open() as handle:
+            rows = list(csv.reader(handle))
+        assert len(rows) >= 2 and all(len(row) == len(rows[0]) for row in rows), name     # a header and data
+    # 110 dpi, tight: 7.5 x 4.5 in and 12 x 4.8 in figures with their legends outside (962x473, 1484x532 px here)
+    for name in ("kbps_vs_q.png", "kbps_vs_fps.png"):
+        check_png(out / name, ((800, 1200), (400, 560)))
+    for name in ("psnr_vs_kbps.png", "ssim_vs_kbps.png"):
+        check_png(out / name, ((1300, 1700), (450, 620)))
+    overlay = check_png(out / "masks_overlay.png", (4 * 176, 144))     # four frames side by side, parts tinted
+    assert all(overlay[:, k * 176:(k + 1) * 176].std() > 20 for k in range(4))
     with (out / "fits_rate_vs_fps.csv").open() as handle:
         fits = list(csv.DictReader(handle))
     assert {row["series"] for row in fits} == {"NSV · mpeg4", "NSV2O · mpeg4", "NSV3O · mpeg4", "NSV3O+C · mpeg4"}
@@ -44,7 +52,7 @@ def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_
 
 
 @pytest.mark.slow
-def test_video_command_on_the_rendered_signer_reports_segmentation_iou(tmp_path, capsys):
+def test_video_command_on_the_rendered_signer_reports_segmentation_iou(tmp_path, capsys, check_png):
     out = tmp_path / "ssv"
     code = main(["video", "--ssv", "ase", "HI", "--frames", "8", "--size", "160x136", "--video-q", "12",
                  "--video-codecs", "none", "--out", str(out), "--no-progress"])
@@ -57,7 +65,7 @@ def test_video_command_on_the_rendered_signer_reports_segmentation_iou(tmp_path,
     ssv = [r for r in records if r.get("kind") == "point" and r["solution"] == "SSV" and r["fps"] == 25.0
            and r["width"] == 160]
     assert ssv and ssv[0]["shape_bits"] > 0 and np.isfinite(ssv[0]["skin_psnr"])
-    assert (out / "colour_segmentation_overlay.png").is_file()
+    check_png(out / "colour_segmentation_overlay.png", (4 * 160, 136))
 
 
 def test_video_command_rejects_bad_arguments(tmp_path, capsys):
