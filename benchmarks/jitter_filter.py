@@ -21,6 +21,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from media.domain import kbps  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
@@ -54,7 +55,7 @@ def angular_acceleration(q: np.ndarray, fps: float) -> np.ndarray:
 
 def coded_kbps(motion, codec: str, q: int) -> float:
     from comparisons.params.codecs import get_codec
-    return 8 * len(get_codec(codec).encode(motion, q)) / motion.duration_s / 1000.0
+    return kbps(8 * len(get_codec(codec).encode(motion, q)), motion.duration_s)
 
 
 def lexicon_clips(spec: str):

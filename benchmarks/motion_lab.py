@@ -15,6 +15,7 @@ import statistics
 import sys
 import time
 from pathlib import Path
+from media.domain import kbps  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -37,7 +38,7 @@ def main() -> int:
             for stage in ("fixed", "huffman", "arithmetic"):
                 codec = LabCodec(name, stage)
                 data, _ = codec.encode_dofs(dofs, FPS, index)
-                rates[stage] = 8 * len(data) / seconds / 1000
+                rates[stage] = kbps(8 * len(data), seconds)
             codec = LabCodec(name)
             encode_s, decode_s = [], []
             for _ in range(args.repeats):

@@ -21,6 +21,7 @@ from media.render import RenderSettings, render_motion
 from media.segmentation_landmarks import landmark_coverage
 from media.video_io import read_clip, resolve_video
 from pipeline.studies.video import extract_clip_landmarks, segment_clip
+from media.domain import kbps  # noqa: E402
 
 PARTS = ("signer", "head", "left_hand", "right_hand", "skin", "clothes")
 
@@ -28,13 +29,13 @@ PARTS = ("signer", "head", "left_hand", "right_hand", "skin", "clothes")
 def nsv2o_against_nsv(frames: np.ndarray, fps: float, masks: dict[str, np.ndarray], q: int) -> list[str]:
     """Table rows: NSV kbps, then NSV2O kbps (texture + shape) and its ratio to NSV for each signer labelling."""
     duration = len(frames) / fps
-    nsv = code_solution("NSV", frames, None, fps, "mpeg4", q).bits / duration / 1000
+    nsv = kbps(code_solution("NSV", frames, None, fps, "mpeg4", q).bits, duration)
     rows = [f"| NSV | | {nsv:.1f} | |"]
     for name, labels in masks.items():
         coded = code_solution("NSV2O", frames, labels, fps, "mpeg4", q)
-        kbps, shape = coded.bits / duration / 1000, coded.shape_bits / duration / 1000
+        rate, shape = kbps(coded.bits, duration), kbps(coded.shape_bits, duration)
         area = 100 * float(np.mean(labels > 0))
-        rows.append(f"| NSV2O, {name} ({area:.1f} % of the frame) | {shape:.1f} | {kbps:.1f} | {kbps / nsv:.2f} |")
+        rows.append(f"| NSV2O, {name} ({area:.1f} % of the frame) | {shape:.1f} | {rate:.1f} | {rate / nsv:.2f} |")
     return rows
 
 

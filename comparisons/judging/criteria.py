@@ -7,9 +7,11 @@ its operating point scores 6, the next 5, and so on (ties share the better score
 """
 from __future__ import annotations
 
-# The source tables' six columns, in its order; media.domain.SOLUTION_ORDER names every solution a record may
-# carry (NSV3O+C and the seed-002 motion coders have no column of their own here).
-SOLUTIONS = ("NSV", "NSV2O", "NSV3O", "SSV", "FBA", "BBA")
+from media.domain import Solution
+
+# The source tables' six columns, in its order: media.domain.Solution without NSV3O+C and the seed-002 motion coders,
+# which have no column of their own here.
+SOLUTIONS = tuple(s for s in Solution if s not in (Solution.NSV3O_C, Solution.MOTION_CODER))
 
 CARRIED_OVER = {
     "4.1 Equipment at the producer's side": (

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from media.domain import kbps
 from comparisons.params import bap_table
 from comparisons.params.fba import encode_fba
 from comparisons.params.fba_mapping import motion_to_baps
@@ -50,7 +51,7 @@ class GroupBudget:
 
     def kbps(self, bits: float) -> float:
         """bits over the stream's duration, kbit/s."""
-        return bits / self.duration_s / 1000.0
+        return kbps(bits, self.duration_s)
 
     def group_kbps(self) -> dict[int, float]:
         """group id -> kbit/s (groups with a non-zero value)."""

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from media.domain import kbps
 from comparisons.params import bap_table
 from comparisons.params import fap_table
 from comparisons.params.fba import encode_fba
@@ -86,5 +87,5 @@ def fap_bits(faps: np.ndarray, fps: float, q: int, coding: str = "pred", *, baps
     both = len(encode_fba(baps, fps, q, coding, faps=faps, fap_quant=fap_quant))
     face_only = len(encode_fba(None, fps, q, coding, faps=faps, fap_quant=fap_quant))
     return {"frames": len(faps), "duration_s": duration_s, "body_bytes": body, "face_body_bytes": both,
-            "added_bytes": both - body, "added_kbps": 8 * (both - body) / duration_s / 1000,
-            "face_only_bytes": face_only, "face_only_kbps": 8 * face_only / duration_s / 1000}
+            "added_bytes": both - body, "added_kbps": kbps(8 * (both - body), duration_s),
+            "face_only_bytes": face_only, "face_only_kbps": kbps(8 * face_only, duration_s)}

@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from media.domain import kbps
 from comparisons.params import bap_table
 from comparisons.judging import metrics
 from comparisons.params.fba_mapping import motion_to_baps
@@ -76,7 +77,7 @@ def _face_fields(motion: Motion, decoded: Motion, codec, q: int, bits: int) -> d
     if not codec.sends_face:
         return {"face_sent": False}
     body_bits = 8 * len(codec.encode(motion.without_face(), q))
-    fields = {"face_sent": True, "face_kbps": (bits - body_bits) / motion.duration_s / 1000.0}
+    fields = {"face_sent": True, "face_kbps": kbps(bits - body_bits, motion.duration_s)}
     moving = np.ptp(motion.faps, axis=0) > 0
     if decoded.faps is not None and moving.any():
         fields["fap_error"] = float(np.abs(decoded.faps[:, moving] - motion.faps[:, moving]).mean())

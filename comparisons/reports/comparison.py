@@ -43,7 +43,7 @@ from comparisons.judging.landmark_draws import standard_error  # noqa: E402
 from comparisons.reports import page  # noqa: E402
 from comparisons.reports.records import normalize_records  # noqa: E402
 from comparisons.video.codecs import CODECS as VIDEO_CODECS  # noqa: E402
-from media.domain import BBA, FBA, PARAMETER_SOLUTIONS, SOLUTION_ORDER, VIDEO_SOLUTIONS  # noqa: E402
+from media.domain import BBA, FBA, PARAMETER_SOLUTIONS, SOLUTION_ORDER, VIDEO_SOLUTIONS, Solution  # noqa: E402
 from media.errors import SigncastError  # noqa: E402
 
 REQUIREMENTS = (("broadcast", 100.0), ("webcast", 56.0), ("phone line", 64.0))
@@ -88,7 +88,7 @@ INTELLIGIBILITY_PANELS = {
 }
 # the criteria's labels in a matched record's threshold text, per panel (comparisons.judging.matching.threshold_text)
 THRESHOLD_LABELS = {"hand_pck_20": r"PCK@0\.2", "letter_top1": r"letter top-1"}
-RENDERED_SOLUTIONS = ("SSV", FBA, BBA)   # pictures of the avatar: measured against its lossless render
+RENDERED_SOLUTIONS = Solution.avatars()   # pictures of the avatar: measured against its lossless render
 # Today's video codecs, coded at matched quality; their quantiser is on their own scale, not MPEG-4's Q 1-31.
 OTHER_VIDEO_CODECS = {"libx264": "H.264", "libsvtav1": "AV1"}
 # One colour per series: ten distinct colours, then their light shades (drawn with another marker).

@@ -18,7 +18,7 @@ from media.domain import SOLUTION_ORDER
 REFERENCE = "source video"
 PREFERRED_MS, HINDERS_MS = 400.0, 800.0        # EN 301 549 guidance on conversation latency
 COLUMNS = (("loss_rate", "loss %", 100.0, 1), ("kbps", "stream kbps", 1.0, 2),
-           ("delivered_kbps", "delivered kbps", 1.0, 2), ("packet_loss", "packets lost %", 1.0, 1),
+           ("delivered_kbps", "delivered kbps", 1.0, 2), ("packet_loss", "packets lost %", 100.0, 1),
            ("frames_lost", "frames lost", 1.0, 0), ("frames_concealed", "frames concealed", 1.0, 0),
            ("hand_pck_20", "hand PCK@0.2 %", 1.0, 1), ("hand_error", "hand error", 1.0, 3),
            ("face_error", "face error (interocular)", 1.0, 3),

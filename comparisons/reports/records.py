@@ -47,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from media.domain import kbps
 from media import text_files
 from media.errors import SigncastError
 
@@ -128,8 +129,8 @@ class Record:
     letter_top3: float | None = None       # % among the first three
     hand_joint_error_mm: float | None = None   # parameter points: joint position error of the hands, mm
     arm_joint_error_mm: float | None = None    # and of the arms (shoulder to wrist), mm
-    # transport (live delivery): loss_rate, the network model's configured loss (fraction 0..1); packet_loss, % of
-    # the sent datagrams that never reached the receiver in time; delivered_kbps, whole datagrams (IPv4 + UDP + RTP
+    # transport (live delivery), loss in one unit, a fraction 0..1 (reports show percent): loss_rate, the network
+    # model's configured loss; packet_loss, the share of the sent datagrams that never reached the receiver in time; delivered_kbps, whole datagrams (IPv4 + UDP + RTP
     # headers and payload) over the clip's duration; overhead_kbps, delivered_kbps less the stream's own kbps;
     # frames_lost, frames whose data did not arrive; frames_concealed, those shown by holding another frame;
     # latency_ms_p50 / _p95, capture to ready-to-show per received frame, median and 95th percentile, ms
@@ -235,7 +236,7 @@ def make_record(solution: str, clip: str, codec: str, q: float | None, fps: floa
         raise SigncastError(f"a record needs a positive duration, got {duration_s}")
     record = {"kind": "point", "solution": solution, "clip": clip, "codec": codec, "q": q, "fps": float(fps),
               "width": int(width), "height": int(height), "bits": int(bits), "duration_s": float(duration_s),
-              "kbps": bits / duration_s / 1000.0}
+              "kbps": kbps(bits, duration_s)}
     record.update(fields)
     return record
 

@@ -33,6 +33,7 @@ from fractions import Fraction
 import av
 import numpy as np
 
+from media.domain import kbps
 from comparisons.video.codecs import padded_packet
 from media.errors import SigncastError
 
@@ -446,7 +447,7 @@ def ts_overhead(data: bytes, duration_s: float) -> dict:
             header = len(payload)
         row["pes_header_bytes"] += header
         row["payload_bytes"] += len(payload) - header
-    to_kbps = 8 / duration_s / 1000
+    to_kbps = kbps(8, duration_s)          # kbit/s per byte over the duration
 
     def finish(row: dict) -> dict:
         for part in _PARTS:
@@ -470,7 +471,7 @@ def stream_overheads(overhead: dict, demuxed: Demuxed) -> dict:
     codec, payload_kbps and overhead_kbps = its PID's TS headers + adaptation fields + PES headers, less the
     PCR fields, which belong to the programme as a whole and are stated once as pcr_kbps; psi_kbps is every
     byte of the PSI PIDs (PAT, PMT, SDT), TS headers included."""
-    to_kbps = 8 / overhead["duration_s"] / 1000
+    to_kbps = kbps(8, overhead["duration_s"])
     rows = overhead["pids"]
     streams = []
     for stream in demuxed.streams:

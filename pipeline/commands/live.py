@@ -76,7 +76,7 @@ def settings_from(args: argparse.Namespace):
         raise SigncastError(f"--landmark-step must be at least 1, got {args.landmark_step}")
     return live.LiveSettings(
         codecs=options.names(args.codecs), video_q=args.video_q, param_q=args.param_q,
-        loss_rates=options.parse_floats(args.loss_rates, "--loss-rates"), burst=args.burst,
+        loss_rates=tuple(p / 100.0 for p in options.parse_floats(args.loss_rates, "--loss-rates")), burst=args.burst,
         jitter_ms=args.jitter_ms, reorder=args.reorder, refresh=args.refresh, seed=args.seed,
         repeats=args.repeats, shape_gop=args.shape_gop, language=args.language or "ase", word=args.word or "HELLO",
         pose=None if args.pose is None else str(args.pose), size=parse_size(args.size, "--size"),

@@ -42,7 +42,7 @@ from pipeline.live.session import Listener, SessionDescription, receive, send
 from pipeline.stages import StageClock
 from pipeline.studies import shared
 
-LOSS_RATES = (0.0, 0.5, 1.0, 2.0, 5.0, 10.0)        # percent of datagrams
+LOSS_RATES = (0.0, 0.005, 0.01, 0.02, 0.05, 0.10)   # fraction of datagrams lost (0..1)
 EN_301_549_PREFERRED_MS = 400.0                      # EN 301 549 guidance: under 0.4 s preferred,
 EN_301_549_HINDERS_MS = 800.0                        # over 0.8 s hinders conversation
 IP_UDP_BYTES = 28
@@ -53,13 +53,13 @@ class LiveSettings:
     """codecs: what is sent, each a parameter codec (fba-*, bba-*: FBA, BBA), a video solution (NSV, NSV2O, NSV3O,
     NSV3O+C, SSV: with mpeg4), a live video codec (mpeg4, libx264: NSV) or SOLUTION:codec (e.g. SSV:libx264);
     video_q, param_q: their quantisers; shape_gop: frames per shape unit of the video objects;
-    loss_rates: percent of datagrams lost; burst: mean loss burst length in packets (1: Bernoulli, more:
+    loss_rates: fractions (0..1) of datagrams lost (the CLI takes percent); burst: mean loss burst length in packets (1: Bernoulli, more:
     Gilbert-Elliott); jitter_ms: the relay's delay spread; reorder: share of datagrams held back past their
     successor; refresh: frames per FBA/BBA unit; seed: the network model's seed; repeats: sessions per codec and
     loss rate, each with its own seed (losses of a few packets are chance: the report gives their mean and range);
     language, word, pose, size,
     landmark_step, backend: the scenario, as in `signcast compare`."""
-    codecs: tuple[str, ...] = ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "fba-pred", "fba-dct", "bba-pred", "bba-dct")
+    codecs: tuple[str, ...] = (*Solution.video(), "fba-pred", "fba-dct", "bba-pred", "bba-dct")
     video_q: int = 4
     param_q: int = 4
     loss_rates: tuple[float, ...] = LOSS_RATES
@@ -139,8 +139,8 @@ def check(settings: LiveSettings) -> None:
     if not 1 <= settings.shape_gop <= 65535:
         raise SigncastError(f"the shape unit must be 1..65535 frames, got {settings.shape_gop}")
     for rate in settings.loss_rates:
-        if not 0.0 <= rate < 100.0:
-            raise SigncastError(f"loss rate {rate:g} % is outside 0..100 %")
+        if not 0.0 <= rate < 1.0:
+            raise SigncastError(f"loss rate {100 * rate:g} % is outside 0..100 %")
     if not settings.burst >= 1.0:
         raise SigncastError(f"the mean loss burst must be at least 1 packet, got {settings.burst:g}")
     if settings.jitter_ms < 0 or not 0.0 <= settings.reorder <= 1.0:
@@ -155,9 +155,8 @@ def check(settings: LiveSettings) -> None:
     shared.check_scenario(settings.signing())
 
 
-def network_model(settings: LiveSettings, rate_percent: float, seed: int) -> loss_models.NetworkModel:
-    """The relay's model at one loss rate (percent)."""
-    rate = rate_percent / 100.0
+def network_model(settings: LiveSettings, rate: float, seed: int) -> loss_models.NetworkModel:
+    """The relay's model at one loss rate (fraction of datagrams, 0..1)."""
     if settings.burst > 1.0 and rate > 0:
         loss = loss_models.GilbertElliott.from_rate(rate, settings.burst, seed=seed)
     else:
@@ -235,7 +234,7 @@ class LiveStudy:
                                     motion=scenario.motion, fps=scenario.fps, refresh=self.settings.refresh,
                                     shape_gop=self.settings.shape_gop)
 
-    def point(self, send_item: str, rate_percent: float, seed: int) -> tuple[list[dict], Delivery]:
+    def point(self, send_item: str, rate: float, seed: int) -> tuple[list[dict], Delivery]:
         """Deliver one solution and codec at one loss rate and judge what was shown: one record per reference."""
         solution, codec, q = parse_send(send_item)
         q = self.q_of(solution, q)
@@ -243,7 +242,7 @@ class LiveStudy:
         description = self.description(solution, codec, payload, q)
         endpoints.warm_up(codec, self.renderer_for(*self.scenario.size), self.scenario.motion)
         delivery = deliver(description, source, lambda d: endpoints.sink_for(d, self.renderer_for),
-                           network_model(self.settings, rate_percent, seed))
+                           network_model(self.settings, rate, seed))
         got = delivery.received
         s = self.scenario
         duration = s.timing.duration_s
@@ -253,8 +252,8 @@ class LiveStudy:
         frames_lost = int((~got.received).sum())
         damaged = _damaged_frames(got.sink_stats)
         fields = make_record(description.solution, s.name, codec, description.q, s.fps, *s.size,
-                             8 * sent.media_bytes, duration, sweep="loss", loss_rate=rate_percent / 100.0,
-                             packet_loss=100.0 * (1 - got.packets / max(1, sent.packets)),
+                             8 * sent.media_bytes, duration, sweep="loss", loss_rate=rate,
+                             packet_loss=1.0 - got.packets / max(1, sent.packets),
                              delivered_kbps=kbps(delivered_bits, duration),
                              overhead_kbps=kbps(delivered_bits - 8 * sent.media_bytes, duration),
                              frames_lost=frames_lost, frames_concealed=frames_lost + damaged,
@@ -263,7 +262,7 @@ class LiveStudy:
                              shape_gop=description.details.get("shape_gop"),
                              burst=self.settings.burst, jitter_ms=self.settings.jitter_ms, seed=seed)
         draws = shared.extract_draws(got.shown[self.judge.measured], s.fps, 1,
-                                     f"landmarks: {codec} at {rate_percent:g} % loss", self.progress)
+                                     f"landmarks: {codec} at {100 * rate:g} % loss", self.progress)
         viewed = Viewed(got.shown, None, fields)
         return self.judge.records(description.solution, viewed, draws), delivery
 
@@ -287,7 +286,7 @@ def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -
     with clock.stage("live sessions and judging"), tqdm(total=len(points), desc="live points", unit="point",
                                                          disable=not progress) as bar:
         for k, (codec, rate, repeat) in enumerate(points):
-            bar.set_postfix_str(f"{codec} {rate:g} %")
+            bar.set_postfix_str(f"{codec} {100 * rate:g} %")
             point_records, delivery = study.point(codec, rate, settings.seed + k)
             for record in point_records:
                 record["repeat"] = repeat
@@ -382,14 +381,14 @@ def transport_stream_record(scenario: shared.Scenario, delivery: Delivery, out_d
 # ------------------------------------------------------------------------------------------------------------
 # `signcast send` and `signcast receive`: the two ends in separate processes
 
-SEND_SOLUTIONS = ("NSV", "SSV", "FBA", "BBA")      # `send` renders the avatar: no natural video to segment
+SEND_SOLUTIONS = (Solution.NSV, Solution.SSV, Solution.FBA, Solution.BBA)   # `send` renders the avatar: no natural video to segment
 
 
 @dataclass(frozen=True)
 class SendSettings:
     """One sender: what is sent (a --codecs item of `live`: a parameter codec, NSV's or SSV's video codec) and q,
     the signing (language, word or pose), the rendered size (NSV and SSV send the render), the receiver's address,
-    and the relay's loss (loss_percent, burst, jitter_ms, reorder, seed; no relay when all are 0)."""
+    and the relay's loss (loss_rate: fraction of datagrams 0..1, burst, jitter_ms, reorder, seed; no relay when all are 0)."""
     codec: str
     q: int
     destination: tuple[str, int]
@@ -399,7 +398,7 @@ class SendSettings:
     size: tuple[int, int] = (352, 288)
     refresh: int = 8
     shape_gop: int = 1
-    loss_percent: float = 0.0
+    loss_rate: float = 0.0
     burst: float = 1.0
     jitter_ms: float = 0.0
     reorder: float = 0.0
@@ -408,7 +407,7 @@ class SendSettings:
 
     def network(self) -> LiveSettings:
         video = parse_send(self.codec)[0] in VIDEO_SOLUTIONS
-        return LiveSettings(codecs=(self.codec,), loss_rates=(self.loss_percent,), burst=self.burst,
+        return LiveSettings(codecs=(self.codec,), loss_rates=(self.loss_rate,), burst=self.burst,
                             jitter_ms=self.jitter_ms, reorder=self.reorder, refresh=self.refresh, seed=self.seed,
                             shape_gop=self.shape_gop, language=self.language, word=self.word, pose=self.pose,
                             size=self.size, video_q=self.q if video else 4, param_q=4 if video else self.q,
@@ -454,9 +453,9 @@ def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
     description = SessionDescription(solution, codec, payload, settings.q, motion.fps, motion.n_frames,
                                      *settings.size, clip=name, details=details)
     network = settings.network()
-    lossy = settings.loss_percent > 0 or settings.jitter_ms > 0 or settings.reorder > 0
+    lossy = settings.loss_rate > 0 or settings.jitter_ms > 0 or settings.reorder > 0
     if lossy:
-        relay = LossyRelay(settings.destination, network_model(network, settings.loss_percent, settings.seed))
+        relay = LossyRelay(settings.destination, network_model(network, settings.loss_rate, settings.seed))
         with relay:
             sent = send(description, source, settings.destination, relay_address=relay.address)
             relay.close(drain_s=1.0)

@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from media.domain import Solution, kbps
 from comparisons.video import quality as image_quality
 from comparisons.reports import comparison as report
 from comparisons.video import codecs as video_codecs
@@ -92,11 +93,11 @@ def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, code
         operating_point=bool(q == settings.operating_q and sweep == "q"),
         native_fps=timing.native_fps,
         texture_bits=coded.bits - coded.shape_bits, shape_bits=coded.shape_bits,
-        shape_kbps=coded.shape_bits / duration_s / 1000.0,
+        shape_kbps=kbps(coded.shape_bits, duration_s),
         signer_area_percent=areas["signer"], skin_area_percent=areas["skin"], clothes_area_percent=areas["clothes"],
         objects=objects, frames=len(config.frames), backend="cpu", versions=software, **quality)
     if clothes_bits is not None:
-        fields["clothes_overload_kbps"] = clothes_bits / duration_s / 1000.0
+        fields["clothes_overload_kbps"] = kbps(clothes_bits, duration_s)
     height, width = config.frames.shape[1:3]
     return make_record(coded.solution, clip, codec, q, config.fps, width, height, coded.bits, duration_s, **fields)
 
@@ -174,7 +175,7 @@ def _shape_summary(shapes: video_objects.ShapeCache, duration_s: float) -> list[
     rows = []
     for (name, config_key), (n_bytes, masks) in shapes.streams.items():
         rows.append({"object": name, "config": config_key, "frames": len(masks), "bytes": n_bytes,
-                     "bits_per_frame": 8.0 * n_bytes / len(masks), "kbps": 8.0 * n_bytes / duration_s / 1000.0,
+                     "bits_per_frame": 8.0 * n_bytes / len(masks), "kbps": kbps(8.0 * n_bytes, duration_s),
                      "area_percent": 100.0 * float(masks.mean())})
     return rows
 
@@ -374,7 +375,7 @@ def run(settings: VideoSettings, out: str | Path, *, progress: bool = True,
         solutions = VideoSweep.solutions
     else:
         frames, labels, clip, extra = _synthetic(settings, progress)
-        solutions = ("NSV", "SSV")
+        solutions = (Solution.NSV, Solution.SSV)
     sweep = replace(settings.sweep, source_fps=extra["fps"], solutions=solutions)
     records_path = write_records(out / "records.jsonl", extra["records"])
     records = code_clip(frames, labels, clip, sweep, timing=extra.get("timing"), records_path=records_path,
