@@ -111,44 +111,27 @@ def adpcm_loop(limits: np.ndarray, grid: np.ndarray, taper: np.ndarray, half: in
 
 
 @njit(cache=True)
-def deadreck_encode(dofs: np.ndarray, slopes: np.ndarray, threshold: float, value_step: float, velocity_step: float,
-                    flags: np.ndarray, value_codes: np.ndarray, velocity_codes: np.ndarray, recon: np.ndarray) -> int:
-    """Constant-velocity extrapolation with value and velocity corrections where the receiver's error
-    exceeds `threshold`; flags (T - 1, D) int64; codes in frame then DOF order into value_codes and
-    velocity_codes ((T - 1) D,); returns how many corrections were sent."""
-    n_frames, n_dofs = dofs.shape
-    velocity = np.zeros(n_dofs)
-    used = 0
-    for t in range(1, n_frames):
-        for d in range(n_dofs):
-            guess = recon[t - 1, d] + velocity[d]
-            if abs(dofs[t, d] - guess) > threshold:
-                flags[t - 1, d] = 1
-                dv = np.int64(np.rint((dofs[t, d] - guess) / value_step))
-                dw = np.int64(np.rint((slopes[t, d] - velocity[d]) / velocity_step))
-                value_codes[used] = dv
-                velocity_codes[used] = dw
-                used += 1
-                guess = guess + dv * value_step
-                velocity[d] = velocity[d] + dw * velocity_step
-            else:
-                flags[t - 1, d] = 0
-            recon[t, d] = guess
-    return used
-
-
-@njit(cache=True)
-def deadreck_decode(flags: np.ndarray, value_codes: np.ndarray, velocity_codes: np.ndarray, value_step: float,
-                    velocity_step: float, recon: np.ndarray) -> None:
-    """The receiver of deadreck_encode: flags (T - 1, D) bool, codes in frame then DOF order."""
+def deadreck_loop(encoding: bool, dofs: np.ndarray, slopes: np.ndarray, threshold: float, value_step: float,
+                  velocity_step: float, flags: np.ndarray, value_codes: np.ndarray, velocity_codes: np.ndarray,
+                  recon: np.ndarray) -> int:
+    """Constant-velocity extrapolation, the loop both ends run. Encoding (dofs (T, D), slopes (T, D) given): where
+    the receiver's error exceeds `threshold`, sends a value and a velocity correction, setting flags (T - 1, D)
+    int64 and writing the codes in frame then DOF order into value_codes, velocity_codes ((T - 1) D,). Decoding
+    (dofs, slopes empty): applies the given flags and codes. Returns how many corrections were used."""
     n_frames, n_dofs = recon.shape
     velocity = np.zeros(n_dofs)
     used = 0
     for t in range(1, n_frames):
         for d in range(n_dofs):
             guess = recon[t - 1, d] + velocity[d]
+            if encoding:
+                flags[t - 1, d] = 1 if abs(dofs[t, d] - guess) > threshold else 0
+                if flags[t - 1, d]:
+                    value_codes[used] = np.int64(np.rint((dofs[t, d] - guess) / value_step))
+                    velocity_codes[used] = np.int64(np.rint((slopes[t, d] - velocity[d]) / velocity_step))
             if flags[t - 1, d]:
                 guess = guess + value_codes[used] * value_step
                 velocity[d] = velocity[d] + velocity_codes[used] * velocity_step
                 used += 1
             recon[t, d] = guess
+    return used

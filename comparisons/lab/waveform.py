@@ -380,8 +380,8 @@ class DeadReckoningCoder(DofCoder):
         flags = np.empty((n_frames - 1, self.n_dofs), dtype=np.int64)
         value_codes = np.empty(flags.size, dtype=np.int64)
         velocity_codes = np.empty(flags.size, dtype=np.int64)
-        used = lab_predictive.deadreck_encode(np.ascontiguousarray(dofs), slopes, threshold, value_step, velocity_step,
-                                              flags, value_codes, velocity_codes, recon)
+        used = lab_predictive.deadreck_loop(True, np.ascontiguousarray(dofs), slopes, threshold, value_step,
+                                            velocity_step, flags, value_codes, velocity_codes, recon)
         writer.symbols(flags, 2)
         writer.signed(value_codes[:used])
         writer.signed(velocity_codes[:used])
@@ -402,8 +402,12 @@ class DeadReckoningCoder(DofCoder):
         value_step, velocity_step = threshold / 2.0, threshold / 8.0
         recon = np.empty((n_frames, self.n_dofs))
         recon[0] = first_frame_value(read["first"], self)
-        lab_predictive.deadreck_decode(read["flags"].astype(bool), read["value"], read["velocity"], value_step,
-                                       velocity_step, recon)
+        flags = np.ascontiguousarray(read["flags"], dtype=np.int64)
+        empty = np.zeros((0, self.n_dofs))
+        used = lab_predictive.deadreck_loop(False, empty, empty, threshold, value_step, velocity_step, flags,
+                                            read["value"], read["velocity"], recon)
+        if used != len(read["value"]):
+            raise SigncastError("corrupt deadreck stream: corrections do not match the flags")
         return recon
 
 
