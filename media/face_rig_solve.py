@@ -11,14 +11,11 @@ brows, the nose, the upper lip) are solved as separate small systems; a bone alo
 its 3 x 3 system built and solved in one loop (`_solve_alone`). The result equals the dense
 NumPy reference (media/face_rig.py `_carry_numpy`) to rounding (~1e-14).
 
-`carry` takes the frames together (chosen here for speed, ~2x): no frame's operations depend on its
-values (a fixed iteration count, no data-dependent branch), so each step runs as a loop over frames that
-the compiler vectorises, with every frame's arithmetic in the same order as `carry_by_frame` (the frame
-by frame form the stream hashes were taken with): its results are bitwise `carry_by_frame`'s. IEEE
-+ - * / and sqrt round the same in vector and scalar instructions; Numba does not contract a * b + c into
-fused multiply-adds without fastmath, and sin and cos stay libm calls, one per value (no SVML here).
-error_model="numpy" only drops the ZeroDivisionError checks, whose divisors are never zero (a Cholesky
-pivot of a positive definite matrix, lengths floored at 1e-300).
+`carry` takes the frames together: each step runs as a loop over frames that the compiler vectorises (about
+2x frame by frame). error_model="numpy" only drops the ZeroDivisionError checks, whose divisors are never zero
+(a Cholesky pivot of a positive definite matrix, lengths floored at 1e-300). The solve's result is the dense
+NumPy reference's to within 1e-12 (tests/test_face_rig_speed.py); nothing here reproduces another library's
+rounding.
 
 J's blocks -[lever]x and Rodrigues' K are cross matrices with a zero diagonal: `carry` leaves out the
 products with those zeros (exact +-0, the values are finite) in J J^T, J^T x and K K. A sum of the remaining
@@ -47,65 +44,6 @@ from numba import njit
 # vectorised): there the vectorised form's nine loops per matrix product cost more than their vectors save. Both
 # forms are the same operations in the same order (tests/test_face_rig_speed.py runs both).
 FEW_FRAMES = 40
-
-
-@njit(cache=True)
-def _matmul(a, b, out):
-    for r in range(3):
-        for c in range(3):
-            out[r, c] = a[r, 0] * b[0, c] + a[r, 1] * b[1, c] + a[r, 2] * b[2, c]
-
-
-@njit(cache=True)
-def _solve_spd(matrix, rhs, n):
-    """Solve matrix[:n, :n] x = rhs[:n] in place (x in rhs) for a symmetric positive definite matrix:
-    Cholesky, matrix's lower triangle overwritten by the factor."""
-    for j in range(n):
-        total = matrix[j, j]
-        for k in range(j):
-            total -= matrix[j, k] * matrix[j, k]
-        root = np.sqrt(total)
-        matrix[j, j] = root
-        for i in range(j + 1, n):
-            total = matrix[i, j]
-            for k in range(j):
-                total -= matrix[i, k] * matrix[j, k]
-            matrix[i, j] = total / root
-    for i in range(n):
-        total = rhs[i]
-        for k in range(i):
-            total -= matrix[i, k] * rhs[k]
-        rhs[i] = total / matrix[i, i]
-    for i in range(n - 1, -1, -1):
-        total = rhs[i]
-        for k in range(i + 1, n):
-            total -= matrix[k, i] * rhs[k]
-        rhs[i] = total / matrix[i, i]
-
-
-@njit(cache=True)
-def _pose(local, carrier_heads, carrier_parents, rotation, offset):
-    """World (anchor-relative) rotation (C, 3, 3) and offset (C, 3) of each carrier from its local turn
-    (C, 3, 3); the products written out as _matmul / _matvec order them (a[r, 0] b[0] + a[r, 1] b[1] + ...)."""
-    for j in range(len(carrier_parents)):
-        p = carrier_parents[j]
-        h0, h1, h2 = carrier_heads[j, 0], carrier_heads[j, 1], carrier_heads[j, 2]
-        if p < 0:
-            for r in range(3):
-                for c in range(3):
-                    rotation[j, r, c] = local[j, r, c]
-            for r in range(3):
-                moved = local[j, r, 0] * h0 + local[j, r, 1] * h1 + local[j, r, 2] * h2
-                offset[j, r] = carrier_heads[j, r] - moved
-        else:
-            for r in range(3):
-                a0, a1, a2 = rotation[p, r, 0], rotation[p, r, 1], rotation[p, r, 2]
-                for c in range(3):
-                    rotation[j, r, c] = a0 * local[j, 0, c] + a1 * local[j, 1, c] + a2 * local[j, 2, c]
-            for r in range(3):
-                point = rotation[p, r, 0] * h0 + rotation[p, r, 1] * h1 + rotation[p, r, 2] * h2
-                moved = rotation[j, r, 0] * h0 + rotation[j, r, 1] * h1 + rotation[j, r, 2] * h2
-                offset[j, r] = offset[p, r] + point - moved
 
 
 @njit(cache=True)
@@ -154,153 +92,6 @@ def _layout(on_chain, group_members, group_start):
                 pair += 1
                 pair_start[pair] = n
     return chain_start, chain_index, carried_start, carried_index, pair_start, pair_index
-
-
-@njit(cache=True)
-def carry_by_frame(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents, on_chain, group_members,
-          group_start, iterations, damping, max_turn):
-    """`carry` frame by frame (the form the stored stream hashes were taken with; `carry` must equal it
-    bitwise, tests/test_face_rig_speed.py): local turns of the carriers and the posed rotation of each
-    skinned bone's parent.
-
-    wanted: (T, S, 3) float64 head displacement of each skinned bone. carrier_heads: (C, 3) rest heads of
-    the carriers, parents before children; carrier_parents: (C,) int64 index of each carrier's parent
-    among the carriers, -1 for the anchor. skinned_heads: (S, 3) rest heads of the skinned bones;
-    skinned_parents: (S,) int64 their parents among the carriers (-1: the anchor). on_chain: (S, C) bool,
-    carrier j carries skinned bone i. group_members (S,) int64, group_start (G + 1,) int64: the skinned
-    bones grouped by shared carriers (group g: group_members[group_start[g]:group_start[g + 1]]); bones
-    of different groups share no carrier, so J J^T is block diagonal and each group's block is solved
-    alone (Cholesky: the block is symmetric positive definite). Returns local (T, C, 3, 3) rotation
-    matrices and parent (T, S, 3, 3) the final posed rotation of each skinned bone's parent (identity for
-    the anchor).
-    """
-    n_frames, n_skinned = wanted.shape[0], wanted.shape[1]
-    n_carriers = carrier_heads.shape[0]
-    chain_start, chain_index, carried_start, carried_index, pair_start, pair_index = _layout(
-        on_chain, group_members, group_start)
-    local = np.zeros((n_frames, n_carriers, 3, 3))
-    parent_out = np.zeros((n_frames, n_skinned, 3, 3))
-    rotation = np.empty((n_carriers, 3, 3))
-    offset = np.empty((n_carriers, 3))
-    heads = np.empty((n_skinned, 3))
-    pivots = np.empty((n_carriers, 3))
-    blocks = np.zeros((n_skinned, n_carriers, 3, 3))       # J's blocks: -[head_i - pivot_j]x
-    normal = np.empty((3 * n_skinned, 3 * n_skinned))
-    residual = np.empty(3 * n_skinned)
-    rhs = np.empty(3 * n_skinned)
-    solved = np.empty(3 * n_skinned)
-    step = np.empty((n_carriers, 3))
-    turn = np.empty((3, 3))
-    cross = np.empty((3, 3))
-    square = np.empty((3, 3))
-    left = np.empty((3, 3))
-    middle = np.empty((3, 3))
-    damping2 = damping * damping
-    for t in range(n_frames):
-        current = local[t]
-        for j in range(n_carriers):
-            for r in range(3):
-                current[j, r, r] = 1.0
-        for _ in range(iterations):
-            _pose(current, carrier_heads, carrier_parents, rotation, offset)
-            for i in range(n_skinned):
-                p = skinned_parents[i]
-                for r in range(3):
-                    if p < 0:
-                        heads[i, r] = skinned_heads[i, r]
-                    else:
-                        arm = (rotation[p, r, 0] * skinned_heads[i, 0] + rotation[p, r, 1] * skinned_heads[i, 1]
-                               + rotation[p, r, 2] * skinned_heads[i, 2])
-                        heads[i, r] = arm + offset[p, r]
-                    residual[3 * i + r] = wanted[t, i, r] - (heads[i, r] - skinned_heads[i, r])
-            for j in range(n_carriers):
-                for r in range(3):
-                    arm = (rotation[j, r, 0] * carrier_heads[j, 0] + rotation[j, r, 1] * carrier_heads[j, 1]
-                           + rotation[j, r, 2] * carrier_heads[j, 2])
-                    pivots[j, r] = arm + offset[j, r]
-            for i in range(n_skinned):
-                for n in range(chain_start[i], chain_start[i + 1]):
-                    j = chain_index[n]
-                    x = heads[i, 0] - pivots[j, 0]
-                    y = heads[i, 1] - pivots[j, 1]
-                    z = heads[i, 2] - pivots[j, 2]
-                    blocks[i, j, 0, 0], blocks[i, j, 0, 1], blocks[i, j, 0, 2] = 0.0, z, -y
-                    blocks[i, j, 1, 0], blocks[i, j, 1, 1], blocks[i, j, 1, 2] = -z, 0.0, x
-                    blocks[i, j, 2, 0], blocks[i, j, 2, 1], blocks[i, j, 2, 2] = y, -x, 0.0
-            # normal = J J^T + damping^2 I, block (i, k) = sum_j B_ij B_kj^T over the carriers both share
-            pair = 0
-            for g in range(len(group_start) - 1):
-                first, last = group_start[g], group_start[g + 1]
-                m = last - first
-                for a in range(m):
-                    i = group_members[first + a]
-                    for b in range(a, m):
-                        k = group_members[first + b]
-                        for r in range(3):
-                            for c in range(3):
-                                total = 0.0
-                                for n in range(pair_start[pair], pair_start[pair + 1]):
-                                    j = pair_index[n]
-                                    total += (blocks[i, j, r, 0] * blocks[k, j, c, 0] + blocks[i, j, r, 1] * blocks[k, j, c, 1]
-                                              + blocks[i, j, r, 2] * blocks[k, j, c, 2])
-                                normal[3 * a + r, 3 * b + c] = total
-                                normal[3 * b + c, 3 * a + r] = total
-                        pair += 1
-                    for r in range(3):
-                        normal[3 * a + r, 3 * a + r] += damping2
-                        rhs[3 * a + r] = residual[3 * i + r]
-                _solve_spd(normal, rhs, 3 * m)
-                for a in range(m):
-                    for r in range(3):
-                        solved[3 * group_members[first + a] + r] = rhs[3 * a + r]
-            largest = 0.0
-            for j in range(n_carriers):
-                for c in range(3):
-                    total = 0.0
-                    for n in range(carried_start[j], carried_start[j + 1]):
-                        i = carried_index[n]
-                        for r in range(3):
-                            total += blocks[i, j, r, c] * solved[3 * i + r]
-                    step[j, c] = total
-                size = np.sqrt(step[j, 0] ** 2 + step[j, 1] ** 2 + step[j, 2] ** 2)
-                largest = max(largest, size)
-            scale = min(1.0, max_turn / max(largest, 1e-300))
-            for j in range(n_carriers):
-                # Rodrigues: I + sin(a) K + (1 - cos(a)) K K, K the cross matrix of the unit axis
-                vx, vy, vz = step[j, 0] * scale, step[j, 1] * scale, step[j, 2] * scale
-                angle = np.sqrt(vx * vx + vy * vy + vz * vz)
-                unit = max(angle, 1e-300)
-                ux, uy, uz = vx / unit, vy / unit, vz / unit
-                cross[0, 0], cross[0, 1], cross[0, 2] = 0.0, -uz, uy
-                cross[1, 0], cross[1, 1], cross[1, 2] = uz, 0.0, -ux
-                cross[2, 0], cross[2, 1], cross[2, 2] = -uy, ux, 0.0
-                _matmul(cross, cross, square)
-                sine, versine = np.sin(angle), 1.0 - np.cos(angle)
-                for r in range(3):
-                    for c in range(3):
-                        turn[r, c] = (1.0 if r == c else 0.0) + sine * cross[r, c] + versine * square[r, c]
-                # local = parent^T turn parent local, parent: the carrier's parent posed at this iteration's start
-                p = carrier_parents[j]
-                if p < 0:
-                    _matmul(turn, current[j], square)
-                else:
-                    for r in range(3):
-                        for c in range(3):
-                            left[r, c] = rotation[p, 0, r] * turn[0, c] + rotation[p, 1, r] * turn[1, c] + rotation[p, 2, r] * turn[2, c]
-                    _matmul(left, rotation[p], middle)
-                    _matmul(middle, current[j], square)
-                for r in range(3):
-                    for c in range(3):
-                        current[j, r, c] = square[r, c]
-        _pose(current, carrier_heads, carrier_parents, rotation, offset)
-        for i in range(n_skinned):
-            p = skinned_parents[i]
-            if p < 0:
-                for r in range(3):
-                    parent_out[t, i, r, r] = 1.0
-            else:
-                parent_out[t, i] = rotation[p]
-    return local, parent_out
 
 
 @njit(cache=True)

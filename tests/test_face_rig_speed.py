@@ -1,10 +1,8 @@
-"""The face rig's faster paths against what they replace, bitwise: the frame-vectorised solve
-(kernels/bba_face_rig.carry) against the frame-by-frame one, the compiled conversions against scipy /
-NumPy (media/rotations.py), held frames solved once, and the whole rig against a SHA-256 of its
-rotations taken before these changes."""
+"""The face rig's compiled paths against their NumPy references: the frame-vectorised solve
+(media/face_rig_solve.carry) against face_rig._carry_numpy within CARRY_TOLERANCE, the compiled conversions
+against scipy / NumPy (media/rotations.py), held frames solved once."""
 from __future__ import annotations
 
-import hashlib
 import itertools
 
 import numpy as np
@@ -12,18 +10,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from comparisons.params.fap_rates import synthetic_faps
+from media import face_rig, rotations, scipy_rotation
 from media import face_rig_solve as face_kernel
-from media import scipy_rotation
-from media import face_rig, rotations
 from media.face_rig import avatar_fapu, face_bone_rotations
 from media.fingerspelling import letter_motion
 from media.motion import Motion
-
-# face_bone_rotations of the cases below, hashed: first ("1b22d775...") with the frame-by-frame solve and scipy's
-# conversions on a CPU without AVX-512, then retaken when the rig's dot products, matrix products and arctan2 /
-# arccos were fixed to one order and libm's results (face_bones.turn_along, bba_face_rig.transposed_products,
-# comparisons/params/libm.py), so that it holds on every CPU (before, NumPy's AVX-512 paths and OpenBLAS's kernels changed it).
-_RIG_DIGEST = "38a9e612dd4c1324b3567ba419d6ac1a02d65078cd6e52d3f6f69881ccc43ee6"
 
 
 def _bits(a: np.ndarray) -> np.ndarray:
@@ -38,16 +29,10 @@ def _wild_faps() -> np.ndarray:
     return wild
 
 
-def test_face_bone_rotations_hash_as_before_the_faster_paths(avatar):
-    fapu = avatar_fapu(avatar)
-    cases = [letter_motion("ase", letter, 25.0).faps for letter in "ABCDEFGHIJ"]
-    cases += [synthetic_faps(60, 25.0, seed=seed) for seed in range(3)] + [_wild_faps()]
-    digest = hashlib.sha256()
-    for faps in cases:
-        for name, q in face_bone_rotations(faps, avatar.skeleton, fapu).items():
-            digest.update(name.encode())
-            digest.update(np.ascontiguousarray(q).tobytes())
-    assert digest.hexdigest() == _RIG_DIGEST
+# The compiled solve against the dense NumPy reference (face_rig._carry_numpy): the same Gauss-Newton steps in
+# another summation order, so the rotations agree to rounding. Stated bound: 1e-9 per quaternion component
+# (measured ~1e-14; a wrong step or iteration count differs by > 1e-4).
+CARRY_TOLERANCE = 1e-9
 
 
 @pytest.mark.parametrize("anchor, names", [
@@ -55,21 +40,23 @@ def test_face_bone_rotations_hash_as_before_the_faster_paths(avatar):
               "oculi01.R", "levator06.R", "oris05", "oris03.L", "oris03.R")),
     ("jaw", ("oris01", "oris07.L", "oris07.R")),
 ])
-def test_frame_vectorised_solve_is_bitwise_the_frame_by_frame_one(avatar, anchor, names):
-    plan = face_rig._carry_plan(avatar.skeleton, anchor, names)
+def test_compiled_solve_is_the_numpy_solve_within_the_stated_tolerance(avatar, anchor, names):
     rng = np.random.default_rng(len(names))
     for scale, n_frames in itertools.product((0.0, 1e-4, 3e-3, 0.05), (37, face_kernel.FEW_FRAMES + 5)):
-        wanted = rng.normal(size=(n_frames, len(names), 3)) * scale     # rest, small, typical, far beyond reach
-        wanted[5] = 0.0
-        args = (plan.carrier_heads, plan.carrier_parents, plan.skinned_heads, plan.skinned_parents, plan.on_chain,
-                plan.group_members, plan.group_start, 10, 3e-3, 0.3)
-        local, parent = face_kernel.carry(wanted, *args)
-        local_ref, parent_ref = face_kernel.carry_by_frame(wanted, *args)
-        assert np.array_equal(_bits(local), _bits(local_ref))
-        assert np.array_equal(_bits(parent), _bits(parent_ref))
-        assert np.array_equal(local[5], np.broadcast_to(np.eye(3), local[5].shape))   # no target: no turn
+        heads = rng.normal(size=(n_frames, len(names), 3)) * scale   # rest, small, typical, far beyond reach
+        tails = heads + rng.normal(size=heads.shape) * scale * 0.5
+        heads[5] = tails[5] = 0.0
+        targets = {name: (heads[:, k], tails[:, k]) for k, name in enumerate(names)}
+        got = face_rig._carry(avatar.skeleton, anchor, targets)
+        expected = face_rig._carry_numpy(avatar.skeleton, anchor, targets)
+        assert got.keys() == expected.keys()
+        for name in got:
+            # q and -q are one rotation
+            sign = np.sign(np.sum(got[name] * expected[name], axis=-1, keepdims=True))
+            assert np.abs(got[name] - sign * expected[name]).max() <= CARRY_TOLERANCE, name
+            assert np.allclose(got[name][5], [1.0, 0.0, 0.0, 0.0])     # no target: no turn
         if scale > 0:
-            assert not np.allclose(local, np.eye(3))
+            assert not np.allclose(np.stack(list(got.values())), [1.0, 0.0, 0.0, 0.0])
 
 
 def test_compiled_from_matrix_is_bitwise_scipys_and_defers_what_scipy_orthogonalises():
