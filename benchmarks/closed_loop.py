@@ -114,14 +114,28 @@ def angle_errors(original, retargeted, side: str = "R") -> dict[str, dict[str, f
     return result
 
 
-def measure(loop: Loop, jitter_filter: str | None = None, side: str = "R") -> dict:
-    """Retarget the loop's extracted clip (jitter_filter: media.retarget's) and compare with the original."""
+def image_only(clip):
+    """The clip without its world components (as the lexicon: image landmarks only)."""
+    from media.lexicon import SignClip
+    from media.pose_file import HAND_WORLD_COMPONENTS
+
+    dropped = set(HAND_WORLD_COMPONENTS)
+    return SignClip(clip.fps, {k: v for k, v in clip.points.items() if k not in dropped},
+                    {k: v for k, v in clip.confidence.items() if k not in dropped})
+
+
+def measure(loop: Loop, jitter_filter: str | None = None, side: str = "R", method: str | None = None,
+            world: bool = True) -> dict:
+    """Retarget the loop's extracted clip (jitter_filter, method: media.retarget's; world: keep the hands' world
+    landmarks, else only the image landmarks, as the lexicon has) and compare with the original."""
     from media.avatar import load_avatar
     from media.retarget import retarget
 
     skeleton = load_avatar().skeleton
-    clip = loop.clip
-    result = retarget(clip, skeleton, jitter_filter=jitter_filter)
+    clip = loop.clip if world else image_only(loop.clip)
+    started = time.perf_counter()
+    result = retarget(clip, skeleton, jitter_filter=jitter_filter, method=method)
+    seconds = time.perf_counter() - started
     motion = result.motion
     original = loop.original
     if motion.n_frames != original.n_frames:
@@ -136,6 +150,8 @@ def measure(loop: Loop, jitter_filter: str | None = None, side: str = "R") -> di
     palm_px = np.median(np.linalg.norm(truth_px[:, 9] - truth_px[:, 0], axis=-1))
     return {
         "filter": jitter_filter or "default",
+        "method": (method or "default") + ("" if world else " 2D"),
+        "seconds": seconds,
         "frames": int(original.n_frames),
         "hands": list(result.hands),
         "found_share": float(np.mean(found)),
@@ -147,13 +163,13 @@ def measure(loop: Loop, jitter_filter: str | None = None, side: str = "R") -> di
 
 
 def format_table(rows: list[dict]) -> str:
-    lines = [f"{'filter':9} {'found':>5} {'palm':>5} | {'wrist px':>13} {'hand px':>13} {'landmark px':>13} | "
+    lines = [f"{'method':12} {'filter':9} {'found':>5} {'palm':>5} | {'wrist px':>13} {'hand px':>13} {'landmark px':>13} | "
              f"{'torso deg':>11} {'arm deg':>11} {'finger deg':>11}",
-             f"{'':9} {'':>5} {'px':>5} | {'retarget':>13} {'retarget':>13} {'extracted':>13} | "
+             f"{'':12} {'':9} {'':>5} {'px':>5} | {'retarget':>13} {'retarget':>13} {'extracted':>13} | "
              f"{'mean/p90':>11} {'mean/p90':>11} {'mean/p90':>11}"]
     for row in rows:
         pair = lambda d: f"{d['mean']:5.1f}/{d['p90']:5.1f}"
-        lines.append(f"{row['filter']:9} {row['found_share']:5.2f} {row['palm_px']:5.1f} | "
+        lines.append(f"{row['method']:12} {row['filter']:9} {row['found_share']:5.2f} {row['palm_px']:5.1f} | "
                      f"{pair(row['wrist_px']['retargeted']):>13} {pair(row['hand_px']['retargeted']):>13} "
                      f"{pair(row['hand_px']['extracted']):>13} | {pair(row['angles_deg']['torso']):>11} "
                      f"{pair(row['angles_deg']['arm']):>11} {pair(row['angles_deg']['fingers']):>11}")
@@ -166,6 +182,8 @@ def main() -> int:
     parser.add_argument("--word", default="HI")
     parser.add_argument("--size", default="352x288", help="WxH")
     parser.add_argument("--filters", default="one-euro,binomial,off")
+    parser.add_argument("--methods", default="fit,fit-2d,lifting",
+                        help="fit (world landmarks), fit-2d (image landmarks only), lifting (the former method)")
     parser.add_argument("--save-pose", type=Path, help="also write the extracted clip's arrays to this .npz")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
@@ -176,7 +194,13 @@ def main() -> int:
         np.savez_compressed(args.save_pose, fps=loop.clip.fps,
                             **{f"points_{k}": v for k, v in loop.clip.points.items()},
                             **{f"confidence_{k}": v for k, v in loop.clip.confidence.items()})
-    rows = [measure(loop, name) for name in args.filters.split(",")]
+    rows = []
+    for method in args.methods.split(","):
+        for name in args.filters.split(","):
+            rows.append(measure(loop, name, method="fit" if method.startswith("fit") else method,
+                                world=method != "fit-2d"))
+            print(f"{rows[-1]['method']} {name}: retargeting {rows[-1]['seconds']:.2f} s "
+                  f"({1000 * rows[-1]['seconds'] / rows[-1]['frames']:.1f} ms a frame)", flush=True)
     print(format_table(rows))
     return 0
 

@@ -148,6 +148,15 @@ POSE_FILTER = "one-euro"
 LEXICON_UNSEEN_ARM = "natural"
 POSE_UNSEEN_ARM = "natural"
 UNSEEN_ARMS = ("natural", "a-pose")
+# How arms and hands are posed (see `retarget`). "fit" (media.hand_fit) is exact on exact landmarks (1 deg from 3D,
+# 2 deg per finger joint from 2D) but on the landmarks MediaPipe extracts from the avatar's 352x288 render it
+# measured worse than "lifting" in the closed loop (fingers 32 deg against 22: docs/retargeting.md), so both
+# defaults stay "lifting" until it does better; pass method="fit" to use it.
+METHODS = ("fit", "lifting")
+LEXICON_METHOD = "lifting"
+POSE_METHOD = "lifting"
+HAND_DEPTH = "hybrid"        # "world": the hand's world landmarks as they are; "hybrid": image direction, world depth
+USE_POSE_WORLD = False       # the pose's world landmarks for the arm (measured worse than the image: see docs)
 # One-Euro settings for keypoints in shoulder widths at the clip's fps (docs/retargeting.md: measured)
 ONE_EURO = OneEuro(min_cutoff=1.0, beta=2.0, d_cutoff=1.0)
 
@@ -708,18 +717,24 @@ def natural_rest(skeleton: Skeleton, side: str) -> dict[str, np.ndarray]:
 # --------------------------------------------------------------------------- main entry
 
 def retarget(clip: SignClip, skeleton: Skeleton | None = None, *, jitter_filter: str | None = None,
-             unseen_arm: str | None = None, face: bool = True) -> Retargeted:
+             unseen_arm: str | None = None, face: bool = True, method: str | None = None) -> Retargeted:
     """Retarget one clip of MediaPipe Holistic keypoints to the avatar (Motion at the clip's fps).
 
     jitter_filter: "one-euro", "binomial" or "off" (None: LEXICON_FILTER for a lexicon clip, else
     POSE_FILTER); unseen_arm: "natural" or "a-pose", the pose of an arm whose hand the clip never
     shows (None: LEXICON_UNSEEN_ARM for a lexicon clip, else POSE_UNSEEN_ARM); face: measure the face's
-    MPEG-4 FAPs (media.face_parameters) into motion.faps when the clip shows a face. Raises
-    SigncastError for a clip without the Holistic components or without shoulders.
+    MPEG-4 FAPs (media.face_parameters) into motion.faps when the clip shows a face; method: how the arms and
+    hands are posed, "fit" (media.hand_fit: one bounded least-squares fit of the joint angles per frame, to the
+    world landmarks where the clip has them, else to the image landmarks) or "lifting" (per-bone lifting with depth
+    sign priors, then CCD IK); None: LEXICON_METHOD for a lexicon clip, else POSE_METHOD. Raises SigncastError for
+    a clip without the Holistic components or without shoulders.
     """
     lexicon_clip = clip.entry is not None
     filter_name = filters.check_filter(jitter_filter or (LEXICON_FILTER if lexicon_clip else POSE_FILTER))
     unseen_arm = unseen_arm or (LEXICON_UNSEEN_ARM if lexicon_clip else POSE_UNSEEN_ARM)
+    method = method or (LEXICON_METHOD if lexicon_clip else POSE_METHOD)
+    if method not in METHODS:
+        raise SigncastError(f"unknown retargeting method {method!r}: choose {' or '.join(METHODS)}")
     if unseen_arm not in UNSEEN_ARMS:
         raise SigncastError(f"unknown rest for an unseen arm {unseen_arm!r}: choose {' or '.join(UNSEEN_ARMS)}")
     skeleton = skeleton or load_avatar().skeleton
@@ -764,6 +779,10 @@ def retarget(clip: SignClip, skeleton: Skeleton | None = None, *, jitter_filter:
             lengths = signer_lengths(clip.entry.signed_language, hand, skeleton)
         else:
             lengths = own_lengths(hand_points[frames], skeleton, side)
+        if method == "fit":
+            _fit_arm_and_hand(skeleton, side, hand, clip, pose, pose_valid, hand_points, nearest, body_scale,
+                              local, column, followed, projected, names, lengths, filter_name)
+            continue
         _retarget_arm_and_hand(skeleton, side, hand.upper(), pose, pose_valid, hand_points, body_scale,
                                local, column, followed, projected, names, lengths, overridden)
     motion = Motion(clip.fps, names, rotations.canonical(rotations.normalize(local)), np.zeros((n_frames, 3)),
@@ -795,6 +814,107 @@ def own_lengths(hand_points: np.ndarray, skeleton: Skeleton, side: str) -> dict[
     measured = _phalanx_lengths([_palm_plane(_hand_template(skeleton, side), hand_points)], SIGNER_LENGTH_PERCENTILES)
     return {bone: max(length, float(np.linalg.norm(_bone_vector(skeleton, f"{bone}.{side}"))))
             for bone, length in measured.items()}
+
+
+_ARM_HAND_MODELS: dict = {}
+
+
+def _arm_hand_model(skeleton: Skeleton, side: str):
+    """media.hand_fit's model of arm and hand `side`, built once per skeleton."""
+    from media import hand_fit
+    key = (id(skeleton), side)
+    if key not in _ARM_HAND_MODELS or _ARM_HAND_MODELS[key][0] is not skeleton:
+        _ARM_HAND_MODELS[key] = (skeleton, hand_fit.ArmHandModel(skeleton, side))
+    return _ARM_HAND_MODELS[key][1]
+
+
+def _world_component(clip: SignClip, name: str, nearest: np.ndarray | None, filter_name: str):
+    """(points (T, N, 3) in the avatar's axes, metres; valid (T, N)) of a world component, taken at the frames
+    `nearest` (None: as recorded, gaps filled from the nearest seen frame) and filtered [1, 2, 1] / 4 unless the
+    filter is off; None when the clip lacks it or never shows it."""
+    from media import hand_fit
+    if name not in clip.points or not np.any(clip.confidence[name] > 0):
+        return None
+    valid = clip.confidence[name] > 0
+    points = _filled(hand_fit.from_mediapipe_world(clip.points[name]), valid)
+    if nearest is not None:
+        points, valid = points[nearest], valid[nearest]
+    if filter_name != "off":
+        points = filters.binomial(points)
+    return points, valid
+
+
+def _fit_arm_and_hand(skeleton, side, hand, clip, pose, pose_valid, hand_points, nearest, body_scale,
+                      local, column, followed, projected, names, lengths, filter_name) -> None:
+    """Arm and hand `side` by media.hand_fit: targets from the world landmarks where the clip has them (the hand
+    model's, the pose's), else from the image (hand_points (T, 21, 2) pixels, filled; pose (T, 33, 2) pixels)."""
+    from media import hand_fit
+    from media.pose_file import HAND_WORLD_COMPONENTS
+
+    n_frames = len(pose)
+    prefix = hand.upper()
+    point = {name: i for i, name in enumerate(POSE_POINTS)}
+    model = _arm_hand_model(skeleton, side)
+    torso = Motion(25.0, names, local, np.zeros((n_frames, 3)))
+    base = bone_matrices(skeleton, torso)[:, skeleton.index(f"shoulder01.{side}")]
+    segments = hand_fit.SEGMENTS
+    world = np.full((n_frames, len(segments), 3), np.nan)
+    image = np.full((n_frames, len(segments), 2), np.nan)
+    rest = model.points
+    rest_length = lambda a, b: float(np.linalg.norm(rest[b] - rest[a]))
+
+    # arm: image vectors in the avatar's metres (body scale) over the avatar's bone lengths
+    shoulder_px = pose[:, point[f"{prefix}_SHOULDER"]]
+    elbow_px = pose[:, point[f"{prefix}_ELBOW"]]
+    elbow_seen = pose_valid[:, point[f"{prefix}_ELBOW"]]
+    wrist_px = hand_points[:, 0]
+    upper_2d = lifting.to_plane(elbow_px - shoulder_px, body_scale)
+    fore_2d = lifting.to_plane(wrist_px - elbow_px, body_scale)
+    image[:, 0] = np.where(elbow_seen.any(), upper_2d / rest_length(hand_fit.SHOULDER, hand_fit.ELBOW), np.nan)
+    image[:, 1] = np.where(elbow_seen.any(), fore_2d / rest_length(hand_fit.ELBOW, hand_fit.HAND0), np.nan)
+    hand_world = _world_component(clip, HAND_WORLD_COMPONENTS[0 if hand == "left" else 1], nearest, filter_name)
+    pose_world = _world_component(clip, "POSE_WORLD_LANDMARKS", None, filter_name) \
+        if hand_world is not None and USE_POSE_WORLD else None
+    if pose_world is not None:
+        points, valid = pose_world
+        for k, (a, b) in enumerate(((f"{prefix}_SHOULDER", f"{prefix}_ELBOW"), (f"{prefix}_ELBOW", f"{prefix}_WRIST"))):
+            ok = valid[:, point[a]] & valid[:, point[b]]
+            vector = points[:, point[b]] - points[:, point[a]]
+            world[:, k] = np.where(ok[:, None], _unit(vector), np.nan)
+
+    # hand: image vectors in metres at the palm's scale over the segment's true length (the signer's phalanges)
+    plane = _palm_plane(_hand_template(skeleton, side), hand_points)
+    bone_of = {(head, tail): bone for chain in FINGER_CHAINS.values() for bone, head, tail in chain}
+    for k, (a, b) in enumerate(hand_fit.HAND_SEGMENTS, start=len(hand_fit.ARM_SEGMENTS)):
+        bone = bone_of.get((a, b))
+        length = lengths[bone] if lengths and bone in lengths else rest_length(hand_fit.HAND0 + a, hand_fit.HAND0 + b)
+        image[:, k] = (plane[:, b] - plane[:, a]) / length
+        if hand_world is not None:
+            # the image gives the segment's direction in the frontal plane (the extractor's best), the world
+            # landmarks how far, and to which side, it leaves that plane (their depth over their in-plane length)
+            points, valid = hand_world
+            ok = valid[:, a] & valid[:, b]
+            vector = points[:, b] - points[:, a]
+            in_plane = np.linalg.norm(image[:, k], axis=-1)
+            depth = vector[:, 2] / np.maximum(np.linalg.norm(vector[:, :2], axis=-1), 1e-9) * in_plane
+            if HAND_DEPTH == "world":
+                target = _unit(vector)
+            else:
+                target = _unit(np.concatenate([image[:, k], depth[:, None]], axis=-1))
+            world[:, k] = np.where(ok[:, None], target, np.nan)
+    angles, _ = hand_fit.fit_clip(model, base[:, :3, :3], base[:, :3, 3], hand_fit.Targets(world, image))
+    for name, q in model.local_quaternions(angles).items():
+        local[:, column[name]] = q
+    # what the bones followed: the fitted directions (forward kinematics), and the keypoints' image directions
+    posed = np.stack([model.forward(a, r[:3, :3], r[:3, 3])[0] for a, r in zip(angles, base)])
+    followed[f"upperarm.{side}"] = _unit(posed[:, hand_fit.ELBOW] - posed[:, hand_fit.SHOULDER])
+    followed[f"forearm.{side}"] = _unit(posed[:, hand_fit.HAND0] - posed[:, hand_fit.ELBOW])
+    projected[f"upperarm.{side}"] = upper_2d
+    projected[f"forearm.{side}"] = fore_2d
+    for chain in FINGER_CHAINS.values():
+        for bone, head_lm, tail_lm in chain:
+            followed[f"{bone}.{side}"] = _unit(posed[:, hand_fit.HAND0 + tail_lm] - posed[:, hand_fit.HAND0 + head_lm])
+            projected[f"{bone}.{side}"] = plane[:, tail_lm] - plane[:, head_lm]
 
 
 def _retarget_arm_and_hand(skeleton, side, hand_prefix, pose, pose_valid, hand_points, body_scale,

@@ -53,3 +53,15 @@ def test_projection_matches_the_render(loop):
     joints = closed_loop.project(loop.camera, closed_loop.hand_joints(skeleton, middle, "R"), (352, 288))[0]
     x, y = np.round(joints[9]).astype(int)                       # the middle finger's knuckle
     assert labels[0, y - 1:y + 2, x - 1:x + 2].max() == 4        # 4: right hand
+
+
+def test_extraction_keeps_the_hand_models_world_landmarks(loop):
+    """signcast pose's extractor keeps the hand landmark model's 21 world landmarks (metres) where it finds the
+    hand: on the avatar's right hand the palm (wrist -> middle knuckle) measures 5-15 cm."""
+    import numpy as np
+
+    world = loop.clip.points["RIGHT_HAND_WORLD_LANDMARKS"]
+    found = loop.clip.confidence["RIGHT_HAND_LANDMARKS"][:, 0] > 0
+    assert np.array_equal(loop.clip.confidence["RIGHT_HAND_WORLD_LANDMARKS"][:, 0] > 0, found)
+    palm = np.linalg.norm(world[found, 9] - world[found, 0], axis=-1)
+    assert np.all((palm > 0.05) & (palm < 0.15))

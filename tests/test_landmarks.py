@@ -100,7 +100,7 @@ def test_pose_file_reads_back_identical(carphone_clip, tmp_path):
         np.testing.assert_array_equal(back.confidence[name], carphone_clip.confidence[name].astype(np.float32))
     plain = Pose.read(path.read_bytes())
     assert (plain.header.dimensions.width, plain.header.dimensions.height) == (176, 144)
-    assert plain.body.data.shape == (N_FRAMES, 1, 586, 3)
+    assert plain.body.data.shape == (N_FRAMES, 1, sum(holistic.SIZES.values()), 3)   # 586, and 42 hand world points
     missing = np.concatenate([carphone_clip.confidence[n] == 0 for n in holistic.SIZES], axis=1)
     np.testing.assert_array_equal(np.ma.getmaskarray(plain.body.data)[:, 0].all(axis=-1), missing)
 

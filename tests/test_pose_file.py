@@ -85,3 +85,60 @@ def test_missing_file_and_garbage_are_rejected(tmp_path):
         read_pose(tmp_path / "missing.pose")
     with pytest.raises(SigncastError):
         read_pose(bytes(range(256)) * 4)
+
+
+def _clip_with_world(frames: int = 3):
+    from media.pose_file import HAND_WORLD_COMPONENTS
+    clip = read_pose(_pose_bytes(frames=frames))
+    rng = np.random.default_rng(7)
+    for name in HAND_WORLD_COMPONENTS:
+        clip.points[name] = rng.normal(0.0, 0.05, (frames, 21, 3))          # metres
+        clip.confidence[name] = np.full((frames, 21), 0.9)
+    clip.confidence[HAND_WORLD_COMPONENTS[0]][1] = 0.0                       # one frame without the left hand
+    clip.points[HAND_WORLD_COMPONENTS[0]][1] = 0.0
+    return clip
+
+
+def test_hand_world_landmarks_survive_the_pose_round_trip(tmp_path):
+    """signcast pose keeps the hand model's world landmarks: the lexicon's five components, then the two hands'
+    world points (WORLD_LAYOUT); read_pose reads both layouts, and pose-format itself reads the file."""
+    from pose_format import Pose
+
+    from media.pose_file import HAND_WORLD_COMPONENTS, WORLD_LAYOUT, write_pose
+    clip = _clip_with_world()
+    path = tmp_path / "world.pose"
+    write_pose(path, clip, 352, 288)
+    back = read_pose(path)
+    assert list(back.points) == [name for name, _ in WORLD_LAYOUT]
+    for name in HAND_WORLD_COMPONENTS:
+        seen = clip.confidence[name] > 0
+        assert np.allclose(back.points[name], clip.points[name], atol=1e-7)          # float32 in the file
+        assert np.array_equal(back.confidence[name] > 0, seen)
+    for name, _ in HOLISTIC_LAYOUT:
+        assert np.allclose(back.points[name], clip.points[name], atol=1e-3)
+    pose = Pose.read(path.read_bytes())
+    assert [c.name for c in pose.header.components] == [name for name, _ in WORLD_LAYOUT]
+
+
+def test_lexicon_layout_is_still_written_without_world_landmarks(tmp_path):
+    from media.pose_file import write_pose
+    clip = read_pose(_pose_bytes(frames=2))
+    path = tmp_path / "plain.pose"
+    write_pose(path, clip, 352, 288)
+    assert list(read_pose(path).points) == [name for name, _ in HOLISTIC_LAYOUT]
+
+
+def test_other_extra_components_are_still_rejected(tmp_path):
+    from pose_format import Pose
+    from pose_format.pose_header import PoseHeaderComponent
+
+    from media.pose_file import write_pose
+    path = tmp_path / "world.pose"
+    write_pose(path, _clip_with_world(), 352, 288)
+    pose = Pose.read(path.read_bytes())
+    pose.header.components[-1] = PoseHeaderComponent("RIGHT_HAND_EXTRA", pose.header.components[-1].points, [], [],
+                                                     "XYZC")
+    buffer = io.BytesIO()
+    pose.write(buffer)
+    with pytest.raises(SigncastError, match=r"optionally followed by.*it has: .*RIGHT_HAND_EXTRA \(21 points, XYZC\)"):
+        read_pose(buffer.getvalue())

@@ -26,7 +26,10 @@ is the probability that the hand is the person's own right hand as a camera (not
 MediaPipe, which assumes mirrored selfie images, labels that same hand "Left".
 
 Frames are (H, W, 3) uint8 RGB; points are frame pixels (x right, y down); z is hand_landmark's depth
-relative to the wrist, scaled to pixels like x (smaller = nearer the camera).
+relative to the wrist, scaled to pixels like x (smaller = nearer the camera). World points are the model's 21
+world landmarks, metres, origin the hand's geometric centre, turned by the ROI's rotation into the image's axes
+(x right, y down, z away from the camera), as MediaPipe's WorldLandmarkProjectionCalculator does: real depth,
+which the retargeting fits to (media/hand_fit.py).
 """
 from __future__ import annotations
 
@@ -67,11 +70,13 @@ PALM_WRIST, PALM_MIDDLE_MCP = 0, 2  # palm keypoints giving the ROI's rotation
 @dataclass(frozen=True)
 class Hand:
     """One found hand. points: (21, 3) frame pixels (x, y, z); presence: hand_landmark's presence
-    probability; right_handedness: probability that it is the person's right hand; roi: the crop it came from."""
+    probability; right_handedness: probability that it is the person's right hand; roi: the crop it came from;
+    world: (21, 3) world landmarks, metres (image axes, origin the hand's centre), or None."""
     points: np.ndarray
     presence: float
     right_handedness: float
     roi: Roi
+    world: np.ndarray | None = None
 
 
 def hand_in_roi(frame: np.ndarray, roi: Roi) -> Hand | None:
@@ -82,7 +87,7 @@ def hand_in_roi(frame: np.ndarray, roi: Roi) -> Hand | None:
     model = load("hand_landmark_full")
     size = model.input_size[0]
     image = crop(frame, roi, model.input_size).astype(np.float32) / 255.0
-    landmarks, presence, handedness, _world = model.run(image)
+    landmarks, presence, handedness, world = model.run(image)
     presence = float(presence.reshape(-1)[0])
     if not presence >= HAND_PRESENCE_THRESHOLD:   # also rejects NaN
         return None
@@ -90,7 +95,17 @@ def hand_in_roi(frame: np.ndarray, roi: Roi) -> Hand | None:
     points = np.empty((N_HAND_POINTS, 3))
     points[:, :2] = roi.to_frame(raw[:, :2] / size)
     points[:, 2] = raw[:, 2] / size / HAND_Z_NORMALISATION * roi.width
-    return Hand(points, presence, float(handedness.reshape(-1)[0]), roi)
+    return Hand(points, presence, float(handedness.reshape(-1)[0]), roi, _world_points(world, roi.angle))
+
+
+def _world_points(world: np.ndarray, angle: float) -> np.ndarray:
+    """The model's world landmarks (63,) -> (21, 3) metres in the image's axes (turned by the ROI's angle)."""
+    points = np.asarray(world, dtype=np.float64).reshape(N_HAND_POINTS, 3)
+    c, s = np.cos(angle), np.sin(angle)
+    turned = points.copy()
+    turned[:, 0] = c * points[:, 0] - s * points[:, 1]
+    turned[:, 1] = s * points[:, 0] + c * points[:, 1]
+    return turned
 
 
 def roi_from_pose(wrist: np.ndarray, pinky: np.ndarray, index: np.ndarray) -> Roi:
@@ -196,11 +211,14 @@ class HandTracker:
     def __init__(self):
         self._previous: dict[str, Hand | None] = {}
         self._frames_without_palm_search = 0
+        # side -> the last processed frame's world landmarks (21, 3) metres, None where no hand was found
+        self.world: dict[str, np.ndarray | None] = {}
         self.reset()
 
     def reset(self) -> None:
         """Forget last frame's hands (start of a new video)."""
         self._previous = {side: None for side in SIDES}
+        self.world = {side: None for side in SIDES}
         self._frames_without_palm_search = PALM_FALLBACK_PERIOD   # the first frame searches
 
     def process(self, frame: np.ndarray, pose: np.ndarray | None = None,
@@ -208,7 +226,8 @@ class HandTracker:
         """Hands of one frame (H, W, 3) uint8 RGB, given the pose landmarks (33, 3) in frame pixels and their
         visibility (33,) in [0, 1] (None: no pose; no visibility: all visible). Returns {'left', 'right'}
         (the person's own sides) -> (points (21, 3) float64 frame pixels x, y, z; confidence (21,) float64:
-        the hand's presence probability, all 0 with points 0 when that hand was not found)."""
+        the hand's presence probability, all 0 with points 0 when that hand was not found). The same hands'
+        world landmarks are then in `self.world` (side -> (21, 3) metres, or None)."""
         frame = _checked_frame(frame)
         pose, pose_visibility = _checked_pose(pose, pose_visibility)
         hands = {side: self._track(frame, side, pose, pose_visibility) for side in SIDES}
@@ -222,6 +241,8 @@ class HandTracker:
             else:
                 self._frames_without_palm_search += 1
         self._previous = hands
+        self.world = {side: None if hands[side] is None or hands[side].world is None else hands[side].world.copy()
+                      for side in SIDES}
         return {side: _as_output(hands[side]) for side in SIDES}
 
     def _track(self, frame: np.ndarray, side: str, pose: np.ndarray | None,

@@ -1,7 +1,7 @@
 """signcast's MediaPipe Holistic: pose, then both hands, then the face, per frame, tracked through a video.
 
-`HolisticTracker.process(frame)` gives one frame's landmarks in the lexicon's five components
-(media.pose_file.HOLISTIC_LAYOUT); `extract_landmarks(frames, fps)` runs it over a video into a SignClip, and
+`HolisticTracker.process(frame)` gives one frame's landmarks in the lexicon's five components followed by the
+two hands' world landmarks (media.pose_file.WORLD_LAYOUT); `extract_landmarks(frames, fps)` runs it over a video into a SignClip, and
 `found_shares(clip)` says in what share of frames each part was found. Coordinates are frame pixels (x right,
 y down; z MediaPipe's relative depth scaled to pixels like x), world landmarks metres. Confidence: the pose's
 visibility for pose and world points, the landmark model's score for hand and face points, 0 where a part was
@@ -16,10 +16,11 @@ import numpy as np
 from media.landmarks.face import FaceTracker
 from media.landmarks.pose import PoseTracker
 from media.lexicon import SignClip
-from media.pose_file import HOLISTIC_LAYOUT
+from media.pose_file import HAND_WORLD_COMPONENTS, HOLISTIC_LAYOUT, WORLD_LAYOUT
 
 POSE, FACE, LEFT_HAND, RIGHT_HAND, WORLD = (name for name, _ in HOLISTIC_LAYOUT)
-SIZES = {name: len(points) for name, points in HOLISTIC_LAYOUT}
+LEFT_HAND_WORLD, RIGHT_HAND_WORLD = HAND_WORLD_COMPONENTS
+SIZES = {name: len(points) for name, points in WORLD_LAYOUT}
 # the parts a user is told about, and the component that says whether each was found
 PARTS = {"pose": POSE, "face": FACE, "left hand": LEFT_HAND, "right hand": RIGHT_HAND}
 
@@ -57,10 +58,13 @@ class HolisticTracker:
             result[WORLD] = (pose.world, pose.visibility.copy())
         hands = self.hands.process(frame, None if pose is None else pose.points,
                                    None if pose is None else pose.visibility)
-        for side, name in (("left", LEFT_HAND), ("right", RIGHT_HAND)):
+        for side, name, world_name in (("left", LEFT_HAND, LEFT_HAND_WORLD), ("right", RIGHT_HAND, RIGHT_HAND_WORLD)):
             if side in hands:
                 points, confidence = hands[side]
                 result[name] = (np.asarray(points, np.float64), np.asarray(confidence, np.float64))
+                world = getattr(self.hands, "world", {}).get(side)
+                if world is not None:
+                    result[world_name] = (np.asarray(world, np.float64), np.asarray(confidence, np.float64).copy())
         face = self.face.process(frame, None if pose is None else pose.points)
         if face is not None:
             confidence = np.full(SIZES[FACE], face.score)
@@ -73,7 +77,7 @@ class HolisticTracker:
 def extract_landmarks(frames: Iterable[np.ndarray], fps: float, n_frames: int | None = None,
                       progress: Callable[[int], object] | None = None) -> SignClip:
     """Landmarks of every frame (H, W, 3) uint8 RGB of one video shown at fps frames per second, as a SignClip in
-    the lexicon's layout: points component -> (T, N, 3) float64, confidence component -> (T, N) in [0, 1], 0 (and
+    the lexicon's layout plus the hands' world landmarks (WORLD_LAYOUT; metres): points component -> (T, N, 3) float64, confidence component -> (T, N) in [0, 1], 0 (and
     coordinates 0) where missing. n_frames: stop after this many frames (None: all). progress: called with 1 after
     each frame."""
     tracker = HolisticTracker()
