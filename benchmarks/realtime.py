@@ -123,7 +123,8 @@ def main() -> None:
     from pipeline.live.jitter_buffer import DEPACKETIZERS
     from pipeline.live.objects import ObjectSink, ObjectSource
     from pipeline.live.session import SessionDescription, packetizer_for
-    for solution in ("NSV2O", "NSV3O", "NSV3O+C", "SSV"):
+    from media.domain import Solution
+    for solution in (Solution.NSV2O, Solution.NSV3O, Solution.NSV3O_C, Solution.SSV):
         received: list = []
 
         def capture():

@@ -21,7 +21,7 @@ from media.render import RenderSettings, render_motion
 from media.segmentation_landmarks import landmark_coverage
 from media.video_io import read_clip, resolve_video
 from pipeline.studies.video import extract_clip_landmarks, segment_clip
-from media.domain import kbps  # noqa: E402
+from media.domain import Solution, kbps  # noqa: E402
 
 PARTS = ("signer", "head", "left_hand", "right_hand", "skin", "clothes")
 
@@ -32,7 +32,7 @@ def nsv2o_against_nsv(frames: np.ndarray, fps: float, masks: dict[str, np.ndarra
     nsv = kbps(code_solution("NSV", frames, None, fps, "mpeg4", q).bits, duration)
     rows = [f"| NSV | | {nsv:.1f} | |"]
     for name, labels in masks.items():
-        coded = code_solution("NSV2O", frames, labels, fps, "mpeg4", q)
+        coded = code_solution(Solution.NSV2O, frames, labels, fps, "mpeg4", q)
         rate, shape = kbps(coded.bits, duration), kbps(coded.shape_bits, duration)
         area = 100 * float(np.mean(labels > 0))
         rows.append(f"| NSV2O, {name} ({area:.1f} % of the frame) | {shape:.1f} | {rate:.1f} | {rate / nsv:.2f} |")

@@ -35,16 +35,17 @@ from comparisons.video import shape as shape_coding
 from comparisons.video import codecs as video_codecs
 from comparisons.video import padding as padding_kernel
 from media import segmentation
+from media.domain import Solution
 from media.errors import SigncastError
 
 MB = 16
 CLOTHES_Q = 31
-SOLUTION_OBJECTS = {
-    "NSV": ("frame",),
-    "NSV2O": ("signer",),
-    "NSV3O": ("head", "left_hand", "right_hand"),
-    "NSV3O+C": ("head", "left_hand", "right_hand", "clothes"),
-    "SSV": ("head", "left_hand", "right_hand"),
+SOLUTION_OBJECTS = {     # the video objects each video solution sends, in stream order
+    Solution.NSV: ("frame",),
+    Solution.NSV2O: ("signer",),
+    Solution.NSV3O: ("head", "left_hand", "right_hand"),
+    Solution.NSV3O_C: ("head", "left_hand", "right_hand", "clothes"),
+    Solution.SSV: ("head", "left_hand", "right_hand"),
 }
 
 

@@ -155,7 +155,7 @@ def code_clip(frames: np.ndarray, labels: np.ndarray, clip: str, settings: Video
                                                 config.key)
             if config.sweep == "q" and q == settings.operating_q:
                 operating[solution] = coded
-        clothes = sum(o.bits for o in coded.objects if o.name == "clothes") if solution == "NSV3O+C" else None
+        clothes = sum(o.bits for o in coded.objects if o.name == "clothes") if solution == Solution.NSV3O_C else None
         record = _record(coded, config, clip, codec, q, timing, settings, software, sweep, clothes)
         if sweep == "codec":
             record["object_q"] = {o.name: o.q for o in coded.objects}
@@ -192,8 +192,9 @@ def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
 
 
 def _area(record: dict) -> float | None:
-    return {"NSV": None, "NSV2O": record["signer_area_percent"], "NSV3O": record["skin_area_percent"],
-            "NSV3O+C": record["skin_area_percent"], "SSV": record["skin_area_percent"]}.get(record["solution"])
+    return {Solution.NSV: None, Solution.NSV2O: record["signer_area_percent"],
+            Solution.NSV3O: record["skin_area_percent"], Solution.NSV3O_C: record["skin_area_percent"],
+            Solution.SSV: record["skin_area_percent"]}.get(record["solution"])
 
 
 def write_tables(records: list[dict], out_dir: Path) -> list[Path]:
@@ -231,7 +232,7 @@ def write_tables(records: list[dict], out_dir: Path) -> list[Path]:
     _write_csv(path, ["series", "Q", "slope kbps per fps", "intercept kbps", "R2"],
                [[f["series"], f["q"], f["slope_kbps_per_fps"], f["intercept_kbps"], f["r2"]] for f in fits])
     written.append(path)
-    clothes = [r for r in points if r["solution"] == "NSV3O+C" and r["codec"] == "mpeg4" and r["q"] == 12]
+    clothes = [r for r in points if r["solution"] == Solution.NSV3O_C and r["codec"] == "mpeg4" and r["q"] == 12]
     path = out_dir / "table_clothes_overload.csv"
     _write_csv(path, ["clip", "resolution", "clothes area", "fps", "skin Q", "clothes Q", "overload kbps"],
                [[r["clip"], f"{r['width']}x{r['height']}", f"{r['clothes_area_percent']:.1f}%", r["fps"], r["q"],
