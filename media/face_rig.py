@@ -51,7 +51,6 @@ import numpy as np
 
 from media import face_rig_solve as face_kernel
 from media import face_bones as bones_kernel
-from comparisons.params import libm
 from media import rotations
 from media.avatar import Avatar, Skeleton, load_avatar
 from media.errors import SigncastError
@@ -212,7 +211,7 @@ def _face_bone_quaternions(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> 
     distance, direction = bones_kernel.turn_directions(turned)
     along = bones_kernel.turn_along(rig.arms, direction)
     across, ratio = bones_kernel.turn_sides(rig.arms, direction, along, distance, rig.reach)
-    lids = bones_kernel.turn_quaternions(rig.arms, direction, libm.arctan2(across, along) - libm.arccos(ratio))
+    lids = bones_kernel.turn_quaternions(rig.arms, direction, np.arctan2(across, along) - np.arccos(ratio))
     quaternions = np.empty((len(faps), len(rig.names), 4))
     quaternions[:, _LID_COLUMNS] = lids.swapaxes(0, 1)
     quaternions[:, _EYE_COLUMNS] = bones_kernel.eye_rotations(eye_angles).swapaxes(0, 1)
@@ -474,7 +473,7 @@ def _turn(arm: np.ndarray, displacement: np.ndarray) -> np.ndarray:
     along = _dot(direction, arm)
     across = np.linalg.norm(arm - along[:, None] * direction, axis=-1)
     reach = _length(arm)
-    angle = libm.arctan2(across, along) - libm.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
+    angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
     return rotations.from_axis_angle(rotations.cross(arm, direction), angle)
 
 
@@ -486,7 +485,7 @@ def _turns(arms: np.ndarray, displacements: np.ndarray) -> np.ndarray:
     along = _dot(direction, arms[:, None])                                            # (N, T)
     across = np.linalg.norm(arms[:, None] - along[..., None] * direction, axis=-1)
     reach = _length(arms)[:, None]
-    angle = libm.arctan2(across, along) - libm.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
+    angle = np.arctan2(across, along) - np.arccos(np.clip((distance + along) / reach, -1.0, 1.0))
     return rotations.from_axis_angle(rotations.cross(arms[:, None], direction), angle)
 
 

@@ -21,7 +21,6 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from comparisons.params import libm
 from media import scipy_rotation
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
@@ -192,19 +191,19 @@ def slerp(q0: np.ndarray, q1: np.ndarray, t: np.ndarray) -> np.ndarray:
     dot = np.sum(q0 * q1, axis=-1, keepdims=True)
     q1 = np.where(dot < 0, -q1, q1)
     dot = np.abs(dot)
-    alpha = libm.arccos(np.clip(dot, -1.0, 1.0))
-    sin_alpha = libm.sin(alpha)
+    alpha = np.arccos(np.clip(dot, -1.0, 1.0))
+    sin_alpha = np.sin(alpha)
     near = sin_alpha < 1e-9
     safe = np.where(near, 1.0, sin_alpha)
-    w0 = np.where(near, 1.0 - t, libm.sin((1.0 - t) * alpha) / safe)
-    w1 = np.where(near, t, libm.sin(t * alpha) / safe)
+    w0 = np.where(near, 1.0 - t, np.sin((1.0 - t) * alpha) / safe)
+    w1 = np.where(near, t, np.sin(t * alpha) / safe)
     return normalize(w0 * q0 + w1 * q1)
 
 
 def angle_between(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
     """Rotation angle (radians, [0, pi]) of q0^-1 q1; (..., 4) each (broadcast) -> (...)."""
     dot = np.abs(np.sum(np.asarray(q0) * np.asarray(q1), axis=-1))
-    return 2.0 * libm.arccos(np.clip(dot, 0.0, 1.0))
+    return 2.0 * np.arccos(np.clip(dot, 0.0, 1.0))
 
 
 def from_euler(angles: np.ndarray, order: str = "XYZs") -> np.ndarray:

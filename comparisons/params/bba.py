@@ -60,12 +60,12 @@ in time proportional to each unit, and reports the frames lost so far.
 A decoder holds at most MAX_DECODED_VALUES frames x values per frame; larger streams are refused
 before their frames are decoded.
 
-Speed (the bits are those of the plain loops; tests/test_stream_identity.py holds their hashes): each
+Speed (tests/test_conformance.py pins what the decoder returns; bba.decode_levels gives those integers): each
 distinct set of bone masks is laid out once (_layout: keys, steps); the predictive levels of a stream
 whose frames share one mask set run in one compiled loop (comparisons/params/bba_levels.py); header and mask
 fields are gathered into one integer before the BitWriter takes them; the decoder reads the bone
 tables and masks with comparisons/params/bba_masks.py and converts all frames' Euler angles in one compiled call
-(comparisons/params/bba_rotations.py, bitwise scipy's from_euler). Streams of one mask set without muscles are
+(comparisons/params/bba_rotations.py, scipy's from_euler to rounding). Streams of one mask set without muscles are
 written from arrays (values (F, P), KeyFrameIndex (F,)); encode_motion and decode_motion (what
 comparisons/param_codecs.BbaCodec uses) go from a Motion to bytes and back without any BBAFrame, with
 the bytes and Motion of motion_to_stream + write_stream and read_stream + stream_to_motion. decode_motion
@@ -89,7 +89,6 @@ from comparisons.params.fba_mapping import avatar_bap_map
 from comparisons.params import bba_euler as split_kernel
 from comparisons.params import bba_header as header_kernel
 from comparisons.params import bba_levels as level_kernel
-from comparisons.params import libm
 from comparisons.params import bba_masks as mask_kernel
 from comparisons.params import bba_rotations as euler_kernel
 from comparisons.params import bba_units as unit_kernel
@@ -229,7 +228,7 @@ def _rotation_step_exponents(skeleton: Skeleton) -> dict[int, int]:
     bap_map = avatar_bap_map(skeleton)
     for bone in bap_map.bones:
         step = min(bap_table.bap(i).step for i in bone.baps)
-        exponents[skeleton.index(bone.bone)] = round(libm.log2(step))
+        exponents[skeleton.index(bone.bone)] = round(np.log2(step))
     _EXPONENTS[id(skeleton)] = (skeleton, exponents)
     return exponents
 
@@ -571,7 +570,7 @@ def _estimated_bits(fields: np.ndarray, counts: np.ndarray, q: int) -> float:
     estimated as log2 of the alphabet sizes."""
     i_low, i_high = pc.alphabet(fields[0], fields[1], q)
     p_low, p_high = pc.alphabet(fields[2], fields[3], q)
-    return float((counts[0] * libm.log2(i_high - i_low + 1)).sum() + (counts[1] * libm.log2(p_high - p_low + 1)).sum())
+    return float((counts[0] * np.log2(i_high - i_low + 1)).sum() + (counts[1] * np.log2(p_high - p_low + 1)).sum())
 
 
 def _check_header(h: BBAHeader) -> None:

@@ -43,8 +43,6 @@ from comparisons.params.entropy import (
     encode_frame,
 )
 from comparisons.params import arithmetic as kc
-from comparisons.params import libm
-from comparisons.params import ordered_products
 from comparisons.params import frames as pf
 from media.domain import check_q  # noqa: F401  (the FBA/BBA coders call pc.check_q)
 from media.errors import SigncastError
@@ -238,7 +236,7 @@ def dct_matrix(size: int = SEGMENT) -> np.ndarray:
     would make decode -> re-encode differ, and the XML round trip must be exact)."""
     n = np.arange(size)
     k = n[:, None]
-    d = np.sqrt(2.0 / size) * libm.cos((2 * n[None, :] + 1) * k * np.pi / (2 * size))
+    d = np.sqrt(2.0 / size) * np.cos((2 * n[None, :] + 1) * k * np.pi / (2 * size))
     d[0] /= np.sqrt(2.0)
     return d
 
@@ -251,7 +249,7 @@ def dct_steps(steps: np.ndarray, q: int) -> tuple[np.ndarray, np.ndarray]:
 
 def dct_levels(segment: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """segment: (n <= 16, P) values -> DC levels (P,), AC levels (n - 1, P) (round half away from zero)."""
-    coefficients = ordered_products.matmul(dct_matrix(len(segment)), segment)
+    coefficients = np.matmul(dct_matrix(len(segment)), segment)
     dc = np.sign(coefficients[0]) * np.floor(np.abs(coefficients[0]) / dc_step + 0.5)
     ac = np.sign(coefficients[1:]) * np.floor(np.abs(coefficients[1:]) / ac_step + 0.5)
     return dc.astype(np.int64), ac.astype(np.int64)
@@ -260,7 +258,7 @@ def dct_levels(segment: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) ->
 def dct_reconstruct(dc: np.ndarray, ac: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> np.ndarray:
     """(n, P) int64 values from levels (n = 1 + number of AC rows)."""
     coefficients = np.concatenate([(dc * dc_step)[None], ac * ac_step], axis=0)
-    return np.round(ordered_products.matmul(dct_matrix(len(coefficients)).T, coefficients)).astype(np.int64)
+    return np.round(np.matmul(dct_matrix(len(coefficients)).T, coefficients)).astype(np.int64)
 
 
 def category(value: int) -> int:

@@ -83,8 +83,6 @@ from comparisons.params import coding as pc
 from comparisons.params.bits import BitReader, BitWriter
 from comparisons.params.entropy import MAX_TOTAL
 from comparisons.params import arithmetic as kc
-from comparisons.params import libm
-from comparisons.params import ordered_products
 from comparisons.params import frames as pf
 from media.errors import SigncastError
 
@@ -291,7 +289,7 @@ def _prefer_tight_ranges(fields: np.ndarray, n_p_frames: int, q: int) -> bool:
 def _alphabet_bits(fields: np.ndarray, n_p_frames: int, q: int) -> float:
     """log2 of the alphabet sizes that range fields (4, P) announce: one intra frame and n_p_frames P frames."""
     i_low, i_high, p_low, p_high = pf.alphabets(fields, q, pc.RANGE_DELTA)
-    return float(libm.log2(i_high - i_low + 1).sum() + n_p_frames * libm.log2(p_high - p_low + 1).sum())
+    return float(np.log2(i_high - i_low + 1).sum() + n_p_frames * np.log2(p_high - p_low + 1).sum())
 
 
 @functools.lru_cache(maxsize=4096)
@@ -398,12 +396,12 @@ def _write_predictive_period(writer: BitWriter, tracks: list[_Track], start: int
 
 def _dct_levels(segment: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """pc.dct_levels, bitwise: its matrix product, then the rounding in one kernel."""
-    return pf.dct_quantise(ordered_products.matmul(pc.dct_matrix(len(segment)), segment), dc_step, ac_step)
+    return pf.dct_quantise(np.matmul(pc.dct_matrix(len(segment)), segment), dc_step, ac_step)
 
 
 def _dct_reconstruct(dc: np.ndarray, ac: np.ndarray, dc_step: np.ndarray, ac_step: np.ndarray) -> np.ndarray:
     """pc.dct_reconstruct, bitwise: its coefficients and rounding in kernels, its matrix product."""
-    return pf.round_to_int(ordered_products.matmul(pc.dct_matrix(len(ac) + 1).T, pf.dct_coefficients(dc, ac, dc_step, ac_step)))
+    return pf.round_to_int(np.matmul(pc.dct_matrix(len(ac) + 1).T, pf.dct_coefficients(dc, ac, dc_step, ac_step)))
 
 
 def dct_period(block: np.ndarray, held: np.ndarray, q: int, parameter_set: ParameterSet = BAPS):
