@@ -64,3 +64,17 @@ def test_each_draw_is_moved_back_onto_the_pictures_own_pixel_grid():
             assert seen.sum() > 10
             offset = (draw.points[name][..., :2] - plain.points[name][..., :2])[seen]
             assert np.abs(np.median(offset, axis=0)).max() < 0.3, (name, np.median(offset, axis=0))
+
+
+def test_moving_a_draw_back_leaves_world_landmarks_in_metres_alone():
+    """World components (metres about the hand or the body) do not move with the picture; image components do."""
+    from comparisons.judging.landmark_draws import unshift
+    from media.lexicon import SignClip
+    image = np.full((2, 21, 3), 10.0)
+    world = np.full((2, 21, 3), 0.05)
+    clip = SignClip(25.0, {"RIGHT_HAND_LANDMARKS": image.copy(), "RIGHT_HAND_WORLD_LANDMARKS": world.copy()},
+                    {"RIGHT_HAND_LANDMARKS": np.ones((2, 21)), "RIGHT_HAND_WORLD_LANDMARKS": np.ones((2, 21))})
+    unshift(clip, (0.5, 0.25))
+    assert np.allclose(clip.points["RIGHT_HAND_LANDMARKS"][..., 0], 9.5)
+    assert np.allclose(clip.points["RIGHT_HAND_LANDMARKS"][..., 1], 9.75)
+    assert np.array_equal(clip.points["RIGHT_HAND_WORLD_LANDMARKS"], world)

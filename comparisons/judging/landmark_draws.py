@@ -41,8 +41,11 @@ def shifted(frames: np.ndarray, shift: tuple[float, float]) -> np.ndarray:
 
 def unshift(observed: SignClip, shift: tuple[float, float]) -> SignClip:
     """observed (landmarks found on frames moved by shift, pixels) moved back by the shift onto the frames' own pixel
-    grid, in place (missing points, confidence 0, stay at 0); returns observed."""
+    grid, in place (missing points, confidence 0, stay at 0); returns observed. World components (metres, about
+    the body or the hand: names ending in WORLD_LANDMARKS) do not move with the picture and are left as they are."""
     for name, points in observed.points.items():
+        if name.endswith("WORLD_LANDMARKS"):
+            continue
         seen = observed.confidence[name] > 0
         points[..., 0] -= shift[0] * seen
         points[..., 1] -= shift[1] * seen
