@@ -20,6 +20,7 @@ import numpy as np
 
 from comparisons.judging.intelligibility import measure
 from comparisons.judging.landmark_draws import mean_fields
+from comparisons.judging.message import message_fields
 from comparisons.video import quality as image_quality
 from media.domain import LOSSLESS_RENDER, SKIN_PARTS, SOURCE_VIDEO, Solution
 from media.lexicon import HAND_COMPONENTS, SignClip
@@ -129,7 +130,8 @@ class Judge:
         """(reference name, intelligibility and letter fields, each the mean over the draws, with their spread) for
         each reference of the solution; draws: the landmarks of the measured frames, one SignClip per extraction."""
         letters = [self.letters(observed) for observed in draws]
-        return [(name, mean_fields([{**measure(reference, observed).fields(), **letter}
+        return [(name, mean_fields([{**measure(reference, observed).fields(), **message_fields(reference, observed),
+                                     **letter}
                                     for observed, letter in zip(draws, letters)]))
                 for name, reference in self.references(solution)]
 
@@ -160,6 +162,7 @@ class Judge:
         if s.kind == "video":
             subjects.append(("uncoded lossless render", SOURCE, source, [render]))
         return [{"kind": "uncoded", "subject": subject, "clip": s.name, "reference": name, "fps": s.fps,
-                 **mean_fields([{**measure(reference, observed).fields(), **self.letters(observed)}
+                 **mean_fields([{**measure(reference, observed).fields(), **message_fields(reference, observed),
+                                 **self.letters(observed)}
                                 for observed in draws])}
                 for subject, name, reference, draws in subjects]
