@@ -1,8 +1,8 @@
 """Numba-compiled arithmetic of media/rotations.slerp for the BBA decoder's key-frame expansion
-(comparisons/params/keyframes.py `expand`), with its transcendental functions left to the caller (comparisons/params/libm.py).
+(comparisons/params/keyframes.py `expand`), with its transcendental functions left to the caller (NumPy).
 
 slerp's steps, element for element: dot = q0 . q1 (NumPy's add.reduce over the last axis of 4: ((a0 + a1)
-+ a2) + a3), q1 negated where dot < 0, |dot| clipped to [-1, 1] (`prepare`); then libm's arccos and sin
++ a2) + a3), q1 negated where dot < 0, |dot| clipped to [-1, 1] (`prepare`); then NumPy's arccos and sin
 (the caller's); then the weights where(sin(alpha) < 1e-9, linear, sin(.) / sin(alpha)), w0 q0 + w1 q1 and its
 normalisation by sqrt of the same ordered sum of squares (`combine`). The same IEEE operations in the
 same order, so the results are bitwise slerp's (tests/test_bba_decode_speed.py). Imports nothing of signcast.
