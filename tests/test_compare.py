@@ -17,7 +17,7 @@ from pipeline.studies.shared import VideoSweep
 
 SMALL = CompareSettings(word="AB", video=VideoSweep(qs=(12, 31), frame_rates=(25.0, 10.0), other_codecs=()),
                         param_codecs=("fba-pred", "bba-key"), param_qs=(2, 31), size=(176, 144), max_clip_frames=48,
-                        extractions=2, refinements=1)
+                        extractions=2, refinements=1, landmark_step=3)
 SOLUTIONS = {"NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "FBA", "BBA"}
 AVATAR = {"SSV", "FBA", "BBA"}
 
