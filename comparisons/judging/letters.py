@@ -122,7 +122,7 @@ class Recogniser:
         # the same file may stand for letters of two languages (the lexicon's fsl clips are its ase clips):
         # a clip is left out by its file, and used once
         used = {lexicon.lookup(language, letter).path for language, letter in exclude}
-        features, keys, frames = [], [], []
+        features, keys, frames, sources = [], [], [], set()
         for language in languages:
             language = lexicon.check_language(language)
             hand = signing_hand(language)
@@ -131,6 +131,7 @@ class Recogniser:
                 if (wanted is not None and key not in wanted) or entry.path in used:
                     continue
                 used.add(entry.path)
+                sources.add(entry.path)
                 start, stop, points, seen = _held_hand(entry, hand)
                 if half is not None:
                     middle = start + (stop - start) // 2
@@ -143,7 +144,23 @@ class Recogniser:
                 frames += seen.tolist()
         if not features:
             raise SigncastError("no letter templates: no held frame shows the signing hand in the chosen clips")
-        return cls(np.concatenate(features), keys, frames, orientation)
+        recogniser = cls(np.concatenate(features), keys, frames, orientation)
+        recogniser._sources = frozenset(sources)
+        return recogniser
+
+    @classmethod
+    def other_signers(cls, language: str, orientation: str = "image") -> "Recogniser":
+        """Templates from other signers only: every other language's clips, leaving out by file every clip of
+        `language` (the lexicon has one signer per language, and its fsl clips are the ase files: a language's files
+        are its signer's, and the recordings the avatar replays for it are among them)."""
+        language = lexicon.check_language(language)
+        own = {(language, entry.unit) for entry in lexicon.entries(language)}
+        others = [other for other in lexicon.languages() if other != language]
+        return cls.from_lexicon(others, exclude=own, orientation=orientation)
+
+    def sources(self) -> set:
+        """The lexicon files the templates were taken from (set by from_lexicon)."""
+        return set(getattr(self, "_sources", ()))
 
     @classmethod
     def joined(cls, recognisers: list["Recogniser"]) -> "Recogniser":

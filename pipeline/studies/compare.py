@@ -60,6 +60,7 @@ CLEAR_VERDICT_SE.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -69,18 +70,22 @@ import numpy as np
 from tqdm import tqdm
 
 from comparisons.judging import matching, metrics
-from comparisons.judging import operating
+from comparisons.judging import operating, schedule
 from comparisons.judging.judge import LOSSLESS, SOURCE, UNCODED_SUBJECTS, Judge, Viewed, hand_share, hold_indices, select_frames
 from comparisons.judging.landmark_draws import MAX_EXTRACTIONS, SHIFTS
-from comparisons.judging.operating import (CLEAR_VERDICT_SE, FACE_MARGIN, LETTER_MARGIN, MIN_HAND_SHARE, PCK_MARGIN,
-                                           Series, criteria_for, q_to_refine)
+from comparisons.judging.operating import (ANCHOR_CODEC, ANCHOR_FPS, ANCHOR_KBPS, ANCHOR_SIZE, ANCHOR_SUBJECT,
+                                           CEILING_TIED, CLEAR_VERDICT_SE, FACE_MARGIN, HUMAN_ANCHORED, LETTER_MARGIN,
+                                           LOCATION_MARGIN, MIN_HAND_SHARE, PCK_MARGIN, SENSITIVITY_MARGINS, Series,
+                                           anchored_criteria, criteria_for, q_to_refine)
+from comparisons.video import codecs as video_codecs
+from comparisons.video.anchor import code_at_rate
 from comparisons.params import codecs as param_codecs
 from comparisons.params.study import face_joint_fields
 from comparisons.reports.comparison import operating_points, verdict_note
 from comparisons.reports.records import make_record, versions
 from pipeline.outputs import build_report, write_bytes, write_dicts, write_records
 from comparisons.video import objects as video_objects
-from media.domain import SKIN_PARTS, Solution, check_q, solution_of
+from media.domain import SKIN_PARTS, Solution, check_q, kbps, solution_of
 from media.errors import SigncastError
 from media.face_rig import with_face_bones
 from media.lexicon import SignClip
@@ -96,6 +101,11 @@ __all__ = ["CompareSettings", "run", "check", "LOSSLESS", "SOURCE", "UNCODED_SUB
            "FACE_MARGIN", "MIN_HAND_SHARE", "CLEAR_VERDICT_SE", "criteria_for", "q_to_refine", "DISPLAY_FPS"]
 
 MAX_REFINEMENTS = 5           # halving a Q 1-31 bracket five times leaves adjacent Q
+# today's codecs beside MPEG-4 Part 2, each swept on its own quantiser scale (constant QP: H.264 0-51, SVT-AV1 1-63),
+# for the solutions that code one picture or a few objects (NSV3O's and NSV3O+C's object sets stay MPEG-4 Part 2)
+OTHER_QS = (("libx264", (24, 30, 36, 42, 48)), ("libsvtav1", (28, 38, 48, 58)))
+DEMO_OTHER_QS = (("libx264", (28, 36, 44)), ("libsvtav1", (34, 46, 58)))
+OTHER_SOLUTIONS = ("NSV", "NSV2O", "SSV")
 ARM_BONES = ("upperarm01", "upperarm02", "lowerarm01", "lowerarm02", "wrist")   # shoulder to wrist
 HAND_BONE_PREFIXES = ("metacarpal", "finger")
 SIZE_RULE = ("the avatar is rendered at the natural frame's size; the renderer frames the signing space for "
@@ -120,7 +130,7 @@ class CompareSettings:
     word: str = "HELLO"
     clip: str | None = None
     pose: str | None = None
-    video: shared.VideoSweep = shared.VideoSweep(other_codecs=())
+    video: shared.VideoSweep = shared.VideoSweep(other_codecs=("libx264", "libsvtav1"))
     param_codecs: tuple[str, ...] = ("fba-pred", "fba-dct", "bba-pred", "bba-dct", "bba-key")
     param_qs: tuple[int, ...] = (1, 2, 4, 8, 16, 31)
     size: tuple[int, int] = (352, 288)
@@ -130,6 +140,14 @@ class CompareSettings:
     landmark_step: int = 1
     extractions: int = 4
     refinements: int = 2
+    other_qs: tuple[tuple[str, tuple[int, ...]], ...] = OTHER_QS     # (codec, QP swept) of video.other_codecs
+    other_solutions: tuple[str, ...] = OTHER_SOLUTIONS                # the solutions coded with them
+    anchor: bool = True           # measure the human anchor (Tran et al.'s point) and match on it
+    workers: int | None = None    # processes the points run on (None: every CPU; 1: in this process, in order)
+
+    def codec_qs(self, codec: str) -> tuple[int, ...]:
+        """The quantisers swept for a video codec (MPEG-4 Part 2: video.qs)."""
+        return self.video.qs if codec == "mpeg4" else dict(self.other_qs).get(codec, ())
 
     @property
     def signing(self) -> ScenarioSettings:
@@ -149,9 +167,10 @@ class CompareSettings:
         frame rates 25 and 12.5; one FBA and one BBA codec at parameter Q 1, 4, 31; 352x288 render (at 176x144
         the hands are about 15 pixels and the landmarks' own noise exceeds the threshold); intelligibility measured
         on every 3rd frame, four extractions each (landmark extraction, 30-70 ms a frame, is most of the work)."""
-        return cls(video=shared.VideoSweep(qs=(4, 12, 31), frame_rates=(25.0, 12.5), other_codecs=()),
+        return cls(video=shared.VideoSweep(qs=(4, 12, 31), frame_rates=(25.0, 12.5),
+                                           other_codecs=("libx264", "libsvtav1")),
                    param_codecs=("fba-pred", "bba-key"), param_qs=(1, 4, 31), size=(352, 288), landmark_step=3,
-                   extractions=4, refinements=1)
+                   extractions=4, refinements=1, other_qs=DEMO_OTHER_QS, other_solutions=("NSV",))
 
 
 @dataclass
@@ -185,9 +204,35 @@ def check(settings: CompareSettings, command: str = "compare") -> None:
     n_frames, width, height = shared.expected_frames(settings.signing)
     check_memory(n_frames, width, height, bytes_per_pixel(settings), command,
                  "choose a smaller --size or --max-size, or fewer frames")
+    check_frame_rates(settings)
     if len(range(0, n_frames, settings.landmark_step)) < 2:
         raise SigncastError(f"--landmark-step {settings.landmark_step} measures fewer than 2 of the {n_frames} frames: "
                             "choose a smaller step")
+
+
+def check_frame_rates(settings: CompareSettings) -> None:
+    """Every frame rate the run will code, signalled before any work: the clip's own (the video scenario; 29.97 is
+    30000/1001), the swept rates below it, and the human anchor's, by the parameter streams (frame_rate_fields) and
+    the video encoders (a rational time base): one-line SigncastError for a rate that cannot be sent."""
+    from comparisons.params.coding import frame_rate_fields
+    if settings.scenario == "video":
+        clip_fps = shared.video_info(shared.resolve_video(settings.clip)).fps
+    elif settings.scenario == "pose":
+        clip_fps = shared.read_pose(settings.pose).fps
+    else:
+        clip_fps = DISPLAY_FPS
+    rates = [clip_fps] + [f for f in settings.video.frame_rates if f < clip_fps * (1 - 1e-3)]
+    rates += [ANCHOR_FPS] if settings.anchor and ANCHOR_FPS < clip_fps * (1 - 1e-3) else []
+    for fps in rates:
+        try:
+            frame_rate_fields(fps)
+        except SigncastError as error:
+            raise SigncastError(f"frame rate {fps:.6g} fps cannot be sent by the parameter streams ({error}); "
+                                "re-time the clip (e.g. to 25 or 30 fps) or choose other --frame-rates") from None
+        from fractions import Fraction
+        if abs(float(Fraction(fps).limit_denominator(1001)) - fps) > 1e-3 * fps:
+            raise SigncastError(f"frame rate {fps:.6g} fps has no time base of denominator <= 1001 for the video "
+                                "encoders; re-time the clip")
 
 
 def bytes_per_pixel(settings: CompareSettings) -> int:
@@ -209,9 +254,14 @@ def check_settings(settings: CompareSettings) -> None:
             raise SigncastError(f"bad frame rate {fps:g}: choose positive rates")
     for name in settings.param_codecs:
         param_codecs.get_codec(name)
-    if sweep.other_codecs:
-        raise SigncastError(f"compare codes video with MPEG-4 Part 2 only for now: --video-codecs "
-                            f"{','.join(sweep.other_codecs)} is not measured; give --video-codecs none")
+    for codec in sweep.other_codecs:
+        if codec not in video_codecs.CODECS or codec == "mpeg4":
+            raise SigncastError(f"unknown video codec {codec!r}: choose from libx264, libsvtav1 (MPEG-4 Part 2 is "
+                                "always coded)")
+        low, high = video_codecs.CODECS[codec][1]
+        qs = settings.codec_qs(codec)
+        if not qs or any(not max(low, 1) <= q <= high for q in qs):
+            raise SigncastError(f"{codec}: give quantisers {max(low, 1)}..{high} to sweep, got {qs}")
     if not 1 <= settings.extractions <= MAX_EXTRACTIONS:
         raise SigncastError(f"bad extraction count {settings.extractions}: choose 1 to {MAX_EXTRACTIONS}")
     shared.check_landmark_step(settings.landmark_step)
@@ -234,20 +284,21 @@ class VideoPoints:
         s = self.scenario
         return (s.render, s.render_labels, "render") if solution == "SSV" else (s.frames, s.labels, "reference")
 
-    def code(self, solution: str, q: int, fps: float) -> tuple[Viewed, np.ndarray, np.ndarray]:
-        """(what the viewer sees, the sent frames (K, H, W, 3), hold (T,) indices of the sent frame on screen)."""
+    def code(self, solution: str, q: int, fps: float, codec: str = "mpeg4") -> tuple[Viewed, np.ndarray, np.ndarray]:
+        """(what the viewer sees, the sent frames (K, H, W, 3), hold (T,) indices of the sent frame on screen);
+        codec: mpeg4, libx264 or libsvtav1 (each object coded with it at quantiser q)."""
         s = self.scenario
         frames, labels, key = self.source(solution)
         full = fps >= s.fps * (1 - 1e-3)
         kept = np.arange(s.n_frames) if full else frame_indices_at_rate(s.timing.times_s, s.timing.duration_s, fps)
         rate = s.fps if full else fps
-        coded = video_objects.code_solution(solution, frames[kept], labels[kept], rate, "mpeg4", q, self.shapes,
+        coded = video_objects.code_solution(solution, frames[kept], labels[kept], rate, codec, q, self.shapes,
                                             f"{key}@{rate:g}")
         hold = np.arange(s.n_frames) if full else hold_indices(s.timing.times_s, fps, len(kept))
         skin_objects = [o.decoded_masks for o in coded.objects if o.name in ("head", "left_hand", "right_hand")]
         skin = np.logical_or.reduce(skin_objects)[hold] if skin_objects else None
         height, width = frames.shape[1:3]
-        fields = make_record(solution, s.name, "mpeg4", q, rate, width, height, coded.bits, s.timing.duration_s,
+        fields = make_record(solution, s.name, codec, q, rate, width, height, coded.bits, s.timing.duration_s,
                              sweep="q" if full else "fps", full_resolution=True, frames=len(kept),
                              texture_bits=coded.bits - coded.shape_bits, shape_bits=coded.shape_bits,
                              objects=[{"name": o.name, "q": o.q, "texture_bytes": o.texture_bytes,
@@ -301,6 +352,115 @@ class ParamPoints:
 
 
 # ------------------------------------------------------------------------------------------------------------
+# the jobs a run is made of, and the process that measures them (issue 36)
+
+FIRST_EXTRACTIONS = 2         # every subject starts with this many extractions; more only where the answer is unclear
+
+
+@dataclass(frozen=True)
+class PointJob:
+    """One point to code, view and extract under the shifts (indices into SHIFTS); quality: also measure image
+    quality (not when extractions are added to a point already measured); stage: what the round is doing."""
+    solution: str
+    codec: str
+    q: int
+    fps: float
+    shifts: tuple[int, ...]
+    stage: str = "Q sweep"
+    quality: bool = True
+    refined: bool = False
+
+
+@dataclass(frozen=True)
+class CeilingJob:
+    """One extraction of an uncoded reference ("source" or "render") under SHIFTS[shift]."""
+    subject: str
+    shift: int
+    stage: str = "ceilings"
+
+
+@dataclass
+class MeasuredPoint:
+    """A point's fields (what was coded and its image quality), its per-extraction intelligibility fields by
+    reference and shift, extra record fields, and the records made from them (`records`)."""
+    base: dict
+    draws: dict[str, dict[int, dict]]
+    extra: dict
+    held: list[dict]
+
+    def records(self) -> list[dict]:
+        from comparisons.judging.landmark_draws import mean_fields
+        return [dict(self.base, reference=name, **mean_fields([by_shift[k] for k in sorted(by_shift)]), **self.extra)
+                for name, by_shift in self.draws.items()]
+
+
+@dataclass
+class SeriesPlan:
+    """Where a series' measurement stands: its extractions per point, its phase ("sweep", "refine", "extract",
+    "fps", "done") and the refinements made."""
+    extractions: int
+    phase: str = "sweep"
+    refined: int = 0
+
+
+class Measurer:
+    """Codes points, extracts the landmarks of what the viewer sees and measures them (in a pool worker, or here
+    with one worker): what one job needs, and nothing of the run's state."""
+
+    def __init__(self, settings: CompareSettings, scenario: Scenario, recogniser, progress: bool = False):
+        self.settings, self.scenario, self.progress = settings, scenario, progress
+        self.judge = Judge(scenario, settings.landmark_step, recogniser)
+        self.video = VideoPoints(scenario)
+        self.params = ParamPoints(scenario, renderers(settings.backend)(*scenario.size))
+        self.cache = shared.ExtractionCache()
+
+    def extract(self, frames: np.ndarray, fps: float, shifts: tuple[int, ...], label: str) -> list[SignClip]:
+        return shared.extract_draws(frames, fps, len(shifts), label, self.progress, shifts=shifts, cache=self.cache)
+
+    def ceiling(self, job: CeilingJob) -> dict:
+        s, measured = self.scenario, self.judge.measured
+        frames = s.frames if job.subject == "source" else s.render
+        observed = self.extract(frames[measured], s.fps, (job.shift,), f"re-extract the {job.subject}")[0]
+        return {"observed": observed}
+
+    def point(self, job: PointJob) -> dict:
+        s, measured = self.scenario, self.judge.measured
+        parameters = Solution(job.solution).mpeg4_parameters
+        label = f"landmarks: {job.codec if parameters else f'{job.solution} {job.codec}'} Q{job.q} {job.fps:g} fps"
+        if parameters:
+            viewed, _ = self.params.code(job.codec, job.q, job.fps)
+            draws = self.extract(viewed.frames[measured], s.fps, job.shifts, label)
+        else:
+            viewed, sent, hold = self.video.code(job.solution, job.q, job.fps, job.codec)
+            # the distinct sent frames on screen at the measured frames, extracted once each
+            distinct, on_screen = np.unique(hold[measured], return_inverse=True)
+            draws = [select_frames(observed, on_screen, s.fps)
+                     for observed in self.extract(sent[distinct], min(job.fps, s.fps), job.shifts, label)]
+        base = dict(viewed.fields, **self.judge.quality(job.solution, viewed)) if job.quality else None
+        return {"base": base, "draws": dict(self.judge.intelligibility_draws(job.solution, draws)),
+                "observed": draws[job.shifts.index(0)] if 0 in job.shifts else None}
+
+    def run(self, job) -> dict:
+        seconds, frames = shared.EXTRACTION["seconds"], shared.EXTRACTION["frames"]
+        result = self.ceiling(job) if isinstance(job, CeilingJob) else self.point(job)
+        result.update(extraction_s=shared.EXTRACTION["seconds"] - seconds,
+                      extracted_frames=shared.EXTRACTION["frames"] - frames)
+        return result
+
+
+_MEASURER: Measurer | None = None
+
+
+def _start_measurer(settings: CompareSettings, scenario: Scenario, recogniser, progress: bool = False) -> None:
+    global _MEASURER
+    _MEASURER = Measurer(settings, scenario, recogniser, progress)
+
+
+def _run_job(job) -> dict:
+    return _MEASURER.run(job)
+
+
+# ------------------------------------------------------------------------------------------------------------
 # the run
 
 class Study:
@@ -309,7 +469,7 @@ class Study:
     for the side by side."""
 
     def __init__(self, settings: CompareSettings, scenario: Scenario, renderer: AvatarRenderer,
-                 records_path: Path, progress: bool):
+                 records_path: Path, progress: bool, notify: Callable[[str], object] | None = None):
         self.settings, self.scenario, self.progress = settings, scenario, progress
         self.judge = Judge(scenario, settings.landmark_step, shared.letter_recogniser(scenario))
         self.video = VideoPoints(scenario)
@@ -317,99 +477,307 @@ class Study:
         self.records_path = records_path
         self.records: list[dict] = []
         self.observed: dict[tuple, SignClip] = {}
+        self.points: dict[tuple, MeasuredPoint] = {}     # (solution, codec, q, fps) -> its draws and records
+        self.pool: shared.StudyPool | None = None
+        self.notify = notify
+        self.extraction_s, self.extracted_frames = 0.0, 0   # landmark extraction in the pool's jobs
+        self.round_s: list[tuple[str, float, int]] = []     # (round, wall seconds, frames extracted)
 
     def series(self) -> list[Series]:
-        return ([Series(s, "mpeg4") for s in (*Solution.natural_family(), Solution.SSV)]
-                + [Series(solution_of(c), c) for c in self.settings.param_codecs])
+        """Every solution and codec swept. In the video scenario each is matched on the person's message against the
+        source video (Series.message)."""
+        message = self.scenario.kind == "video"
+        return ([Series(s, "mpeg4", message) for s in (*Solution.natural_family(), Solution.SSV)]
+                + [Series(s, c, message) for c in self.settings.video.other_codecs
+                   for s in self.settings.other_solutions]
+                + [Series(solution_of(c), c, message) for c in self.settings.param_codecs])
+
+    def qs(self, series: Series) -> tuple[int, ...]:
+        """The quantisers swept for a series: parameter Q, MPEG-4 Part 2 Q, or the codec's own QP."""
+        if Solution(series.solution).mpeg4_parameters:
+            return self.settings.param_qs
+        return self.settings.codec_qs(series.codec)
+
+    def q_range(self, series: Series) -> tuple[int, int]:
+        """(finest, coarsest) quantiser of the series' scale, for the refinement."""
+        if Solution(series.solution).mpeg4_parameters or series.codec == "mpeg4":
+            return operating.MIN_Q, operating.MAX_Q
+        low, high = video_codecs.CODECS[series.codec][1]
+        return max(low, 1), high
 
     def lower_rates(self) -> list[float]:
         return sorted({f for f in self.settings.video.frame_rates if f < self.scenario.fps * (1 - 1e-3)}, reverse=True)
 
     def draws(self, frames: np.ndarray, fps: float, label: str) -> list[SignClip]:
         """The landmarks of frames (M, H, W, 3) uint8 shown at fps, extracted `extractions` times, each under its
-        sub-pixel shift (pipeline.studies.shared.extract_draws)."""
+        sub-pixel shift (pipeline.studies.shared.extract_draws), here in this process."""
         return shared.extract_draws(frames, fps, self.settings.extractions, label, self.progress)
 
-    def uncoded(self) -> list[dict]:
-        """The ceilings: each reference's measured frames re-extracted and judged (Judge.uncoded)."""
-        s, measured = self.scenario, self.judge.measured
-        source = self.draws(s.frames[measured], s.fps, "re-extract the reference")
-        render = source if s.render is s.frames else self.draws(s.render[measured], s.fps,
-                                                                 "re-extract the lossless render")
-        return self.judge.uncoded(source, render)
+    # -------------------------------------------------------------------------------------------------------
+    # the execution: independent jobs in rounds on the pool (issue 36)
 
-    def measure(self, series: Series, q: int, fps: float, bar, **extra) -> list[dict]:
-        """Code one point, extract the landmarks of what the viewer sees, measure it; its records (with the extra
-        fields)."""
-        s = self.scenario
-        parameters = Solution(series.solution).mpeg4_parameters
-        label = f"landmarks: {series.codec if parameters else series.solution} Q{q} {fps:g} fps"
-        measured = self.judge.measured
-        if parameters:
-            viewed, _ = self.params.code(series.codec, q, fps)
-            draws = self.draws(viewed.frames[measured], s.fps, label)
-        else:
-            viewed, sent, hold = self.video.code(series.solution, q, fps)
-            # the distinct sent frames on screen at the measured frames, extracted once each
-            distinct, on_screen = np.unique(hold[measured], return_inverse=True)
-            draws = [select_frames(observed, on_screen, s.fps)
-                     for observed in self.draws(sent[distinct], min(fps, s.fps), label)]
-        records = [dict(record, **extra) for record in self.judge.records(series.solution, viewed, draws)]
-        self.observed[(series.solution, series.codec, q, records[0]["fps"])] = draws[0]
-        self.add(records)
-        bar.update(1)
-        return records
+    def start_pool(self) -> shared.StudyPool:
+        """The pool the points and ceilings run on (settings.workers processes, each with its own Measurer)."""
+        workers = self.settings.workers or shared.default_workers()
+        self.pool = shared.StudyPool(workers, _start_measurer,
+                                     (self.settings, self.scenario, self.judge.recogniser, workers == 1 and self.progress),
+                                     preload=("pipeline.studies.compare",))
+        return self.pool
+
+    def run_jobs(self, jobs: list, desc: str) -> list:
+        """Run jobs (PointJob or CeilingJob) on the pool, with one progress bar whose total is the round's jobs."""
+        started = time.perf_counter()
+        with tqdm(total=len(jobs), desc=desc, unit="job", disable=not self.progress) as bar:
+            results = self.pool.run(_run_job, jobs, lambda i, result: bar.update(1))
+        for result in results:
+            self.extraction_s += result["extraction_s"]
+            self.extracted_frames += result["extracted_frames"]
+        self.round_s.append((desc, time.perf_counter() - started, sum(r["extracted_frames"] for r in results)))
+        return results
+
+    def uncoded(self) -> list[dict]:
+        """The ceilings: each reference's measured frames re-extracted under every shift (settings.extractions, one
+        job each, on the pool) and judged (Judge.uncoded)."""
+        s, count = self.scenario, self.settings.extractions
+        subjects = ("source",) if s.render is s.frames else ("source", "render")
+        jobs = [CeilingJob(subject, k) for subject in subjects for k in range(count)]
+        results = self.run_jobs(jobs, f"ceilings: {len(subjects)} x {count} extractions")
+        draws = {subject: [r["observed"] for job, r in zip(jobs, results) if job.subject == subject]
+                 for subject in subjects}
+        return self.judge.uncoded(draws["source"], draws.get("render", draws["source"]))
 
     def add(self, records: list[dict]) -> None:
         write_records(self.records_path, records, append=True)
         self.records += records
 
-    def sweep_q(self) -> None:
-        qs = {False: self.settings.video.qs, True: self.settings.param_qs}
-        jobs = [(series, q) for series in self.series() for q in qs[Solution(series.solution).mpeg4_parameters]]
-        with tqdm(total=len(jobs), desc="points (Q sweep)", unit="point", disable=not self.progress) as bar:
-            for series, q in jobs:
-                self.measure(series, q, self.scenario.fps, bar)
+    def store(self, job: "PointJob", result: dict, extra: dict) -> None:
+        """A point's results: its records made (first extractions) or remade with the draws added (later ones), in
+        place, appended to records.jsonl again."""
+        key = (job.solution, job.codec, job.q, job.fps)
+        point = self.points.get(key)
+        if point is None:
+            point = self.points[key] = MeasuredPoint(result["base"], {}, dict(extra), [])
+        for name, fields in result["draws"].items():
+            point.draws.setdefault(name, {}).update(zip(job.shifts, fields))
+        records = point.records()
+        if not point.held:
+            point.held = records
+            self.records += records
+        else:
+            for held, record in zip(point.held, records):
+                held.clear()
+                held.update(record)
+        write_records(self.records_path, point.held, append=True)
+        if result["observed"] is not None:
+            self.observed[(job.solution, job.codec, job.q, point.held[0]["fps"])] = result["observed"]
+
+    def threshold(self, series: Series) -> tuple[dict, Callable, list[matching.Criterion]]:
+        """(the threshold's record, criteria_of(record), its criteria) a series is matched on (`primary`)."""
+        _, record, criteria_of = self.primary(series.reference)
+        return record, criteria_of, criteria_of(record)
+
+    def next_jobs(self, series: Series, plan: "SeriesPlan") -> list["PointJob"]:
+        """The series' jobs for the next round (none where it is done): the next swept Q (coarse to fine, stopping
+        once the fit has crossed the threshold between neighbours), then the refinements, then more extractions
+        for all its Q points where the per-extraction matches disagree, then the frame rates from the highest down
+        (comparisons.judging.schedule)."""
+        s = self.scenario
+        points = series.points(self.records)
+        record, criteria_of, criteria = self.threshold(series)
+        full = (series.solution, series.codec)
+        shifts = tuple(range(plan.extractions))
+        if plan.phase == "sweep":
+            q = schedule.next_swept_q(self.qs(series), points, criteria)
+            if q is not None:
+                return [PointJob(*full, q, s.fps, shifts, "Q sweep")]
+            plan.phase = "refine"
+        if plan.phase == "refine":
+            if plan.refined < self.settings.refinements:
+                found = matching.cheapest_rate(points, criteria, monotone=True)
+                q = q_to_refine(found, {int(r["q"]) for r in points}, self.q_range(series))
+                if q is not None:
+                    plan.refined += 1
+                    return [PointJob(*full, q, s.fps, shifts, "refinement", refined=True)]
+            plan.phase = "extract"
+        if plan.phase == "extract":
+            most = self.settings.extractions
+            if plan.extractions < most:
+                matches = schedule.per_extraction_matches(points, record, criteria_of, plan.extractions)
+                if not schedule.extractions_agree(matches):
+                    added = tuple(range(plan.extractions, most))
+                    plan.extractions = most
+                    plan.phase = "sweep"         # the fit may move: the search and refinement go on from there
+                    return [PointJob(*full, int(p["q"]), s.fps, added, "more extractions", quality=False,
+                                     refined=bool(p.get("refined"))) for p in points]
+            plan.phase = "fps"
+        if plan.phase == "fps":
+            found = matching.cheapest_rate(points, criteria, monotone=True)
+            q = int(found.upper["q"])
+            at_q = [r for r in series.points(self.records, "fps") if r["q"] == q] + [found.upper]
+            rate = schedule.next_frame_rate(self.lower_rates(), at_q, criteria)
+            if rate is not None:
+                return [PointJob(*full, q, rate, shifts, "frame rates")]
+            plan.phase = "done"
+        return []
+
+    def measure_all(self) -> None:
+        """Every series measured in rounds: each round, every series not done gives its next jobs
+        (`next_jobs`), and the round's jobs run at once on the pool."""
+        plans = {series: SeriesPlan(min(FIRST_EXTRACTIONS, self.settings.extractions)) for series in self.series()}
+        self.announce_cost(plans)
+        n = 0
+        while True:
+            jobs, extras = [], []
+            for series, plan in plans.items():
+                for job in self.next_jobs(series, plan):
+                    jobs.append(job)
+            if not jobs:
+                break
+            n += 1
+            stages = dict.fromkeys(job.stage for job in jobs)
+            counts = ", ".join(f"{sum(job.stage == stage for job in jobs)} {stage}" for stage in stages)
+            results = self.run_jobs(jobs, f"round {n}: {counts}")
+            for job, result in zip(jobs, results):
+                self.store(job, result, {"refined": True} if job.refined else {})
+            if n == 1:
+                self.announce_estimate(plans)
 
     def match(self) -> list[dict]:
-        """The matched record of every series (after refining its Q bracket), with its frame-rate sweep at the upper
-        bracket's Q."""
+        """The matched record of every series measured (`measure_all`), with the lowest frame rate holding at its
+        upper bracket's Q."""
         matched = []
-        rates = self.lower_rates()
-        with tqdm(total=len(self.series()) * len(rates), desc="points (refined Q, frame rates)", unit="point",
-                  disable=not self.progress) as bar:
-            for series in self.series():
-                criteria = self.criteria(series.reference)
-                found = self.refine(series, criteria, bar)
-                operating.mark_operating(series.points(self.records), found.kbps, criteria)
-                q = found.upper["q"]
-                for fps in rates:
-                    self.measure(series, q, fps, bar)
-                at_q = [r for r in series.points(self.records, "fps") if r["q"] == q] + [found.upper]
-                matched.append(self.matched_record(series, found, criteria,
-                                                   matching.lowest_fps_holding(at_q, criteria, monotone=True)))
+        for series in self.series():
+            _, _, criteria = self.threshold(series)
+            found = matching.cheapest_rate(series.points(self.records), criteria, monotone=True)
+            operating.mark_operating(series.points(self.records), found.kbps, criteria)
+            q = found.upper["q"]
+            at_q = [r for r in series.points(self.records, "fps") if r["q"] == q] + [found.upper]
+            matched.append(self.matched_record(series, found, criteria,
+                                               matching.lowest_fps_holding(at_q, criteria, monotone=True)))
         self.add(matched)
         return matched
 
-    def refine(self, series: Series, criteria: list[matching.Criterion], bar) -> matching.Match:
-        """The series' match, after measuring up to `refinements` more Q at the scenario's rate, each where the match
-        found so far asks (`q_to_refine`: inside its bracket, or beyond the swept Q); those records carry
-        refined=True."""
-        found = matching.cheapest_rate(series.points(self.records), criteria, monotone=True)
-        for _ in range(self.settings.refinements):
-            q = q_to_refine(found, {r["q"] for r in series.points(self.records)})
-            if q is None:
-                break
-            bar.total += 1
-            self.measure(series, q, self.scenario.fps, bar, refined=True)
-            found = matching.cheapest_rate(series.points(self.records), criteria, monotone=True)
-        return found
+    def cost_bound(self, plans: dict) -> tuple[int, int]:
+        """(points, frame extractions) at most: per series the search over its swept Q (a binary search), its
+        refinements and the frame rates, at the first extractions, plus the added extractions where every series
+        needs them."""
+        frames = len(self.judge.measured)
+        points = extractions = 0
+        for series, plan in plans.items():
+            search = int(np.ceil(np.log2(len(self.qs(series)) + 1)))
+            n = search + self.settings.refinements + len(self.lower_rates())
+            points += n
+            extractions += frames * (n * plan.extractions
+                                     + (search + self.settings.refinements)
+                                     * (self.settings.extractions - plan.extractions))
+        return points, extractions
+
+    def note(self, line: str) -> None:
+        if self.notify is not None:
+            self.notify(line)
+        elif self.progress:
+            tqdm.write(line)
+
+    def announce_cost(self, plans: dict) -> None:
+        points, extractions = self.cost_bound(plans)
+        first = min(FIRST_EXTRACTIONS, self.settings.extractions)
+        self.note(f"at most {points} points x {len(self.judge.measured)} frames x {first}"
+                  f"{f'-{self.settings.extractions}' if self.settings.extractions > first else ''} extractions "
+                  f"(at most {extractions} frame extractions) on {self.pool.workers} process"
+                  f"{'es' if self.pool.workers > 1 else ''}")
+
+    def announce_estimate(self, plans: dict) -> None:
+        """The minutes the rest will take at most, from the first round's seconds per frame extracted."""
+        _, seconds, frames = self.round_s[-1]
+        if frames:
+            _, bound = self.cost_bound(plans)
+            self.note(f"first round: {frames} frame extractions in {seconds:.0f} s; the rest takes at most about "
+                      f"{max(bound - frames, 0) * seconds / frames / 60:.1f} min")
 
     def matched_record(self, series: Series, found: matching.Match, criteria, fps_holds) -> dict:
-        """The series at its matched rate (comparisons.judging.operating.matched_record)."""
-        return operating.matched_record(series, found, criteria, clip=self.scenario.name, fps_holds=fps_holds,
-                                        kbps_se=self.rate_spread(series, found),
-                                        margin=self.verdict_margin(series, criteria))
+        """The series at its matched rate (comparisons.judging.operating.matched_record) under the primary threshold
+        (`primary`), each extraction matched on its own (kbps: the median of the K rates, kbps_min/kbps_max their
+        range, verdict_clear when all K agree; pooled_kbps the match of the means), the margin at the matched point,
+        the face's own verdict and, for an avatar matched on the person's message, its codec loss against the
+        lossless render."""
+        name, threshold_record, criteria_of = self.primary(series.reference)
+        points = series.points(self.records)
+        record = operating.matched_record(series, found, criteria, clip=self.scenario.name, fps_holds=fps_holds,
+                                          kbps_se=None, margin=None)
+        record.update(pooled_kbps=found.kbps, pooled_reached=found.reached, threshold_name=name,
+                      margin_at_match=operating.margin_at(found, points, criteria),
+                      **operating.extraction_summary(operating.extraction_matches(
+                          points, threshold_record, criteria_of, self.settings.extractions)))
+        face = operating.face_criterion(threshold_record, margin=0.0 if name == HUMAN_ANCHORED else FACE_MARGIN)
+        if face is not None:
+            value = matching.fields_at(found, (face.field,)).get(face.field)
+            record.update(face_threshold=face.threshold, face_value=value,
+                          face_ok=None if value is None else face.met({face.field: value}))
+        if series.message and series.avatar:
+            loss = series.codec_loss()
+            loss_criteria = criteria_for(self.ceiling(LOSSLESS), hand_share(self.scenario.render_landmarks),
+                                         len(self.judge.spans or ()))
+            lost = matching.cheapest_rate(loss.points(self.records), loss_criteria, monotone=True)
+            record["codec_loss"] = {"kbps": lost.kbps, "reached": lost.reached, "q": lost.upper["q"],
+                                    "threshold": matching.threshold_text(loss_criteria),
+                                    "hand_pck_20": (lost.fitted or {}).get("hand_pck_20")}
+        return record
+
+    def anchor(self) -> list[dict]:
+        """The human anchor ("anchor" record): the reference coded at Tran et al.'s point (H.264, the frames scaled to
+        fit 320x240, 10 fps, 60 kbit/s; comparisons.video.anchor), shown at the reference's size and held at its
+        frame times, read by the same extractor under the same shifts as every point, against the source video."""
+        s = self.scenario
+        fps = min(ANCHOR_FPS, s.fps)
+        full = fps >= s.fps * (1 - 1e-3)
+        kept = np.arange(s.n_frames) if full else frame_indices_at_rate(s.timing.times_s, s.timing.duration_s, fps)
+        coded = code_at_rate(s.frames, kept, fps, ANCHOR_KBPS, ANCHOR_SIZE, ANCHOR_CODEC)
+        hold = np.arange(s.n_frames) if full else hold_indices(s.timing.times_s, fps, len(kept))
+        distinct, on_screen = np.unique(hold[self.judge.measured], return_inverse=True)
+        draws = [select_frames(observed, on_screen, s.fps)
+                 for observed in self.draws(coded.decoded[distinct], fps, "landmarks: human anchor (Tran's point)")]
+        fields = {"kind": "anchor", "subject": ANCHOR_SUBJECT, "solution": "NSV", "codec": ANCHOR_CODEC,
+                  "clip": s.name, "fps": fps, "frames": len(kept), "kbps": kbps(coded.bits, s.timing.duration_s),
+                  "target_kbps": ANCHOR_KBPS, "width": coded.size[0], "height": coded.size[1],
+                  "study": "Tran et al., ASSETS 2013; TACCESS 2015"}
+        return self.judge.records("NSV", Viewed(coded.decoded[hold], None, fields), draws)
+
+    def primary(self, reference: str):
+        """(threshold name, its record, criteria_of(record)) the matches are taken on: the human anchor where measured,
+        else the ceiling-tied threshold at PCK_MARGIN."""
+        name, _, record, criteria_of = self.thresholds(reference)[0]
+        return name, record, criteria_of
+
+    def thresholds(self, reference: str) -> list[tuple]:
+        """(name, the ceiling-tied margin or None, threshold record, criteria_of(record)) of every threshold
+        reported: the human anchor (where measured), then the ceiling-tied one at PCK_MARGIN and the sensitivity
+        table's margins."""
+        message = self.scenario.kind == "video"
+        landmarks = self.scenario.landmarks if reference == SOURCE else self.scenario.render_landmarks
+        share = hand_share(landmarks)
+        found = []
+        anchor = next((r for r in self.records if r.get("kind") == "anchor"), None)
+        if anchor is not None:
+            found.append((HUMAN_ANCHORED, None, anchor,
+                          lambda record: anchored_criteria(record, share, message=message)))
+        for margin in sorted({PCK_MARGIN, *SENSITIVITY_MARGINS}, key=lambda m: (m != PCK_MARGIN, m)):
+            found.append((CEILING_TIED, margin, self.ceiling(reference),
+                          lambda record, margin=margin: self.criteria(reference, record, margin)))
+        return found
+
+    def sensitivity(self) -> list[dict]:
+        """"sensitivity" records: every series matched under every threshold (`thresholds`), each extraction on its
+        own (comparisons.judging.operating.extraction_summary)."""
+        rows = []
+        for series in self.series():
+            points = series.points(self.records)
+            for name, margin, record, criteria_of in self.thresholds(series.reference):
+                rows.append({"kind": "sensitivity", "threshold_name": name, "pck_margin": margin,
+                             "solution": series.solution, "codec": series.codec, "reference": series.reference,
+                             "threshold": matching.threshold_text(criteria_of(record)),
+                             **operating.extraction_summary(operating.extraction_matches(
+                                 points, record, criteria_of, self.settings.extractions))})
+        return rows
 
     def verdict_margin(self, series: Series, criteria: list[matching.Criterion]) -> float | None:
         """The series' verdict margin in standard errors (comparisons.judging.operating.verdict_margin)."""
@@ -425,12 +793,15 @@ class Study:
     def ceiling(self, reference: str) -> dict:
         return operating.ceiling(self.records, reference)
 
-    def criteria(self, reference: str, ceiling: dict | None = None) -> list[matching.Criterion]:
-        """The threshold tied to the uncoded reference (comparisons.judging.operating.criteria_for); ceiling: the
-        reference's ceiling record (None: the measured one; `rate_spread` passes its jackknife replicates)."""
+    def criteria(self, reference: str, ceiling: dict | None = None,
+                 margin: float = PCK_MARGIN) -> list[matching.Criterion]:
+        """The threshold tied to the uncoded reference (comparisons.judging.operating.criteria_for; on the person's
+        message in the video scenario); ceiling: the reference's ceiling record (None: the measured one; the
+        per-extraction matches pass one extraction's); margin: the hand margin, points."""
         ceiling = self.ceiling(reference) if ceiling is None else ceiling
         landmarks = self.scenario.landmarks if reference == SOURCE else self.scenario.render_landmarks
-        return criteria_for(ceiling, hand_share(landmarks), len(self.judge.spans or ()))
+        return criteria_for(ceiling, hand_share(landmarks), len(self.judge.spans or ()), pck_margin=margin,
+                            message=self.scenario.kind == "video")
 
 
 def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True,
@@ -444,16 +815,25 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
     out_dir.mkdir(parents=True, exist_ok=True)
     records_path = write_records(out_dir / "records.jsonl", [])
     clock = StageClock()
+    extraction_before = shared.EXTRACTION["seconds"]
     renderer_for = renderers(settings.backend)
     with clock.stage("scenario: reference, landmarks, retargeting, lossless render"):
         scenario = shared.load_scenario(settings.signing, renderer_for, progress=progress, notify=notify)
-    study = Study(settings, scenario, renderer_for(*scenario.size), records_path, progress)
-    with clock.stage("uncoded references"):
-        study.add(study.uncoded())
-    with clock.stage("Q sweep: code, view, extract landmarks, measure"):
-        study.sweep_q()
-    with clock.stage("matching and frame-rate sweep"):
+    study = Study(settings, scenario, renderer_for(*scenario.size), records_path, progress, notify)
+    pool = study.start_pool()
+    with pool:
+        with clock.stage("uncoded references"):
+            study.add(study.uncoded())
+        if settings.anchor:
+            with clock.stage("human anchor: the reference coded at Tran et al.'s point"):
+                study.add(study.anchor())
+        with clock.stage("points: Q search, refinements, added extractions, frame rates (rounds on the pool)"):
+            study.measure_all()
+    with clock.stage("matching"):
         matched = study.match()
+        study.add(study.sensitivity())
+    # landmark extraction: this process's, and the pool workers' (with one worker the jobs ran here)
+    extraction_s = shared.EXTRACTION["seconds"] - extraction_before + (study.extraction_s if pool.workers > 1 else 0.0)
     side_by_side = out_dir / "side_by_side.mp4"
     with clock.stage("side-by-side video"):
         poster = _write_side_by_side(_tiles(study, matched), side_by_side, scenario.fps)
@@ -467,7 +847,20 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                   "refinements": settings.refinements,
                   "extractions": settings.extractions, "extraction_shifts": [list(shift) for shift in
                                                                              SHIFTS[:settings.extractions]],
-                  "matched_against": {"NSV family": SOURCE, "SSV, FBA, BBA": LOSSLESS}}
+                  "matched_against": ({"every solution": f"{SOURCE} (message fidelity)"} if scenario.kind == "video"
+                                      else {"NSV family": SOURCE, "SSV, FBA, BBA": LOSSLESS}),
+                  "synthetic_reference": scenario.kind != "video", "location_margin": LOCATION_MARGIN,
+                  "sensitivity_margins": list(SENSITIVITY_MARGINS), "video_codecs": ["mpeg4", *settings.video.other_codecs],
+                  "codec_qs": {codec: list(settings.codec_qs(codec)) for codec in ("mpeg4", *settings.video.other_codecs)},
+                  "other_solutions": list(settings.other_solutions),
+                  "anchor": ({"codec": ANCHOR_CODEC, "size": list(ANCHOR_SIZE), "fps": ANCHOR_FPS,
+                              "kbps": ANCHOR_KBPS, "study": "Tran et al., ASSETS 2013; TACCESS 2015"}
+                             if settings.anchor else None),
+                  "gop_frames": video_codecs.GOP,
+                  "workers": pool.workers, "first_extractions": min(FIRST_EXTRACTIONS, settings.extractions),
+                  "rounds": [{"round": name, "wall_s": round(seconds, 2), "frames_extracted": frames}
+                             for name, seconds, frames in study.round_s],
+                  "extraction_s": round(extraction_s, 2)}
     all_records = [run_record] + study.records + clock.records()
     write_records(out_dir / "records.jsonl", all_records)
     write_bytes(out_dir / "side_by_side_poster.png", poster)
@@ -497,10 +890,10 @@ def _tiles(study: Study, matched: list[dict]) -> list[Received]:
         if solution.mpeg4_parameters:
             _, frames = study.params.code(best["codec"], q, s.fps)
         else:
-            viewed, _, _ = study.video.code(solution, q, s.fps)
+            viewed, _, _ = study.video.code(solution, q, s.fps, best["codec"])
             frames = viewed.frames
         observed = select_frames(study.observed[(solution, best["codec"], q, s.fps)], last_measured)
-        codec = f" {best['codec']}" if solution.mpeg4_parameters else ""
+        codec = f" {best['codec']}"
         tiles.append(Received(shared.draw_landmarks(frames, observed),
                               f"{solution}{codec} Q{q}, matched {best['kbps']:.1f} kbps"
                               f"{'' if best['reached'] else ' (not reached)'}", solution))

@@ -162,22 +162,158 @@ def segment_clip(frames: np.ndarray, *, progress: bool = True, method: str = DEF
 # ------------------------------------------------------------------------------------------------------------
 # landmarks
 
+EXTRACTION = {"seconds": 0.0, "frames": 0}     # this process's landmark extraction (extract_landmarks), so far
+
+
 def extract_landmarks(frames: np.ndarray, fps: float, label: str = "landmarks", progress: bool = True, *,
                       leave: bool = False) -> SignClip:
     """Landmarks (pixels) of frames (T, H, W, 3) uint8 RGB shown at fps (signcast's Holistic graph), with a progress
-    bar (counts, ETA; kept on screen when done with leave)."""
+    bar (counts, ETA; kept on screen when done with leave). Its time and frames are added to EXTRACTION."""
+    import time
     from media.landmarks.holistic import extract_landmarks as holistic
-    with tqdm(total=len(frames), desc=label, unit="frame", disable=not progress, leave=leave) as bar:
-        return holistic(frames, fps, progress=bar.update)
+    started = time.perf_counter()
+    try:
+        with tqdm(total=len(frames), desc=label, unit="frame", disable=not progress, leave=leave) as bar:
+            return holistic(frames, fps, progress=bar.update)
+    finally:
+        EXTRACTION["seconds"] += time.perf_counter() - started
+        EXTRACTION["frames"] += len(frames)
 
 
-def extract_draws(frames: np.ndarray, fps: float, count: int, label: str, progress: bool) -> list[SignClip]:
-    """count extractions of frames (T, H, W, 3) uint8, each at one of the first count SHIFTS
-    (comparisons.judging.landmark_draws), with the found points moved back by the shift onto the frames' own pixel
-    grid (missing points stay at 0)."""
-    return [unshift(extract_landmarks(shifted(frames, shift), fps,
-                                      label + (f" ({k + 1}/{count})" if count > 1 else ""), progress), shift)
-            for k, shift in enumerate(SHIFTS[:count])]
+def extract_draws(frames: np.ndarray, fps: float, count: int, label: str, progress: bool, *,
+                  shifts: tuple[int, ...] | None = None, cache: "ExtractionCache | None" = None) -> list[SignClip]:
+    """Extractions of frames (T, H, W, 3) uint8, each at one of the SHIFTS (comparisons.judging.landmark_draws; the
+    first count, or those indexed by shifts), with the found points moved back by the shift onto the frames' own
+    pixel grid (missing points stay at 0).
+
+    Each distinct picture is extracted once (comparisons.judging.judge.distinct_frames: a frame byte-identical to
+    an earlier one, held on screen or decoded alike, takes that frame's landmarks), and a subject whose distinct
+    pictures were all extracted before under the same shift (cache) is not extracted again."""
+    from comparisons.judging.judge import distinct_frames, select_frames
+    first, inverse = distinct_frames(frames)
+    pictures = frames[first]
+    indices = tuple(range(count)) if shifts is None else tuple(shifts)
+    key = ExtractionCache.key(pictures, fps)
+    draws = []
+    for n, k in enumerate(indices):
+        shift = SHIFTS[k]
+        found = cache.get(key, k) if cache is not None else None
+        if found is None:
+            text = label + (f" ({n + 1}/{len(indices)})" if len(indices) > 1 else "")
+            found = unshift(extract_landmarks(shifted(pictures, shift), fps, text, progress), shift)
+            if cache is not None:
+                cache.put(key, k, found)
+        draws.append(found if len(first) == len(frames) else select_frames(found, inverse))
+    return draws
+
+
+class ExtractionCache:
+    """Landmarks already extracted in this process, by subject (a digest of its distinct pictures and frame rate)
+    and shift; the most recent `size` kept; `hits`: subjects taken from it."""
+
+    def __init__(self, size: int = 64) -> None:
+        self.size = size
+        self._found: dict[tuple, SignClip] = {}
+        self.hits = 0
+
+    @staticmethod
+    def key(pictures: np.ndarray, fps: float) -> bytes:
+        import hashlib
+        digest = hashlib.blake2b(digest_size=20)
+        digest.update(repr((pictures.shape, round(float(fps), 6))).encode())
+        digest.update(np.ascontiguousarray(pictures).tobytes())
+        return digest.digest()
+
+    def get(self, key: bytes, shift: int) -> SignClip | None:
+        found = self._found.get((key, shift))
+        if found is not None:
+            self.hits += 1
+        return found
+
+    def put(self, key: bytes, shift: int, found: SignClip) -> None:
+        self._found[(key, shift)] = found
+        while len(self._found) > self.size:
+            self._found.pop(next(iter(self._found)))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# a study's independent jobs on both cores
+
+LANDMARK_THREADS_PER_WORKER = 1      # LiteRT threads in each pool worker: the workers share the cores
+
+
+def default_workers() -> int:
+    """Every CPU this process may run on."""
+    import os
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def set_landmark_threads(threads: int) -> None:
+    """LiteRT threads of the landmark models loaded from now on in this process (media.landmarks.models.THREADS,
+    read when a model is made): a pool worker runs one thread, so that workers x threads = cores."""
+    from media.landmarks import models
+    models.THREADS = max(1, int(threads))
+
+
+def _start_worker(initializer, initargs) -> None:
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)       # Ctrl-C is the parent's to handle
+    set_landmark_threads(LANDMARK_THREADS_PER_WORKER)
+    initializer(*initargs)
+
+
+class StudyPool:
+    """Independent jobs of a study on a process pool of `workers` processes (forkserver: workers start from a process
+    that imported `preload` once; each runs initializer(*initargs) once, with LiteRT set to
+    LANDMARK_THREADS_PER_WORKER threads), or, with one worker, here in order (initializer run here too, LiteRT threads
+    left as they are). `run(function, jobs, done)` returns function(job) of every job, in the jobs' order, calling
+    done(index, result) as each finishes."""
+
+    def __init__(self, workers: int, initializer: Callable, initargs: tuple, preload: tuple[str, ...] = ()):
+        self.workers = max(1, int(workers))
+        self.pool = None
+        if self.workers == 1:
+            initializer(*initargs)
+            return
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+        context = multiprocessing.get_context("forkserver")
+        context.set_forkserver_preload(list(preload))
+        self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker,
+                                        initargs=(initializer, initargs))
+
+    def run(self, function: Callable, jobs: list, done: Callable[[int, object], object] | None = None) -> list:
+        results = [None] * len(jobs)
+        if self.pool is None:
+            for i, job in enumerate(jobs):
+                results[i] = function(job)
+                if done is not None:
+                    done(i, results[i])
+            return results
+        from concurrent.futures import as_completed
+        futures = {self.pool.submit(function, job): i for i, job in enumerate(jobs)}
+        try:
+            for future in as_completed(futures):
+                i = futures[future]
+                results[i] = future.result()
+                if done is not None:
+                    done(i, results[i])
+        except BaseException:
+            for future in futures:
+                future.cancel()
+            raise
+        return results
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+            self.pool = None
+
+    def __enter__(self) -> "StudyPool":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 # MediaPipe's drawing connections: pose (POSE_CONNECTIONS, without the face) and hand (HAND_CONNECTIONS)
@@ -315,12 +451,13 @@ def check_landmark_step(step: int) -> None:
 
 
 def letter_recogniser(scenario: "Scenario"):
-    """The letter recogniser (comparisons.judging.letters.Recogniser, trained on the lexicon's other signers) of a
+    """The letter recogniser (comparisons.judging.letters.Recogniser.other_signers: templates from the other
+    languages' signers only, never a file of the scored language, so never the recording the avatar replays) of a
     fingerspelled scenario's language; None for a scenario without letter spans."""
     if not scenario.spans:
         return None
     from comparisons.judging.letters import Recogniser
-    return Recogniser.from_lexicon([scenario.language])
+    return Recogniser.other_signers(scenario.language)
 
 
 def check_scenario(settings: ScenarioSettings) -> None:
