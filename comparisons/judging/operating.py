@@ -162,6 +162,8 @@ def extraction_matches(points: list[dict], threshold_record: dict, criteria_of, 
     """Each extraction matched on its own: for k in 0..count-1, every point and the threshold's record (the ceiling,
     or the human anchor: measured under the same shifts, so draw k of each is one extraction under one shift) as
     extraction k read them (`pick`), criteria_of(that record) as the threshold, the monotone match over the points."""
+    count = min([max(1, count)] + [len(values) for record in (*points, threshold_record)
+                                   for values in (record.get("draw_values") or {}).values()])
     return [matching.cheapest_rate([pick(point, k) for point in points], criteria_of(pick(threshold_record, k)),
                                    monotone=True) for k in range(max(1, count))]
 
