@@ -1,22 +1,22 @@
 """Numba kernels of the FAPs -> face-bone path (media/face_rig.py `face_bone_rotations`), as few calls per
 clip: `face_targets` (every bone's displacement from the FAP values), `turn_directions`, `turn_sides` and
 `turn_quaternions` (the jaw's and lids' turns around NumPy's arctan2 / arccos and arm products, which stay
-NumPy calls on the same arrays) and `eye_rotations`. Their arithmetic is + - * /, sqrt, min / max: exact IEEE
-operations, written in the NumPy forms' order (no fused multiply-adds without fastmath), so the same numbers;
-tests/test_face_rig_speed.py compares them bitwise with the NumPy rig on real FAPs of several languages.
+NumPy calls on the same arrays) and `eye_rotations`: compiled for speed (one pass over frames instead of dozens
+of small NumPy calls). tests/test_face_rig_speed.py compares them with the NumPy rig (media/face_rig.py
+`_face_bone_rotations_numpy`) on real FAPs of several languages within 1e-12 per quaternion component.
 """
 import math
 
 import numpy as np
 from numba import njit
 
-from media.scipy_rotation import from_rotvec
+from media.rotation_loops import from_rotvec
 
 
 @njit(cache=True)
 def face_targets(values, cols, fapu, shares, angle_unit):
-    """The face rig's displacements from FAP values (media/face_rig.py `_turned_bones` and `_carried_bones`,
-    each entry by the same IEEE operations in the same order as their NumPy forms, so the same numbers).
+    """The face rig's displacements from FAP values (media/face_rig.py `_turned_bones` and `_carried_bones`
+    compiled).
 
     values (T, 68) float64 FAP values; cols (27, 2) int64: FAP columns (index = id - 1) per name of
     media/face_rig.py `_TARGET_FAPS`, L then R (one-sided names repeat); fapu (5,) irisd, es, ens, mns, mw
@@ -79,7 +79,7 @@ def eye_rotations(eye_angles):
     """(2, T, 4) quaternions (w, x, y, z) of the eyeballs, L then R, from eye_angles (4, T) radians (yaw L, pitch L,
     yaw R, pitch R): per eye the yaw about +Y times the pitch about +X, as media/face_rig.py did it in NumPy
     (from_axis_angle of the unit axes: rotvec (0 a, 1 a, 0 a) or (1 a, 0 a, 0 a), then rotations.multiply's
-    Hamilton product term by term), so the same numbers."""
+    Hamilton product)."""
     n = eye_angles.shape[1]
     rotvec = np.empty((4 * n, 3))
     for k in range(4):
@@ -108,7 +108,7 @@ def eye_rotations(eye_angles):
 @njit(cache=True)
 def turn_directions(displacements):
     """media/face_rig.py `_turns`' first step: displacements (N, T, 3) metres -> (distance (N, T), unit direction
-    (N, T, 3)); distance sqrt((x x + y y) + z z) (NumPy's norm of three terms), direction the displacement
+    (N, T, 3)); distance |displacement|, direction the displacement
     divided by max(distance, 1e-300)."""
     n, m = displacements.shape[0], displacements.shape[1]
     distance = np.empty((n, m))
@@ -126,7 +126,7 @@ def turn_directions(displacements):
 @njit(cache=True)
 def turn_along(arms, direction):
     """`_turns`' dot products: along (N, T) = (d0 a0 + d1 a1) + d2 a2 of each arm (N, 3) and its directions
-    (N, T, 3), in that order (not BLAS's, whose order and fused multiply-adds depend on the CPU)."""
+    (N, T, 3)."""
     n, m = direction.shape[0], direction.shape[1]
     along = np.empty((n, m))
     for a in range(n):
@@ -139,7 +139,7 @@ def turn_along(arms, direction):
 def turn_sides(arms, direction, along, distance, reach):
     """`_turns`' second step: across (N, T) = |arm - along direction| (the arm's part across the displacement)
     and the clipped cosine (N, T) clip((distance + along) / reach, -1, 1), the arccos argument; arms (N, 3),
-    direction (N, T, 3), along and distance (N, T), reach (N,) (each arm's length, NumPy's)."""
+    direction (N, T, 3), along and distance (N, T), reach (N,) (each arm's length)."""
     n, m = direction.shape[0], direction.shape[1]
     across = np.empty((n, m))
     ratio = np.empty((n, m))
@@ -156,9 +156,7 @@ def turn_sides(arms, direction, along, distance, reach):
 @njit(cache=True)
 def turn_quaternions(arms, direction, angle):
     """`_turns`' last step: (N, T, 4) quaternions (w, x, y, z) of the turns by angle (N, T) radians about
-    arm x direction (NumPy's cross: a1 b2 - a2 b1, a2 b0 - a0 b2, a0 b1 - a1 b0) made a unit axis as
-    media/rotations.py from_axis_angle does (divided by max(norm, 1e-300), times the angle), then
-    `from_rotvec`."""
+    the unit axis arm x direction (the identity where they are parallel)."""
     n, m = direction.shape[0], direction.shape[1]
     rotvec = np.empty((n * m, 3))
     for a in range(n):

@@ -262,15 +262,12 @@ def _carry_into(plan: _CarryPlan, head_moved: np.ndarray, tail_moved: np.ndarray
                 column: int, iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> None:
     """The carry of a plan (`_carry`) written to quaternions[:, column:column + C + S] ((T, F, 4)): frames held
     bit for bit solved once, the solve, the carriers' quaternions and the skinned bones' turns in one compiled
-    call (kernels/bba_face_rig.carry_into), the products parent^T turned, quaternions bitwise scipy's from_matrix."""
-    local, parent, turned, ok = face_kernel.carry_into(
+    call (media/face_rig_solve.carry_into), then the skinned bones' parent^T turned as quaternions."""
+    _, parent, turned = face_kernel.carry_into(
         head_moved, tail_moved, plan.carrier_heads, plan.carrier_parents, plan.skinned_heads, plan.skinned_parents,
         plan.group_members, plan.group_start, *plan.tables, plan.arms, iterations, damping, max_turn, quaternions, column)
     products = face_kernel.transposed_products(parent, turned)
-    ok = face_kernel.quaternions_into(products, quaternions, column + len(plan.carriers)) and ok
-    if not ok:                              # scipy orthogonalises first: ask it
-        matrices = np.concatenate([local, products], axis=1)
-        quaternions[:, column:column + matrices.shape[1]] = rotations.from_matrix(matrices)
+    face_kernel.quaternions_into(products, quaternions, column + len(plan.carriers))
 
 
 def _face_bone_rotations_numpy(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dict[str, np.ndarray]:
@@ -571,7 +568,7 @@ def _skew(r: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class _CarryPlan:
     """The skeleton's part of a carry, the same for every motion: carriers (bone indices, parents first)
-    and skinned bones with the kernel's arrays (kernels/bba_face_rig.carry_into)."""
+    and skinned bones with the kernel's arrays (media/face_rig_solve.carry_into)."""
     carriers: list[int]
     skinned: list[int]
     carrier_heads: np.ndarray      # (C, 3)
@@ -583,7 +580,7 @@ class _CarryPlan:
     group_start: np.ndarray        # (G + 1,) ... group g: group_members[group_start[g]:group_start[g + 1]]
     arms: np.ndarray               # (S, 3) head -> tail of each skinned bone
     names: tuple[str, ...]         # the carriers' then the skinned bones' names, as _carry returns them
-    tables: tuple[np.ndarray, ...]  # kernels/bba_face_rig.carry_tables of on_chain and the groups
+    tables: tuple[np.ndarray, ...]  # media/face_rig_solve.carry_tables of on_chain and the groups
 
 
 _PLANS: dict[tuple[int, str, tuple[str, ...]], tuple[Skeleton, _CarryPlan]] = {}
@@ -629,7 +626,7 @@ def _carry(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray,
     rest frame. The carriers turn so that each skinned bone's head moves by its displacement: damped
     Gauss-Newton steps (damping in metres; no carrier turns more than max_turn radians a step), each
     the smallest turns that meet the linearised targets at the current pose; unreachable targets end
-    at the nearest reachable pose (kernels/bba_face_rig.carry_into, each frame alone; `_carry_numpy` is the
+    at the nearest reachable pose (media/face_rig_solve.carry_into, each frame alone; `_carry_numpy` is the
     same solve in NumPy; a frame equal to the one before it is not solved again). Each skinned bone then
     turns so that its tail moves by its own displacement relative to its head.
     """

@@ -18,20 +18,16 @@ NumPy reference's to within 1e-12 (tests/test_face_rig_speed.py); nothing here r
 rounding.
 
 J's blocks -[lever]x and Rodrigues' K are cross matrices with a zero diagonal: `carry` leaves out the
-products with those zeros (exact +-0, the values are finite) in J J^T, J^T x and K K. A sum of the remaining
-one or two products is the same number up to the sign of a zero, and every such sum then goes into an
-accumulator that starts at +0.0 or into 1.0 + . or (0.0 + .) + ., none of which can keep a -0.0: bitwise
-the full sums (tests/test_face_rig_speed.py). The frame loops index the state arrays whole rather than
+products with those zeros in J J^T, J^T x and K K. The frame loops index the state arrays whole rather than
 through views (a view costs reference counting) and avoid slice assignments.
 
-`from_matrix` and `bone_turns` are the scipy / NumPy conversions that follow the solve
-(media/rotations.py from_matrix, to_matrix and between), operation for operation: bitwise theirs,
-checked on random and edge-case inputs by tests/test_face_rig_speed.py.
+`from_matrix` and `bone_turns` are the conversions that follow the solve (media/rotations.py from_matrix, and
+between then to_matrix), compiled; tests/test_face_rig_speed.py checks them against scipy / NumPy within 1e-12
+per component.
 
 `carry_into` is what media/face_rig.py calls per anchor and clip: the held frames (`held_runs`), the solve
 with the rig's index tables made once (`carry_tables`), the carriers' quaternions written into the caller's
-array (`quaternions_into`) and `bone_turns`, in one call; the same operations as `carry`, `from_matrix` and
-`bone_turns` called one by one, so the same numbers.
+array (`quaternions_into`) and `bone_turns`, in one call.
 
 All geometry is in the anchor's rest frame, metres. Compiled nopython with cache=True; imports nothing
 of signcast.
@@ -96,94 +92,58 @@ def _layout(on_chain, group_members, group_start):
 
 @njit(cache=True)
 def from_matrix(matrix):
-    """Rotation matrices (N, 3, 3) -> ((N, 4) float64 (w, x, y, z) unit quaternions with w >= 0, ok).
-
-    scipy 1.17's Rotation.from_matrix(matrix).as_quat(canonical=True) (media/rotations.py `from_matrix`)
-    operation for operation for matrices it takes as orthogonal, so the results are bitwise scipy's: the
-    largest of the diagonal and the trace picks the formula (Markley 2008; first of equals), the quaternion
-    is divided by its norm sqrt(((x^2 + y^2) + z^2) + w^2), then made canonical (w > 0, or the first
-    non-zero of x, y, z positive where w = 0). scipy first orthogonalises (SVD) a matrix whose M M^T is not
-    the identity to within its tolerances (1e-12 off the diagonal, 1e-5 + 1e-12 on it) and refuses one
-    with det <= 0; ok is False when any matrix is not clearly inside those tolerances (a margin of 10 %
-    covers M M^T's rounding), and the caller then asks scipy.
-    """
+    """Rotation matrices (N, 3, 3), orthogonal to rounding (the solve's products) -> (N, 4) float64 (w, x, y, z) unit
+    quaternions with w >= 0: the largest of the trace and the diagonal picks the formula (Shepperd 1978), then the
+    quaternion is normalised."""
     n = matrix.shape[0]
     out = np.empty((n, 4))
-    ok = True
     for k in range(n):
-        w, x, y, z, inside = _quaternion(matrix[k, 0, 0], matrix[k, 0, 1], matrix[k, 0, 2], matrix[k, 1, 0], matrix[k, 1, 1],
-                                         matrix[k, 1, 2], matrix[k, 2, 0], matrix[k, 2, 1], matrix[k, 2, 2])
-        ok = ok and inside
-        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = w, x, y, z
-    return out, ok
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = _quaternion(
+            matrix[k, 0, 0], matrix[k, 0, 1], matrix[k, 0, 2], matrix[k, 1, 0], matrix[k, 1, 1], matrix[k, 1, 2],
+            matrix[k, 2, 0], matrix[k, 2, 1], matrix[k, 2, 2])
+    return out
 
 
 @njit(cache=True)
 def transposed_products(parent, turned):
-    """parent^T turned of each (T, K, 3, 3) pair, (T, K, 3, 3): each entry (p0 t0 + p1 t1) + p2 t2 in that
-    order (not BLAS's, whose order and fused multiply-adds depend on the CPU)."""
+    """parent^T turned of each (T, K, 3, 3) pair, (T, K, 3, 3)."""
     out = np.empty(parent.shape)
     for t in range(parent.shape[0]):
         for k in range(parent.shape[1]):
             for r in range(3):
                 for c in range(3):
-                    out[t, k, r, c] = ((parent[t, k, 0, r] * turned[t, k, 0, c] + parent[t, k, 1, r] * turned[t, k, 1, c])
+                    out[t, k, r, c] = (parent[t, k, 0, r] * turned[t, k, 0, c] + parent[t, k, 1, r] * turned[t, k, 1, c]
                                        + parent[t, k, 2, r] * turned[t, k, 2, c])
     return out
 
 
 @njit(cache=True)
 def quaternions_into(matrices, out, column):
-    """`from_matrix` of matrices (T, K, 3, 3) written to out[:, column:column + K] ((T, F, 4) float64, w, x, y, z);
-    returns ok (False: some matrix is one scipy would orthogonalise, and out's values for them are not scipy's)."""
-    ok = True
+    """`from_matrix` of matrices (T, K, 3, 3) written to out[:, column:column + K] ((T, F, 4) float64, w, x, y, z)."""
     for t in range(matrices.shape[0]):
         for k in range(matrices.shape[1]):
-            w, x, y, z, inside = _quaternion(
+            out[t, column + k, 0], out[t, column + k, 1], out[t, column + k, 2], out[t, column + k, 3] = _quaternion(
                 matrices[t, k, 0, 0], matrices[t, k, 0, 1], matrices[t, k, 0, 2], matrices[t, k, 1, 0], matrices[t, k, 1, 1],
                 matrices[t, k, 1, 2], matrices[t, k, 2, 0], matrices[t, k, 2, 1], matrices[t, k, 2, 2])
-            ok = ok and inside
-            out[t, column + k, 0], out[t, column + k, 1], out[t, column + k, 2], out[t, column + k, 3] = w, x, y, z
-    return ok
 
 
 @njit(cache=True)
 def _quaternion(m00, m01, m02, m10, m11, m12, m20, m21, m22):
     """`from_matrix` of one matrix, its entries m[r, c] given as mrc (scalars: a view of each matrix would cost
-    reference counting): (w, x, y, z, inside scipy's tolerances)."""
-    # M M^T, row by row (m[r, 0] m[c, 0] + m[r, 1] m[c, 1] + m[r, 2] m[c, 2])
-    ok = (abs((m00 * m00 + m01 * m01 + m02 * m02) - 1.0) <= 0.9e-5
-          and abs(m00 * m10 + m01 * m11 + m02 * m12) <= 0.9e-12
-          and abs(m00 * m20 + m01 * m21 + m02 * m22) <= 0.9e-12
-          and abs(m10 * m00 + m11 * m01 + m12 * m02) <= 0.9e-12
-          and abs((m10 * m10 + m11 * m11 + m12 * m12) - 1.0) <= 0.9e-5
-          and abs(m10 * m20 + m11 * m21 + m12 * m22) <= 0.9e-12
-          and abs(m20 * m00 + m21 * m01 + m22 * m02) <= 0.9e-12
-          and abs(m20 * m10 + m21 * m11 + m22 * m12) <= 0.9e-12
-          and abs((m20 * m20 + m21 * m21 + m22 * m22) - 1.0) <= 0.9e-5)
+    reference counting): (w, x, y, z)."""
     trace = m00 + m11 + m22
-    choice = 0
-    best = m00
-    if m11 > best:
-        choice, best = 1, m11
-    if m22 > best:
-        choice, best = 2, m22
-    if trace > best:
-        choice = 3
-    # (x, y, z, w) as scipy keeps them
-    if choice == 3:
-        q0, q1, q2, q3 = m21 - m12, m02 - m20, m10 - m01, 1.0 + trace
-    elif choice == 0:
-        q0, q1, q2, q3 = 1.0 - trace + 2.0 * m00, m10 + m01, m20 + m02, m21 - m12
-    elif choice == 1:
-        q0, q1, q2, q3 = m01 + m10, 1.0 - trace + 2.0 * m11, m21 + m12, m02 - m20
+    if trace >= m00 and trace >= m11 and trace >= m22:
+        w, x, y, z = 1.0 + trace, m21 - m12, m02 - m20, m10 - m01
+    elif m00 >= m11 and m00 >= m22:
+        w, x, y, z = m21 - m12, 1.0 - trace + 2.0 * m00, m10 + m01, m20 + m02
+    elif m11 >= m22:
+        w, x, y, z = m02 - m20, m01 + m10, 1.0 - trace + 2.0 * m11, m21 + m12
     else:
-        q0, q1, q2, q3 = m02 + m20, m12 + m21, 1.0 - trace + 2.0 * m22, m10 - m01
-    norm = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-    x, y, z, w = q0 / norm, q1 / norm, q2 / norm, q3 / norm
-    if w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0))))):
-        w, x, y, z = -w, -x, -y, -z
-    return w, x, y, z, ok
+        w, x, y, z = m10 - m01, m02 + m20, m12 + m21, 1.0 - trace + 2.0 * m22
+    norm = np.sqrt(w * w + x * x + y * y + z * z)
+    if w < 0.0:
+        norm = -norm
+    return w / norm, x / norm, y / norm, z / norm
 
 
 @njit(cache=True)
@@ -219,15 +179,15 @@ def carry_into(head_moved, tail_moved, carrier_heads, carrier_parents, skinned_h
     out[:, column:column + C] ((T, F, 4)), and `bone_turns`.
 
     head_moved, tail_moved (T, S, 3) metres; arms (S, 3). Returns local (T, C, 3, 3) and parent (T, S, 3, 3) as
-    `carry` gives them for every frame, turned (T, S, 3, 3) (`bone_turns`) and ok (`from_matrix`'s, for the
-    local turns). The skinned bones' rotations are parent^T turned, a NumPy product the caller takes.
+    `carry` gives them for every frame and turned (T, S, 3, 3) (`bone_turns`). The skinned bones' rotations are
+    parent^T turned, which the caller takes (`transposed_products`).
     """
     run, first = held_runs(head_moved)
     local, parent = _solve_rows(head_moved, first, run, carrier_heads, carrier_parents, skinned_heads,
                                 skinned_parents, group_members, group_start, chain_start, chain_index, carried_start,
                                 carried_index, pair_start, pair_index, entry, iterations, damping, max_turn)
-    ok = quaternions_into(local, out, column)
-    return local, parent, bone_turns(arms, head_moved, tail_moved), ok
+    quaternions_into(local, out, column)
+    return local, parent, bone_turns(arms, head_moved, tail_moved)
 
 
 @njit(cache=True, error_model="numpy")
@@ -249,8 +209,7 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
     Every frame is solved alone, by the same operations in the same order whatever its values (the
     iteration count is fixed and nothing branches on the data), so the frames go through each operation
     together: state arrays keep the frame last and every step is a loop over frames, which the compiler
-    turns into vector instructions (exact IEEE operations, no contraction into fused multiply-adds, sin
-    and cos still one libm call per value), the same numbers as frame by frame.
+    turns into vector instructions (sin and cos stay scalar calls, kept out of the vectorised loops).
     """
     chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry = carry_tables(
         on_chain, group_members, group_start)
@@ -455,7 +414,7 @@ def _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned
                 unit = max(angle, 1e-300)
                 axis[0, t], axis[1, t], axis[2, t] = vx / unit, vy / unit, vz / unit
                 sine[t] = angle
-            for t in range(T):              # libm, one call per value (kept out of the vectorised loops)
+            for t in range(T):              # scalar sin / cos, kept out of the vectorised loops
                 versine[t] = 1.0 - np.cos(sine[t])
                 sine[t] = np.sin(sine[t])
             # local = parent^T turn parent local, parent: the carrier's parent posed at this iteration's start
@@ -733,12 +692,11 @@ def _solve_spd_frames(matrix, rhs, n, total):
 def bone_turns(arms, head_moved, tail_moved):
     """Rotation matrices (T, S, 3, 3) turning each skinned bone so that its tail moves by its own
     displacement relative to its head: media/rotations.py `between(arm, arm + tail - head)` then
-    `to_matrix`, operation for operation, so the results are bitwise theirs.
+    `to_matrix`, compiled.
 
     arms (S, 3) head -> tail at rest; head_moved, tail_moved (T, S, 3) metres. between: both directions
-    divided by their norms sqrt((x^2 + y^2) + z^2) (NumPy's order for three terms), q = (1 + a.b, a x b)
-    (or a half turn about a x (1, 0, 0), a x (0, 1, 0) where |a_x| >= 0.9, for opposite directions) divided
-    by its norm; to_matrix: scipy 1.17's from_quat (normalised once more) and as_matrix.
+    made unit, q = (1 + a.b, a x b) (or a half turn about a x (1, 0, 0), a x (0, 1, 0) where |a_x| >= 0.9, for
+    opposite directions) made unit, then its rotation matrix.
     """
     n_frames, n_skinned = head_moved.shape[0], head_moved.shape[1]
     out = np.empty((n_frames, n_skinned, 3, 3))
@@ -763,12 +721,10 @@ def bone_turns(arms, head_moved, tail_moved):
                 w, x, y, z = 1.0 + dot, a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
             norm = np.sqrt(w * w + x * x + y * y + z * z)
             w, x, y, z = w / norm, x / norm, y / norm, z / norm
-            norm = np.sqrt(x * x + y * y + z * z + w * w)           # scipy's from_quat, (x, y, z, w) order
-            x, y, z, w = x / norm, y / norm, z / norm, w / norm
-            x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+            xx, yy, zz = x * x, y * y, z * z
             xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
-            out[t, i, 0, 0], out[t, i, 0, 1], out[t, i, 0, 2] = x2 - y2 - z2 + w2, 2.0 * (xy - zw), 2.0 * (xz + yw)
-            out[t, i, 1, 0], out[t, i, 1, 1], out[t, i, 1, 2] = 2.0 * (xy + zw), -x2 + y2 - z2 + w2, 2.0 * (yz - xw)
-            out[t, i, 2, 0], out[t, i, 2, 1], out[t, i, 2, 2] = 2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2
+            out[t, i, 0, 0], out[t, i, 0, 1], out[t, i, 0, 2] = 1.0 - 2.0 * (yy + zz), 2.0 * (xy - zw), 2.0 * (xz + yw)
+            out[t, i, 1, 0], out[t, i, 1, 1], out[t, i, 1, 2] = 2.0 * (xy + zw), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - xw)
+            out[t, i, 2, 0], out[t, i, 2, 1], out[t, i, 2, 2] = 2.0 * (xz - yw), 2.0 * (yz + xw), 1.0 - 2.0 * (xx + yy)
     return out
 

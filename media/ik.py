@@ -22,8 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from media import scipy_rotation
-from media import rotations
+from media import rotation_loops, rotations
 
 
 @dataclass(frozen=True)
@@ -48,8 +47,8 @@ class IKTargets:
 
 def _axis_matrices(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
     """(T, K, 3, 3) rotation about each unit axis (K, 3) by each angle (T, K) (Rodrigues; compiled,
-    kernels/scipy_rotation.axis_matrices; `_axis_matrices_numpy` is the NumPy form)."""
-    return scipy_rotation.axis_matrices(np.ascontiguousarray(axes, dtype=np.float64),
+    media/rotation_loops.py; `_axis_matrices_numpy` is the NumPy form)."""
+    return rotation_loops.axis_matrices(np.ascontiguousarray(axes, dtype=np.float64),
                                         np.ascontiguousarray(angles, dtype=np.float64))
 
 

@@ -12,7 +12,12 @@ its conventions (scalar-last quaternions, flat (N, 4) batches, sequence names). 
 what scipy does not do (the shortest arc between two directions, sign handling), and the three
 element-wise operations scipy 1.17 does 8-50x slower on signcast's hot paths (benchmarks/rotations.py):
 multiply (its compose allocates per quaternion), and slerp and angle_between, which in scipy
-go through compose (forward kinematics, FBA mapping, resampling, key-frame analysis).
+go through compose (forward kinematics, FBA mapping, resampling, key-frame analysis). multiply, cross, rotate,
+from_axis_angle, from_euler_table, euler_split and slerp_rows run as compiled loops (media/rotation_loops.py):
+scipy's per-call cost dominates on the small arrays of the retargeter and the face rig, and its from_euler
+costs about 1.7 us a rotation. They agree with scipy and NumPy to rounding (tests/test_rotations.py: within
+1e-12), not bit for bit; nothing in signcast relies on the last bit of a float (the streams' integers are the
+contract: docs/parameters.md).
 """
 from __future__ import annotations
 
@@ -21,7 +26,7 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from media import scipy_rotation
+from media import rotation_loops
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 _AXES = "XYZ"
@@ -62,12 +67,12 @@ def _rows(x: np.ndarray, shape: tuple[int, ...], width: int | None) -> np.ndarra
 
 
 def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product a*b (rotate by b, then by a) of (..., 4) quaternions (broadcast): compiled
-    (kernels/scipy_rotation.multiply), the products summed as `_multiply_numpy` sums them."""
+    """Hamilton product a*b (rotate by b, then by a) of (..., 4) quaternions (broadcast), compiled
+    (media/rotation_loops.py; `_multiply_numpy` is the NumPy form)."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     shape = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
-    return scipy_rotation.multiply(_rows(a, shape, 4), _rows(b, shape, 4)).reshape(shape + (4,))
+    return rotation_loops.multiply(_rows(a, shape, 4), _rows(b, shape, 4)).reshape(shape + (4,))
 
 
 def _multiply_numpy(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -105,8 +110,7 @@ def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     axis = np.asarray(axis, dtype=np.float64)
     angle = np.asarray(angle, dtype=np.float64)
     shape = np.broadcast_shapes(axis.shape[:-1], angle.shape)
-    # unit axis times angle, then scipy's from_rotvec, compiled operation for operation (media/scipy_rotation.py)
-    quaternions = scipy_rotation.from_axis_angle(_rows(axis, shape, 3), _rows(angle, shape, None))
+    quaternions = rotation_loops.from_axis_angle(_rows(axis, shape, 3), _rows(angle, shape, None))
     return quaternions.reshape(shape + (4,))
 
 
@@ -132,31 +136,25 @@ def from_matrix(m: np.ndarray) -> np.ndarray:
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate vectors v (..., 3) by q (..., 4) (broadcast) -> (..., 3): scipy's Rotation.from_quat(q).apply(v),
-    bitwise; two or more vectors in C order by media/scipy_rotation.py (scipy's operations in scipy's order,
-    without its per-call cost), otherwise by scipy itself (one vector goes through BLAS, and vectors in another
-    layout through einsum's plain loop, which sums in another order)."""
+    """Rotate vectors v (..., 3) by q (..., 4) (broadcast; q need not be unit) -> (..., 3), as scipy's
+    Rotation.from_quat(q).apply(v) to rounding, compiled (media/rotation_loops.py). A zero quaternion raises
+    ValueError."""
     q = np.asarray(q, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     shape = np.broadcast_shapes(q.shape[:-1], v.shape[:-1])
-    vectors = np.array((v if v.shape == shape + (3,) else np.broadcast_to(v, shape + (3,))).reshape(-1, 3))  # writable
-    # scipy's einsum sums three products in an order that depends on the vectors' layout (its SIMD loop for
-    # C-contiguous rows, a plain loop otherwise); np.array keeps a transposed input's layout
-    if len(vectors) > 1 and vectors.flags.c_contiguous:
-        rotated, ok = scipy_rotation.rotate(_rows(q, shape, 4), vectors)
-        if ok:
-            return rotated.reshape(shape + (3,))
-    return as_rotation(np.broadcast_to(q, shape + (4,))).apply(vectors).reshape(shape + (3,))
+    rotated, ok = rotation_loops.rotate(_rows(q, shape, 4), _rows(v, shape, 3))
+    if not ok:
+        raise ValueError("Found zero norm quaternions in `quat`.")
+    return rotated.reshape(shape + (3,))
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b (..., 3) of 3-vectors a, b (..., 3) broadcast together: np.cross's operations (each component one
-    product less another, a[1] b[2] - a[2] b[1], ...), so its numbers bit for bit, compiled
-    (kernels/scipy_rotation.cross) without np.cross's axis handling, which costs ~10 us a call on small arrays."""
+    """a x b (..., 3) of 3-vectors a, b (..., 3) broadcast together, compiled (media/rotation_loops.py) without
+    np.cross's axis handling, which costs ~10 us a call on small arrays."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     shape = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
-    return scipy_rotation.cross(_rows(a, shape, 3), _rows(b, shape, 3)).reshape(shape + (3,))
+    return rotation_loops.cross(_rows(a, shape, 3), _rows(b, shape, 3)).reshape(shape + (3,))
 
 
 def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -231,3 +229,36 @@ def to_euler(q: np.ndarray, order: str = "XYZs") -> np.ndarray:
         warnings.filterwarnings("ignore", message="Gimbal lock detected", category=UserWarning)
         angles = as_rotation(q).as_euler(sequence)
     return angles.reshape(q.shape[:-1] + (3,))
+
+
+def from_euler_table(table: np.ndarray, n_rotated: int, unit: float, order: str) -> np.ndarray:
+    """from_euler of a decoder's angle table: table (F, C) float64 in angle units, column 3 r + k angle k of
+    rotated bone r (r < n_rotated), times unit (radians per unit) -> (F, n_rotated, 4), w >= 0. Compiled; a value
+    held from the frame before reuses its cosine and sine."""
+    sequence = scipy_sequence(order)
+    axes = np.array(["xyz".index(axis) for axis in sequence.lower()], dtype=np.int64)
+    return rotation_loops.from_euler_table(np.ascontiguousarray(table, dtype=np.float64), n_rotated, unit, axes,
+                                           sequence.isupper())
+
+
+def euler_split(q: np.ndarray, order: str) -> np.ndarray:
+    """to_euler(q, order) of quaternions (..., 4) compiled, the same angles to rounding (scipy's conventions,
+    gimbal lock included). With q (T, B, 4) a bone whose quaternion equals its previous frame's takes that frame's
+    angles without recomputing them. A zero quaternion raises ValueError."""
+    sequence = scipy_sequence(order)
+    extrinsic = sequence.islower()
+    axes = ["xyz".index(axis) for axis in sequence.lower()]
+    i, j, k = axes if extrinsic else axes[::-1]
+    q = np.asarray(q, dtype=np.float64)
+    flat = np.ascontiguousarray(q).reshape(-1, 4)
+    stride = q.shape[-2] if q.ndim >= 3 else 0
+    angles, ok = rotation_loops.to_euler(flat, stride, i, j, k, extrinsic)
+    if not ok:
+        raise ValueError("Found zero norm quaternions in `quat`.")
+    return angles.reshape(q.shape[:-1] + (3,))
+
+
+def slerp_rows(q0: np.ndarray, q1: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """`slerp` of (N, 4) pairs at t (N,) in one compiled pass (the same to rounding)."""
+    return rotation_loops.slerp(np.ascontiguousarray(q0, dtype=np.float64), np.ascontiguousarray(q1, dtype=np.float64),
+                                np.ascontiguousarray(t, dtype=np.float64))
