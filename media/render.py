@@ -67,14 +67,24 @@ def signing_space_camera(avatar: Avatar, width: int, height: int) -> np.ndarray:
     return camera.view_projection((0.0, centre_y, distance), (0.0, centre_y, 0.0), fovy, aspect, 1.5, 4.5)
 
 
+HAIR = (52, 38, 30)          # dark brown: hair and brows dark enough for a face landmark model to find them
+BROWS = (60, 44, 34)
+EYELASHES = (34, 26, 22)
+_SHAPE_COLOURS = {"hair": HAIR, "brows": BROWS, "eyelashes": EYELASHES}
+
+
 def triangle_colours(avatar: Avatar) -> np.ndarray:
-    """(F, 3) uint8 albedo for the shaded look: skin for head and hands, dark clothes, eyes white with an iris."""
+    """(F, 3) uint8 albedo for the shaded look: skin for head and hands, dark clothes, eyes white with an iris,
+    dark hair, brows and eyelashes (the asset's shapes of those names)."""
     colour = np.where((avatar.triangle_part == BODY)[:, None], CLOTHES, SKIN_TONE).astype(np.uint8)
     for shape, name in enumerate(avatar.shape_names):
-        if "eye" not in name:
-            continue
         faces = np.flatnonzero(avatar.triangle_shape == shape)
         if not len(faces):
+            continue
+        if name in _SHAPE_COLOURS:
+            colour[faces] = _SHAPE_COLOURS[name]
+            continue
+        if not name.endswith("eye"):
             continue
         centroids = avatar.vertices[avatar.triangles[faces]].mean(axis=1)
         centre = avatar.vertices[np.unique(avatar.triangles[faces])].mean(axis=0)

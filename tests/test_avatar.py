@@ -10,13 +10,42 @@ from media.errors import SigncastError
 from media.influence import InfluenceVolume, affectedness, dominant_agreement, falloff, fit_volumes, influence_weights
 
 
-def test_avatar_keeps_body_skin_and_eyes_in_metres(avatar):
-    assert avatar.vertices.shape == (13524, 3)
-    assert np.count_nonzero(avatar.triangle_shape == 0) == 26756          # the body group, split into triangles
-    assert set(np.unique(avatar.triangle_shape)) == {0, 1, 2}              # body, left eye, right eye
+def test_avatar_keeps_body_skin_eyes_brows_lashes_and_hair_in_metres(avatar):
+    assert avatar.shape_names == ("body", "left_eye", "right_eye", "brows", "eyelashes", "hair")
+    assert set(np.unique(avatar.triangle_shape)) == set(range(6))
+    # the body group (26,756 triangles from its quads), plus the pieces of the triangles cut at the neckline,
+    # cuffs and hairline (each cut triangle becomes three), less the brows' triangles
+    body_and_brows = np.isin(avatar.triangle_shape, (0, 3))
+    assert 26756 < np.count_nonzero(body_and_brows) < 26756 + 2 * 2000
+    assert np.count_nonzero(avatar.triangle_shape == 4) == 2 * (44 + 48) * 2     # the four eyelash helpers' quads
     height = avatar.vertices[:, 1].max() - avatar.vertices[:, 1].min()
     assert 1.55 < height < 1.80                                            # a person, in metres
     assert avatar.triangles.max() < len(avatar.vertices)
+
+
+def test_hair_brows_and_lashes_are_head_and_follow_head_bones(avatar):
+    names = avatar.skeleton.names
+    dominant = avatar.weights.dominant_bone()
+    for shape in ("brows", "eyelashes", "hair"):
+        faces = avatar.triangle_shape == avatar.shape_names.index(shape)
+        assert np.all(avatar.triangle_part[faces] == HEAD)
+        bones = {names[b] for b in dominant[np.unique(avatar.triangles[faces])]}
+        assert "head" in bones or shape == "eyelashes"
+        assert not any(b.startswith(("spine", "clavicle", "shoulder", "upperarm")) for b in bones), bones
+    hair = np.unique(avatar.triangles[avatar.triangle_shape == 5])
+    assert avatar.vertices[hair, 1].min() > 0.63 and avatar.vertices[hair, 1].max() > 0.85     # a cap on the skull
+
+
+def test_borders_between_skin_and_clothes_are_cut_lines(avatar):
+    """The neckline and the cuffs run along cut planes: every vertex of a head triangle at the neckline lies on or
+    above the plane (no triangle zigzags across it)."""
+    sk = avatar.skeleton
+    neck = sk.heads[sk.index("neck01")]
+    body = avatar.triangle_shape == 0
+    head_faces = body & (avatar.triangle_part == HEAD)
+    p = avatar.vertices[avatar.triangles[head_faces]].astype(np.float64)
+    level = p[..., 1] - (neck[1] - 0.004 - 0.25 * (p[..., 2] - neck[2]))
+    assert level.min() > -1e-5
 
 
 def test_avatar_parts_follow_the_body(avatar):

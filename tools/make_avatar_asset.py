@@ -20,6 +20,8 @@ import numpy as np
 from media.domain import BODY, HEAD, LEFT_HAND, RIGHT_HAND
 
 KEPT_GROUPS = ("body", "helper-l-eye", "helper-r-eye")
+SHAPES = ("body", "left_eye", "right_eye", "brows", "eyelashes", "hair")
+EAR_BOX = (0.062, 0.015, 0.07, 0.756)   # the ears, left bare: |x| > 0.062, 0.015 < z < 0.07, y < 0.756 (m, rest)
 DECIMETRE = 0.1
 
 HEAD_BONE_PREFIXES = ("head", "jaw", "eye", "neck", "levator", "oris", "orbicularis", "risorius",
@@ -75,6 +77,113 @@ def part_labels(vertices: np.ndarray, triangles: np.ndarray, triangle_shape: np.
     return part
 
 
+def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(V, 3) unit area-weighted vertex normals (zero where a vertex has no triangle)."""
+    p = vertices[triangles]
+    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    normal = np.zeros_like(vertices, dtype=np.float64)
+    for k in range(3):
+        np.add.at(normal, triangles[:, k], face)
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    return normal / np.where(length > 0, length, 1.0)
+
+
+def blend_rows(a: list[tuple[int, float]], b: list[tuple[int, float]], s: float) -> list[tuple[int, float]]:
+    """Skin weights of a point at share s of the way from vertex a to vertex b (rows as (bone, weight) lists)."""
+    mixed: dict[int, float] = {}
+    for row, share in ((a, 1.0 - s), (b, s)):
+        for bone, weight in row:
+            mixed[bone] = mixed.get(bone, 0.0) + share * weight
+    return sorted((bone, w) for bone, w in mixed.items() if w > 1e-6)
+
+
+def cut_along(vertices: np.ndarray, triangles: np.ndarray, shapes: np.ndarray, rows: list, field: np.ndarray,
+              region: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Split the triangles that the zero level of `field` (V,) crosses, so that a border drawn there is a line.
+
+    Starts from crossing triangles whose vertices all lie in `region` (V,) bool, then also splits every triangle
+    that shares a split edge (no T-junction, so no crack can open), until no split edge is left half done. New
+    vertices lie on the edges where the field's linear interpolation is zero, with the weights interpolated the
+    same way (rows grows in place). Returns vertices, triangles, shapes."""
+    vertices = [tuple(v) for v in vertices]
+    field = list(field)
+    side = lambda i: field[i] >= 0.0                                     # noqa: E731
+    crosses = lambda t: len({side(i) for i in t}) == 2                   # noqa: E731
+    edge_users: dict[tuple[int, int], list[int]] = {}
+    for f, t in enumerate(triangles):
+        for k in range(3):
+            edge_users.setdefault(tuple(sorted((int(t[k]), int(t[(k + 1) % 3])))), []).append(f)
+    todo = [f for f, t in enumerate(triangles) if crosses(t) and region[t].all()]
+    split, seen = set(), set(todo)
+    while todo:
+        f = todo.pop()
+        split.add(f)
+        t = triangles[f]
+        for k in range(3):
+            a, b = int(t[k]), int(t[(k + 1) % 3])
+            if side(a) != side(b):
+                for g in edge_users[tuple(sorted((a, b)))]:
+                    if g not in seen:
+                        seen.add(g)
+                        todo.append(g)
+    new_vertex: dict[tuple[int, int], int] = {}
+
+    def on_edge(a: int, b: int) -> int:
+        key = (min(a, b), max(a, b))
+        if key not in new_vertex:
+            a, b = key
+            s = field[a] / (field[a] - field[b])
+            vertices.append(tuple((1 - s) * np.asarray(vertices[a]) + s * np.asarray(vertices[b])))
+            rows.append(blend_rows(rows[a], rows[b], s))
+            field.append(0.0)
+            new_vertex[key] = len(vertices) - 1
+        return new_vertex[key]
+
+    out_triangles, out_shapes = [], []
+    for f, t in enumerate(triangles):
+        if f not in split:
+            out_triangles.append(tuple(t))
+            out_shapes.append(shapes[f])
+            continue
+        t = [int(i) for i in t]
+        # rotate so that t[0] is the vertex alone on its side; the winding is kept
+        alone = next(k for k in range(3) if side(t[k]) != side(t[(k + 1) % 3]) and side(t[k]) != side(t[(k + 2) % 3]))
+        a, b, c = t[alone], t[(alone + 1) % 3], t[(alone + 2) % 3]
+        ab, ac = on_edge(a, b), on_edge(a, c)
+        for piece in ((a, ab, ac), (ab, b, c), (ab, c, ac)):
+            out_triangles.append(piece)
+            out_shapes.append(shapes[f])
+    return (np.asarray(vertices), np.asarray(out_triangles, dtype=np.int64), np.asarray(out_shapes))
+
+
+def hairline(vertices: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """(V,) height above the hairline, metres: the hairline runs at the forehead's top in front, above the ears at
+    the sides and at the nape behind (a short haircut)."""
+    forward = vertices[:, 2] - centre[2]
+    cos_azimuth = forward / np.maximum(np.hypot(vertices[:, 0], forward), 1e-9)
+    return vertices[:, 1] - (HAIR_NAPE + (HAIR_FRONT - HAIR_NAPE) * ((1 + cos_azimuth) / 2) ** 1.5)
+
+
+HAIR_FRONT, HAIR_NAPE = 0.797, 0.668          # hairline heights (metres, rest pose) at the forehead and the nape
+HAIR_THICKNESS = (0.0015, 0.0100)             # the cap's offset from the scalp: at the hairline, 4 cm above it
+
+
+def brow_triangles(vertices: np.ndarray, triangles: np.ndarray, eye_centres: list[np.ndarray]) -> np.ndarray:
+    """(F,) bool: the skin triangles of the two eyebrows, an arch over each eye (rest pose), thicker inside."""
+    centroid = vertices[triangles].mean(axis=1)
+    brow = np.zeros(len(triangles), dtype=bool)
+    for eye in eye_centres:
+        outward = np.sign(eye[0])
+        u = (centroid[:, 0] - eye[0]) * outward                   # along the brow, + towards the temple
+        inner, outer = -0.018, 0.024
+        s = np.clip((u - inner) / (outer - inner), 0, 1)
+        middle = eye[1] + 0.0165 + 0.0045 * np.sin(np.pi * s ** 0.8)      # arch, highest two-thirds out
+        half = 0.0042 - 0.0020 * s                                      # tapers towards the temple
+        brow |= ((u > inner) & (u < outer) & (np.abs(centroid[:, 1] - middle) < half)
+                 & (centroid[:, 2] > eye[2] - 0.006))
+    return brow
+
+
 def main(data_dir: str) -> None:
     data = Path(data_dir)
     all_vertices, faces_by_group = read_obj(data / "3dobjs" / "base.obj")
@@ -124,16 +233,91 @@ def main(data_dir: str) -> None:
         for k in range(1, len(f) - 1):   # fan-split quads into two triangles
             triangles.append((f[0], f[k], f[k + 1]))
             triangle_shape.append(shape)
-    triangles = np.asarray(triangles, dtype=np.int32)
-    vertices = (all_vertices[used] * DECIMETRE).astype(np.float32)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    triangle_shape = np.asarray(triangle_shape)
+    vertices = all_vertices[used] * DECIMETRE
 
-    # Skin weights as CSR rows, restricted to the kept vertices and renormalised.
-    rows: list[list[tuple[int, float]]] = [[] for _ in range(len(used))]
-    for bone_name, pairs in weights_file["weights"].items():
-        for vertex, weight in pairs:
-            v = new_index[int(vertex)]
-            if v >= 0 and weight > 0:
-                rows[v].append((index_of[bone_name], float(weight)))
+    # Skin weights of the kept vertices (and of the eyelash helpers), renormalised rows of (bone, weight).
+    def weight_rows(index: np.ndarray, count: int) -> list[list[tuple[int, float]]]:
+        rows: list[list[tuple[int, float]]] = [[] for _ in range(count)]
+        for bone_name, pairs in weights_file["weights"].items():
+            for vertex, weight in pairs:
+                v = index[int(vertex)]
+                if v >= 0 and weight > 0:
+                    rows[v].append((index_of[bone_name], float(weight)))
+        return rows
+    rows = weight_rows(new_index, len(used))
+
+    def dominant_of(rows: list) -> np.ndarray:
+        return np.array([max(row, key=lambda bw: bw[1])[0] for row in rows])
+
+    # Clean borders: cut the triangles that the neckline, the two cuffs and the hairline cross, so that the
+    # skin/clothes and skin/hair borders are lines rather than the zigzag of the triangles' edges.
+    neck = heads[index_of["neck01"]]
+    neck_field = vertices[:, 1] - (neck[1] - 0.004 - 0.25 * (vertices[:, 2] - neck[2]))
+    near_neck = (np.abs(vertices[:, 0]) < 0.12) & (np.abs(vertices[:, 1] - neck[1]) < 0.08)
+    vertices, triangles, triangle_shape = cut_along(vertices, triangles, triangle_shape, rows, neck_field, near_neck)
+    for side in (".L", ".R"):
+        elbow, wrist = heads[index_of["lowerarm01" + side]], heads[index_of["wrist" + side]]
+        axis = (wrist - elbow) / np.linalg.norm(wrist - elbow)
+        cuff_field = (vertices - wrist) @ axis + 0.015
+        near_cuff = np.linalg.norm(vertices - (wrist - 0.015 * axis), axis=1) < 0.07
+        vertices, triangles, triangle_shape = cut_along(vertices, triangles, triangle_shape, rows, cuff_field,
+                                                        near_cuff)
+    eye_centres = [vertices[np.unique(triangles[triangle_shape == k])].mean(axis=0) for k in (1, 2)]
+    crown = vertices[vertices[:, 1] > 0.76]                                          # the skull above the brows
+    skull_centre = np.array([0.0, 0.0, (crown[:, 2].max() + crown[:, 2].min()) / 2])     # mid forehead-to-back
+    dominant = dominant_of(rows)
+    on_head = np.isin(dominant, [i for i, n in enumerate(order) if n.startswith(HEAD_BONE_PREFIXES)])
+    scalp_region = on_head & (vertices[:, 1] > HAIR_NAPE - 0.03)
+    body = triangle_shape == 0
+    hair_field = hairline(vertices, skull_centre)
+    vertices, triangles, triangle_shape = cut_along(vertices, triangles, triangle_shape, rows, hair_field,
+                                                    scalp_region & np.isin(np.arange(len(vertices)), triangles[body]))
+
+    # Hair: a short-hair cap, the scalp's skin triangles above the hairline copied and pushed out along the skin's
+    # normals (thin at the hairline, HAIR_THICKNESS), each copy skinned like the scalp vertex it came from.
+    body = triangle_shape == 0
+    normals = vertex_normals(vertices, triangles[body])
+    hair_field = hairline(vertices, skull_centre)
+    dominant = dominant_of(rows)
+    on_head = np.isin(dominant, [i for i, n in enumerate(order) if n.startswith(HEAD_BONE_PREFIXES)])
+    ear = ((np.abs(vertices[:, 0]) > EAR_BOX[0]) & (vertices[:, 2] > EAR_BOX[1]) & (vertices[:, 2] < EAR_BOX[2])
+           & (vertices[:, 1] < EAR_BOX[3]))
+    scalp = on_head & (hair_field >= -1e-9) & ~ear
+    scalp_triangles = np.flatnonzero(body & scalp[triangles].all(axis=1))
+    sources = np.unique(triangles[scalp_triangles])
+    copy_of = np.full(len(vertices), -1, dtype=np.int64)
+    copy_of[sources] = len(vertices) + np.arange(len(sources))
+    rise = np.clip(hair_field[sources] / 0.04, 0, 1)
+    thickness = HAIR_THICKNESS[0] + (HAIR_THICKNESS[1] - HAIR_THICKNESS[0]) * rise ** 0.5
+    hair_vertices = vertices[sources] + thickness[:, None] * normals[sources]
+    hair_triangles = copy_of[triangles[scalp_triangles]]
+    rows.extend([list(rows[v]) for v in sources])
+    vertices = np.concatenate([vertices, hair_vertices])
+
+    # Eyelashes: the base mesh's four eyelash helpers, with their own default weights (the eyelids' bones).
+    lash_groups = [g for g in ("helper-l-eyelashes-1", "helper-l-eyelashes-2", "helper-r-eyelashes-1",
+                               "helper-r-eyelashes-2")]
+    lash_used = np.array(sorted({i for g in lash_groups for face in faces_by_group[g] for i in face}))
+    lash_index = np.full(len(all_vertices), -1, dtype=np.int64)
+    lash_index[lash_used] = len(vertices) + np.arange(len(lash_used))
+    lash_triangles = [(f[0], f[k], f[k + 1]) for g in lash_groups for face in faces_by_group[g]
+                      for f in [lash_index[face]] for k in range(1, len(f) - 1)]
+    lash_local = np.full(len(all_vertices), -1, dtype=np.int64)
+    lash_local[lash_used] = np.arange(len(lash_used))
+    rows.extend(weight_rows(lash_local, len(lash_used)))
+    vertices = np.concatenate([vertices, all_vertices[lash_used] * DECIMETRE])
+
+    # Eyebrows: the skin's own triangles over each eye, a shape of their own (drawn dark by media/render.py).
+    brows = (triangle_shape == 0) & brow_triangles(vertices, triangles, eye_centres)
+    triangle_shape = np.where(brows, SHAPES.index("brows"), triangle_shape)
+    triangles = np.concatenate([triangles, np.asarray(lash_triangles, dtype=np.int64), hair_triangles])
+    triangle_shape = np.concatenate([triangle_shape, np.full(len(lash_triangles), SHAPES.index("eyelashes")),
+                                     np.full(len(hair_triangles), SHAPES.index("hair"))])
+    triangles = triangles.astype(np.int32)
+    vertices = vertices.astype(np.float32)
+
     indptr = np.zeros(len(rows) + 1, dtype=np.int32)
     bones_flat, weights_flat = [], []
     for v, row in enumerate(rows):
@@ -144,14 +328,14 @@ def main(data_dir: str) -> None:
         weights_flat.extend(w / total for _, w in row)
         indptr[v + 1] = len(bones_flat)
 
-    dominant = np.array([max(row, key=lambda bw: bw[1])[0] for row in rows])
-    triangle_part = part_labels(vertices, triangles, np.asarray(triangle_shape), dominant, order, heads)
+    dominant = dominant_of(rows)
+    triangle_part = part_labels(vertices, triangles, triangle_shape, dominant, order, heads)
 
     out = Path(__file__).resolve().parents[1] / "media" / "assets" / "makehuman_base.npz"
     np.savez_compressed(
         out,
         vertices=vertices, triangles=triangles, triangle_part=triangle_part,
-        triangle_shape=np.asarray(triangle_shape, dtype=np.uint8), shape_names=np.array(["body", "left_eye", "right_eye"]),
+        triangle_shape=triangle_shape.astype(np.uint8), shape_names=np.array(SHAPES),
         bone_names=np.array(order), bone_parents=parents,
         bone_heads=heads.astype(np.float32), bone_tails=tails.astype(np.float32), bone_rolls=rolls,
         weight_indptr=indptr, weight_bones=np.asarray(bones_flat, dtype=np.int32),
