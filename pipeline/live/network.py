@@ -95,10 +95,18 @@ class LossyRelay:
                     out.sendto(heapq.heappop(held)[2], self.destination)
                     self.counts.forwarded += 1
                 if self._stop.is_set():
+                    self.sock.setblocking(False)            # what the sender sent before close() is still
+                    while True:                             # queued on our socket: it goes through the model too
+                        try:
+                            data = self.sock.recv(MAX_DATAGRAM)
+                        except (BlockingIOError, InterruptedError):
+                            break
+                        self._take(data, held, order)
                     deadline = now + getattr(self, "_drain_s", 0.0)
                     for release, _, data in sorted(held):
-                        if release > deadline:
-                            break
+                        if release > deadline:               # held past the drain: the network lost it
+                            self.counts.dropped += 1
+                            continue
                         time.sleep(max(0.0, release - time.monotonic()))
                         out.sendto(data, self.destination)
                         self.counts.forwarded += 1
@@ -107,12 +115,15 @@ class LossyRelay:
                 ready, _, _ = select.select([self.sock], [], [], wait)
                 if not ready:
                     continue
-                data = self.sock.recv(MAX_DATAGRAM)
-                self.counts.received += 1
-                dropped, delay_s = self.model.next() if self.model is not None else (False, 0.0)
-                if dropped:
-                    self.counts.dropped += 1
-                    continue
-                heapq.heappush(held, (time.monotonic() + float(delay_s), next(order), data))
+                self._take(self.sock.recv(MAX_DATAGRAM), held, order)
         finally:
             out.close()
+
+    def _take(self, data: bytes, held: list, order) -> None:
+        """One datagram through the model: counted, dropped or held until its release time."""
+        self.counts.received += 1
+        dropped, delay_s = self.model.next() if self.model is not None else (False, 0.0)
+        if dropped:
+            self.counts.dropped += 1
+            return
+        heapq.heappush(held, (time.monotonic() + float(delay_s), next(order), data))

@@ -37,7 +37,7 @@ from media.domain import Solution, kbps, solution_of
 from media.errors import SigncastError
 from media.render import AvatarRenderer, RenderSettings
 from pipeline.live import endpoints
-from pipeline.live.network import LossyRelay
+from pipeline.live.network import LossyRelay  # noqa: F401 (tests use live.LossyRelay)
 from pipeline.live.session import Listener, SessionDescription, receive, send
 from pipeline.stages import StageClock
 from pipeline.studies import shared
@@ -187,13 +187,49 @@ def deliver(description: SessionDescription, source, sink_for: Callable, model) 
         with LossyRelay(listener.address, model) as relay:
             thread = threading.Thread(target=receiver, name="live-receiver", daemon=True)
             thread.start()
-            sent = send(description, source, listener.address, relay_address=relay.address)
+            sent = send(description, source, listener.address, relay=relay)
             thread.join()
     finally:
         listener.close()
     if "error" in outcome:
         raise outcome["error"]
     return Delivery(sent, outcome["received"], relay.counts)
+
+
+def delivery_fields(got, packets_sent: int | None, relay_dropped: int | None) -> dict:
+    """What a session's datagrams came to, kept apart (issue 37): packet_loss is what the network lost (the
+    relay's loss model, over the datagrams sent); late_packets were read after their frame was shown or after
+    the session; unaccounted_packets were sent and neither dropped by the relay nor read (lost in the host: a
+    full socket buffer); discarded, malformed and unknown datagrams were refused by the receiver's checks. Also
+    the latency, whole and per stage (p50 / p95 ms), the jitter buffer's hold and measured jitter, and what the
+    control port refused."""
+    packets_sent = got.packets_sent if got.packets_sent is not None else packets_sent
+    relay_dropped = got.relay_dropped if got.relay_dropped is not None else relay_dropped
+    p50, p95 = got.latency_summary()
+    unaccounted = (None if packets_sent is None else
+                   max(0, packets_sent - (relay_dropped or 0) - (got.packets - got.discarded_packets
+                                                               - got.malformed_packets - got.unknown_packets)))
+    fields = {"packet_loss": None if not packets_sent else (relay_dropped or 0) / packets_sent,
+              "packets": packets_sent, "packets_received": got.packets, "relay_dropped": relay_dropped,
+              "late_packets": got.late_packets, "drained_packets": got.drained_packets,
+              "unaccounted_packets": unaccounted, "discarded_packets": got.discarded_packets,
+              "malformed_packets": got.malformed_packets, "unknown_packets": got.unknown_packets,
+              "stalled_connections": got.control.stalled, "rejected_descriptions": got.control.rejected,
+              "refused_connections": got.control.refused, "latency_ms_p50": p50, "latency_ms_p95": p95,
+              "hold_ms": got.hold_ms, "jitter_measured_ms": got.jitter_ms,
+              "en_301_549": latency_verdict(p95)}
+    for stage, (a, b) in got.stage_summary().items():
+        fields[f"{stage}_ms_p50"], fields[f"{stage}_ms_p95"] = a, b
+    return fields
+
+
+def latency_verdict(p95_ms: float | None) -> str | None:
+    """EN 301 549 (clause 6.5) on a session's 95th-percentile latency: "preferred" under 0.4 s, "acceptable" up
+    to 0.8 s, "hinders" above (conversation is hindered)."""
+    if p95_ms is None:
+        return None
+    return ("preferred" if p95_ms < EN_301_549_PREFERRED_MS else
+            "acceptable" if p95_ms <= EN_301_549_HINDERS_MS else "hinders")
 
 
 def _damaged_frames(sink_stats: dict) -> int:
@@ -248,19 +284,17 @@ class LiveStudy:
         duration = s.timing.duration_s
         sent = delivery.sent
         delivered_bits = 8 * (sent.rtp_bytes + IP_UDP_BYTES * sent.packets)
-        p50, p95 = got.latency_summary()
         frames_lost = int((~got.received).sum())
         damaged = _damaged_frames(got.sink_stats)
         fields = make_record(description.solution, s.name, codec, description.q, s.fps, *s.size,
                              8 * sent.media_bytes, duration, sweep="loss", loss_rate=rate,
-                             packet_loss=1.0 - got.packets / max(1, sent.packets),
                              delivered_kbps=kbps(delivered_bits, duration),
                              overhead_kbps=kbps(delivered_bits - 8 * sent.media_bytes, duration),
                              frames_lost=frames_lost, frames_concealed=frames_lost + damaged,
-                             latency_ms_p50=p50, latency_ms_p95=p95, packets=sent.packets,
-                             late_packets=got.late_packets, refresh=description.details.get("refresh"),
+                             refresh=description.details.get("refresh"),
                              shape_gop=description.details.get("shape_gop"),
-                             burst=self.settings.burst, jitter_ms=self.settings.jitter_ms, seed=seed)
+                             burst=self.settings.burst, jitter_ms=self.settings.jitter_ms, seed=seed,
+                             **delivery_fields(got, sent.packets, delivery.relay_counts.dropped))
         draws = shared.extract_draws(got.shown[self.judge.measured], s.fps, 1,
                                      f"landmarks: {codec} at {100 * rate:g} % loss", self.progress)
         viewed = Viewed(got.shown, None, fields)
@@ -457,8 +491,7 @@ def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
     if lossy:
         relay = LossyRelay(settings.destination, network_model(network, settings.loss_rate, settings.seed))
         with relay:
-            sent = send(description, source, settings.destination, relay_address=relay.address)
-            relay.close(drain_s=1.0)
+            sent = send(description, source, settings.destination, relay=relay)
         dropped = relay.counts.dropped
     else:
         sent = send(description, source, settings.destination)
@@ -486,14 +519,13 @@ def run_receive(port: int, out_dir: Path, *, timeout_s: float = 60.0, backend: s
         listener.close()
     d = got.description
     duration = d.n_frames / d.fps
-    p50, p95 = got.latency_summary()
     frames_lost = int((~got.received).sum())
     record = make_record(d.solution, d.clip, d.codec, d.q, d.fps, d.width, d.height, 0, duration, sweep="receive",
                          frames_lost=frames_lost,
-                         frames_concealed=frames_lost + int(got.sink_stats.get("damaged", 0)),
-                         latency_ms_p50=p50, latency_ms_p95=p95, packets_received=got.packets,
-                         late_packets=got.late_packets,
-                         received_kbps=kbps(8 * (got.rtp_bytes + IP_UDP_BYTES * got.packets), duration))
+                         frames_concealed=frames_lost + _damaged_frames(got.sink_stats),
+                         received_kbps=kbps(8 * (got.rtp_bytes + IP_UDP_BYTES * got.packets), duration),
+                         refresh=d.details.get("refresh") if isinstance(d.details, dict) else None,
+                         **delivery_fields(got, None, None))
     record["bits"] = None
     record["kbps"] = None
     write_video(out_dir / "shown.mkv", got.shown, d.fps)
