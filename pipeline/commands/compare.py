@@ -31,7 +31,7 @@ def add_parser(subparsers) -> None:
                              "are used (default 25,20,15,10)")
     options.add_param_q(parser)
     options.add_codecs(parser)
-    options.add_video_codecs(parser, default="none")
+    options.add_video_codecs(parser, default="libx264,libsvtav1")
     parser.set_defaults(func=run)
 
 
