@@ -190,56 +190,62 @@ def _wrap(angle):
     return angle
 
 
-@njit(cache=True)
-def to_euler(q, stride, i, j, k, extrinsic):
-    """q (N, 4) quaternions, not necessarily unit; (i, j, k) the sequence as fixed axes (an intrinsic sequence
-    reversed), extrinsic whether it was -> (angles (N, 3) radians in the sequence's order, ok): ok False when a
-    quaternion has zero norm (the caller raises). Angles 1 and 3 in [-pi, pi], angle 2 in [-pi / 2, pi / 2]
-    (Tait-Bryan) or [0, pi] (proper Euler); within 1e-7 of gimbal lock the third angle is 0. A row equal to the one
-    `stride` rows before it (a bone held from the previous frame, rows frame-major; stride 0: none) takes its
-    angles. Bernardes & Viollet 2022: the quaternion permuted to (a, b, c, d), the middle angle
+@njit(cache=True, inline="always")
+def euler_of(w, x, y, z, i, j, k, extrinsic):
+    """The Euler angles (radians, the sequence's order) of one quaternion (w, x, y, z), not necessarily unit but not
+    zero; (i, j, k) the sequence as fixed axes (an intrinsic sequence reversed), extrinsic whether it was. Angles 1
+    and 3 in [-pi, pi], angle 2 in [-pi / 2, pi / 2] (Tait-Bryan) or [0, pi] (proper Euler); within 1e-7 of gimbal
+    lock the third angle is 0. Bernardes & Viollet 2022: the quaternion permuted to (a, b, c, d), the middle angle
     2 atan2(|(c, d)|, |(a, b)|), the outer angles from atan2(b, a) +- atan2(d, c)."""
-    n = q.shape[0]
-    out = np.zeros((n, 3))
     symmetric = i == k
     if symmetric:
         k = 3 - i - j
     sign = (i - j) * (j - k) * (k - i) // 2
-    third = 2 if extrinsic else 0
-    e = np.empty(3)
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    w = w / norm
+    e0, e1, e2 = x / norm, y / norm, z / norm
+    qi = e0 if i == 0 else (e1 if i == 1 else e2)
+    qj = e0 if j == 0 else (e1 if j == 1 else e2)
+    qk = (e0 if k == 0 else (e1 if k == 1 else e2)) * sign
+    if symmetric:
+        a, b, c, d = w, qi, qj, qk
+    else:
+        a, b, c, d = w - qj, qi + qk, qj + w, qk - qi
+    second = 2.0 * math.atan2(math.hypot(c, d), math.hypot(a, b))
+    half_sum, half_diff = math.atan2(b, a), math.atan2(d, c)
+    if abs(second) <= 1e-7:
+        first, last = 2.0 * half_sum, 0.0
+    elif abs(second - math.pi) <= 1e-7:
+        first, last = (-2.0 if extrinsic else 2.0) * half_diff, 0.0
+    elif extrinsic:
+        first, last = half_sum - half_diff, half_sum + half_diff
+    else:
+        first, last = half_sum + half_diff, half_sum - half_diff
+    if not symmetric:
+        second -= 0.5 * math.pi
+        if extrinsic:
+            last *= sign
+        else:
+            first *= sign
+    return _wrap(first), _wrap(second), _wrap(last)
+
+
+@njit(cache=True)
+def to_euler(q, stride, i, j, k, extrinsic):
+    """q (N, 4) quaternions, not necessarily unit -> (angles (N, 3) `euler_of` each, ok): ok False when a quaternion
+    has zero norm (the caller raises). A row equal to the one `stride` rows before it (a bone held from the previous
+    frame, rows frame-major; stride 0: none) takes its angles."""
+    n = q.shape[0]
+    out = np.zeros((n, 3))
     for t in range(n):
         if (t >= stride > 0 and q[t, 0] == q[t - stride, 0] and q[t, 1] == q[t - stride, 1]
                 and q[t, 2] == q[t - stride, 2] and q[t, 3] == q[t - stride, 3]):
             out[t, 0], out[t, 1], out[t, 2] = out[t - stride, 0], out[t - stride, 1], out[t - stride, 2]
             continue
         w, x, y, z = q[t, 0], q[t, 1], q[t, 2], q[t, 3]
-        norm = math.sqrt(w * w + x * x + y * y + z * z)
-        if norm == 0.0:
+        if w == 0.0 and x == 0.0 and y == 0.0 and z == 0.0:
             return out, False
-        w = w / norm
-        e[0], e[1], e[2] = x / norm, y / norm, z / norm
-        qi, qj, qk = e[i], e[j], e[k] * sign
-        if symmetric:
-            a, b, c, d = w, qi, qj, qk
-        else:
-            a, b, c, d = w - qj, qi + qk, qj + w, qk - qi
-        second = 2.0 * math.atan2(math.hypot(c, d), math.hypot(a, b))
-        half_sum, half_diff = math.atan2(b, a), math.atan2(d, c)
-        if abs(second) <= 1e-7:
-            first, last = 2.0 * half_sum, 0.0
-        elif abs(second - math.pi) <= 1e-7:
-            first, last = (-2.0 if extrinsic else 2.0) * half_diff, 0.0
-        elif extrinsic:
-            first, last = half_sum - half_diff, half_sum + half_diff
-        else:
-            first, last = half_sum + half_diff, half_sum - half_diff
-        if not symmetric:
-            second -= 0.5 * math.pi
-            if third == 0:
-                first *= sign
-            else:
-                last *= sign
-        out[t, 0], out[t, 1], out[t, 2] = _wrap(first), _wrap(second), _wrap(last)
+        out[t, 0], out[t, 1], out[t, 2] = euler_of(w, x, y, z, i, j, k, extrinsic)
     return out, True
 
 

@@ -180,24 +180,6 @@ def test_bba_codecs_array_paths_read_what_they_write_at_the_stored_rate():
                     assert np.array_equal(public.root_translation, decoded.root_translation)
 
 
-@pytest.mark.parametrize("order", range(24))
-def test_compiled_euler_conversion_is_bitwise_scipys(order):
-    from comparisons.params.bba_rotations import from_euler
-    from media import rotations
-
-    name = bba_codec.ORDER_NAMES[order]
-    sequence = rotations.scipy_sequence(name)
-    rng = np.random.default_rng(order)
-    angles = rng.integers(-314159, 314160, size=(4000, 3)).astype(np.float64) * 1e-5
-    angles[:50] = 0.0
-    angles[50:100, 1] = 0.0
-    angles[100:150] = np.pi
-    angles[150:200] = -np.pi / 2
-    got = from_euler(angles, np.array(["xyz".index(c) for c in sequence.lower()], dtype=np.int64), sequence.isupper())
-    expected = rotations.from_euler(angles, name)
-    assert np.array_equal(got.view(np.int64), expected.view(np.int64))     # bitwise, signed zeros included
-
-
 def test_decode_motion_raises_what_read_stream_raises(avatar):
     data = bba_codec.encode_motion(letter_motion("ase", "B", 25.0), 8, skeleton=avatar.skeleton)
     for damaged in (data[:-6] + data[-4:], data[:40] + bytes([data[40] ^ 0x10]) + data[41:], data[:-4]):

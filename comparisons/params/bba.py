@@ -65,7 +65,7 @@ distinct set of bone masks is laid out once (_layout: keys, steps); the predicti
 whose frames share one mask set run in one compiled loop (comparisons/params/bba_levels.py); header and mask
 fields are gathered into one integer before the BitWriter takes them; the decoder reads the bone
 tables and masks with comparisons/params/bba_masks.py and converts all frames' Euler angles in one compiled call
-(comparisons/params/bba_rotations.py, scipy's from_euler to rounding). Streams of one mask set without muscles are
+(media.rotations.from_euler_table, scipy's from_euler to rounding). Streams of one mask set without muscles are
 written from arrays (values (F, P), KeyFrameIndex (F,)); encode_motion and decode_motion (what
 comparisons/param_codecs.BbaCodec uses) go from a Motion to bytes and back without any BBAFrame, with
 the bytes and Motion of motion_to_stream + write_stream and read_stream + stream_to_motion. decode_motion
@@ -86,12 +86,11 @@ from comparisons.params import keyframes as kf
 from comparisons.params import coding as pc
 from comparisons.params.bits import BitReader, BitWriter, find_start_codes
 from comparisons.params.fba_mapping import avatar_bap_map
-from comparisons.params import bba_euler as split_kernel
 from comparisons.params import bba_header as header_kernel
 from comparisons.params import bba_levels as level_kernel
 from comparisons.params import bba_masks as mask_kernel
-from comparisons.params import bba_rotations as euler_kernel
 from comparisons.params import bba_units as unit_kernel
+from comparisons.params import bba_values as split_kernel
 from comparisons.params import bba_writer as writer_kernel
 from comparisons.params import arithmetic as crc_kernel
 from media import rotations
@@ -1364,18 +1363,9 @@ def encode_motion(motion: Motion, q: int, coding: str = "pred", *, keyframes: bo
 
 
 def _to_euler(q: np.ndarray, order: str) -> np.ndarray:
-    """rotations.to_euler(q, order) of quaternions (..., 4), bitwise, by comparisons/params/bba_euler.py (scipy where the
-    kernel declines: a zero quaternion, which scipy reports)."""
-    sequence = rotations.scipy_sequence(order)
-    extrinsic = sequence.islower()
-    axes = ["xyz".index(axis) for axis in sequence.lower()]
-    i, j, k = axes if extrinsic else axes[::-1]
-    flat = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 4)
-    stride = q.shape[-2] if q.ndim >= 3 else 0              # rows of one frame: a held bone repeats its angles
-    angles, ok = split_kernel.euler_angles(flat, flat.view(np.int64), stride, i, j, k, extrinsic)
-    if not ok:
-        return rotations.to_euler(q, order)
-    return angles.reshape(q.shape[:-1] + (3,))
+    """rotations.to_euler(q, order) of quaternions (..., 4) in one compiled pass (media.rotations.euler_split: the
+    same angles to rounding, a bone held from the previous frame not recomputed)."""
+    return rotations.euler_split(q, order)
 
 
 def _motion_arrays(motion: Motion, q: int, coding: str, keyframes: bool, threshold_rad: float | None,
@@ -1383,7 +1373,7 @@ def _motion_arrays(motion: Motion, q: int, coding: str, keyframes: bool, thresho
                    skeleton: Skeleton) -> tuple[BBAHeader, dict[int, int], np.ndarray, np.ndarray]:
     """motion_to_stream's analysis as arrays: (header, boneID -> mask of every frame, kfi (K,) int64,
     values (K, P) int64 in stream order: bones sorted, bits ascending). The values and the mask are
-    comparisons/params/bba_euler.py `motion_values` (`_motion_arrays_numpy` is the same in NumPy; tests compare them)."""
+    comparisons/params/bba_values.py `motion_values` (`_motion_arrays_numpy` is the same in NumPy; tests compare them)."""
     q = pc.check_q(q)
     if keyframes and coding != "pred":
         raise SigncastError("key frames are coded with the predictive BBA coder only")
@@ -1452,7 +1442,7 @@ def _column_plan(bone_names: tuple[str, ...], skeleton: Skeleton) -> tuple:
     """The candidate value columns of a Motion with these bones, cached: (columns: (boneID, bit) of each,
     source (C,) int64: each column's index in [root translation (3), angles of bone j axis a (3 j + a)],
     steps (C,) int64 base steps, is_angle (C,) bool, first_of: (boneID, bit) -> its first column; and as
-    comparisons/params/bba_euler.py `motion_values` takes them: first (C,) int64 each column's first_of, key_order (U,)
+    comparisons/params/bba_values.py `motion_values` takes them: first (C,) int64 each column's first_of, key_order (U,)
     int64 the first columns sorted by (boneID, bit), key_bone and key_bit (U,) int64 theirs). The
     columns: per bone in the Motion's order, the root's translation before the root's angles, then the
     three angles; the root's translation last when the Motion does not carry the root."""
@@ -1689,12 +1679,7 @@ def _motion_of_runs(header: BBAHeader, runs: list[tuple[dict[int, int], np.ndarr
         block[:, target] = flat[:, source]
         held = block[-1]
         start = stop
-    axes = _EULER_AXES.get(order)
-    if axes is None:
-        sequence = rotations.scipy_sequence(order)
-        axes = _EULER_AXES[order] = (np.array(["xyz".index(c) for c in sequence.lower()], dtype=np.int64),
-                                     sequence.isupper())
-    key_q = euler_kernel.from_euler_table(table, len(rotated), bap_table.ROTATION_UNIT_RAD, *axes)   # (F, R, 4)
+    key_q = rotations.from_euler_table(table, len(rotated), bap_table.ROTATION_UNIT_RAD, order)   # (F, R, 4)
     key_t = table[:, 3 * len(rotated):] * bap_table.TRANSLATION_UNIT_M                 # (F, 3)
     if not kfi[1:].any():
         quats, trans = key_q, key_t
@@ -1704,7 +1689,6 @@ def _motion_of_runs(header: BBAHeader, runs: list[tuple[dict[int, int], np.ndarr
 
 
 _PLANS: dict[tuple, tuple] = {}      # _runs_plan's cache: (masks of the runs, id(skeleton)) -> (skeleton, plan)
-_EULER_AXES: dict[str, tuple] = {}   # rotation order name -> (axes (3,) int64, intrinsic) of from_euler_table
 _VLC_LUTS: dict[int, tuple] = {}     # id(pc.vlc_tables()) -> (those tables, their huffman_lut (dc_intra, dc_inter, ac))
 
 

@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from comparisons.params import bap_table
-from comparisons.lab import rotations as lab_rotations
+from media import bap_rotations as bap_loops
 from media import rotations
 from media.avatar import Skeleton, load_avatar
 from media.errors import SigncastError
@@ -304,10 +304,10 @@ def motion_to_baps(motion: Motion, bap_map: AvatarBapMap | None = None, *, stric
     frames, neutrals, columns, signs = bap_map.arrays
     mapped, source = _bone_sources(motion.bone_names, bap_map.bone_names)
     values = np.zeros((motion.n_frames, bap_table.N_BAPS), dtype=np.int64)
-    # np.round(rotations.to_euler(F^-1 (N^-1 q) F, EULER_ORDER) * signs / unit), bitwise, in one compiled pass
-    # (comparisons/lab/rotations.py)
-    lab_rotations.anatomical_bap_levels(motion.rotations, mapped, source, frames, neutrals, columns, signs,
-                                        bap_table.ROTATION_UNIT_RAD, values)
+    # np.round(rotations.to_euler(F^-1 (N^-1 q) F, EULER_ORDER) * signs / unit) in one compiled pass
+    # (media/bap_rotations.py)
+    bap_loops.anatomical_bap_levels(motion.rotations, mapped, source, frames, neutrals, columns, signs,
+                                    bap_table.ROTATION_UNIT_RAD, values)
     translation_mm = np.round(motion.root_translation / bap_table.TRANSLATION_UNIT_M)
     if not np.all(np.abs(translation_mm) < 2.0 ** 62):     # the int64 cast would wrap (and warn)
         raise SigncastError(f"root translation of {np.abs(motion.root_translation).max():.3g} m cannot be sent as BAPs")
@@ -328,14 +328,14 @@ def baps_to_motion(values: np.ndarray, fps: float, bap_map: AvatarBapMap | None 
         raise SigncastError(f"BAP values must be (T, {bap_table.N_BAPS}), got {values.shape}")
     frames, neutrals, columns, signs = bap_map.arrays
     # N (F E F^-1) with E = rotations.from_euler(angles, EULER_ORDER), normalised, w >= 0, of the angles
-    # values[:, columns] x unit x signs, in one compiled pass (comparisons/lab/rotations.py; within 1e-15 of those
+    # values[:, columns] x unit x signs, in one compiled pass (media/bap_rotations.py; within 1e-12 of those
     # NumPy/scipy calls)
     if np.issubdtype(values.dtype, np.integer):
-        q = lab_rotations.bap_value_rotations(values.astype(np.int64, copy=False), columns, signs,
+        q = bap_loops.bap_value_rotations(values.astype(np.int64, copy=False), columns, signs,
                                               bap_table.ROTATION_UNIT_RAD, frames, neutrals)
     else:
         angles = values[:, columns].astype(np.float64) * bap_table.ROTATION_UNIT_RAD * signs
-        q = lab_rotations.bap_rotations(np.ascontiguousarray(angles), frames, neutrals)
+        q = bap_loops.bap_rotations(np.ascontiguousarray(angles), frames, neutrals)
     names = bap_map.bone_names
     translation = np.stack([values[:, 182 - 1], values[:, 181 - 1], values[:, 183 - 1]], axis=1) * bap_table.TRANSLATION_UNIT_M
     return Motion(fps, names, q, translation.astype(np.float64), faps)

@@ -14,7 +14,6 @@ from __future__ import annotations
 import numpy as np
 
 from comparisons.params import bba_keyframes as key_kernel
-from comparisons.params import bba_slerp as slerp_kernel
 from media import rotations
 from media.motion import Motion
 
@@ -136,20 +135,15 @@ def expand(previous_q: np.ndarray, previous_t: np.ndarray, key_q: np.ndarray, ke
            kfi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The frames a decoder regenerates before each of G key frames, all gaps in one batch: previous_q, key_q
     (G, B, 4) the rotations of the key frames around each gap, previous_t, key_t (G, 3) their root
-    translations, kfi (G,) int64 frames dropped in each gap. Returns (sum kfi, B, 4) rotations (slerp) and
-    (sum kfi, 3) translations (linear), gap after gap, at x = k / (kfi + 1), k = 1..kfi. rotations.slerp's
-    operations element for element (its arithmetic compiled in comparisons/params/bba_slerp.py, NumPy's arccos and
-    sin between); equal to rotations.slerp gap by gap to rounding (tests/test_bba_decode_speed.py)."""
+    translations, kfi (G,) int64 frames dropped in each gap. Returns (sum kfi, B, 4) rotations (slerp, eq. 3.9,
+    media.rotations.slerp_rows) and (sum kfi, 3) translations (linear, eq. 3.8), gap after gap, at
+    x = k / (kfi + 1), k = 1..kfi."""
     kfi = np.asarray(kfi, dtype=np.int64)
     owner = np.repeat(np.arange(len(kfi)), kfi)
     starts = np.cumsum(kfi) - kfi
     x = (np.arange(len(owner)) - starts[owner] + 1) / (kfi[owner] + 1)
     n_bones = previous_q.shape[1]
-    q0 = previous_q[owner].reshape(-1, 4)
-    t = np.repeat(x, n_bones)                  # rotations.slerp(q0, q1, x per frame)
-    cosines, q1 = slerp_kernel.prepare(q0, key_q[owner].reshape(-1, 4))
-    alpha = np.arccos(cosines)
-    q = slerp_kernel.combine(q0, q1, t, np.sin(alpha), np.sin((1.0 - t) * alpha), np.sin(t * alpha))
+    q = rotations.slerp_rows(previous_q[owner].reshape(-1, 4), key_q[owner].reshape(-1, 4), np.repeat(x, n_bones))
     return q.reshape(len(owner), n_bones, 4), (1 - x)[:, None] * previous_t[owner] + x[:, None] * key_t[owner]
 
 
@@ -157,8 +151,17 @@ def regenerate(key_q: np.ndarray, key_t: np.ndarray, kfi: np.ndarray) -> tuple[n
     """The display frames of decoded key frames: key_q (F, B, 4) rotations, key_t (F, 3) root translations,
     kfi (F,) int64 KeyFrameIndex of each (frames dropped before it; kfi[0] is ignored). Returns (D, B, 4)
     rotations and (D, 3) translations, D = F + sum kfi[1:]: each key frame at its display frame and `expand`'s
-    frames between them (the same operations in one compiled pass, NumPy's arccos and sin between)."""
-    quats, trans, q0, q1, cosines, t = slerp_kernel.gap_setup(key_q, key_t, kfi)
-    alpha = np.arccos(cosines)
-    slerp_kernel.combine_into(quats, kfi, q0, q1, t, np.sin(alpha), np.sin((1.0 - t) * alpha), np.sin(t * alpha))
+    frames between them."""
+    gaps = np.asarray(kfi, dtype=np.int64).copy()
+    if len(gaps):
+        gaps[0] = 0
+    at = np.arange(len(gaps)) + np.cumsum(gaps)                 # each key frame's display frame
+    n_display = int(at[-1]) + 1 if len(gaps) else 0
+    quats = np.empty((n_display,) + key_q.shape[1:])
+    trans = np.empty((n_display, 3))
+    quats[at], trans[at] = key_q, key_t
+    inner = np.ones(n_display, dtype=bool)
+    inner[at] = False
+    if inner.any():
+        quats[inner], trans[inner] = expand(key_q[:-1], key_t[:-1], key_q[1:], key_t[1:], gaps[1:])
     return quats, trans

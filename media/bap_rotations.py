@@ -1,28 +1,33 @@
-"""Numba kernels of the Motion <-> BAP conversion (comparisons/params/fba_mapping.py documents the mapping).
+"""Compiled loops of the Motion <-> BAP conversion (comparisons/params/fba_mapping.py documents the mapping), for
+speed: one pass over frames and bones instead of scipy calls and NumPy products with their temporaries.
 
 Per frame t and mapped bone b, with F the bone's anatomical frame and N its neutral rotation
 ((B, 4) quaternions (w, x, y, z)):
 
 - `anatomical_rotations`: a = F^-1 (N^-1 q) F of the motion's local rotations q (T, B, 4), the
-  rotation the Euler split reads. Each product is media.rotations.multiply's expression, term for
-  term in the same order, and the inverse is a negation, so the result is bitwise NumPy's.
-- `bap_rotations`: q = N ((F E) F^-1) from Euler angles (T, B, 3) radians (flexion, abduction,
-  twist, rotating axes X, Z, Y: E = R_X(f) R_Z(a) R_Y(t)), normalised, w >= 0. This replaces
-  scipy's from_euler plus three NumPy products (one pass, no temporaries); it agrees with them to
-  about 1e-15 (sin and cos are Numba's, not NumPy's: the result is not bitwise theirs).
+  rotation the Euler split reads.
+- `anatomical_euler`: a's Euler angles (flexion, abduction, twist) in rotating axes X, Z, Y
+  (media/rotation_loops.euler_of, scipy's as_euler conventions).
+- `bap_rotations`: q = N ((F E) F^-1) from Euler angles (T, B, 3) radians (E = R_X(f) R_Z(a) R_Y(t)),
+  normalised, w >= 0.
 - `anatomical_bap_levels` / `bap_value_rotations`: the same two directions straight from and to BAP
-  integers, skipping a bone whose input in a frame is bit for bit its previous frame's (held poses are
-  about half of signing's bone-frames): equal inputs give equal floats, so the output is unchanged.
+  integers, skipping a bone whose input in a frame equals its previous frame's (held poses are about half
+  of signing's bone-frames).
+
+tests/test_fba_speed_identity.py checks them against media.rotations (scipy's from_euler / as_euler and NumPy
+products): rotations within 1e-12 per component, angles within 1e-9 rad away from gimbal lock, and the BAP levels
+the same but for values within rounding of a half step.
 """
 import math
 
 import numpy as np
 from numba import njit
 
+from media.rotation_loops import euler_of
 
 @njit(cache=True, inline="always")
 def _multiply(aw, ax, ay, az, bw, bx, by, bz):
-    """Hamilton product a*b, media.rotations.multiply's expressions."""
+    """Hamilton product a*b."""
     return (aw * bw - ax * bx - ay * by - az * bz,
             aw * bx + ax * bw + ay * bz - az * by,
             aw * by - ax * bz + ay * bw + az * bx,
@@ -46,7 +51,7 @@ def anatomical_rotations(q: np.ndarray, frames: np.ndarray, neutrals: np.ndarray
 
 @njit(cache=True, inline="always")
 def _bap_rotation(f, a, t, nw, nx, ny, nz, fw, fx, fy, fz):
-    """N (F E F^-1) of one bone's angles (radians), normalised, w >= 0: bap_rotations' expressions."""
+    """N (F E F^-1) of one bone's angles (radians), normalised, w >= 0."""
     cf, sf = math.cos(0.5 * f), math.sin(0.5 * f)
     ca, sa = math.cos(0.5 * a), math.sin(0.5 * a)
     ct, st = math.cos(0.5 * t), math.sin(0.5 * t)
@@ -81,10 +86,9 @@ def bap_rotations(angles: np.ndarray, frames: np.ndarray, neutrals: np.ndarray) 
 @njit(cache=True)
 def bap_value_rotations(values: np.ndarray, columns: np.ndarray, signs: np.ndarray, unit: float,
                         frames: np.ndarray, neutrals: np.ndarray) -> np.ndarray:
-    """BAP values (T, V) int64 -> (T, B, 4) rotations: bitwise bap_rotations of the angles
+    """BAP values (T, V) int64 -> (T, B, 4) rotations: bap_rotations of the angles
     values[:, columns].astype(float64) * unit * signs (columns, signs (B, 3)). A bone whose three values
-    equal its previous frame's (a held pose) copies that frame's rotation: the same angles give the same
-    floats."""
+    equal its previous frame's (a held pose) copies that frame's rotation."""
     n_frames, n_bones = values.shape[0], frames.shape[0]
     out = np.empty((n_frames, n_bones, 4))
     for b in range(n_bones):
@@ -104,40 +108,13 @@ def bap_value_rotations(values: np.ndarray, columns: np.ndarray, signs: np.ndarr
 
 
 @njit(cache=True, inline="always")
-def _wrap(angle, pi):
-    if angle < -pi:
-        return angle + 2 * pi
-    if angle > pi:
-        return angle - 2 * pi
-    return angle
-
-
-@njit(cache=True, inline="always")
 def _euler(qw, qx, qy, qz, nw, nx, ny, nz, fw, fx, fy, fz):
-    """(flexion, abduction, twist) radians of a = F^-1 (N^-1 q) F (n = N^-1 given), anatomical_euler's split."""
-    pi = math.pi
+    """(flexion, abduction, twist) radians of a = F^-1 (N^-1 q) F (n = N^-1 given): intrinsic X, Z, Y, i.e. the
+    fixed axes y, z, x."""
     rw, rx, ry, rz = _multiply(nw, nx, ny, nz, qw, qx, qy, qz)
     sw, sx, sy, sz = _multiply(fw, -fx, -fy, -fz, rw, rx, ry, rz)
     w, x, y, z = _multiply(sw, sx, sy, sz, fw, fx, fy, fz)
-    norm = math.sqrt(x * x + y * y + z * z + w * w)
-    w, x, y, z = w / norm, x / norm, y / norm, z / norm
-    # extrinsic sequence y, z, x: i = 1, j = 2, k = 0, sign +1 (scipy's quat is x, y, z, w)
-    a = w - z
-    bb = y + x
-    c = z + w
-    d = x - y
-    second = 2 * math.atan2(math.hypot(c, d), math.hypot(a, bb))
-    half_sum = math.atan2(bb, a)
-    half_diff = math.atan2(d, c)
-    if abs(second) <= 1e-7:
-        first, third = 2 * half_sum, 0.0           # angles[0], angles[2] of scipy's gimbal case
-    elif abs(second - pi) <= 1e-7:
-        first, third = 2 * half_diff, 0.0
-    else:
-        third = half_sum - half_diff              # intrinsic: angles[2] = half_sum - half_diff
-        first = half_sum + half_diff              # angles[0]
-    second -= pi / 2
-    return _wrap(first, pi), _wrap(second, pi), _wrap(third, pi)
+    return euler_of(w, x, y, z, 1, 2, 0, False)
 
 
 @njit(cache=True)
@@ -148,12 +125,7 @@ def anatomical_euler(rotations: np.ndarray, mapped: np.ndarray, source: np.ndarr
     are at the rig's rest, identity) -> (T, B, 3) angles (flexion, abduction, twist) radians of
     a = F^-1 (N^-1 q) F in rotating axes X, Z, Y.
 
-    Bitwise what anatomical_rotations followed by media.rotations.to_euler(a, "XZYr") gives: scipy's
-    from_quat normalisation (sqrt((x x + y y + z z) + w w), then each divided) and its as_euler for
-    intrinsic "XZY" (Bernardes & Viollet 2022, scipy's _rotation_cy: the sequence reversed to extrinsic
-    y, z, x; sign +1; atan2 and hypot of libm), term for term and in the same order; scipy's gimbal-lock
-    cases (second angle within 1e-7 of 0 or pi: third angle 0) included. tests/test_fba_speed_identity.py
-    checks it against scipy."""
+    anatomical_rotations followed by media.rotations.to_euler(a, "XZYr"), to rounding."""
     n_frames, n_bones = rotations.shape[0], frames.shape[0]
     source_of = np.full(n_bones, -1, dtype=np.int64)
     for k in range(len(mapped)):
@@ -173,12 +145,6 @@ def anatomical_euler(rotations: np.ndarray, mapped: np.ndarray, source: np.ndarr
 
 
 @njit(cache=True, inline="always")
-def _same(a, b) -> bool:
-    """a and b are the same float64, bit for bit (0.0 and -0.0 differ; NaN is never the same)."""
-    return a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
-
-
-@njit(cache=True, inline="always")
 def _level(x):
     """np.round(x).astype(np.int64): half to even; NaN (a zero quaternion) as NumPy's cast gives it on x86."""
     if math.isnan(x):
@@ -191,10 +157,9 @@ def anatomical_bap_levels(rotations: np.ndarray, mapped: np.ndarray, source: np.
                           neutrals: np.ndarray, columns: np.ndarray, signs: np.ndarray, unit: float,
                           values: np.ndarray) -> None:
     """anatomical_euler's angles x signs (B, 3), / unit, rounded half to even (np.round) into
-    values[:, columns] (values (T, V) int64, columns (B, 3)): bitwise
-    np.round(anatomical_euler(...) * signs / unit).astype(np.int64). A bone's rotation that is bit for
-    bit its previous frame's (a held pose; every frame of a bone the motion lacks) is not split again:
-    the same floats give the same angles."""
+    values[:, columns] (values (T, V) int64, columns (B, 3)):
+    np.round(anatomical_euler(...) * signs / unit).astype(np.int64). A bone's rotation equal to its previous
+    frame's (a held pose; every frame of a bone the motion lacks) is not split again."""
     n_frames, n_bones = rotations.shape[0], frames.shape[0]
     source_of = np.full(n_bones, -1, dtype=np.int64)
     for k in range(len(mapped)):
@@ -212,7 +177,7 @@ def anatomical_bap_levels(rotations: np.ndarray, mapped: np.ndarray, source: np.
                 pw, px, py, pz = rotations[t, j, 0], rotations[t, j, 1], rotations[t, j, 2], rotations[t, j, 3]
             else:
                 pw, px, py, pz = 1.0, 0.0, 0.0, 0.0
-            if t == 0 or not (_same(pw, qw) and _same(px, qx) and _same(py, qy) and _same(pz, qz)):
+            if t == 0 or not (pw == qw and px == qx and py == qy and pz == qz):
                 qw, qx, qy, qz = pw, px, py, pz
                 first, second, third = _euler(qw, qx, qy, qz, nw, nx, ny, nz, fw, fx, fy, fz)
                 v0, v1, v2 = _level(first * s0 / unit), _level(second * s1 / unit), _level(third * s2 / unit)
