@@ -42,7 +42,7 @@ from typing import NamedTuple
 import numpy as np
 
 from kernels import backends
-from kernels._arrays import UploadCache, as_array, check_indices_once, immutable
+from kernels._arrays import UploadCache, as_array, check_indices_once, immutable, is_immutable
 from kernels.errors import KernelError
 
 LOOKS = ("shaded", "flat")
@@ -119,8 +119,34 @@ def checked_scene(positions: np.ndarray, triangles, triangle_part, camera, width
     else:
         colour = _unlit(len(triangles))
         background = palette[0].copy()
+    adjacency = vertex_triangles(triangles, len(positions)) if look == "shaded" else _NO_ADJACENCY
     return _Scene(positions, triangles, triangle_part, camera, int(width), int(height), look == "shaded",
-                  colour, palette, background, _LIGHT, bool(cull_back_faces))
+                  colour, palette, background, _LIGHT, bool(cull_back_faces), adjacency)
+
+
+_NO_ADJACENCY = (immutable(np.zeros(1, np.int32)), immutable(np.zeros(1, np.int32)))
+_ADJACENCY: dict[int, tuple] = {}
+
+
+def vertex_triangles(triangles: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles around each vertex, as CSR: indptr (V + 1,) int32 and triangle ids (3F,) int32, ascending
+    within a vertex (the order in which every backend sums a vertex's normal). Immutable arrays; kept per
+    immutable triangles array (the avatar's), recomputed for a writeable one."""
+    key = id(triangles)
+    hit = _ADJACENCY.get(key)
+    if hit is not None and hit[0] is triangles and hit[1] == n_vertices:
+        return hit[2]
+    flat = triangles.reshape(-1).astype(np.int64)
+    order = np.argsort(flat, kind="stable")              # stable: a vertex's triangles stay in ascending order
+    counts = np.bincount(flat, minlength=n_vertices)
+    indptr = np.zeros(n_vertices + 1, np.int32)
+    np.cumsum(counts, out=indptr[1:])
+    adjacency = (immutable(indptr), immutable((order // 3).astype(np.int32)))
+    if is_immutable(triangles):
+        if len(_ADJACENCY) >= 8:
+            _ADJACENCY.pop(next(iter(_ADJACENCY)))
+        _ADJACENCY[key] = (triangles, n_vertices, adjacency)
+    return adjacency
 
 
 @functools.lru_cache(maxsize=8)
@@ -146,8 +172,9 @@ class _Scene:
     """Checked arguments of one rasterize call."""
 
     def __init__(self, positions, triangles, triangle_part, camera, width, height, shaded, colour, palette,
-                 background, light, cull):
+                 background, light, cull, adjacency):
         self.positions, self.triangles, self.triangle_part, self.camera = positions, triangles, triangle_part, camera
+        self.adjacency = adjacency          # vertex_triangles(triangles) for the shaded look
         self.width, self.height, self.shaded = width, height, shaded
         self.colour, self.palette, self.background, self.light, self.cull = colour, palette, background, light, cull
 
@@ -185,16 +212,50 @@ def _top_left_bias(ax, ay, bx, by):
     return np.where((dy < 0) | ((dy == 0) & (dx > 0)), 0, 1)
 
 
-def _face_shade(p0, p1, p2, flipped, light):
-    """(N,) float32 Lambert factor of faces p0 p1 p2 (each (N, 3) metres), ambient + diffuse * max(n . l, 0)."""
+def _face_normals(positions, triangles):
+    """(F,) x, y, z float32 of each face's area-weighted normal (p1 - p0) x (p2 - p0), unnormalised."""
+    p0, p1, p2 = positions[triangles[:, 0]], positions[triangles[:, 1]], positions[triangles[:, 2]]
     e1, e2 = p1 - p0, p2 - p0
-    nx = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
-    ny = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
-    nz = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    length = np.sqrt(nx * nx + ny * ny + nz * nz)
-    towards = nx * light[0] + ny * light[1] + nz * light[2]
+    return (e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1], e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
+            e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+
+
+def _vertex_normals(positions, triangles, adjacency):
+    """Kernel `vertex_normals`: (V, 3) float32 unit normal of each vertex, the sum of its faces' area-weighted
+    normals in ascending triangle order (zero where that sum is zero)."""
+    indptr, ids = adjacency
+    face = _face_normals(positions, triangles)
+    degree = np.diff(indptr)
+    total = [np.zeros(len(positions), np.float32) for _ in range(3)]
+    for k in range(int(degree.max(initial=0))):      # the k-th triangle of every vertex that has one
+        v = np.flatnonzero(degree > k)
+        t = ids[indptr[v] + k]
+        for axis in range(3):
+            total[axis][v] = total[axis][v] + face[axis][t]
+    x, y, z = total
+    length = np.sqrt(x * x + y * y + z * z)
+    safe = np.where(length > 0, length, np.float32(1))
+    return np.stack([np.where(length > 0, x / safe, np.float32(0)), np.where(length > 0, y / safe, np.float32(0)),
+                     np.where(length > 0, z / safe, np.float32(0))], axis=1).astype(np.float32)
+
+
+def _pixel_shade(s: "_Scene", t, px, py, fixed_x, fixed_y, normals):
+    """(N,) float32 Lambert factor at pixel centres (px, py) (N,) of triangles t (N,): the vertex normals
+    interpolated with the pixel's barycentric weights (integer edge functions over the integer area), normalised,
+    ambient + diffuse * max(n . l, 0); a back face drawn (area > 0 in window space) turns its normal round."""
+    i0, i1, i2 = s.triangles[t, 0], s.triangles[t, 1], s.triangles[t, 2]
+    x0, y0, x1, y1, x2, y2 = fixed_x[i0], fixed_y[i0], fixed_x[i1], fixed_y[i1], fixed_x[i2], fixed_y[i2]
+    cx, cy = px * SUBPIXEL + HALF_SUBPIXEL, py * SUBPIXEL + HALF_SUBPIXEL
+    area = _edge(x0, y0, x1, y1, x2, y2).astype(np.float32)
+    l1 = _edge(x2, y2, x0, y0, cx, cy).astype(np.float32) / area
+    l2 = _edge(x0, y0, x1, y1, cx, cy).astype(np.float32) / area
+    n0, n1, n2 = normals[i0], normals[i1], normals[i2]
+    n = [n0[:, k] + l1 * (n1[:, k] - n0[:, k]) + l2 * (n2[:, k] - n0[:, k]) for k in range(3)]
+    length = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+    light = s.light
+    towards = n[0] * light[0] + n[1] * light[1] + n[2] * light[2]
     cosine = np.where(length > 0, towards / np.where(length > 0, length, np.float32(1)), np.float32(0))
-    cosine = np.where(flipped, -cosine, cosine)
+    cosine = np.where(area > 0, -cosine, cosine)
     return (light[3] + light[4] * np.maximum(cosine, np.float32(0))).astype(np.float32)
 
 
@@ -264,10 +325,6 @@ class _NumpyRaster:
     def render(self, s: _Scene):
         fixed_x, fixed_y, depth, valid = _project(s.positions, s.camera, s.width, s.height)
         walk = _setup_triangles(s, fixed_x, fixed_y, depth, valid)
-        shade = np.zeros(len(s.triangles), np.float32)
-        if s.shaded:
-            p = s.positions[s.triangles[walk.t]]
-            shade[walk.t] = _face_shade(p[:, 0], p[:, 1], p[:, 2], walk.flipped, s.light)
         k, px, py = _bounding_box_pixels(walk)
         # edge functions at the pixel centres, with the top-left rule
         centre_x, centre_y = px * SUBPIXEL + HALF_SUBPIXEL, py * SUBPIXEL + HALF_SUBPIXEL
@@ -286,11 +343,13 @@ class _NumpyRaster:
         key = (z[in_range] * DEPTH_SCALE).astype(np.int64) * ID_SCALE + walk.t[k[in_range]]
         keys = np.full(s.width * s.height, EMPTY_KEY, dtype=np.int64)
         np.minimum.at(keys, py[in_range] * s.width + px[in_range], key)
-        return _resolve(s, keys, shade)
+        normals = _vertex_normals(s.positions, s.triangles, s.adjacency) if s.shaded else None
+        return _resolve(s, keys, fixed_x, fixed_y, normals)
 
 
-def _resolve(s: _Scene, keys, shade):
-    """Kernel `resolve`: each pixel's key -> triangle id, label, depth and colour."""
+def _resolve(s: _Scene, keys, fixed_x, fixed_y, normals):
+    """Kernel `resolve`: each pixel's key -> triangle id, label, depth and colour (shaded look: the albedo of
+    its triangle lit with the interpolated vertex normals, _pixel_shade)."""
     W, H = s.width, s.height
     covered = keys != EMPTY_KEY
     triangle_id = np.where(covered, keys % ID_SCALE, -1).astype(np.int32)
@@ -302,7 +361,8 @@ def _resolve(s: _Scene, keys, shade):
         rgb = np.broadcast_to(s.background, (W * H, 3)).copy()
         pixel = np.flatnonzero(covered)
         t = triangle_id[pixel]
-        value = s.colour[t].astype(np.float32) * shade[t][:, None] + np.float32(0.5)
+        shade = _pixel_shade(s, t, pixel % W, pixel // W, fixed_x, fixed_y, normals)
+        value = s.colour[t].astype(np.float32) * shade[:, None] + np.float32(0.5)
         rgb[pixel] = np.minimum(value, np.float32(255)).astype(np.uint8)
     return rgb.reshape(H, W, 3), labels.reshape(H, W), triangle_id.reshape(H, W), depth.reshape(H, W)
 
@@ -329,7 +389,7 @@ class _WarpRaster:
         self._uploads = None
         self._frames = {}
 
-    def _frame(self, s: _Scene, triangles, part, colour, palette):
+    def _frame(self, s: _Scene, triangles, part, colour, palette, indptr, ids):
         """The buffers and recorded launches for this mesh and image size (built on first use)."""
         V, F, W, H = len(s.positions), len(s.triangles), s.width, s.height
         slot = (V, F, W, H)
@@ -347,8 +407,8 @@ class _WarpRaster:
             frame = types.SimpleNamespace(
                 positions=wp.empty(V, dtype=wp.vec3, device=device),
                 vertices=wp.empty(V, dtype=wp.vec4, device=device),
+                normals=wp.zeros(V, dtype=wp.vec3, device=device),
                 keys=wp.full(n, int(EMPTY_KEY), dtype=wp.int64, device=device),
-                face_rgb=wp.zeros(3 * F, dtype=wp.uint8, device=device),
                 background=wp.zeros(3, dtype=wp.uint8, device=device), out=out, outputs=outputs,
                 spans=[wp.full(H, value, dtype=wp.int32, device=device) for value in (W, -1, W, -1)],
                 clean=True, fresh=True, on_cpu=on_cpu, settings=None, drawn_background=None)
@@ -357,13 +417,16 @@ class _WarpRaster:
                 frame.out_host = out.numpy()
             frame.project = wp.launch(raster_warp.project, dim=-(-V // chunk), device=device, record_cmd=True,
                                       inputs=[frame.positions, wp.mat44(), float(W), float(H), chunk, frame.vertices])
+            frame.normals_pass = wp.launch(raster_warp.vertex_normals, dim=-(-V // chunk), device=device,
+                                           record_cmd=True, inputs=[frame.positions, triangles, indptr, ids, chunk,
+                                                                    frame.normals])
             frame.raster = wp.launch(raster_warp.raster, dim=-(-F // chunk), device=device, record_cmd=True,
-                                     inputs=[triangles, frame.positions, frame.vertices, W, H, 0, 0, wp.vec3(), 0.0,
-                                             0.0, colour, chunk, frame.keys, frame.face_rgb, *frame.spans[:2]])
+                                     inputs=[triangles, frame.vertices, W, H, 0, chunk, frame.keys, *frame.spans[:2]])
             frame.resolve = wp.launch(raster_warp.resolve, dim=H, device=device, record_cmd=True,
-                                      inputs=[frame.keys, part, frame.face_rgb, palette, frame.background, 0, 1, W,
-                                              *frame.spans, *outputs])
-            frame.inputs = (triangles, part, colour, palette)
+                                      inputs=[frame.keys, part, palette, frame.background, 0, 1, W, *frame.spans,
+                                              *outputs, triangles, frame.vertices, frame.normals, colour, wp.vec3(),
+                                              0.0, 0.0])
+            frame.inputs = (triangles, part, colour, palette, indptr, ids)
             if len(self._frames) >= 4:
                 self._frames.pop(next(iter(self._frames)))
             self._frames[slot] = frame
@@ -381,13 +444,18 @@ class _WarpRaster:
         wp = self._wp
         W, H = s.width, s.height
         inputs = (self._uploads.get("triangles", s.triangles), self._uploads.get("part", s.triangle_part),
-                  self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette))
+                  self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette),
+                  self._uploads.get("indptr", s.adjacency[0]), self._uploads.get("ids", s.adjacency[1]))
         frame = self._frame(s, *inputs)
         if any(a is not b for a, b in zip(inputs, frame.inputs)):     # the mesh or its colours changed
             frame.raster.set_param_at_index(0, inputs[0])
-            frame.raster.set_param_at_index(10, inputs[2])
+            frame.normals_pass.set_param_at_index(1, inputs[0])
+            frame.normals_pass.set_param_at_index(2, inputs[4])
+            frame.normals_pass.set_param_at_index(3, inputs[5])
             frame.resolve.set_param_at_index(1, inputs[1])
-            frame.resolve.set_param_at_index(3, inputs[3])
+            frame.resolve.set_param_at_index(2, inputs[3])
+            frame.resolve.set_param_at_index(15, inputs[0])
+            frame.resolve.set_param_at_index(18, inputs[2])
             frame.inputs = inputs
         if not frame.clean:            # an earlier frame stopped between raster and resolve
             frame.keys.fill_(int(EMPTY_KEY))
@@ -396,12 +464,11 @@ class _WarpRaster:
         settings = (s.camera.tobytes(), s.cull, s.shaded, s.light.tobytes())
         if settings != frame.settings:
             frame.project.set_param_at_index(1, wp.mat44(s.camera))
-            frame.raster.set_param_at_index(5, int(s.cull))
-            frame.raster.set_param_at_index(6, int(s.shaded))
-            frame.raster.set_param_at_index(7, wp.vec3(*s.light[:3]))
-            frame.raster.set_param_at_index(8, float(s.light[3]))
-            frame.raster.set_param_at_index(9, float(s.light[4]))
-            frame.resolve.set_param_at_index(5, int(s.shaded))
+            frame.raster.set_param_at_index(4, int(s.cull))
+            frame.resolve.set_param_at_index(4, int(s.shaded))
+            frame.resolve.set_param_at_index(19, wp.vec3(*s.light[:3]))
+            frame.resolve.set_param_at_index(20, float(s.light[3]))
+            frame.resolve.set_param_at_index(21, float(s.light[4]))
             frame.settings = settings
         if background.tobytes() != frame.drawn_background:
             frame.fresh = True
@@ -412,14 +479,16 @@ class _WarpRaster:
             frame.positions.assign(s.positions)
             frame.background.assign(background)
         if frame.fresh:
-            frame.resolve.set_param_at_index(6, 1)
+            frame.resolve.set_param_at_index(5, 1)
         frame.project.launch()
+        if s.shaded:
+            frame.normals_pass.launch()
         frame.clean = False
         frame.raster.launch()
         frame.resolve.launch()
         frame.clean = True
         if frame.fresh:
-            frame.resolve.set_param_at_index(6, 0)
+            frame.resolve.set_param_at_index(5, 0)
             frame.drawn_background = background.tobytes()
             frame.fresh = False
         # CPU: a copy of the buffer's NumPy view (the next frame overwrites it); CUDA: .numpy() copies already
@@ -458,16 +527,25 @@ inline long first_centre(long low) { return (max(low, 0L) + HALF_SUBPIXEL - 1) /
 /* last pixel whose centre lies at or before fixed-point coordinate high, -1 if none */
 inline long last_centre(long high) { return high < HALF_SUBPIXEL ? -1L : (high - HALF_SUBPIXEL) / SUBPIXEL; }
 
-inline float face_shade(float3 p0, float3 p1, float3 p2, int flipped, float lx, float ly, float lz,
-                        float ambient, float diffuse) {
-    float3 e1 = p1 - p0, e2 = p2 - p0;
-    float nx = e1.y * e2.z - e1.z * e2.y;
-    float ny = e1.z * e2.x - e1.x * e2.z;
-    float nz = e1.x * e2.y - e1.y * e2.x;
-    float length = sqrt(nx * nx + ny * ny + nz * nz);
-    float cosine = length > 0.0f ? (nx * lx + ny * ly + nz * lz) / length : 0.0f;
-    if (flipped) cosine = -cosine;
-    return ambient + diffuse * fmax(cosine, 0.0f);
+/* Vertices [g * chunk, (g + 1) * chunk) of n: the unit sum of the area-weighted normals (p1 - p0) x (p2 - p0) of the
+   triangles around each vertex (CSR indptr, ids), in ascending triangle order; zero where the sum is. */
+__kernel void vertex_normals(__global const float *positions, __global const int *triangles,
+                             __global const int *indptr, __global const int *ids, int n, int chunk,
+                             __global float *normals) {
+  int first = get_global_id(0) * chunk, last = min(first + chunk, n);
+  for (int v = first; v < last; ++v) {
+    float x = 0.0f, y = 0.0f, z = 0.0f;
+    for (int j = indptr[v]; j < indptr[v + 1]; ++j) {
+        int t = ids[j];
+        float3 p0 = vload3(triangles[3 * t], positions);
+        float3 e1 = vload3(triangles[3 * t + 1], positions) - p0, e2 = vload3(triangles[3 * t + 2], positions) - p0;
+        x = x + (e1.y * e2.z - e1.z * e2.y);
+        y = y + (e1.z * e2.x - e1.x * e2.z);
+        z = z + (e1.x * e2.y - e1.y * e2.x);
+    }
+    float length = sqrt(x * x + y * y + z * z);
+    vstore3(length > 0.0f ? (float3)(x / length, y / length, z / length) : (float3)(0.0f, 0.0f, 0.0f), v, normals);
+  }
 }
 
 /* Vertices [g * chunk, (g + 1) * chunk) of n. m: the world -> clip matrix, row-major, as one kernel argument.
@@ -499,15 +577,11 @@ __kernel void project(__global const float *positions, float16 m, float width, f
     not_finite[get_global_id(0)] = bad;
 }
 
-/* Triangles [g * chunk, (g + 1) * chunk) of n: per-triangle setup (shaded look: the lit colour of a face that wrote a key
-   into face_rgb, 3 bytes a triangle), edge functions with the top-left rule over the pixel centres inside the
+/* Triangles [g * chunk, (g + 1) * chunk) of n: per-triangle setup, edge functions with the top-left rule over the pixel centres inside the
    bounding box, depth test. Each image row's span of covered pixel centres widens [row_lo, row_hi]. */
-__kernel void raster(__global const int *triangles, __global const float *positions,
-                     __global const long *fixed_x, __global const long *fixed_y,
+__kernel void raster(__global const int *triangles, __global const long *fixed_x, __global const long *fixed_y,
                      __global const float *depth, __global const int *valid, int width, int height, int cull,
-                     int shaded, float lx, float ly, float lz, float ambient, float diffuse,
-                     __global const uchar *colour, int n, int chunk, __global long *keys, __global uchar *face_rgb,
-                     __global int *row_lo, __global int *row_hi) {
+                     int n, int chunk, __global long *keys, __global int *row_lo, __global int *row_hi) {
   int first = get_global_id(0) * chunk, last = min(first + chunk, n);
   for (int t = first; t < last; ++t) {
     /* per-triangle setup: drop triangles with a vertex off limits, degenerate ones, culled back faces */
@@ -544,7 +618,6 @@ __kernel void raster(__global const int *triangles, __global const float *positi
     long row2 = edge(ax, ay, bx, by, start_x, start_y) - b2;
     long step_x0 = -(cy - by) * SUBPIXEL, step_x1 = -(ay - cy) * SUBPIXEL, step_x2 = -(by - ay) * SUBPIXEL;
     long step_y0 = (cx - bx) * SUBPIXEL, step_y1 = (ax - cx) * SUBPIXEL, step_y2 = (bx - ax) * SUBPIXEL;
-    int drew = 0;
     for (int py = (int)ymin; py <= (int)ymax; ++py) {
         long e0 = row0, e1 = row1, e2 = row2;
         int run_end = -1;
@@ -559,7 +632,6 @@ __kernel void raster(__global const int *triangles, __global const float *positi
                 if (z >= 0.0f && z <= 1.0f) {
                     long key = (long)(z * DEPTH_SCALE) * ID_SCALE + (long)t;
                     atom_min(&keys[py * width + px], key);
-                    drew = 1;
                 }
             } else if (run_end >= 0) {
                 break;  /* a row's covered pixels are one run (the triangle is convex): none is left */
@@ -568,14 +640,6 @@ __kernel void raster(__global const int *triangles, __global const float *positi
         }
         if (run_end >= 0) atomic_max(&row_hi[py], run_end);
         row0 += step_y0; row1 += step_y1; row2 += step_y2;
-    }
-    /* shaded look: the lit colour only of a triangle that wrote a key (resolve reads face_rgb only for the
-       triangle of a pixel's key; many small triangles cover no pixel centre) */
-    if (shaded && drew) {
-        float s = face_shade(vload3(i0, positions), vload3(i1, positions), vload3(i2, positions), flipped,
-                             lx, ly, lz, ambient, diffuse);
-        for (int k = 0; k < 3; ++k)
-            face_rgb[3 * t + k] = (uchar)fmin((float)colour[3 * t + k] * s + 0.5f, 255.0f);
     }
   }
 }
@@ -595,10 +659,13 @@ __kernel void clear(__global long *keys, int width, __global int *row_lo, __glob
    visited (the others were empty then and are empty now, so they hold the background already), and an empty
    pixel that was empty in the last frame (triangle id -1) is not written again. The row's spans then move
    on: drawn = this frame's, this frame's = empty for the next raster pass. */
-__kernel void resolve(__global long *keys, __global const uchar *triangle_part, __global const uchar *face_rgb,
+__kernel void resolve(__global long *keys, __global const uchar *triangle_part,
                       __global const uchar *palette, uchar bg_r, uchar bg_g, uchar bg_b, int shaded, int fresh,
                       int width, int n, __global int *row_lo, __global int *row_hi, __global int *drawn_lo,
-                      __global int *drawn_hi, __global uchar *out, __global const int *not_finite, int n_groups) {
+                      __global int *drawn_hi, __global uchar *out, __global const int *not_finite, int n_groups,
+                      __global const int *triangles, __global const long *fixed_x, __global const long *fixed_y,
+                      __global const float *normals, __global const uchar *colour, float lx, float ly, float lz,
+                      float ambient, float diffuse) {
     int y = get_global_id(0);
     if (y == 0) {              /* the project pass's flags, gathered into the int after the outputs */
         int any = 0;
@@ -625,8 +692,29 @@ __kernel void resolve(__global long *keys, __global const uchar *triangle_part, 
         uchar label = triangle_part[t];
         labels[i] = label; triangle_id[i] = t;
         depth_out[i] = (float)(key / ID_SCALE) / DEPTH_SCALE;
-        __global const uchar *c = shaded ? face_rgb + 3 * t : palette + 3 * label;
-        rgb[3 * i] = c[0]; rgb[3 * i + 1] = c[1]; rgb[3 * i + 2] = c[2];
+        if (!shaded) {
+            __global const uchar *c = palette + 3 * label;
+            rgb[3 * i] = c[0]; rgb[3 * i + 1] = c[1]; rgb[3 * i + 2] = c[2];
+            continue;
+        }
+        /* the vertex normals interpolated at the pixel centre (barycentric weights from the integer edge
+           functions), normalised, Lambert; a back face drawn turns its normal round */
+        int i0 = triangles[3 * t], i1 = triangles[3 * t + 1], i2 = triangles[3 * t + 2];
+        long x0 = fixed_x[i0], y0 = fixed_y[i0], x1 = fixed_x[i1], y1 = fixed_y[i1], x2 = fixed_x[i2], y2 = fixed_y[i2];
+        long cx = (long)(i - y * width) * SUBPIXEL + HALF_SUBPIXEL, cy = (long)y * SUBPIXEL + HALF_SUBPIXEL;
+        float area = (float)edge(x0, y0, x1, y1, x2, y2);
+        float l1 = (float)edge(x2, y2, x0, y0, cx, cy) / area;
+        float l2 = (float)edge(x0, y0, x1, y1, cx, cy) / area;
+        float3 n0 = vload3(i0, normals), n1 = vload3(i1, normals), n2 = vload3(i2, normals);
+        float nx = n0.x + l1 * (n1.x - n0.x) + l2 * (n2.x - n0.x);
+        float ny = n0.y + l1 * (n1.y - n0.y) + l2 * (n2.y - n0.y);
+        float nz = n0.z + l1 * (n1.z - n0.z) + l2 * (n2.z - n0.z);
+        float length = sqrt(nx * nx + ny * ny + nz * nz);
+        float cosine = length > 0.0f ? (nx * lx + ny * ly + nz * lz) / length : 0.0f;
+        if (area > 0.0f) cosine = -cosine;
+        float shade = ambient + diffuse * fmax(cosine, 0.0f);
+        for (int k = 0; k < 3; ++k)
+            rgb[3 * i + k] = (uchar)fmin((float)colour[3 * t + k] * shade + 0.5f, 255.0f);
     }
 }
 """
@@ -645,7 +733,7 @@ class _OpenCLRaster:
         self._uploads = None
         self._frames = {}
 
-    def _frame(self, s: _Scene, triangles, part, colour, palette):
+    def _frame(self, s: _Scene, triangles, part, colour, palette, indptr, ids):
         """The buffers and argument-bound kernels for this mesh and image size (built on first use)."""
         import pyopencl as cl
         context, _ = backends.opencl_queue()
@@ -656,7 +744,7 @@ class _OpenCLRaster:
             return frame
         program = backends.opencl_kernels(_OPENCL_SOURCE).raster.program
         kernels = types.SimpleNamespace(**{name: cl.Kernel(program, name)
-                                           for name in ("project", "raster", "clear", "resolve")})
+                                           for name in ("project", "vertex_normals", "raster", "clear", "resolve")})
 
         def buffer(nbytes):
             return cl.Buffer(context, cl.mem_flags.READ_WRITE, max(nbytes, 1))
@@ -664,7 +752,7 @@ class _OpenCLRaster:
         n, chunk = W * H, self.CHUNK
         frame = types.SimpleNamespace(
             kernels=kernels, positions=buffer(12 * V), fixed_x=buffer(8 * V), fixed_y=buffer(8 * V),
-            depth=buffer(4 * V), valid=buffer(4 * V), keys=buffer(8 * n), face_rgb=buffer(3 * F),
+            depth=buffer(4 * V), valid=buffer(4 * V), keys=buffer(8 * n), normals=buffer(12 * V),
             out=buffer(12 * n + 4), spans=[buffer(4 * H) for _ in range(4)], clean=False, fresh=True, settings=None,
             drawn_background=None, inputs=None, project_size=(max(-(-V // chunk), 1),),
             raster_size=(max(-(-F // chunk), 1),))
@@ -673,14 +761,16 @@ class _OpenCLRaster:
         kernels.project.set_args(frame.positions, np.zeros(1, cl.cltypes.float16)[0], np.float32(W), np.float32(H),
                                  np.int32(V), np.int32(chunk), frame.fixed_x, frame.fixed_y, frame.depth, frame.valid,
                                  frame.not_finite)
-        kernels.raster.set_args(triangles, frame.positions, frame.fixed_x, frame.fixed_y, frame.depth, frame.valid,
-                                np.int32(W), np.int32(H), np.int32(0), np.int32(0), *np.zeros(5, np.float32), colour,
-                                np.int32(F), np.int32(chunk), frame.keys, frame.face_rgb, row_lo, row_hi)
+        kernels.vertex_normals.set_args(frame.positions, triangles, indptr, ids, np.int32(V), np.int32(chunk),
+                                        frame.normals)
+        kernels.raster.set_args(triangles, frame.fixed_x, frame.fixed_y, frame.depth, frame.valid, np.int32(W),
+                                np.int32(H), np.int32(0), np.int32(F), np.int32(chunk), frame.keys, row_lo, row_hi)
         kernels.clear.set_args(frame.keys, np.int32(W), row_lo, row_hi)
-        kernels.resolve.set_args(frame.keys, part, frame.face_rgb, palette, *np.zeros(3, np.uint8), np.int32(0),
+        kernels.resolve.set_args(frame.keys, part, palette, *np.zeros(3, np.uint8), np.int32(0),
                                  np.int32(1), np.int32(W), np.int32(n), row_lo, row_hi, drawn_lo, drawn_hi, frame.out,
-                                 frame.not_finite, np.int32(frame.project_size[0]))
-        frame.inputs = (triangles, part, colour, palette)
+                                 frame.not_finite, np.int32(frame.project_size[0]), triangles, frame.fixed_x,
+                                 frame.fixed_y, frame.normals, colour, *np.zeros(5, np.float32))
+        frame.inputs = (triangles, part, colour, palette, indptr, ids)
         if len(self._frames) >= 4:
             self._frames.pop(next(iter(self._frames)))
         self._frames[slot] = frame
@@ -695,14 +785,19 @@ class _OpenCLRaster:
                                                             hostbuf=np.ascontiguousarray(a)))
         W, H = s.width, s.height
         inputs = (self._uploads.get("triangles", s.triangles), self._uploads.get("part", s.triangle_part),
-                  self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette))
+                  self._uploads.get("colour", s.colour), self._uploads.get("palette", s.palette),
+                  self._uploads.get("indptr", s.adjacency[0]), self._uploads.get("ids", s.adjacency[1]))
         frame = self._frame(s, *inputs)
         k = frame.kernels
         if any(a is not b for a, b in zip(inputs, frame.inputs)):     # the mesh or its colours changed
             k.raster.set_arg(0, inputs[0])
-            k.raster.set_arg(15, inputs[2])
+            k.vertex_normals.set_arg(1, inputs[0])
+            k.vertex_normals.set_arg(2, inputs[4])
+            k.vertex_normals.set_arg(3, inputs[5])
             k.resolve.set_arg(1, inputs[1])
-            k.resolve.set_arg(3, inputs[3])
+            k.resolve.set_arg(2, inputs[3])
+            k.resolve.set_arg(17, inputs[0])
+            k.resolve.set_arg(21, inputs[2])
             frame.inputs = inputs
         if not frame.clean:            # a new buffer, or an earlier frame stopped between raster and resolve
             k.clear.set_args(frame.keys, np.int32(W), *frame.spans[:2])
@@ -713,24 +808,25 @@ class _OpenCLRaster:
             camera = np.zeros(1, cl.cltypes.float16)
             camera.view(np.float32)[:] = s.camera.reshape(-1)
             k.project.set_arg(1, camera[0])
-            k.raster.set_arg(8, np.int32(s.cull))
-            k.raster.set_arg(9, np.int32(s.shaded))
+            k.raster.set_arg(7, np.int32(s.cull))
             for index, value in enumerate(s.light):
-                k.raster.set_arg(10 + index, np.float32(value))
-            k.resolve.set_arg(7, np.int32(s.shaded))
+                k.resolve.set_arg(22 + index, np.float32(value))
+            k.resolve.set_arg(6, np.int32(s.shaded))
             frame.settings = settings
         background = s.background if s.shaded else s.palette[0]
         if frame.drawn_background != background.tobytes():
             for index, value in enumerate(background):
-                k.resolve.set_arg(4 + index, np.uint8(value))
+                k.resolve.set_arg(3 + index, np.uint8(value))
             frame.fresh = True
         if frame.fresh:
-            k.resolve.set_arg(8, np.int32(1))
+            k.resolve.set_arg(7, np.int32(1))
         if fill_positions is None:
             cl.enqueue_copy(queue, frame.positions, s.positions, is_blocking=False)
         else:
             fill_positions(queue, frame.positions)
         cl.enqueue_nd_range_kernel(queue, k.project, frame.project_size, None)
+        if s.shaded:
+            cl.enqueue_nd_range_kernel(queue, k.vertex_normals, frame.project_size, None)
         frame.clean = False
         cl.enqueue_nd_range_kernel(queue, k.raster, frame.raster_size, None)
         cl.enqueue_nd_range_kernel(queue, k.resolve, (H,), None)
@@ -739,7 +835,7 @@ class _OpenCLRaster:
         cl.enqueue_copy(queue, host, frame.out, is_blocking=True)
         frame.clean = True
         if frame.fresh:
-            k.resolve.set_arg(8, np.int32(0))
+            k.resolve.set_arg(7, np.int32(0))
             frame.drawn_background = background.tobytes()
             frame.fresh = False
         if host[12 * n:].any():          # only positions filled on the device can get here (rasterize checks)

@@ -57,22 +57,30 @@ def last_centre(high: wp.int64):
     return (high - HALF_SUBPIXEL) / SUBPIXEL
 
 
-@wp.func
-def face_shade(p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, flipped: wp.int32, light: wp.vec3, ambient: wp.float32,
-               diffuse: wp.float32):
-    """Lambert factor of the face p0 p1 p2 (metres): ambient + diffuse * max(n . l, 0)."""
-    e1 = p1 - p0
-    e2 = p2 - p0
-    nx = e1[1] * e2[2] - e1[2] * e2[1]
-    ny = e1[2] * e2[0] - e1[0] * e2[2]
-    nz = e1[0] * e2[1] - e1[1] * e2[0]
-    length = wp.sqrt(nx * nx + ny * ny + nz * nz)
-    cosine = float(0.0)  # noqa: UP018 - Warp: a typed variable that the branch below may change
-    if length > 0.0:
-        cosine = (nx * light[0] + ny * light[1] + nz * light[2]) / length
-    if flipped != 0:
-        cosine = -cosine
-    return ambient + diffuse * wp.max(cosine, 0.0)
+@wp.kernel
+def vertex_normals(positions: wp.array(dtype=wp.vec3), triangles: wp.array(dtype=wp.int32),
+                   indptr: wp.array(dtype=wp.int32), ids: wp.array(dtype=wp.int32), chunk: wp.int32,
+                   normals: wp.array(dtype=wp.vec3)):
+    """Vertices [tid * chunk, (tid + 1) * chunk): the unit sum of the area-weighted normals (p1 - p0) x (p2 - p0)
+    of the triangles around each vertex (CSR indptr, ids), in ascending triangle order; zero where the sum is."""
+    first = wp.tid() * chunk
+    for v in range(first, wp.min(first + chunk, positions.shape[0])):
+        x = float(0.0)  # noqa: UP018 - Warp: typed variables that the loop below changes
+        y = float(0.0)  # noqa: UP018
+        z = float(0.0)  # noqa: UP018
+        for j in range(indptr[v], indptr[v + 1]):
+            t = ids[j]
+            p0 = positions[triangles[3 * t]]
+            e1 = positions[triangles[3 * t + 1]] - p0
+            e2 = positions[triangles[3 * t + 2]] - p0
+            x = x + (e1[1] * e2[2] - e1[2] * e2[1])
+            y = y + (e1[2] * e2[0] - e1[0] * e2[2])
+            z = z + (e1[0] * e2[1] - e1[1] * e2[0])
+        length = wp.sqrt(x * x + y * y + z * z)
+        if length > 0.0:
+            normals[v] = wp.vec3(x / length, y / length, z / length)
+        else:
+            normals[v] = wp.vec3(0.0, 0.0, 0.0)
 
 
 @wp.kernel
@@ -108,14 +116,11 @@ def project(positions: wp.array(dtype=wp.vec3), m: wp.mat44, width: wp.float32, 
 
 
 @wp.kernel
-def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec3),
-           vertices: wp.array(dtype=wp.vec4), width: wp.int32, height: wp.int32, cull: wp.int32, shaded: wp.int32,
-           light: wp.vec3, ambient: wp.float32, diffuse: wp.float32, colour: wp.array(dtype=wp.uint8), chunk: wp.int32,
-           keys: wp.array(dtype=wp.int64), face_rgb: wp.array(dtype=wp.uint8), row_lo: wp.array(dtype=wp.int32),
-           row_hi: wp.array(dtype=wp.int32)):
-    """Triangles [tid * chunk, (tid + 1) * chunk): per-triangle setup (shaded look: the lit colour of a face that wrote a key
-    into face_rgb, 3 bytes a triangle), edge functions with the top-left rule over the pixel centres inside
-    the bounding box, depth test. Each image row's span of covered pixel centres widens [row_lo, row_hi].
+def raster(triangles: wp.array(dtype=wp.int32), vertices: wp.array(dtype=wp.vec4), width: wp.int32,
+           height: wp.int32, cull: wp.int32, chunk: wp.int32, keys: wp.array(dtype=wp.int64),
+           row_lo: wp.array(dtype=wp.int32), row_hi: wp.array(dtype=wp.int32)):
+    """Triangles [tid * chunk, (tid + 1) * chunk): per-triangle setup, edge functions with the top-left rule over
+    the pixel centres inside the bounding box, depth test. Each image row's span of covered pixel centres widens [row_lo, row_hi].
     vertices: the records of `project`."""
     first = wp.tid() * chunk
     for t in range(first, wp.min(first + chunk, triangles.shape[0] / 3)):
@@ -190,7 +195,6 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
         step_y2 = (bx - ax) * SUBPIXEL
         # while loops, not range(): a range's step may be negative, and testing for that in the inner loop cost
         # 11% of this kernel's time (chosen here, measured on Warp-CPU)
-        drew = int(0)  # noqa: UP018, RUF046 - Warp: a typed variable that the pixel loop below may change
         row_end = wp.int32(ymax)
         px_start = wp.int32(xmin)
         px_end = wp.int32(xmax)
@@ -214,7 +218,6 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
                     if z >= 0.0 and z <= 1.0:
                         key = wp.int64(z * DEPTH_SCALE) * ID_SCALE + wp.int64(t)
                         wp.atomic_min(keys, base + px, key)
-                        drew = 1
                 elif run_end >= 0:
                     break   # a row's covered pixels are one run (the triangle is convex): none is left
                 e0 += step_x0
@@ -227,21 +230,16 @@ def raster(triangles: wp.array(dtype=wp.int32), positions: wp.array(dtype=wp.vec
             row1 += step_y1
             row2 += step_y2
             py += 1
-        # shaded look: the lit colour only of a triangle that wrote a key (resolve reads face_rgb only for the
-        # triangle of a pixel's key; many small triangles cover no pixel centre)
-        if shaded != 0 and drew != 0:
-            s = face_shade(positions[i0], positions[i1], positions[i2], flipped, light, ambient, diffuse)
-            face_rgb[3 * t] = wp.uint8(wp.min(wp.float32(colour[3 * t]) * s + 0.5, 255.0))
-            face_rgb[3 * t + 1] = wp.uint8(wp.min(wp.float32(colour[3 * t + 1]) * s + 0.5, 255.0))
-            face_rgb[3 * t + 2] = wp.uint8(wp.min(wp.float32(colour[3 * t + 2]) * s + 0.5, 255.0))
+
 
 @wp.kernel
-def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uint8), face_rgb: wp.array(dtype=wp.uint8),
-            palette: wp.array(dtype=wp.uint8), background: wp.array(dtype=wp.uint8), shaded: wp.int32, fresh: wp.int32,
-            width: wp.int32, row_lo: wp.array(dtype=wp.int32), row_hi: wp.array(dtype=wp.int32),
+def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uint8), palette: wp.array(dtype=wp.uint8),
+            background: wp.array(dtype=wp.uint8), shaded: wp.int32, fresh: wp.int32, width: wp.int32, row_lo: wp.array(dtype=wp.int32), row_hi: wp.array(dtype=wp.int32),
             drawn_lo: wp.array(dtype=wp.int32), drawn_hi: wp.array(dtype=wp.int32), rgb: wp.array(dtype=wp.uint8),
             labels: wp.array(dtype=wp.uint8), triangle_id: wp.array(dtype=wp.int32),
-            depth_out: wp.array(dtype=wp.float32)):
+            depth_out: wp.array(dtype=wp.float32), triangles: wp.array(dtype=wp.int32),
+            vertices: wp.array(dtype=wp.vec4), normals: wp.array(dtype=wp.vec3), colour: wp.array(dtype=wp.uint8),
+            light: wp.vec3, ambient: wp.float32, diffuse: wp.float32):
     """Image row tid: each key -> triangle id, label, depth and colour; the key is reset to EMPTY_KEY for the
     next frame.
 
@@ -282,6 +280,38 @@ def resolve(keys: wp.array(dtype=wp.int64), triangle_part: wp.array(dtype=wp.uin
             rgb[3 * i + 1] = palette[3 * wp.int32(label) + 1]
             rgb[3 * i + 2] = palette[3 * wp.int32(label) + 2]
         else:
-            rgb[3 * i] = face_rgb[3 * t]
-            rgb[3 * i + 1] = face_rgb[3 * t + 1]
-            rgb[3 * i + 2] = face_rgb[3 * t + 2]
+            # the vertex normals interpolated at the pixel centre (barycentric weights from the integer edge
+            # functions), normalised, Lambert; a back face drawn turns its normal round
+            i0 = triangles[3 * t]
+            i1 = triangles[3 * t + 1]
+            i2 = triangles[3 * t + 2]
+            v0 = vertices[i0]
+            v1 = vertices[i1]
+            v2 = vertices[i2]
+            x0 = wp.int64(v0[0])
+            y0 = wp.int64(v0[1])
+            x1 = wp.int64(v1[0])
+            y1 = wp.int64(v1[1])
+            x2 = wp.int64(v2[0])
+            y2 = wp.int64(v2[1])
+            cx = wp.int64(i - y * width) * SUBPIXEL + HALF_SUBPIXEL
+            cy = wp.int64(y) * SUBPIXEL + HALF_SUBPIXEL
+            area = wp.float32(edge(x0, y0, x1, y1, x2, y2))
+            l1 = wp.float32(edge(x2, y2, x0, y0, cx, cy)) / area
+            l2 = wp.float32(edge(x0, y0, x1, y1, cx, cy)) / area
+            n0 = normals[i0]
+            n1 = normals[i1]
+            n2 = normals[i2]
+            nx = n0[0] + l1 * (n1[0] - n0[0]) + l2 * (n2[0] - n0[0])
+            ny = n0[1] + l1 * (n1[1] - n0[1]) + l2 * (n2[1] - n0[1])
+            nz = n0[2] + l1 * (n1[2] - n0[2]) + l2 * (n2[2] - n0[2])
+            length = wp.sqrt(nx * nx + ny * ny + nz * nz)
+            cosine = float(0.0)  # noqa: UP018 - Warp: a typed variable that the branches below may change
+            if length > 0.0:
+                cosine = (nx * light[0] + ny * light[1] + nz * light[2]) / length
+            if area > 0.0:
+                cosine = -cosine
+            shade = ambient + diffuse * wp.max(cosine, 0.0)
+            rgb[3 * i] = wp.uint8(wp.min(wp.float32(colour[3 * t]) * shade + 0.5, 255.0))
+            rgb[3 * i + 1] = wp.uint8(wp.min(wp.float32(colour[3 * t + 1]) * shade + 0.5, 255.0))
+            rgb[3 * i + 2] = wp.uint8(wp.min(wp.float32(colour[3 * t + 2]) * shade + 0.5, 255.0))

@@ -52,8 +52,15 @@ class BvhHierarchy:
         return Skeleton(self.names, np.asarray(self.parents, dtype=np.int32), heads, tails)
 
 
-def write_bvh(path: str | Path, motion: Motion, skeleton: Skeleton) -> None:
-    """Write motion (on skeleton's bones; bones the motion lacks stay at rest) as a BVH file."""
+def write_bvh(path: str | Path, motion: Motion, skeleton: Skeleton, avatar=None) -> None:
+    """Write motion (on skeleton's bones; bones the motion lacks stay at rest) as a BVH file.
+
+    A motion with FAPs has its face played on the face bones first (media.face_rig.with_face_bones, on `avatar`,
+    default the vendored one, whose FAPU scale them), so the file's face joints move as the renderer's do; BVH
+    has no FAP channels, so the FAPs themselves are not written."""
+    if motion.faps is not None:
+        from media.face_rig import with_face_bones        # the face rig loads the avatar: imported when needed
+        motion = with_face_bones(motion, avatar)
     q = align_to_skeleton(motion, skeleton)
     euler_deg = np.degrees(rotations.to_euler(q, _EULER_ORDER))            # (T, B, 3)
     offsets = skeleton.offsets() * CM_PER_M

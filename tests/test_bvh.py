@@ -111,3 +111,37 @@ def test_bvh_root_position_channels_give_the_translation_from_the_offset(tmp_pat
                                        spine_channels="3 Zrotation Xrotation Yrotation", values="100 0 0 0 0 0 0"))
     motion, _ = read_bvh(path)
     assert np.allclose(motion.root_translation, [[0.0, 0.1, 0.0]])    # Y 100 cm against the 90 cm offset
+
+
+def test_bvh_of_a_motion_with_faps_moves_the_face_joints_as_the_face_rig_does(tmp_path, skeleton):
+    """`signcast motion` of a word with mouthing: the FAPs are played on the face bones (media.face_rig), and the
+    file carries those rotations; read back by our reader and by the independent `bvh` parser, within 1e-6 rad."""
+    from media.face_rig import face_bone_names, with_face_bones
+    from media.motion import N_FAPS
+    frames = 5
+    faps = np.zeros((frames, N_FAPS), np.int64)
+    ramp = np.linspace(0, 1, frames)
+    for fap_id, amplitude in ((3, 400), (4, -150), (5, -150), (6, 120), (7, 120), (12, 100), (13, 100),
+                              (19, 300), (20, 300), (31, 150), (32, 150), (33, 180), (34, 180), (53, 100), (54, 100)):
+        faps[:, fap_id - 1] = np.round(amplitude * ramp)
+    motion = Motion.rest(skeleton.names, frames, fps=25.0)
+    motion.faps = faps
+    path = tmp_path / "face.bvh"
+    write_bvh(path, motion, skeleton)
+    expected = with_face_bones(motion)
+    face = [name for name in face_bone_names() if name in skeleton.names]
+    back, _ = read_bvh(path)
+    want = expected.rotations[:, [expected.bone_names.index(n) for n in face]]
+    got = back.rotations[:, [back.bone_names.index(n) for n in face]]
+    assert rotations.angle_between(got, want).max() < 1e-6
+    moved = rotations.angle_between(got, rotations.IDENTITY).max(axis=0) > np.radians(0.5)
+    assert moved.sum() >= 10, f"only {moved.sum()} face joints move"
+    assert np.all(rotations.angle_between(got[0], rotations.IDENTITY) < 1e-9)     # FAPs 0: the face at rest
+    bvh = pytest.importorskip("bvh", reason="the independent parser `bvh` (pip install bvh) is a test extra")
+    parsed = bvh.Bvh(path.read_text())
+    for k, name in enumerate(face):
+        z, x, y = np.radians(parsed.frame_joint_channels(frames - 1, name, ["Zrotation", "Xrotation", "Yrotation"]))
+        q = rotations.multiply(rotations.multiply(rotations.from_axis_angle([0, 0, 1], z),
+                                                  rotations.from_axis_angle([1, 0, 0], x)),
+                               rotations.from_axis_angle([0, 1, 0], y))
+        assert rotations.angle_between(q, want[-1, k]) < 1e-6, name
