@@ -278,7 +278,7 @@ def range_fields(levels, intra, q, delta):
 
 
 # Relative gap below which `range_cost_gap` leaves the choice to the caller's NumPy sums: its sequential sums of
-# K <= 1023 terms (each a count times libm's log2) differ from NumPy's pairwise ones by far less (< 1e-12).
+# K <= 1023 terms (each a count times log2) differ from NumPy's pairwise ones by far less (< 1e-12).
 COST_MARGIN = 1e-9
 
 
