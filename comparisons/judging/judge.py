@@ -13,6 +13,7 @@ extractions (comparisons.judging.landmark_draws.mean_fields), with their spread.
 """
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -126,28 +127,54 @@ class Judge:
             refs.append((LOSSLESS, self.render_reference))
         return refs
 
+    def draw_fields(self, reference: SignClip, observed: SignClip) -> dict:
+        """The intelligibility, message and letter fields of one extraction (observed: the landmarks of the measured
+        frames) against one reference's landmarks."""
+        return {**measure(reference, observed).fields(), **message_fields(reference, observed),
+                **self.letters(observed)}
+
+    def intelligibility_draws(self, solution: str, draws: list[SignClip]) -> list[tuple[str, list[dict]]]:
+        """(reference name, the fields of each extraction (`draw_fields`), in the draws' order) for each reference of
+        the solution: what `intelligibility` averages, kept so that later extractions can be added to them."""
+        letters = [self.letters(observed) for observed in draws]
+        return [(name, [{**measure(reference, observed).fields(), **message_fields(reference, observed), **letter}
+                        for observed, letter in zip(draws, letters)])
+                for name, reference in self.references(solution)]
+
     def intelligibility(self, solution: str, draws: list[SignClip]) -> list[tuple[str, dict]]:
         """(reference name, intelligibility and letter fields, each the mean over the draws, with their spread) for
         each reference of the solution; draws: the landmarks of the measured frames, one SignClip per extraction."""
-        letters = [self.letters(observed) for observed in draws]
-        return [(name, mean_fields([{**measure(reference, observed).fields(), **message_fields(reference, observed),
-                                     **letter}
-                                    for observed, letter in zip(draws, letters)]))
-                for name, reference in self.references(solution)]
+        return [(name, mean_fields(fields)) for name, fields in self.intelligibility_draws(solution, draws)]
 
-    def records(self, solution: str, viewed: Viewed, draws: list[SignClip]) -> list[dict]:
-        """One record per reference of the solution, each with the point's fields, image quality (against the
-        frames the solution codes: the lossless render for an avatar solution, else the reference; skin: the
-        union of the reference's and the decoded skin mask) and intelligibility (draws: the landmarks of what the
-        viewer sees, one SignClip per extraction)."""
+    def quality(self, solution: str, viewed: Viewed) -> dict:
+        """Image quality of what the viewer sees against the frames the solution codes (the lossless render for an
+        avatar solution, else the reference; skin: the union of the reference's and the decoded skin mask)."""
         s = self.signing
         avatar = Solution(solution).avatar
         reference_frames = s.render if avatar else s.frames
         reference_skin = self.render_skin if avatar else self.reference_skin
         skin = reference_skin if viewed.skin is None else reference_skin | viewed.skin
-        quality = image_quality.quality_fields(reference_frames, viewed.frames, skin)
+        return image_quality.quality_fields(reference_frames, viewed.frames, skin)
+
+    def records(self, solution: str, viewed: Viewed, draws: list[SignClip]) -> list[dict]:
+        """One record per reference of the solution, each with the point's fields, image quality (`quality`) and
+        intelligibility (draws: the landmarks of what the viewer sees, one SignClip per extraction)."""
+        quality = self.quality(solution, viewed)
         return [dict(viewed.fields, **quality, reference=name, **fields)
                 for name, fields in self.intelligibility(solution, draws)]
+
+    def uncoded_draws(self, resampled_source: list[SignClip], resampled_render: list[SignClip]
+                      ) -> list[tuple[dict, list[dict]]]:
+        """The ceilings of `uncoded`, each as (its record's identifying fields, the fields of each extraction)."""
+        s = self.signing
+        source, render = self.reference, self.render_reference
+        subjects = [(UNCODED_SUBJECTS[SOURCE], SOURCE, source, resampled_source),
+                    (UNCODED_SUBJECTS[LOSSLESS], LOSSLESS, render, resampled_render)]
+        if s.kind == "video":
+            subjects.append(("uncoded lossless render", SOURCE, source, [render]))
+        return [({"kind": "uncoded", "subject": subject, "clip": s.name, "reference": name, "fps": s.fps},
+                 [self.draw_fields(reference, observed) for observed in draws])
+                for subject, name, reference, draws in subjects]
 
     def uncoded(self, resampled_source: list[SignClip], resampled_render: list[SignClip]) -> list[dict]:
         """The ceilings ("uncoded" records): each reference's measured frames re-extracted under the same sub-pixel
@@ -155,14 +182,32 @@ class Judge:
         but new pixels: the landmark extractor's own noise floor), against the reference's landmarks, the mean over
         the draws; and (video scenario) the lossless render's landmarks against the source video's (the
         retargeting loss alone)."""
-        s = self.signing
-        source, render = self.reference, self.render_reference
-        subjects = [(UNCODED_SUBJECTS[SOURCE], SOURCE, source, resampled_source),
-                    (UNCODED_SUBJECTS[LOSSLESS], LOSSLESS, render, resampled_render)]
-        if s.kind == "video":
-            subjects.append(("uncoded lossless render", SOURCE, source, [render]))
-        return [{"kind": "uncoded", "subject": subject, "clip": s.name, "reference": name, "fps": s.fps,
-                 **mean_fields([{**measure(reference, observed).fields(), **message_fields(reference, observed),
-                                 **self.letters(observed)}
-                                for observed in draws])}
-                for subject, name, reference, draws in subjects]
+        return [dict(head, **mean_fields(fields)) for head, fields in self.uncoded_draws(resampled_source,
+                                                                                          resampled_render)]
+
+
+def distinct_frames(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(first, inverse): the indices (D,) of the first of each run of byte-identical frames in frames (T, ...), in
+    order of first appearance, and for every frame (T,) the position in first of its picture, so that
+    frames[first][inverse] equals frames. A picture held on screen, or decoded identical to one already shown, is
+    extracted once."""
+    seen: dict[bytes, int] = {}
+    first, inverse = [], np.empty(len(frames), int)
+    for t, frame in enumerate(frames):
+        key = hashlib.blake2b(np.ascontiguousarray(frame).tobytes(), digest_size=16).digest()
+        if key not in seen:
+            seen[key] = len(first)
+            first.append(t)
+        inverse[t] = seen[key]
+    return np.asarray(first, int), inverse
+
+
+def single_draw(record: dict, k: int) -> dict:
+    """A copy of record with each field it keeps draw by draw (draw_values) replaced by its value in extraction k
+    (the mean where that draw is missing or the record was extracted fewer times): what extraction k alone measured,
+    for matching each extraction on its own."""
+    copy = dict(record)
+    for name, values in (record.get("draw_values") or {}).items():
+        if k < len(values) and values[k] is not None:
+            copy[name] = values[k]
+    return copy
