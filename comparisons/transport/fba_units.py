@@ -178,11 +178,12 @@ def _decode_at(buffer: bytes | bytearray, position: int, final: bool, decode_pay
     first_frame = int.from_bytes(head[4:8], "big")
     n_frames = int.from_bytes(head[8:10], "big")
     length = int.from_bytes(head[10:13], "big")
-    if n_frames == 0 or length < max(len(prefix), 1):
+    prefixes = prefix if isinstance(prefix, tuple) else (prefix,)
+    if n_frames == 0 or length < max(min(map(len, prefixes)), 1):
         return "bad", None, 0
     payload_start = position + HEADER_BYTES
-    seen = bytes(buffer[payload_start:payload_start + len(prefix)])
-    if seen != prefix[:len(seen)]:
+    seen = bytes(buffer[payload_start:payload_start + max(map(len, prefixes))])
+    if not any(seen[:len(p)] == p[:len(seen)] for p in prefixes):
         return "bad", None, 0
     end = payload_start + length
     if end > len(buffer):
@@ -195,7 +196,8 @@ def _decode_at(buffer: bytes | bytearray, position: int, final: bool, decode_pay
 
 
 class UnitScanner:
-    """Incremental unit finder for a live receiver that gets the stream's bytes packet by packet.
+    """Incremental unit finder for a live receiver that gets the stream's bytes packet by packet; payload_prefix
+    is the first bytes of every payload, or a tuple of the kinds of payload that may follow a unit header.
 
     feed(chunk) returns the units completed by the chunk; bytes that belong to no intact unit are
     dropped and counted in `skipped`. The buffer holds at most one unit being received (and the
@@ -320,3 +322,240 @@ def assemble(units: list[DecodedUnit], n_frames: int, conceal: str = "hold") -> 
         if face_frames is not None:
             face_frames[missing] = face_frames[before]
     return ReceivedFba(baps, faps, face_frames, reference.fps, received.copy(), lost, len(missing))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Low-delay units: one frame each, predicted from the frame before (issue 37)
+#
+# A unit of `refresh` frames can only leave once its last frame is captured, so its first frame waits
+# refresh - 1 frame intervals (8 frames at 25 fps: 280 ms before any network). In low-delay mode every frame
+# is its own unit, sent as soon as it is captured:
+# - an intra frame every `refresh` frames: a unit whose payload is the parameter codec's own stream of that one
+#   frame (FBA or BBA, decodable alone, exactly as above);
+# - every other frame a predicted ("delta") unit, behind the same unit header (first_frame = the frame,
+#   n_frames = 1), whose payload is signcast's own:
+#
+#     prefix            7F 00 00 01 C6   (stuffing as the codec streams, and a start code value ISO/IEC 14496-2
+#                                         lists as reserved, like 0xC4 and 0xC5)
+#     q                 u8    1..31
+#     n_bones           u16   bones of the motion, 1..MAX_DELTA_BONES
+#     has_faps          u8    0 or 1
+#     n_new             u8    bones the frame before did not have (a BBA stream leaves out bones at rest), added
+#                             at rest (identity) after its bones before the levels; each: length u8, UTF-8 name
+#     levels            bits: per bone a flag (1: moved) and, when it moved, three signed Exp-Golomb levels of
+#                       the rotation vector from the previous frame's rotation to this one, in steps of
+#                       ROTATION_STEP x q rad; a flag and three levels for the root translation (steps of
+#                       TRANSLATION_STEP x q m); with FAPs, a flag and 68 signed levels (FAP units, exact);
+#                       zero bits to the byte
+#     crc32             u32   zlib CRC-32 of everything before it
+#
+#   The levels are closed-loop: the sender predicts from the frame the receiver rebuilt, so errors do not add
+#   up; each rotation is within half a step per component of the codec's own decode of that frame (what an intra
+#   unit of it would show). A delta unit needs the frame just before it: the receiver applies it only when it
+#   holds that frame, and otherwise conceals until the next intra frame (at most refresh - 1 frames).
+
+import zlib as _zlib
+
+DELTA_START_CODE = 0xC6
+DELTA_PREFIX = b"\x7f" + START_CODE_PREFIX + bytes([DELTA_START_CODE])
+ROTATION_STEP = 2e-4            # rad per unit of q: q 4 -> 8e-4 rad (0.046 degrees)
+TRANSLATION_STEP = 2.5e-4       # m per unit of q: q 4 -> 1 mm
+MAX_DELTA_BONES = 1024
+MAX_GOLOMB_BITS = 40            # levels up to 2^40: far beyond any real step, and bounded work per value
+N_FAP_VALUES = 68
+
+
+@dataclass(frozen=True, eq=False)
+class FrameState:
+    """One rebuilt frame: rotations (B, 4) unit quaternions, root (3,) metres, faps (68,) int64 or None."""
+    rotations: np.ndarray
+    root: np.ndarray
+    faps: np.ndarray | None = None
+
+    @classmethod
+    def last_of(cls, motion) -> "FrameState":
+        return cls(np.array(motion.rotations[-1], dtype=np.float64), np.array(motion.root_translation[-1], np.float64),
+                   None if motion.faps is None else np.array(motion.faps[-1], dtype=np.int64))
+
+
+@dataclass(frozen=True, eq=False)
+class DeltaPayload:
+    """A delta unit's payload, checked (prefix, sizes, CRC-32) but not yet applied: q, n_bones, has_faps and the
+    level bits."""
+    q: int
+    n_bones: int
+    has_faps: bool
+    bits: bytes
+    new_bones: tuple[str, ...] = ()
+
+
+def _rotation_vectors(q: np.ndarray) -> np.ndarray:
+    """(..., 3) rotation vectors of unit quaternions (w, x, y, z), the shorter way round."""
+    q = np.where(q[..., :1] < 0, -q, q)
+    vector = q[..., 1:]
+    sine = np.linalg.norm(vector, axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(sine, np.clip(q[..., :1], -1.0, 1.0))
+    scale = np.where(sine > 1e-12, angle / np.maximum(sine, 1e-300), 2.0)
+    return vector * scale
+
+
+def _quaternions(vectors: np.ndarray) -> np.ndarray:
+    angle = np.linalg.norm(vectors, axis=-1, keepdims=True)
+    half = angle / 2.0
+    scale = np.where(angle > 1e-12, np.sin(half) / np.maximum(angle, 1e-300), 0.5)
+    return np.concatenate([np.cos(half), vectors * scale], axis=-1)
+
+
+def _multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+
+
+def _conjugate(q: np.ndarray) -> np.ndarray:
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def _golomb(bits: list[str], value: int) -> None:
+    code = 2 * value - 1 if value > 0 else -2 * value          # signed -> unsigned, as H.264's se(v)
+    text = bin(code + 1)[2:]
+    bits.append("0" * (len(text) - 1) + text)
+
+
+class _Bits:
+    def __init__(self, data: bytes):
+        self.text = "".join(f"{byte:08b}" for byte in data)
+        self.pos = 0
+
+    def bit(self) -> int:
+        if self.pos >= len(self.text):
+            raise SigncastError("a delta unit ends inside its levels")
+        self.pos += 1
+        return self.text[self.pos - 1] == "1"
+
+    def golomb(self) -> int:
+        zeros = 0
+        while not self.bit():
+            zeros += 1
+            if zeros > MAX_GOLOMB_BITS:
+                raise SigncastError("a delta unit holds a level beyond its range")
+        end = self.pos + zeros
+        if end > len(self.text):
+            raise SigncastError("a delta unit ends inside its levels")
+        code = (1 << zeros) - 1 + (int(self.text[self.pos:end], 2) if zeros else 0)
+        self.pos = end
+        return (code + 1) // 2 if code % 2 else -(code // 2)
+
+
+def _levels(bits: list[str], levels: np.ndarray) -> None:
+    for row in levels:
+        if row.any():
+            bits.append("1")
+            for value in row:
+                _golomb(bits, int(value))
+        else:
+            bits.append("0")
+
+
+def with_new_bones(reference: FrameState, n_new: int) -> FrameState:
+    """`reference` with n_new bones at rest (identity) after its own."""
+    if not n_new:
+        return reference
+    rest = np.tile([1.0, 0.0, 0.0, 0.0], (n_new, 1))
+    return FrameState(np.concatenate([reference.rotations, rest]), reference.root, reference.faps)
+
+
+def encode_delta(reference: FrameState, target: FrameState, q: int,
+                 new_bones: tuple[str, ...] = ()) -> tuple[bytes, FrameState]:
+    """(a delta unit's payload taking `reference` to `target`, the frame the receiver will rebuild from it).
+    new_bones: names of bones `target` has after those of `reference` (their rows last in target)."""
+    q = pc.check_q(q)
+    names = [name.encode() for name in new_bones]
+    if len(names) > 255 or any(not 1 <= len(name) <= 255 for name in names):
+        raise SigncastError("a delta unit adds at most 255 bones, each named in 1..255 bytes")
+    reference = with_new_bones(reference, len(names))
+    n_bones = len(reference.rotations)
+    if not 1 <= n_bones <= MAX_DELTA_BONES or target.rotations.shape != reference.rotations.shape:
+        raise SigncastError(f"a delta unit carries 1..{MAX_DELTA_BONES} bones, the same in both frames")
+    if (reference.faps is None) != (target.faps is None):
+        raise SigncastError("a delta unit cannot start or stop the face: that takes an intra unit")
+    step, move = ROTATION_STEP * q, TRANSLATION_STEP * q
+    turn = _rotation_vectors(_multiply(_conjugate(reference.rotations), target.rotations))
+    rotation_levels = np.round(turn / step).astype(np.int64)
+    rotations = _multiply(reference.rotations, _quaternions(rotation_levels * step))
+    rotations /= np.linalg.norm(rotations, axis=-1, keepdims=True)
+    root_levels = np.round((target.root - reference.root) / move).astype(np.int64)
+    root = reference.root + root_levels * move
+    bits: list[str] = []
+    _levels(bits, rotation_levels)
+    _levels(bits, root_levels[None])
+    faps = None
+    if target.faps is not None:
+        fap_levels = (np.asarray(target.faps, np.int64) - reference.faps)
+        _levels(bits, fap_levels[None])
+        faps = reference.faps + fap_levels
+    text = "".join(bits)
+    text += "0" * (-len(text) % 8)
+    body = int(text, 2).to_bytes(len(text) // 8, "big") if text else b""
+    head = (DELTA_PREFIX + bytes([q]) + n_bones.to_bytes(2, "big") + bytes([target.faps is not None])
+            + bytes([len(names)]) + b"".join(bytes([len(name)]) + name for name in names))
+    payload = head + body
+    return payload + _zlib.crc32(payload).to_bytes(4, "big"), FrameState(rotations, root, faps)
+
+
+def read_delta(payload: bytes) -> DeltaPayload:
+    """A delta unit's payload checked (prefix, fields, CRC-32); SigncastError when damaged."""
+    payload = bytes(payload)
+    head = len(DELTA_PREFIX) + 5
+    if len(payload) < head + 4 or not payload.startswith(DELTA_PREFIX):
+        raise SigncastError("not a delta unit")
+    if _zlib.crc32(payload[:-4]).to_bytes(4, "big") != payload[-4:]:
+        raise SigncastError("a delta unit fails its CRC-32")
+    q, n_bones, has_faps, n_new = payload[5], int.from_bytes(payload[6:8], "big"), payload[8], payload[9]
+    if not 1 <= q <= 31 or not 1 <= n_bones <= MAX_DELTA_BONES or has_faps > 1 or n_new > n_bones:
+        raise SigncastError("a delta unit with a bad q, bone count, face flag or new bones")
+    names = []
+    for _ in range(n_new):
+        size = payload[head] if head < len(payload) - 4 else 0
+        name = payload[head + 1:head + 1 + size]
+        if not size or len(name) < size or head + 1 + size > len(payload) - 4:
+            raise SigncastError("a delta unit ends inside its new bones' names")
+        try:
+            names.append(name.decode())
+        except UnicodeDecodeError:
+            raise SigncastError("a delta unit names a bone in bytes that are not UTF-8") from None
+        head += 1 + size
+    if len(set(names)) != len(names):
+        raise SigncastError("a delta unit adds the same bone twice")
+    return DeltaPayload(q, n_bones, bool(has_faps), payload[head:-4], tuple(names))
+
+
+def apply_delta(delta: DeltaPayload, reference: FrameState) -> FrameState:
+    """The frame a delta unit rebuilds from `reference` (the frame before it; the unit's new bones are added to
+    it at rest); SigncastError when they do not match (bones, face) or the levels are damaged."""
+    reference = with_new_bones(reference, len(delta.new_bones))
+    if delta.n_bones != len(reference.rotations) or delta.has_faps != (reference.faps is not None):
+        raise SigncastError("a delta unit does not fit the frame before it (bones or face)")
+    bits = _Bits(delta.bits)
+
+    def rows(n_rows: int, width: int) -> np.ndarray:
+        out = np.zeros((n_rows, width), np.int64)
+        for k in range(n_rows):
+            if bits.bit():
+                out[k] = [bits.golomb() for _ in range(width)]
+        return out
+
+    rotation_levels = rows(delta.n_bones, 3)
+    root_levels = rows(1, 3)[0]
+    fap_levels = rows(1, N_FAP_VALUES)[0] if delta.has_faps else None
+    if bits.text[bits.pos:].strip("0") or len(bits.text) - bits.pos >= 8:
+        raise SigncastError("a delta unit holds bytes after its levels")
+    step, move = ROTATION_STEP * delta.q, TRANSLATION_STEP * delta.q
+    turn = rotation_levels * step
+    if not np.all(np.isfinite(turn)) or np.abs(root_levels).max(initial=0) * move > 1e3:
+        raise SigncastError("a delta unit moves beyond any body")
+    rotations = _multiply(reference.rotations, _quaternions(turn))
+    rotations /= np.linalg.norm(rotations, axis=-1, keepdims=True)
+    faps = None if fap_levels is None else reference.faps + fap_levels
+    return FrameState(rotations, reference.root + root_levels * move, faps)

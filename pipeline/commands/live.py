@@ -11,7 +11,7 @@ from pipeline.commands import options
 
 DEFAULT_CODECS = "NSV,NSV2O,NSV3O,NSV3O+C,SSV,fba-pred,fba-dct,bba-pred,bba-dct"
 DEFAULT_LOSS_RATES = "0,0.5,1,2,5,10"
-LIVE_REFRESH = 8
+LIVE_REFRESH = 25
 
 
 def add_network_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,9 +22,13 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reorder", type=float, default=0.0,
                         help="share of datagrams held back past their successor, 0..1 (default 0)")
     parser.add_argument("--refresh", type=int, default=LIVE_REFRESH,
-                        help=f"frames per FBA/BBA unit, the intra refresh period (default {LIVE_REFRESH}: a unit leaves "
-                             f"when its last frame is captured, so this sets the latency; 8 frames keep FBA under "
-                             f"EN 301 549's 0.4 s at 25 fps)")
+                        help=f"FBA/BBA intra refresh period in frames (default {LIVE_REFRESH}: a lost frame is "
+                             f"concealed until the next intra frame, at most a second at 25 fps)")
+    parser.add_argument("--units", choices=("frame", "period"), default="frame",
+                        help="FBA/BBA units: 'frame' (default, low delay: every frame leaves as it is captured, "
+                             "intra every --refresh frames, predicted between) or 'period' (one self-contained "
+                             "unit per --refresh frames, sent when its last frame is captured: refresh - 1 frame "
+                             "intervals of delay)")
     parser.add_argument("--shape-gop", type=int, default=1,
                         help="frames per shape unit of the video objects (default 1: no look-ahead)")
     parser.add_argument("--seed", type=int, default=1, help="the network model's seed (default 1)")
@@ -77,7 +81,7 @@ def settings_from(args: argparse.Namespace):
     return live.LiveSettings(
         codecs=options.names(args.codecs), video_q=args.video_q, param_q=args.param_q,
         loss_rates=tuple(p / 100.0 for p in options.parse_floats(args.loss_rates, "--loss-rates")), burst=args.burst,
-        jitter_ms=args.jitter_ms, reorder=args.reorder, refresh=args.refresh, seed=args.seed,
+        jitter_ms=args.jitter_ms, reorder=args.reorder, refresh=args.refresh, units=args.units, seed=args.seed,
         repeats=args.repeats, shape_gop=args.shape_gop, language=args.language or "ase", word=args.word or "HELLO",
         pose=None if args.pose is None else str(args.pose), size=parse_size(args.size, "--size"),
         landmark_step=args.landmark_step, backend=args.backend)

@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     settings = live.SendSettings(
         codec=args.codec.strip(), q=args.q, destination=parse_address(args.to), language=args.language or "ase",
         word=args.word or "HELLO", pose=None if args.pose is None else str(args.pose),
-        size=parse_size(args.size, "--size"), refresh=args.refresh, shape_gop=args.shape_gop, loss_rate=args.loss / 100.0, burst=args.burst,
+        size=parse_size(args.size, "--size"), refresh=args.refresh, units=args.units, shape_gop=args.shape_gop, loss_rate=args.loss / 100.0, burst=args.burst,
         jitter_ms=args.jitter_ms, reorder=args.reorder, seed=args.seed, backend=args.backend)
     sent = live.run_send(settings, progress=not args.no_progress)
     print(f"sent {sent['clip']} as {sent['solution']} ({sent['codec']} Q{sent['q']}): {sent['frames']} frames at "

@@ -55,24 +55,60 @@ class VideoSource:
 
 
 class ParameterSource:
-    """FBA / BBA: `motion` coded by the parameter codec `codec` at q, one unit per `refresh` frames."""
+    """FBA / BBA: `motion` coded by the parameter codec `codec` at q.
 
-    def __init__(self, codec: str, motion: Motion, q: int, refresh: int):
+    units "frame" (low delay, the default of `signcast live` and `send`): every frame is a unit sent as soon as
+    it is captured: an intra unit (the codec's own stream of that frame) every `refresh` frames, a delta unit
+    (comparisons.transport.fba_units.encode_delta: the frame predicted from the one the receiver rebuilt) in
+    between. units "period": one unit per `refresh` frames, the codec's stream of the period, sent when its last
+    frame is captured (the period's first frame waits refresh - 1 frame intervals)."""
+
+    def __init__(self, codec: str, motion: Motion, q: int, refresh: int, units: str = "period"):
         if not 1 <= refresh <= fba_units.MAX_UNIT_FRAMES:
             raise SigncastError(f"the refresh period must be 1..{fba_units.MAX_UNIT_FRAMES} frames, got {refresh}")
+        if units not in UNIT_MODES:
+            raise SigncastError(f"unknown unit mode {units!r}: choose {' or '.join(UNIT_MODES)}")
         self.codec = param_codecs.get_codec(codec)
-        self.motion, self.q, self.refresh = motion, q, refresh
+        self.motion, self.q, self.refresh, self.units = motion, q, refresh, units
         self.start = 0
+        self.state: fba_units.FrameState | None = None       # the frame the receiver rebuilt last
+        self.bones: tuple[str, ...] = ()                      # its bones: those of the last intra frame
 
     def capture(self, index: int) -> list[AccessUnit]:
+        if self.units == "frame":
+            return [AccessUnit(index, [fba_units.wrap_unit(index, 1, self._frame_payload(index))])]
         if index + 1 - self.start < self.refresh and index + 1 < self.motion.n_frames:
             return []
         first, self.start = self.start, index + 1
         payload = self.codec.encode(self.motion.frames(first, index + 1), self.q)
         return [AccessUnit(first, [fba_units.wrap_unit(first, index + 1 - first, payload)])]
 
+    def _frame_payload(self, index: int) -> bytes:
+        intra = self.codec.encode(self.motion.frames(index, index + 1), self.q)
+        decoded = self.codec.decode(intra)                          # what an intra unit of this frame shows
+        shown = fba_units.FrameState.last_of(decoded)
+        if index % self.refresh and self.state is not None and (shown.faps is None) == (self.state.faps is None):
+            # a BBA stream leaves out bones at rest: they are at rest (identity) here, and bones the receiver's
+            # frame lacks are named in the delta unit and added at rest
+            new = tuple(name for name in decoded.bone_names if name not in set(self.bones))
+            bones = (*self.bones, *new)
+            where = {name: k for k, name in enumerate(decoded.bone_names)}
+            rotations = np.tile([1.0, 0.0, 0.0, 0.0], (len(bones), 1))
+            for k, name in enumerate(bones):
+                if name in where:
+                    rotations[k] = shown.rotations[where[name]]
+            payload, self.state = fba_units.encode_delta(
+                self.state, fba_units.FrameState(rotations, shown.root, shown.faps), self.q, new)
+            self.bones = bones
+            return payload
+        self.state, self.bones = shown, decoded.bone_names
+        return intra
+
     def finish(self) -> list[AccessUnit]:
         return []
+
+
+UNIT_MODES = ("frame", "period")
 
 
 def payload_prefix(codec: str) -> bytes:
@@ -81,6 +117,11 @@ def payload_prefix(codec: str) -> bytes:
     if codec.startswith("fba"):
         return fba_units.FBA_PAYLOAD_PREFIX
     return b"\x7f" + START_CODE_PREFIX + bytes([bba_codec.BBA_START_CODE])
+
+
+def payload_prefixes(codec: str) -> tuple[bytes, bytes]:
+    """What may follow a unit header in a live parameter stream: the codec's stream, or a delta unit."""
+    return payload_prefix(codec), fba_units.DELTA_PREFIX
 
 
 class _Screen:
@@ -139,19 +180,46 @@ class VideoSink:
 
 
 class ParameterSink:
-    """FBA / BBA receiver: finds units, decodes them and renders their frames with `renderer`."""
+    """FBA / BBA receiver: finds units, decodes them (the codec's streams, and delta units applied to the frame
+    before them) and renders their frames with `renderer`. A delta unit whose previous frame is not held (lost,
+    or concealed) cannot be applied: it is counted in `broken` and its frame concealed until the next intra."""
 
     def __init__(self, description: SessionDescription, renderer):
         self.screen = _Screen(description.n_frames, description.height, description.width)
         self.codec = param_codecs.get_codec(description.codec)
+        self.fps = description.fps
         self.renderer = renderer
-        self.scanner = fba_units.UnitScanner(self._decode_payload, payload_prefix(description.codec))
-        self.units = 0
+        self.scanner = fba_units.UnitScanner(self._decode_payload, payload_prefixes(description.codec))
+        self.units = self.broken = 0
+        self.state: tuple[int, fba_units.FrameState, Motion] | None = None     # last frame held, its state
 
-    def _decode_payload(self, payload: bytes, n_frames: int) -> Motion:
+    def _decode_payload(self, payload: bytes, n_frames: int):
+        if payload.startswith(fba_units.DELTA_PREFIX):
+            if n_frames != 1:
+                raise SigncastError(f"a delta unit announces {n_frames} frames")
+            return fba_units.read_delta(payload)
         motion = self.codec.decode(payload)
         if motion.n_frames != n_frames:
             raise SigncastError(f"a unit announces {n_frames} frames and holds {motion.n_frames}")
+        return motion
+
+    def _motion(self, first: int, decoded) -> Motion | None:
+        if isinstance(decoded, fba_units.DeltaPayload):
+            if self.state is None or self.state[0] != first - 1:
+                self.broken += 1
+                return None
+            _, reference, template = self.state
+            try:
+                frame = fba_units.apply_delta(decoded, reference)
+            except SigncastError:
+                self.broken += 1
+                return None
+            motion = Motion(template.fps, (*template.bone_names, *decoded.new_bones), frame.rotations[None],
+                            frame.root[None], None if frame.faps is None else frame.faps[None])
+        else:
+            motion = decoded
+            frame = fba_units.FrameState.last_of(motion)
+        self.state = (first + motion.n_frames - 1, frame, motion)
         return motion
 
     def receive(self, frame: int, depacketized, stream: int = 0):
@@ -159,7 +227,10 @@ class ParameterSink:
         for unit in depacketized.units:
             for decoded in self.scanner.feed(unit.data):
                 self.units += 1
-                for k, (rgb, _) in enumerate(self.renderer.frames(decoded.decoded)):
+                motion = self._motion(decoded.first_frame, decoded.decoded)
+                if motion is None:
+                    continue
+                for k, (rgb, _) in enumerate(self.renderer.frames(motion)):
                     if self.screen.put(decoded.first_frame + k, rgb):
                         yield decoded.first_frame + k
 
@@ -168,7 +239,7 @@ class ParameterSink:
 
     @property
     def stats(self) -> dict:
-        return {"units": self.units, "skipped_bytes": self.scanner.skipped}
+        return {"units": self.units, "skipped_bytes": self.scanner.skipped, "broken_chain": self.broken}
 
 
 def warm_up(codec: str, renderer=None, motion: Motion | None = None) -> None:
@@ -194,7 +265,8 @@ def warm_up(codec: str, renderer=None, motion: Motion | None = None) -> None:
 
 
 def source_for(solution: str, codec: str, q: int, *, frames: np.ndarray | None = None, motion: Motion | None = None,
-               labels: np.ndarray | None = None, fps: float, refresh: int, shape_gop: int = 1):
+               labels: np.ndarray | None = None, fps: float, refresh: int, shape_gop: int = 1,
+               units: str = "period"):
     """(payload format, the sender's source) of one solution: NSV codes frames (T, H, W, 3) uint8; the object
     solutions (NSV2O, NSV3O, NSV3O+C, SSV: pipeline/live/objects.py) code frames cut by part labels (T, H, W)
     uint8, with shape units of shape_gop frames; FBA and BBA code the motion in units of refresh frames."""
@@ -205,7 +277,7 @@ def source_for(solution: str, codec: str, q: int, *, frames: np.ndarray | None =
             raise SigncastError(f"NSV is sent live with {' or '.join(VIDEO_CODECS)}, not {codec!r}")
         return VIDEO_CODECS[codec], VideoSource(codec, frames, fps, q)
     if solution in (Solution.FBA, Solution.BBA):
-        return "units", ParameterSource(codec, motion, q, refresh)
+        return "units", ParameterSource(codec, motion, q, refresh, units)
     raise SigncastError(f"unknown solution {solution!r}: choose NSV, {', '.join(objects.OBJECT_SOLUTIONS)}, FBA or BBA")
 
 

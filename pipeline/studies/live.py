@@ -55,7 +55,8 @@ class LiveSettings:
     video_q, param_q: their quantisers; shape_gop: frames per shape unit of the video objects;
     loss_rates: fractions (0..1) of datagrams lost (the CLI takes percent); burst: mean loss burst length in packets (1: Bernoulli, more:
     Gilbert-Elliott); jitter_ms: the relay's delay spread; reorder: share of datagrams held back past their
-    successor; refresh: frames per FBA/BBA unit; seed: the network model's seed; repeats: sessions per codec and
+    successor; refresh: the FBA/BBA intra refresh period in frames; units: "frame" (low delay: a unit per frame,
+    intra every refresh frames, delta units between) or "period" (one unit per refresh frames); seed: the network model's seed; repeats: sessions per codec and
     loss rate, each with its own seed (losses of a few packets are chance: the report gives their mean and range);
     language, word, pose, size,
     landmark_step, backend: the scenario, as in `signcast compare`."""
@@ -66,7 +67,8 @@ class LiveSettings:
     burst: float = 1.0
     jitter_ms: float = 0.0
     reorder: float = 0.0
-    refresh: int = 8
+    refresh: int = 25
+    units: str = "frame"
     seed: int = 1
     repeats: int = 1
     shape_gop: int = 1
@@ -147,6 +149,8 @@ def check(settings: LiveSettings) -> None:
         raise SigncastError("jitter must be >= 0 ms and the reorder share within 0..1")
     if not 1 <= settings.refresh <= 65535:
         raise SigncastError(f"the refresh period must be 1..65535 frames, got {settings.refresh}")
+    if settings.units not in endpoints.UNIT_MODES:
+        raise SigncastError(f"unknown unit mode {settings.units!r}: choose {' or '.join(endpoints.UNIT_MODES)}")
     if not 1 <= settings.repeats <= 100:
         raise SigncastError(f"--repeats must be 1..100, got {settings.repeats}")
     if not 1 <= settings.param_q <= 31:
@@ -255,7 +259,7 @@ class LiveStudy:
     def description(self, solution: str, codec: str, payload: str, q: int) -> SessionDescription:
         s, scenario = self.settings, self.scenario
         width, height = scenario.size
-        details = ({"refresh": s.refresh} if Solution(solution).mpeg4_parameters else
+        details = ({"refresh": s.refresh, "units": s.units} if Solution(solution).mpeg4_parameters else
                    {"shape_gop": s.shape_gop} if solution != "NSV" else {})
         return SessionDescription(solution, codec, payload, q, scenario.fps, scenario.n_frames,
                                   width, height, clip=scenario.name, details=details)
@@ -268,7 +272,7 @@ class LiveStudy:
                           else (scenario.frames, scenario.labels))
         return endpoints.source_for(solution, codec, q, frames=frames, labels=labels,
                                     motion=scenario.motion, fps=scenario.fps, refresh=self.settings.refresh,
-                                    shape_gop=self.settings.shape_gop)
+                                    shape_gop=self.settings.shape_gop, units=self.settings.units)
 
     def point(self, send_item: str, rate: float, seed: int) -> tuple[list[dict], Delivery]:
         """Deliver one solution and codec at one loss rate and judge what was shown: one record per reference."""
@@ -291,7 +295,7 @@ class LiveStudy:
                              delivered_kbps=kbps(delivered_bits, duration),
                              overhead_kbps=kbps(delivered_bits - 8 * sent.media_bytes, duration),
                              frames_lost=frames_lost, frames_concealed=frames_lost + damaged,
-                             refresh=description.details.get("refresh"),
+                             refresh=description.details.get("refresh"), units=description.details.get("units"),
                              shape_gop=description.details.get("shape_gop"),
                              burst=self.settings.burst, jitter_ms=self.settings.jitter_ms, seed=seed,
                              **delivery_fields(got, sent.packets, delivery.relay_counts.dropped))
@@ -334,6 +338,7 @@ def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -
     run_record = {"kind": "run", "backend": settings.backend, "versions": versions(), "clip": scenario.name,
                   "clip_fps": scenario.fps, "clip_frames": scenario.n_frames, "burst": settings.burst,
                   "jitter_ms": settings.jitter_ms, "reorder": settings.reorder, "refresh": settings.refresh,
+                  "units": settings.units,
                   "seed": settings.seed, "repeats": settings.repeats, "latency_guidance_ms": [EN_301_549_PREFERRED_MS, EN_301_549_HINDERS_MS]}
     all_records = [run_record] + records + clock.records()
     write_records(out_dir / "records.jsonl", all_records)
@@ -430,7 +435,8 @@ class SendSettings:
     word: str = "HELLO"
     pose: str | None = None
     size: tuple[int, int] = (352, 288)
-    refresh: int = 8
+    refresh: int = 25
+    units: str = "frame"
     shape_gop: int = 1
     loss_rate: float = 0.0
     burst: float = 1.0
@@ -442,7 +448,8 @@ class SendSettings:
     def network(self) -> LiveSettings:
         video = parse_send(self.codec)[0] in VIDEO_SOLUTIONS
         return LiveSettings(codecs=(self.codec,), loss_rates=(self.loss_rate,), burst=self.burst,
-                            jitter_ms=self.jitter_ms, reorder=self.reorder, refresh=self.refresh, seed=self.seed,
+                            jitter_ms=self.jitter_ms, reorder=self.reorder, refresh=self.refresh, units=self.units,
+                            seed=self.seed,
                             shape_gop=self.shape_gop, language=self.language, word=self.word, pose=self.pose,
                             size=self.size, video_q=self.q if video else 4, param_q=4 if video else self.q,
                             backend=self.backend)
@@ -481,8 +488,9 @@ def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
     solution, codec, _ = parse_send(settings.codec)
     name, motion, frames, labels = _signing(settings, solution, progress)
     payload, source = endpoints.source_for(solution, codec, settings.q, frames=frames, labels=labels, motion=motion,
-                                           fps=motion.fps, refresh=settings.refresh, shape_gop=settings.shape_gop)
-    details = ({"refresh": settings.refresh} if Solution(solution).mpeg4_parameters else
+                                           fps=motion.fps, refresh=settings.refresh, shape_gop=settings.shape_gop,
+                                           units=settings.units)
+    details = ({"refresh": settings.refresh, "units": settings.units} if Solution(solution).mpeg4_parameters else
                {"shape_gop": settings.shape_gop} if solution != "NSV" else {})
     description = SessionDescription(solution, codec, payload, settings.q, motion.fps, motion.n_frames,
                                      *settings.size, clip=name, details=details)
