@@ -5,8 +5,7 @@ OpenCL below) that follow the same steps, with the same arithmetic and the same 
 
 1. project: each vertex to window coordinates, snapped to 1/SUBPIXEL pixel (integers), and depth in [0, 1];
 2. per-triangle setup and bounding box: drop triangles with a vertex behind the eye or far off-screen,
-   degenerate ones and (when culling) back faces; light the face (shaded look: Lambert of its
-   normal, ambient + key * max(n . l, 0)); clip its bounding box to the image. The Warp and OpenCL
+   degenerate ones and (when culling) back faces; clip its bounding box to the image. The Warp and OpenCL
    bodies shrink the box to the pixel centres it holds and drop the triangle when it holds none
    (sub-pixel or off-image triangles, about half of the avatar's front faces at 352x288): coverage is
    only ever tested at pixel centres, so this skips work without changing a pixel;
@@ -27,10 +26,12 @@ kernel arguments packed again every frame (recorded launches now), bounding-box 
 centres lie outside the triangle, a clearing pass, one host copy per output (now one in all), and on Warp
 a resolve pass that rewrote every pixel (now only the rows' spans that were or are drawn).
 
-At the default sizes a triangle of the avatar covers a few pixels, so per-face lighting is as
-smooth as interpolated normals would be, and costs no per-vertex normal pass.
+Shaded look: a `vertex_normals` pass sums each vertex's area-weighted face normals in ascending triangle order
+(CSR from `vertex_triangles`, so every backend adds in the same order), and the resolve lights each pixel with the
+normals interpolated at its centre (barycentric weights from the integer edge functions), normalised:
+ambient + diffuse * max(n . l, 0). Per-face light looked faceted at 1280x720.
 
-Looks: "shaded" (Lambert per face on a per-triangle albedo, uniform background) and
+Looks: "shaded" (Lambert per pixel on a per-triangle albedo, uniform background) and
 "flat" (seed 000 §4.2.2's modified appearance: one uniform colour per part, no light, so masks can
 be read back by colour). Labels are always hard (no anti-aliasing).
 """
