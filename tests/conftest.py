@@ -48,6 +48,13 @@ def _skip_unless_available(request, backend: str) -> str:
     return backend
 
 
+def pytest_xdist_auto_num_workers(config):
+    """-n auto (pytest-xdist, a test extra; use it with --dist loadfile so that a file's module fixtures are built
+    once): one worker per core, at most 4 (each worker loads the landmark models and compiles its own Numba
+    functions; the test files are few and uneven, so more workers gain little)."""
+    return max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
+
+
 def pytest_runtest_logreport(report):
     """Collect the backends that could not run (in the controller too, where xdist replays the reports)."""
     for name, value in report.user_properties:
