@@ -1,26 +1,27 @@
-"""Where the commands write: output folders and files, checked before the work and cleaned up after a failure.
+"""Where the commands write: output folders and files, checked before the work, and never lost to a failed run.
 
 An output folder (`--out DIR`):
-- must be a folder, or not exist yet beneath a folder; it is created, and a probe file is written in it and
-  removed, so a read-only or otherwise unwritable place is refused before any work (also when running as root);
-- must be empty or hold only what an earlier signcast run wrote there (the files listed in the folder's manifest,
-  MANIFEST): those are removed first and the run replaces them. A folder holding anything else is refused unless
-  `--force`, which likewise removes only the listed files and touches nothing else;
-- after a successful run, MANIFEST lists every file the run wrote (paths relative to the folder);
-- a run that fails (an error, a bug or Ctrl-C) removes every file and folder it created, except a non-empty
-  records.jsonl: studies append each record once it is measured, so what stays is only completed records (listed
-  in MANIFEST, so that --force clears them); a file the run overwrote (only possible with --force) stays as the
-  run left it.
+- must be a folder, or not exist yet; its missing parents are created;
+- must be empty or not exist, unless `--force`;
+- the run writes into a temporary folder beside it (`.DIR.signcast-partial-PID`), created before any work, so a
+  place that cannot take files is refused first (also when running as root);
+- when the run succeeds, what it wrote is moved into DIR: DIR itself when DIR did not exist, else file by file,
+  after removing the files an earlier signcast run wrote there (listed in DIR's manifest, MANIFEST; with
+  `--force` only); a file of the same name is replaced, any other file is kept;
+- a run that fails (an error, a bug, Ctrl-C or SIGINT) removes the temporary folder: DIR stays exactly as it was,
+  old results included;
+- after a successful run, MANIFEST lists every file the run wrote (paths relative to the folder).
 
-An output file (`-o FILE`, `--labels FILE`, ...) may replace an existing file. Its folder must exist; the file is
-created (or opened for appending, which changes nothing) before the work, and a failed run removes the files it
-created.
+An output file (`-o FILE`, `--labels FILE`, ...): its folder must exist; an existing file is replaced only with
+`--force`; the file is created (or opened for appending, which changes nothing) before the work, and a failed run
+removes the files it created.
 
 Every refusal is a SigncastError: one line on stderr and exit code 2.
 """
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -29,7 +30,7 @@ from typing import Iterable, Iterator
 from media.errors import SigncastError
 
 MANIFEST = ".signcast-files"
-KEPT_ON_FAILURE = ("records.jsonl",)
+PARTIAL = ".signcast-partial-"
 
 
 def _reason(error: OSError) -> str:
@@ -105,75 +106,91 @@ def _remove_owned(folder: Path) -> None:
     _remove_folders(emptied)
 
 
-def _owned(folder: Path) -> set[Path]:
-    """The files an earlier run listed in folder's MANIFEST (the manifest included); empty without one."""
-    manifest = folder / MANIFEST
-    if not manifest.is_file():
-        return set()
-    try:
-        lines = manifest.read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError):
-        return set()
-    return {(folder / line).resolve() for line in lines if line.strip()} | {manifest.resolve()}
-
-
 def check_folder(folder: Path, *, force: bool = False) -> None:
-    """Refuse, before anything is created, an --out that is a file, or a folder holding files that no earlier
-    signcast run wrote there, without --force."""
+    """Refuse, before anything is created, an --out that is a file, or a non-empty folder without --force."""
     if folder.exists() and not folder.is_dir():
         raise SigncastError(f"--out {folder} is a file, not a folder: choose a folder")
-    if folder.is_dir() and not force:
-        owned = _owned(folder)
-        if any(path.resolve() not in owned for path in _files(folder)):
-            raise SigncastError(f"--out {folder} is not empty and holds files signcast did not write: choose a new "
-                                f"or empty folder, or pass --force to replace what an earlier signcast run wrote "
-                                f"there")
+    if folder.is_dir() and not force and any(folder.iterdir()):
+        raise SigncastError(f"--out {folder} is not empty: choose a new or empty folder, or pass --force to replace "
+                            f"the files of the same names and those an earlier signcast run wrote there")
+
+
+def _partial_folder(folder: Path) -> Path:
+    """A new, empty folder beside folder (made with the umask's permissions, unlike mkdtemp's 0700)."""
+    for attempt in range(1000):
+        candidate = folder.parent / (f".{folder.name}{PARTIAL}{os.getpid()}" + (f"-{attempt}" if attempt else ""))
+        try:
+            candidate.mkdir()
+            return candidate
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"too many {PARTIAL} folders beside {folder}")
+
+
+def _move_into(source: Path, target: Path) -> None:
+    """Every file below source moved to the same place below target (folders made, same-named files replaced)."""
+    for entry in source.iterdir():
+        destination = target / entry.name
+        if entry.is_dir() and not entry.is_symlink():
+            if destination.is_dir() and not destination.is_symlink():
+                _move_into(entry, destination)
+                continue
+            if destination.exists() or destination.is_symlink():
+                destination.unlink()
+        elif destination.is_dir() and not destination.is_symlink():
+            shutil.rmtree(destination)
+        os.replace(entry, destination)
 
 
 @contextmanager
 def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Path]:
-    """The checked, created and writable --out folder for the duration of one run (see the module's policy)."""
+    """A temporary folder beside the checked --out folder, to write one run's results into; moved into place when
+    the run succeeds, removed when it fails (see the module's policy). Use the folder it yields, not --out."""
     folder = Path(folder)
     check_folder(folder, force=force)
-    created = _make_folder(folder, folder)
-    try:
+    existed = folder.is_dir()
+    created = [] if existed else _make_folder(folder.parent, folder)
+    if existed:
         _probe(folder, folder)
-    except SigncastError:
-        _remove_folders(created)
-        raise
-    _remove_owned(folder)
-    before = _files(folder)
-    folders_before = {Path(root) for root, _, _ in os.walk(folder)}
     try:
-        yield folder
-    except BaseException:
-        new = _files(folder)
-        kept = {path for path in new.keys() - before.keys()
-                if path.relative_to(folder).as_posix() in KEPT_ON_FAILURE and new[path][1] > 0}
-        for path in new.keys() - before.keys() - kept:
-            path.unlink(missing_ok=True)
-        _remove_folders({Path(root) for root, _, _ in os.walk(folder)} - folders_before)
+        partial = _partial_folder(folder.resolve())
+    except OSError as error:
         _remove_folders(created)
-        if kept:
-            _write_manifest(folder, before)
+        what = f"cannot write beside {folder}" if existed else f"cannot create folder {folder}"
+        raise SigncastError(f"{what}: {_reason(error)}") from None
+    try:
+        yield partial
+        _write_manifest(partial)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        _remove_folders(created)
         raise
-    _write_manifest(folder, before)
+    try:
+        if not existed:
+            os.replace(partial, folder)
+            return
+        _remove_owned(folder)
+        _move_into(partial, folder.resolve())
+    finally:
+        shutil.rmtree(partial, ignore_errors=True)
 
 
-def _write_manifest(folder: Path, before: dict[Path, tuple[int, int]]) -> None:
-    """List in MANIFEST the files below folder that are new or changed since `before` (a _files snapshot)."""
-    written = sorted(path.relative_to(folder).as_posix() for path, stamp in _files(folder).items()
-                     if before.get(path) != stamp and path.name != MANIFEST)
+def _write_manifest(folder: Path) -> None:
+    """List in MANIFEST every file below folder."""
+    written = sorted(path.relative_to(folder).as_posix() for path in _files(folder) if path.name != MANIFEST)
     (folder / MANIFEST).write_text("".join(f"{name}\n" for name in written), encoding="utf-8")
 
 
-def check_file(path: Path, what: str, suffixes: tuple[str, ...] = ()) -> None:
+def check_file(path: Path, what: str, suffixes: tuple[str, ...] = (), *, force: bool = False) -> None:
     """Refuse, before the work, an output file that cannot be written: a folder, a wrong suffix, a missing or
-    unwritable folder. Creates nothing: a probe file made to check is removed again."""
+    unwritable folder, an existing file without force. Creates nothing: a probe file made to check is removed
+    again."""
     if suffixes and path.suffix.lower() not in suffixes:
         raise SigncastError(f"cannot write {what} {path}: the name must end in {' or '.join(suffixes)}")
     if path.is_dir():
         raise SigncastError(f"cannot write {what} {path}: it is a folder")
+    if (path.exists() or path.is_symlink()) and not force:
+        raise SigncastError(f"{what} {path} exists: choose another name, or pass --force to replace it")
     folder = path.parent
     if not folder.is_dir():
         raise SigncastError(f"cannot write {what} {path}: folder {folder} does not exist")
@@ -190,12 +207,13 @@ def check_file(path: Path, what: str, suffixes: tuple[str, ...] = ()) -> None:
 
 
 @contextmanager
-def output_files(*files: tuple[Path | None, str] | tuple[Path | None, str, tuple[str, ...]]) -> Iterator[None]:
-    """Check each (path, what[, suffixes]) with check_file (None: not asked for); if the run fails, remove the
-    files it created."""
+def output_files(*files: tuple[Path | None, str] | tuple[Path | None, str, tuple[str, ...]],
+                 force: bool = False) -> Iterator[None]:
+    """Check each (path, what[, suffixes]) with check_file (None: not asked for; an existing file only with force);
+    if the run fails, remove the files it created."""
     wanted = [(Path(spec[0]), *spec[1:]) for spec in files if spec[0] is not None]
     for spec in wanted:
-        check_file(*spec)
+        check_file(*spec, force=force)
     new = [spec[0] for spec in wanted if not spec[0].exists()]
     try:
         yield
@@ -205,11 +223,15 @@ def output_files(*files: tuple[Path | None, str] | tuple[Path | None, str, tuple
         raise
 
 
-def add_force_argument(parser) -> None:
-    """The `--force` option of every command that writes an --out folder."""
+def add_force_argument(parser, files: bool = False) -> None:
+    """The `--force` option of every command that writes an --out folder (files: or output files)."""
+    if files:
+        parser.add_argument("--force", action="store_true", help="replace output files that exist already")
+        return
     parser.add_argument("--force", action="store_true",
-                        help=f"write into a non-empty --out folder, first removing the files an earlier signcast run "
-                             f"wrote there (listed in {MANIFEST}); other files are kept")
+                        help=f"write into a non-empty --out folder once the run succeeds: the files an earlier "
+                             f"signcast run wrote there (listed in {MANIFEST}) are removed and files of the same "
+                             f"names replaced; other files are kept")
 
 
 # ------------------------------------------------------------------------------------------------------------

@@ -156,38 +156,47 @@ def test_codecs_none_is_accepted_and_codes_no_other_codec(tmp_path, capsys):
     assert points and {r["codec"] for r in points} == {"mpeg4"}
 
 
-def test_a_rerun_replaces_what_an_earlier_run_wrote_and_force_keeps_other_files(tmp_path, capsys):
+def test_a_rerun_needs_force_which_replaces_what_an_earlier_run_wrote_and_keeps_other_files(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["params", "ase", "ABC", "--codecs", "fba-pred", "--param-q", "31", "--out", str(out)]) == 0
     assert sorted(p.name for p in (out / "bap").iterdir()) == ["ase_A.bap", "ase_B.bap", "ase_C.bap"]
     assert "bap/ase_A.bap" in (out / MANIFEST).read_text().splitlines()
-    assert main(["params", "ase", "D", "--codecs", "fba-pred", "--param-q", "31", "--out", str(out)]) == 0
-    assert sorted(p.name for p in (out / "bap").iterdir()) == ["ase_D.bap"]     # an earlier run's files: replaced
-    (out / "notes.txt").write_text("mine")
     capsys.readouterr()
-    _fails_with_one_line(capsys, ["params", "ase", "D", "--out", out], "is not empty")
+    _fails_with_one_line(capsys, ["params", "ase", "D", "--out", out], "is not empty", "--force")
+    assert sorted(p.name for p in (out / "bap").iterdir()) == ["ase_A.bap", "ase_B.bap", "ase_C.bap"]
+    (out / "notes.txt").write_text("mine")
     assert main(["params", "ase", "D", "--codecs", "fba-pred", "--param-q", "31", "--out", str(out), "--force"]) == 0
-    assert sorted(p.name for p in (out / "bap").iterdir()) == ["ase_D.bap"]
+    assert sorted(p.name for p in (out / "bap").iterdir()) == ["ase_D.bap"]     # an earlier run's files: replaced
     assert {r["clip"] for r in read_records(out / "records.jsonl") if r.get("kind") == "point"} == {"ase:D"}
     assert (out / "notes.txt").read_text() == "mine"
+    assert not [p for p in tmp_path.iterdir() if p.name != "out"]                # no temporary folder left
 
 
-def test_a_run_failing_midway_removes_what_it_created_but_completed_records(tmp_path):
+def test_a_run_failing_midway_leaves_the_folder_as_it_was(tmp_path):
     out = tmp_path / "out"
     with pytest.raises(SigncastError):
-        with output_folder(out):
-            (out / "plots").mkdir()
-            (out / "plots" / "half.png").write_bytes(b"\x89PNG")
-            (out / "table.csv").write_text("a,b\n")
+        with output_folder(out) as partial:
+            (partial / "plots").mkdir()
+            (partial / "plots" / "half.png").write_bytes(b"\x89PNG")
+            (partial / "table.csv").write_text("a,b\n")
             raise SigncastError("damaged stream")
-    assert not out.exists()
+    assert _tree(tmp_path) == set()
+    out.mkdir()
+    (out / "table.csv").write_text("old\n")
     with pytest.raises(KeyboardInterrupt):
-        with output_folder(out):
-            write_records(out / "records.jsonl", [make_record("NSV", "clip", "mpeg4", 12, 25.0, 176, 144, 8000, 1.0)])
-            (out / "table.csv").write_text("a,b\n")
+        with output_folder(out, force=True) as partial:
+            write_records(partial / "records.jsonl", [make_record("NSV", "clip", "mpeg4", 12, 25.0, 176, 144, 8000, 1.0)])
+            (partial / "table.csv").write_text("a,b\n")
             raise KeyboardInterrupt
-    assert _tree(out) == {"records.jsonl", MANIFEST}
-    assert (out / MANIFEST).read_text() == "records.jsonl\n"
+    assert _tree(tmp_path) == {"out", "out/table.csv"} and (out / "table.csv").read_text() == "old\n"
+
+
+@pytest.mark.parametrize("name", list(FILE_COMMANDS))
+def test_an_existing_output_file_needs_force(tmp_path, capsys, name):
+    path = tmp_path / f"taken{FILE_COMMANDS[name][1]}"
+    path.write_text("mine")
+    _fails_with_one_line(capsys, _file_argv(name, tmp_path, path), f"{path} exists", "--force")
+    assert path.read_text() == "mine"
 
 
 def test_analyze_checks_every_language_before_writing_anything(tmp_path, capsys):

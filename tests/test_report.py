@@ -137,7 +137,7 @@ def command_records(tmp_path_factory):
 def _report_of(records_path: Path) -> ReportPage:
     from pipeline.cli import main
     output = records_path.with_name("report.html")
-    assert main(["report", str(records_path), "-o", str(output)]) == 0
+    assert main(["report", str(records_path), "-o", str(output), "--force"]) == 0
     return ReportPage(output.read_text())
 
 

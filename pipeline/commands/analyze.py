@@ -18,6 +18,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("languages", help="sign language codes, comma-separated, e.g. ase or ase,gsg")
     parser.add_argument("--fps", type=float, default=25.0, help="frame rate of the analysed motion (default 25)")
     options.add_out(parser)
+    options.add_no_progress(parser)
     parser.set_defaults(func=run)
 
 
@@ -25,8 +26,8 @@ def run(args: argparse.Namespace) -> int:
     from pipeline.studies import analyze
     settings = analyze.AnalyzeSettings(options.names(args.languages), args.fps)
     analyze.check(settings)
-    with output_folder(args.out, force=args.force):
-        _, results = analyze.run(settings, args.out)
+    with output_folder(args.out, force=args.force) as out:
+        _, results = analyze.run(settings, out)
     for language, result in results.items():
         print(analyze.group_table(language, result))
     print(f"wrote records.jsonl, tables and plots to {args.out}")

@@ -24,14 +24,15 @@ def add_parser(subparsers) -> None:
     options.add_codecs(parser, ",".join(DEFAULT_CODECS))
     options.add_param_q(parser, ",".join(map(str, MPEG4_Q)))
     options.add_out(parser)
+    options.add_no_progress(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    return execute(args.languages, args.codecs, args.param_q, args.out, args.force)
+    return execute(args.languages, args.codecs, args.param_q, args.out, args.force, progress=not args.no_progress)
 
 
-def execute(languages: str, codecs: str | None, param_q: str | None, out, force: bool) -> int:
+def execute(languages: str, codecs: str | None, param_q: str | None, out, force: bool, progress: bool = True) -> int:
     """The lab study (also `params --alphabet`); None takes the lab's default codecs or Q."""
     from tqdm import tqdm
 
@@ -39,9 +40,10 @@ def execute(languages: str, codecs: str | None, param_q: str | None, out, force:
     settings = lab.LabSettings(options.names(languages), options.names(codecs) if codecs is not None else lab.DEFAULT_CODECS,
                                options.parse_qs(param_q, "--param-q") if param_q is not None else lab.MPEG4_Q)
     lab.check(settings)
-    with output_folder(out, force=force), tqdm(total=lab.total_points(settings), desc="lab", unit="point",
-                                               file=sys.stderr) as bar:
-        records = lab.run(settings, out, progress=bar.update)
+    with output_folder(out, force=force) as partial, \
+            tqdm(total=lab.total_points(settings), desc="lab", unit="point", file=sys.stderr,
+                 disable=not progress) as bar:
+        records = lab.run(settings, partial, progress=bar.update)
     print(lab.ranges_table(records))
     print(f"wrote {out / 'records.jsonl'}, lab_points.csv, lab_ranges.csv, lab_waveform_psnr.png, lab_model_vpsnr.png")
     return 0

@@ -7,6 +7,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from pipeline.outputs import add_force_argument
+
 JITTER_FILTERS = ("one-euro", "binomial", "off")
 
 
@@ -43,6 +45,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("-o", "--output", required=True, type=Path, help="BVH file to write")
     parser.add_argument("--fps", type=float,
                         help="frame rate of the motion (default 25 for a word, the .pose file's own for --pose)")
+    add_force_argument(parser, files=True)
+    parser.add_argument("--no-progress", action="store_true", help="hide progress bars (motion shows none)")
     parser.set_defaults(func=run)
 
 
@@ -52,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     check_source(args)
     settings = motion.MotionSettings(args.language, args.word, args.output, args.fps, args.pose, args.jitter_filter)
     motion.check(settings)
-    with output_files((args.output, "BVH")):
+    with output_files((args.output, "BVH"), force=args.force):
         line = motion.run(settings, notify=lambda note: print(note, file=sys.stderr))
     print(line)
     return 0

@@ -31,13 +31,15 @@ def add_parser(subparsers) -> None:
                         help="code the signer's face too (MPEG-4 FAPs; BBA: the face bones) and report what it adds; "
                              "default: the body alone, as the source's Tables 2.1 and 3.1")
     options.add_out(parser)
+    options.add_no_progress(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     if args.alphabet:
         from pipeline.commands import lab
-        return lab.execute(args.language, args.codecs, args.param_q, args.out, args.force)
+        return lab.execute(args.language, args.codecs, args.param_q, args.out, args.force,
+                           progress=not args.no_progress)
     if not args.letters:
         raise SigncastError("give the LETTERS to code (e.g. ABCDEFGHIJ), or --alphabet for whole alphabets")
     from tqdm import tqdm
@@ -47,9 +49,10 @@ def run(args: argparse.Namespace) -> int:
                                      options.parse_qs(args.param_q or options.PARAM_Q, "--param-q"), args.fps,
                                      args.face)
     params.check(settings)
-    with output_folder(args.out, force=args.force), \
-            tqdm(total=params.count_points(settings), desc="params", unit="point", file=sys.stderr) as bar:
-        records = params.run(settings, args.out, progress=bar.update)
+    with output_folder(args.out, force=args.force) as out, \
+            tqdm(total=params.count_points(settings), desc="params", unit="point", file=sys.stderr,
+                 disable=args.no_progress) as bar:
+        records = params.run(settings, out, progress=bar.update)
     print(params.main_table(settings, records))
     print(f"wrote {args.out / 'records.jsonl'}, {args.out / 'params_table.csv'}, {args.out / 'params_rate.png'}")
     return 0

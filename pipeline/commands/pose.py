@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from pipeline.commands import options
+from pipeline.outputs import add_force_argument
 
 
 def add_parser(subparsers) -> None:
@@ -21,6 +22,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--frames", type=int, default=None, help="use only the first N frames")
     options.add_max_size(parser)
     options.add_no_progress(parser)
+    add_force_argument(parser, files=True)
     parser.set_defaults(func=run)
 
 
@@ -32,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
                                  args.frames)
     pose.check(settings)
     with output_files((args.output, ".pose file", pose.POSE_SUFFIXES),
-                      (args.preview, "preview", pose.PREVIEW_SUFFIXES)):
+                      (args.preview, "preview", pose.PREVIEW_SUFFIXES), force=args.force):
         result = pose.run(settings, progress=not args.no_progress)
     for note in result.notes:
         print(f"signcast pose: {note}", file=sys.stderr)

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from pipeline.commands import options
 from pipeline.commands.motion import add_source_arguments, check_source
+from pipeline.outputs import add_force_argument
 
 BACKEND_CHOICES = ("auto", "warp", "opencl", "numpy")
 
@@ -32,7 +33,8 @@ def add_parser(subparsers) -> None:
                         help="animate a segmented FBA-style body (each vertex follows one bone) instead of the seamless skin")
     parser.add_argument("--preview", type=Path, help="also write one frame as a PNG")
     parser.add_argument("--preview-frame", type=int, help="frame index for --preview (default: the middle frame)")
-    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    options.add_no_progress(parser)
+    add_force_argument(parser, files=True)
     parser.set_defaults(func=run)
 
 
@@ -46,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
                                          args.backend, args.pose, args.jitter_filter)
     render.check(settings)
     with output_files((args.output, "video", render.VIDEO_SUFFIXES), (args.labels, "labels", (".npz",)),
-                      (args.preview, "preview", (".png",))):
+                      (args.preview, "preview", (".png",)), force=args.force):
         line = render.run(settings, progress=not args.no_progress, notify=lambda note: print(note, file=sys.stderr))
     print(line)
     return 0

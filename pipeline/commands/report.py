@@ -11,7 +11,8 @@ def add_parser(subparsers) -> None:
                                                "shows what the records measured: image quality of decoded pictures "
                                                "(compare, demo, video) or parameter quality (params, lab).")
     parser.add_argument("records", type=Path, help="records.jsonl written by signcast compare/demo/video/params/lab")
-    parser.add_argument("-o", "--output", type=Path, default=None, help="report file (default: report.html beside the records)")
+    parser.add_argument("-o", "--output", type=Path, default=None, help="report file (default: report.html beside the records, replaced if there)")
+    parser.add_argument("--force", action="store_true", help="replace the -o file if it exists")
     parser.set_defaults(func=run)
 
 
@@ -22,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
     records = read_records(args.records)
     output = args.output or args.records.with_name("report.html")
     poster = args.records.with_name("side_by_side_poster.png")
-    with output_files((output, "report")):
+    with output_files((output, "report"), force=args.force or args.output is None):
         path = build_report(records, output, poster_png=poster.read_bytes() if poster.is_file() else None)
     print(f"report: {path}")
     return 0

@@ -49,8 +49,8 @@ def run(args: argparse.Namespace) -> int:
                                    fps=args.fps, max_size=options.parse_max_size(args.max_size),
                                    size=parse_size(args.size), sweep=sweep, segmentation=args.segmentation)
     video.check(settings)
-    with output_folder(args.out, force=args.force):
-        result = video.run(settings, args.out, progress=not args.no_progress,
+    with output_folder(args.out, force=args.force) as out:
+        result = video.run(settings, out, progress=not args.no_progress,
                            notify=lambda line: print(f"signcast video: {line}", file=sys.stderr))
     print(video.main_table(result.records))
     for line in result.lines:
