@@ -98,10 +98,10 @@ def execute(settings, args: argparse.Namespace) -> int:
     from pipeline.studies import compare
     settings = replace(settings, **scenario_fields(args))
     compare.check(settings, args.command)
-    with output_folder(args.out, force=args.force):
-        result = compare.run(settings, args.out, progress=not args.no_progress,
+    with output_folder(args.out, force=args.force) as out:
+        result = compare.run(settings, out, progress=not args.no_progress,
                              notify=lambda line: print(f"signcast {args.command}: {line}", file=sys.stderr))
     print(compare.format_summary(result.records))
-    print(f"report: {result.report}")
-    print(f"side by side: {result.side_by_side}")
+    print(f"report: {args.out / result.report.name}")
+    print(f"side by side: {args.out / result.side_by_side.name}")
     return 0

@@ -96,5 +96,5 @@ def run(args: argparse.Namespace) -> int:
     with output_folder(args.out, force=args.force) as out:
         records = live.run(settings, out, progress=not args.no_progress)
     print(live_report.summary_text(records))
-    print(f"report: {out / 'report.html'}")
+    print(f"report: {args.out / 'report.html'}")
     return 0
