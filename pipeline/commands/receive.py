@@ -21,6 +21,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--timeout", type=float, default=60.0, help="seconds to wait for a sender (default 60)")
     parser.add_argument("--backend", default="auto", help="kernels backend for the terminal's render")
     options.add_out(parser)
+    options.add_no_progress(parser)
     parser.set_defaults(func=run)
 
 
@@ -39,5 +40,5 @@ def run(args: argparse.Namespace) -> int:
     latency = "no frame arrived" if p50 is None else f"latency median {p50:.0f} ms, 95th percentile {p95:.0f} ms"
     print(f"received {record['clip']} as {record['solution']} ({record['codec']}): {record['frames_lost']} of "
           f"{round(record['duration_s'] * record['fps'])} frames lost, {record['frames_concealed']} concealed; "
-          f"{latency}; {record['received_kbps']:.2f} kbit/s arrived; wrote {out / 'shown.mkv'}")
+          f"{latency}; {record['received_kbps']:.2f} kbit/s arrived; wrote {args.out / 'shown.mkv'}")
     return 0
