@@ -851,13 +851,14 @@ def _matched_table(records: list[dict]) -> str:
     joints = any(m.get(f) is not None for m in matched for f in ("hand_joint_error_mm", "arm_joint_error_mm"))
     message = any(m.get("message_pck") is not None for m in matched)
     loss = any(m.get("codec_loss") for m in matched)
+    face = any(m.get("face_ok") is not None for m in matched)
     shared = shared_threshold(matched)
     rows = []
     for solution in dict.fromkeys([*MATCHED_SOLUTIONS, *(m["solution"] for m in matched)]):
         mine = [m for m in matched if m["solution"] == solution]
         if not mine:
             rows.append([_fmt(solution), "–", "–", "no matched record",
-                         *["–"] * (11 + 2 * joints + 2 * message + loss - bool(shared))])
+                         *["–"] * (10 + 2 * joints + 2 * message + face + loss - bool(shared))])
             continue
         for m in mine:
             cells = [_fmt(solution), _fmt(m.get("codec")), _fmt(m.get("reference")), _bracket(m),
@@ -867,7 +868,8 @@ def _matched_table(records: list[dict]) -> str:
                 cells += [_fmt(m.get("hand_joint_error_mm"), 1), _fmt(m.get("arm_joint_error_mm"), 1)]
             if message:
                 cells += [_fmt(m.get("message_pck"), 1), _fmt(m.get("message_location"), 3)]
-            cells.append(_face_verdict(m))
+            if face:
+                cells.append(_face_verdict(m))
             if loss:
                 cells.append(_codec_loss(m))
             rows.append(cells + [_holds(m), _channel_marks(m.get("kbps") if m.get("reached") else None)])
@@ -876,7 +878,7 @@ def _matched_table(records: list[dict]) -> str:
               "face error (interocular distances)", "mouth / eyes error (interocular distances)", "letter top-1 %",
               *(["hand joint error mm", "arm joint error mm"] if joints else []),
               *(["handshape PCK@0.2 % (message)", "wrist location (shoulder widths)"] if message else []),
-              "face (aligned mouth and eyes): own verdict",
+              *(["face (aligned mouth and eyes): own verdict"] if face else []),
               *(["codec loss: kbps against the lossless render"] if loss else []), "holds down to",
               "delivery channels it fits"]
     return _table("matched", header, rows)
