@@ -448,6 +448,13 @@ class Measurer:
         return result
 
 
+def extractions_of(points: list[dict]) -> int:
+    """The extractions every one of a series' points has (each starts with FIRST_EXTRACTIONS; a series whose
+    per-extraction matches disagreed has all its Q points extended to settings.extractions): the K its
+    per-extraction matches pair with the threshold's draws, shift by shift."""
+    return min((int(p.get("extractions") or 1) for p in points), default=1)
+
+
 _MEASURER: Measurer | None = None
 
 
@@ -602,7 +609,7 @@ class Study:
         if plan.phase == "extract":
             most = self.settings.extractions
             if plan.extractions < most:
-                matches = schedule.per_extraction_matches(points, record, criteria_of, plan.extractions)
+                matches = operating.extraction_matches(points, record, criteria_of, plan.extractions)
                 if not schedule.extractions_agree(matches):
                     added = tuple(range(plan.extractions, most))
                     plan.extractions = most
@@ -707,7 +714,7 @@ class Study:
         record.update(pooled_kbps=found.kbps, pooled_reached=found.reached, threshold_name=name,
                       margin_at_match=operating.margin_at(found, points, criteria),
                       **operating.extraction_summary(operating.extraction_matches(
-                          points, threshold_record, criteria_of, self.settings.extractions)))
+                          points, threshold_record, criteria_of, extractions_of(points))))
         face = operating.face_criterion(threshold_record, margin=0.0 if name == HUMAN_ANCHORED else FACE_MARGIN)
         if face is not None:
             value = matching.fields_at(found, (face.field,)).get(face.field)
@@ -776,7 +783,7 @@ class Study:
                              "solution": series.solution, "codec": series.codec, "reference": series.reference,
                              "threshold": matching.threshold_text(criteria_of(record)),
                              **operating.extraction_summary(operating.extraction_matches(
-                                 points, record, criteria_of, self.settings.extractions))})
+                                 points, record, criteria_of, extractions_of(points)))})
         return rows
 
     def verdict_margin(self, series: Series, criteria: list[matching.Criterion]) -> float | None:
@@ -788,7 +795,7 @@ class Study:
         (comparisons.judging.operating.rate_spread); None where not reached or extracted once."""
         return operating.rate_spread(series.points(self.records), self.ceiling(series.reference),
                                      lambda ceiling: self.criteria(series.reference, ceiling), found,
-                                     self.settings.extractions)
+                                     extractions_of(series.points(self.records)))
 
     def ceiling(self, reference: str) -> dict:
         return operating.ceiling(self.records, reference)
@@ -829,6 +836,7 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                 study.add(study.anchor())
         with clock.stage("points: Q search, refinements, added extractions, frame rates (rounds on the pool)"):
             study.measure_all()
+            pool.close()
     with clock.stage("matching"):
         matched = study.match()
         study.add(study.sensitivity())
@@ -919,6 +927,8 @@ def summary_rows(records: list[dict]) -> list[dict]:
              "kbps_se": r.get("kbps_se"),
              "q_low": r["q_low"], "q_high": r["q_high"], "reached": r["reached"],
              "verdict_margin_se": r.get("verdict_margin_se"), "verdict_clear": r.get("verdict_clear"),
+             "extractions": r.get("extractions"), "reached_extractions": r.get("reached_extractions"),
+             "kbps_min": r.get("kbps_min"), "kbps_max": r.get("kbps_max"), "threshold_name": r.get("threshold_name"),
              "fps_holds": r.get("fps_holds"),
              "hand_pck_20": r.get("hand_pck_20"), "face_error": r.get("face_error"),
              "letter_top1": r.get("letter_top1"), "skin_psnr": r.get("skin_psnr"), "threshold": r["threshold"]}
