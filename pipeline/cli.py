@@ -4,7 +4,7 @@ Each sub-command lives in its own module under `pipeline/commands/` exposing
 `add_parser(subparsers)` (which registers the parser and sets `func`) and the
 function it calls. Expected failures (SigncastError, which KernelError derives from) print one
 line on stderr and exit with code 2; bugs keep their traceback. Argument errors
-(argparse) print the sub-command's own usage and exit with code 2.
+(argparse) are one line too, naming the sub-command and where its usage is (`--help`), and exit with code 2.
 """
 from __future__ import annotations
 
@@ -34,8 +34,16 @@ COMMAND_MODULES = [
 ]
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argparse parser whose errors are one line on stderr (exit code 2), like every other signcast error;
+    sub-command parsers are of the same class."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="signcast",
         description="Measure what it costs to transmit sign language as video, a synthetic signer, or animation parameters.",
     )

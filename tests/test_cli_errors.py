@@ -212,12 +212,30 @@ def test_version_prints_the_installed_version(capsys):
     assert stop.value.code == 0 and capsys.readouterr().out.strip() == f"signcast {version('signcast')}"
 
 
-def test_unknown_option_prints_the_sub_commands_usage(tmp_path, capsys):
+@pytest.mark.parametrize("argv", [
+    ["render", "ase", "A", "-o", "{tmp}/a.mkv", "--bogus"],
+    ["render", "ase", "A", "-o", "{tmp}/a.mkv", "--fps", "abc"],
+    ["analyze", "ase", "--fps", "abc", "--out", "{tmp}/out"],
+    ["video", "--out", "{tmp}/out"],
+    ["pose"],
+    ["sweep", "--out", "{tmp}/out"],
+    ["receive", "--port", "x", "--out", "{tmp}/out"],
+    ["lab", "--param-q"],
+])
+def test_argument_errors_are_one_line_naming_the_help(tmp_path, capsys, argv):
     with pytest.raises(SystemExit) as stop:
-        main(["render", "ase", "A", "-o", str(tmp_path / "a.mkv"), "--bogus"])
-    error = capsys.readouterr().err
-    assert stop.value.code == 2 and error.startswith("usage: signcast render ")
-    assert error.strip().splitlines()[-1] == "signcast render: error: unrecognized arguments: --bogus"
+        main([a.format(tmp=tmp_path) for a in argv])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert stop.value.code == 2 and len(lines) == 1, lines
+    assert lines[0].startswith(f"signcast {argv[0]}: error: ") and lines[0].endswith(f"(see signcast {argv[0]} --help)")
+
+
+def test_every_command_that_can_show_progress_takes_no_progress():
+    from pipeline.cli import build_parser
+    commands = build_parser()._subparsers._group_actions[0].choices
+    without = [name for name, parser in commands.items() if name not in ("lexicon", "report")   # nothing to show
+               and "--no-progress" not in parser._option_string_actions]
+    assert without == []
 
 
 def test_render_without_progress_writes_nothing_to_stderr(tmp_path, capsys):
