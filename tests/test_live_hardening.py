@@ -304,3 +304,24 @@ def test_a_busy_receiver_reads_every_datagram_queued_before_bye(letter, renderer
     assert got.packets == delivery.sent.packets and got.received.all()
     fields = live.delivery_fields(got, delivery.sent.packets, delivery.relay_counts.dropped)
     assert fields["packet_loss"] == 0 and fields["unaccounted_packets"] == 0
+
+
+def test_receive_listens_within_3_s_of_starting():
+    """Finding: under load `signcast receive` took more than 60 s to start listening (it imported the decoders,
+    renderer and judge first). It now listens on light imports and loads the rest while a sender waits."""
+    import subprocess
+    import sys
+    from pathlib import Path
+    started = time.monotonic()
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    process = subprocess.Popen([sys.executable, "-m", "pipeline.cli", "receive", "--port", str(port), "--out",
+                                str(Path(__import__("tempfile").mkdtemp()) / "out"), "--timeout", "1"],
+                               stderr=subprocess.PIPE, text=True, cwd=Path(__file__).resolve().parents[1])
+    try:
+        line = process.stderr.readline()
+        elapsed = time.monotonic() - started
+    finally:
+        process.wait(60)
+    assert line.startswith("listening on") and elapsed < 3.0, (line, elapsed)

@@ -67,11 +67,11 @@ def test_frame_units_decode_within_half_a_step_of_the_codec(hello, codec):
                              for name in got.bone_names])
         turn = fba_units._rotation_vectors(fba_units._multiply(fba_units._conjugate(expected), got.rotations[0]))
         assert np.linalg.norm(turn, axis=-1).max() <= step * np.sqrt(3) / 2 * 1.01 + 1e-9, index
-    intra, delta = sizes[0], np.mean([s for k, s in enumerate(sizes) if k % refresh])
-    assert delta < intra                                          # prediction pays
+    all_intra = sum(len(param.encode(motion.frames(k, k + 1), 4)) + fba_units.HEADER_BYTES for k in range(30))
+    assert sum(sizes) <= all_intra                                # never dearer than every frame intra
 
 
-def test_a_delta_unit_needs_the_frame_before_it(hello):
+def test_a_lost_delta_unit_costs_its_frame_and_a_lost_intra_its_period(hello):
     motion = hello.frames(0, 6)
     _, source = endpoints.source_for("FBA", "fba-dct", 4, motion=motion, fps=25.0, refresh=4, units="frame")
     description = SessionDescription("FBA", "fba-dct", "units", 4, 25.0, 6, 64, 64)
@@ -85,10 +85,10 @@ def test_a_delta_unit_needs_the_frame_before_it(hello):
     shown = []
     for index in range(6):
         for unit in source.capture(index):
-            if index == 1:
-                continue                                          # frame 1 lost: 2 and 3 cannot be rebuilt
+            if index in (1, 4):
+                continue                                          # a delta (1) and an intra (4) lost
             shown += list(sink.receive(index, Depacketized([Unit(0, unit.data[0])])))
-    assert shown == [0, 4, 5] and sink.broken == 2
+    assert {0, 2, 3} <= set(shown) and 1 not in shown and sink.broken <= 2
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -107,9 +107,9 @@ def test_delta_units_round_trip_random_frames(n_bones, q, face, seed, n_new):
                                          reference.root, reference.faps)
         n_new = n_bones - len(reference.rotations)
     names = tuple(f"bone{k}" for k in range(n_new))
-    payload, rebuilt = fba_units.encode_delta(reference, target, q, names)
+    payload, rebuilt = fba_units.encode_delta(reference, target, q, names, seed % 1000)
     delta = fba_units.read_delta(payload)
-    assert delta.new_bones == names
+    assert delta.new_bones == names and delta.reference == seed % 1000
     got = fba_units.apply_delta(delta, reference)
     assert np.allclose(got.rotations, rebuilt.rotations, atol=1e-12) and np.allclose(got.root, rebuilt.root)
     assert (got.faps is None) == (not face) and (not face or np.array_equal(got.faps, target.faps))

@@ -333,10 +333,12 @@ def assemble(units: list[DecodedUnit], n_frames: int, conceal: str = "hold") -> 
 # - an intra frame every `refresh` frames: a unit whose payload is the parameter codec's own stream of that one
 #   frame (FBA or BBA, decodable alone, exactly as above);
 # - every other frame a predicted ("delta") unit, behind the same unit header (first_frame = the frame,
-#   n_frames = 1), whose payload is signcast's own:
+#   n_frames = 1), predicted from the period's intra frame (not from the frame before: a lost delta unit costs
+#   its own frame only, and a lost intra unit its period), whose payload is signcast's own:
 #
 #     prefix            7F 00 00 01 C6   (stuffing as the codec streams, and a start code value ISO/IEC 14496-2
 #                                         lists as reserved, like 0xC4 and 0xC5)
+#     reference         u32   the intra frame it is predicted from
 #     q                 u8    1..31
 #     n_bones           u16   bones of the motion, 1..MAX_DELTA_BONES
 #     has_faps          u8    0 or 1
@@ -349,10 +351,10 @@ def assemble(units: list[DecodedUnit], n_frames: int, conceal: str = "hold") -> 
 #                       zero bits to the byte
 #     crc32             u32   zlib CRC-32 of everything before it
 #
-#   The levels are closed-loop: the sender predicts from the frame the receiver rebuilt, so errors do not add
-#   up; each rotation is within half a step per component of the codec's own decode of that frame (what an intra
-#   unit of it would show). A delta unit needs the frame just before it: the receiver applies it only when it
-#   holds that frame, and otherwise conceals until the next intra frame (at most refresh - 1 frames).
+#   The levels are closed-loop: the sender predicts from the intra frame as the receiver rebuilt it, so errors
+#   do not add up; each rotation is within half a step per component (of the rotation vector) of the codec's
+#   own decode of that frame (what an intra unit of it would show). A delta unit needs its intra frame: the
+#   receiver applies it only when it holds that frame, and otherwise conceals it.
 
 import zlib as _zlib
 
@@ -387,6 +389,7 @@ class DeltaPayload:
     has_faps: bool
     bits: bytes
     new_bones: tuple[str, ...] = ()
+    reference: int = 0
 
 
 def _rotation_vectors(q: np.ndarray) -> np.ndarray:
@@ -467,10 +470,12 @@ def with_new_bones(reference: FrameState, n_new: int) -> FrameState:
 
 
 def encode_delta(reference: FrameState, target: FrameState, q: int,
-                 new_bones: tuple[str, ...] = ()) -> tuple[bytes, FrameState]:
-    """(a delta unit's payload taking `reference` to `target`, the frame the receiver will rebuild from it).
-    new_bones: names of bones `target` has after those of `reference` (their rows last in target)."""
+                 new_bones: tuple[str, ...] = (), reference_frame: int = 0) -> tuple[bytes, FrameState]:
+    """(a delta unit's payload taking `reference` (frame reference_frame) to `target`, the frame the receiver
+    will rebuild from it). new_bones: names of bones `target` has after those of `reference` (their rows last)."""
     q = pc.check_q(q)
+    if not 0 <= reference_frame <= MAX_FIRST_FRAME:
+        raise SigncastError(f"a delta unit's reference frame must be 0..{MAX_FIRST_FRAME}")
     names = [name.encode() for name in new_bones]
     if len(names) > 255 or any(not 1 <= len(name) <= 255 for name in names):
         raise SigncastError("a delta unit adds at most 255 bones, each named in 1..255 bytes")
@@ -498,7 +503,7 @@ def encode_delta(reference: FrameState, target: FrameState, q: int,
     text = "".join(bits)
     text += "0" * (-len(text) % 8)
     body = int(text, 2).to_bytes(len(text) // 8, "big") if text else b""
-    head = (DELTA_PREFIX + bytes([q]) + n_bones.to_bytes(2, "big") + bytes([target.faps is not None])
+    head = (DELTA_PREFIX + int(reference_frame).to_bytes(4, "big") + bytes([q]) + n_bones.to_bytes(2, "big") + bytes([target.faps is not None])
             + bytes([len(names)]) + b"".join(bytes([len(name)]) + name for name in names))
     payload = head + body
     return payload + _zlib.crc32(payload).to_bytes(4, "big"), FrameState(rotations, root, faps)
@@ -507,12 +512,13 @@ def encode_delta(reference: FrameState, target: FrameState, q: int,
 def read_delta(payload: bytes) -> DeltaPayload:
     """A delta unit's payload checked (prefix, fields, CRC-32); SigncastError when damaged."""
     payload = bytes(payload)
-    head = len(DELTA_PREFIX) + 5
+    head = len(DELTA_PREFIX) + 9
     if len(payload) < head + 4 or not payload.startswith(DELTA_PREFIX):
         raise SigncastError("not a delta unit")
     if _zlib.crc32(payload[:-4]).to_bytes(4, "big") != payload[-4:]:
         raise SigncastError("a delta unit fails its CRC-32")
-    q, n_bones, has_faps, n_new = payload[5], int.from_bytes(payload[6:8], "big"), payload[8], payload[9]
+    reference = int.from_bytes(payload[5:9], "big")
+    q, n_bones, has_faps, n_new = payload[9], int.from_bytes(payload[10:12], "big"), payload[12], payload[13]
     if not 1 <= q <= 31 or not 1 <= n_bones <= MAX_DELTA_BONES or has_faps > 1 or n_new > n_bones:
         raise SigncastError("a delta unit with a bad q, bone count, face flag or new bones")
     names = []
@@ -528,7 +534,7 @@ def read_delta(payload: bytes) -> DeltaPayload:
         head += 1 + size
     if len(set(names)) != len(names):
         raise SigncastError("a delta unit adds the same bone twice")
-    return DeltaPayload(q, n_bones, bool(has_faps), payload[head:-4], tuple(names))
+    return DeltaPayload(q, n_bones, bool(has_faps), payload[head:-4], tuple(names), reference)
 
 
 def apply_delta(delta: DeltaPayload, reference: FrameState) -> FrameState:

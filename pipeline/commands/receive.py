@@ -27,15 +27,19 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from pipeline.outputs import output_folder
-    from pipeline.studies import live
     if not 0 < args.port < 65536:
         raise SigncastError(f"--port must be 1..65535, got {args.port}")
     if not args.timeout > 0:
         raise SigncastError(f"--timeout must be positive, got {args.timeout}")
+    # Listen first, on light imports only (issue 37: `receive` listens within 3 s, on a cold start too): a sender
+    # that connects now waits in the backlog, and is answered READY once the decoders and renderer are loaded.
+    from pipeline.live.session import Listener
     with output_folder(args.out, force=args.force) as out:
+        listener = Listener(args.host, args.port)
+        print(f"listening on {args.host}:{listener.port}", file=sys.stderr, flush=True)
+        from pipeline.studies import live
         record = live.run_receive(args.port, out, timeout_s=args.timeout, backend=args.backend, host=args.host,
-                                  on_listening=lambda port: print(f"listening on {args.host}:{port}",
-                                                                  file=sys.stderr, flush=True))
+                                  listener=listener)
     p50, p95 = record.get("latency_ms_p50"), record.get("latency_ms_p95")
     latency = "no frame arrived" if p50 is None else f"latency median {p50:.0f} ms, 95th percentile {p95:.0f} ms"
     print(f"received {record['clip']} as {record['solution']} ({record['codec']}): {record['frames_lost']} of "

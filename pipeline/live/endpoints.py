@@ -58,9 +58,10 @@ class ParameterSource:
     """FBA / BBA: `motion` coded by the parameter codec `codec` at q.
 
     units "frame" (low delay, the default of `signcast live` and `send`): every frame is a unit sent as soon as
-    it is captured: an intra unit (the codec's own stream of that frame) every `refresh` frames, a delta unit
-    (comparisons.transport.fba_units.encode_delta: the frame predicted from the one the receiver rebuilt) in
-    between. units "period": one unit per `refresh` frames, the codec's stream of the period, sent when its last
+    it is captured: an intra unit (the codec's own stream of that frame) at least every `refresh` frames, a
+    delta unit (comparisons.transport.fba_units.encode_delta: the frame predicted from the last intra frame as
+    the receiver rebuilds it) in between, unless the intra unit is smaller (it is then sent instead, and later
+    frames are predicted from it). units "period": one unit per `refresh` frames, the codec's stream of the period, sent when its last
     frame is captured (the period's first frame waits refresh - 1 frame intervals)."""
 
     def __init__(self, codec: str, motion: Motion, q: int, refresh: int, units: str = "period"):
@@ -71,8 +72,9 @@ class ParameterSource:
         self.codec = param_codecs.get_codec(codec)
         self.motion, self.q, self.refresh, self.units = motion, q, refresh, units
         self.start = 0
-        self.state: fba_units.FrameState | None = None       # the frame the receiver rebuilt last
-        self.bones: tuple[str, ...] = ()                      # its bones: those of the last intra frame
+        self.state: fba_units.FrameState | None = None       # the last intra frame, as the receiver rebuilds it
+        self.bones: tuple[str, ...] = ()                      # its bones
+        self.intra_frame = 0
 
     def capture(self, index: int) -> list[AccessUnit]:
         if self.units == "frame":
@@ -88,8 +90,8 @@ class ParameterSource:
         decoded = self.codec.decode(intra)                          # what an intra unit of this frame shows
         shown = fba_units.FrameState.last_of(decoded)
         if index % self.refresh and self.state is not None and (shown.faps is None) == (self.state.faps is None):
-            # a BBA stream leaves out bones at rest: they are at rest (identity) here, and bones the receiver's
-            # frame lacks are named in the delta unit and added at rest
+            # predicted from the period's intra frame; a BBA stream leaves out bones at rest: they are at rest
+            # (identity) here, and bones the intra frame lacks are named in the delta unit and added at rest
             new = tuple(name for name in decoded.bone_names if name not in set(self.bones))
             bones = (*self.bones, *new)
             where = {name: k for k, name in enumerate(decoded.bone_names)}
@@ -97,11 +99,11 @@ class ParameterSource:
             for k, name in enumerate(bones):
                 if name in where:
                     rotations[k] = shown.rotations[where[name]]
-            payload, self.state = fba_units.encode_delta(
-                self.state, fba_units.FrameState(rotations, shown.root, shown.faps), self.q, new)
-            self.bones = bones
-            return payload
-        self.state, self.bones = shown, decoded.bone_names
+            payload, _ = fba_units.encode_delta(self.state, fba_units.FrameState(rotations, shown.root, shown.faps),
+                                                self.q, new, self.intra_frame)
+            if len(payload) < len(intra):                       # else the intra unit is cheaper: it goes instead
+                return payload
+        self.state, self.bones, self.intra_frame = shown, decoded.bone_names, index
         return intra
 
     def finish(self) -> list[AccessUnit]:
@@ -181,8 +183,8 @@ class VideoSink:
 
 class ParameterSink:
     """FBA / BBA receiver: finds units, decodes them (the codec's streams, and delta units applied to the frame
-    before them) and renders their frames with `renderer`. A delta unit whose previous frame is not held (lost,
-    or concealed) cannot be applied: it is counted in `broken` and its frame concealed until the next intra."""
+    on their intra frame) and renders their frames with `renderer`. A delta unit whose intra frame did not
+    arrive cannot be applied: it is counted in `broken` and its frame concealed."""
 
     def __init__(self, description: SessionDescription, renderer):
         self.screen = _Screen(description.n_frames, description.height, description.width)
@@ -191,7 +193,7 @@ class ParameterSink:
         self.renderer = renderer
         self.scanner = fba_units.UnitScanner(self._decode_payload, payload_prefixes(description.codec))
         self.units = self.broken = 0
-        self.state: tuple[int, fba_units.FrameState, Motion] | None = None     # last frame held, its state
+        self.state: tuple[int, fba_units.FrameState, Motion] | None = None     # the last intra frame
 
     def _decode_payload(self, payload: bytes, n_frames: int):
         if payload.startswith(fba_units.DELTA_PREFIX):
@@ -205,7 +207,7 @@ class ParameterSink:
 
     def _motion(self, first: int, decoded) -> Motion | None:
         if isinstance(decoded, fba_units.DeltaPayload):
-            if self.state is None or self.state[0] != first - 1:
+            if self.state is None or self.state[0] != decoded.reference:
                 self.broken += 1
                 return None
             _, reference, template = self.state
@@ -214,13 +216,11 @@ class ParameterSink:
             except SigncastError:
                 self.broken += 1
                 return None
-            motion = Motion(template.fps, (*template.bone_names, *decoded.new_bones), frame.rotations[None],
-                            frame.root[None], None if frame.faps is None else frame.faps[None])
-        else:
-            motion = decoded
-            frame = fba_units.FrameState.last_of(motion)
-        self.state = (first + motion.n_frames - 1, frame, motion)
-        return motion
+            return Motion(template.fps, (*template.bone_names, *decoded.new_bones), frame.rotations[None],
+                          frame.root[None], None if frame.faps is None else frame.faps[None])
+        if decoded.n_frames == 1:
+            self.state = (first, fba_units.FrameState.last_of(decoded), decoded)
+        return decoded
 
     def receive(self, frame: int, depacketized, stream: int = 0):
         """Yields each frame's index as soon as it is rendered (a generator: the session time-stamps each)."""
@@ -262,6 +262,25 @@ def warm_up(codec: str, renderer=None, motion: Motion | None = None) -> None:
     if renderer is not None:
         for _ in renderer.frames(decoded.frames(0, 1)):
             pass
+
+
+def warm_up_sink(sink) -> None:
+    """A receiver's one-time costs paid before the session starts (the sender waits for READY): a parameter
+    sink's codec (compiled loops) and renderer's first frame, on a rest pose of the avatar's bones."""
+    if not isinstance(sink, ParameterSink):
+        return
+    renderer = sink.renderer
+    skeleton = getattr(getattr(renderer, "avatar", None), "skeleton", None)
+    names = tuple(getattr(skeleton, "names", ()) or ())
+    if not names:
+        return
+    rest = Motion(sink.fps, names, np.tile([1.0, 0.0, 0.0, 0.0], (2, len(names), 1)), np.zeros((2, 3)))
+    try:
+        decoded = sink.codec.decode(sink.codec.encode(rest, 4))
+        for _ in renderer.frames(decoded.frames(0, 1)):
+            pass
+    except SigncastError:
+        pass
 
 
 def source_for(solution: str, codec: str, q: int, *, frames: np.ndarray | None = None, motion: Motion | None = None,

@@ -513,16 +513,24 @@ def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
 
 
 def run_receive(port: int, out_dir: Path, *, timeout_s: float = 60.0, backend: str = "auto",
-                host: str = "127.0.0.1", on_listening: Callable[[int], object] | None = None) -> dict:
-    """Receives one session on port (TCP control and UDP media), writes what was shown to out_dir/shown.mkv
-    (lossless FFV1) and a delivery record to out_dir/records.jsonl; returns the record."""
+                host: str = "127.0.0.1", on_listening: Callable[[int], object] | None = None,
+                listener: Listener | None = None) -> dict:
+    """Receives one session on port (TCP control and UDP media), or on `listener` already bound, writes what
+    was shown to out_dir/shown.mkv (lossless FFV1) and a delivery record to out_dir/records.jsonl; returns the
+    record. The sink (decoder, renderer) is built and warmed up before the sender is answered READY."""
     from media.video_io import write_video
     renderer_for = shared.renderers(backend)
-    listener = Listener(host, port)
+    listener = listener or Listener(host, port)
+
+    def sink_for(description):
+        sink = endpoints.sink_for(description, renderer_for)
+        endpoints.warm_up_sink(sink)
+        return sink
+
     try:
         if on_listening is not None:
             on_listening(listener.port)
-        got = receive(listener, lambda d: endpoints.sink_for(d, renderer_for), timeout_s=timeout_s)
+        got = receive(listener, sink_for, timeout_s=timeout_s)
     finally:
         listener.close()
     d = got.description
