@@ -2,6 +2,7 @@
 resumes without measuring a point twice, a failing point is recorded with its reason while the others complete,
 the report is built from the records, and bad input is one line before any work."""
 import json
+import sys
 from pathlib import Path
 
 import pytest
@@ -208,3 +209,18 @@ def test_the_matched_point_holds_the_face_where_the_motion_has_one():
     assert body_only["reached"] and (body_only["q_met"], body_only["q_missed"]) == (16, 31)
     assert sweep_report.criteria(records[:4]) == [sweep_report.CRITERION, sweep_report.FACE_CRITERION]
     assert "worst face point" in sweep_report.summary_text(sweep_report.cells(list(matched.values())))
+
+
+def test_ray_is_an_optional_extra_and_its_absence_is_one_line(tmp_path, capsys, monkeypatch):
+    """Issue 38: a first install for `signcast demo` needs no cluster engine; `--executor ray` says how to add it."""
+    import tomllib
+    project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]
+    assert not any(d.startswith("ray") for d in project["dependencies"])
+    assert any(d.startswith("ray") for d in project["optional-dependencies"]["ray"])
+    assert any(d.startswith("ray") for d in project["optional-dependencies"]["test"])
+    monkeypatch.setitem(sys.modules, "ray", None)                  # as if Ray were not installed
+    out = tmp_path / "out"
+    assert main(["sweep", "--languages", "ase", "--items", "A", "--executor", "ray", "--out", str(out)]) == 2
+    assert capsys.readouterr().err.strip() == ("signcast sweep: error: --executor ray needs Ray, an optional extra: "
+                                               "pip install 'signcast[ray]'")
+    assert not out.exists()

@@ -159,6 +159,18 @@ def resolve_items(language: str, items: tuple[str, ...] | None) -> list[tuple[st
     return list(dict.fromkeys(resolved))
 
 
+RAY_MISSING = "--executor ray needs Ray, an optional extra: pip install 'signcast[ray]'"
+
+
+def ray_installed() -> bool:
+    """Whether Ray (the optional extra signcast[ray]) can be imported, without importing it."""
+    import importlib.util
+    try:
+        return importlib.util.find_spec("ray") is not None
+    except (ImportError, ValueError):         # ValueError: sys.modules["ray"] is None
+        return False
+
+
 def check(settings: SweepSettings) -> list[tuple[str, list[tuple[str, bool]]]]:
     """Refuse bad settings before any work (one-line SigncastError); returns each language (as stored) with its
     items (resolve_items)."""
@@ -166,6 +178,8 @@ def check(settings: SweepSettings) -> list[tuple[str, list[tuple[str, bool]]]]:
         raise SigncastError(f"unknown --executor {settings.executor!r}; choose {' or '.join(EXECUTORS)}")
     if settings.address and settings.executor != "ray":
         raise SigncastError("--address joins a Ray cluster: use it with --executor ray")
+    if settings.executor == "ray" and not ray_installed():
+        raise SigncastError(RAY_MISSING)
     if settings.workers is not None and (isinstance(settings.workers, bool) or not isinstance(settings.workers, int)
                                          or settings.workers < 1):
         raise SigncastError(f"bad --workers {settings.workers}: give a whole number of processes, at least 1")
@@ -442,7 +456,7 @@ class RayExecutor:
         try:
             import ray
         except ImportError:
-            raise SigncastError("--executor ray needs Ray: pip install 'ray>=2.60,<2.61'") from None
+            raise SigncastError(RAY_MISSING) from None
         if address:
             _probe_cluster(address)
         try:
