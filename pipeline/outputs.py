@@ -106,10 +106,30 @@ def _remove_owned(folder: Path) -> None:
     _remove_folders(emptied)
 
 
-def check_folder(folder: Path, *, force: bool = False) -> None:
-    """Refuse, before anything is created, an --out that is a file, or a non-empty folder without --force."""
+def _owned(folder: Path) -> set[Path]:
+    """The files an earlier run listed in folder's MANIFEST (the manifest included); empty without one."""
+    manifest = folder / MANIFEST
+    if not manifest.is_file():
+        return set()
+    try:
+        lines = manifest.read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return set()
+    return {(folder / line).resolve() for line in lines if line.strip()} | {manifest.resolve()}
+
+
+def check_folder(folder: Path, *, force: bool = False, resumable: bool = False) -> None:
+    """Refuse, before anything is created, an --out that is a file, or a non-empty folder without --force
+    (resumable: a folder holding only what an earlier signcast run listed in MANIFEST is accepted, for `sweep`,
+    which resumes in place)."""
     if folder.exists() and not folder.is_dir():
         raise SigncastError(f"--out {folder} is a file, not a folder: choose a folder")
+    if resumable and folder.is_dir() and not force:
+        owned = _owned(folder)
+        if any(path.resolve() not in owned for path in _files(folder)):
+            raise SigncastError(f"--out {folder} is not empty and holds files signcast did not write: choose a new "
+                                f"or empty folder, or pass --force")
+        return
     if folder.is_dir() and not force and any(folder.iterdir()):
         raise SigncastError(f"--out {folder} is not empty: choose a new or empty folder, or pass --force to replace "
                             f"the files of the same names and those an earlier signcast run wrote there")

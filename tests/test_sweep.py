@@ -66,9 +66,11 @@ def test_an_interrupted_sweep_resumes_and_measures_each_point_once(tmp_path, cap
     assert len(resumed) == 4 and len({r["task"] for r in resumed}) == 4
     assert resumed[:2] == first                                          # kept as written, not measured again
     assert {(r["item"], r["q"]) for r in resumed} == {("A", 4), ("A", 16), ("B", 4), ("B", 16)}
+    lines = (out / sweep.RECORDS).read_text()
     assert main(argv) == 0
     assert "0 points measured, 0 failed, 4 finished earlier" in capsys.readouterr().out
     assert _measured(out) == resumed
+    assert (out / sweep.RECORDS).read_text() == lines                  # a re-run with nothing to do adds no line
     assert main([*argv, "--force"]) == 0                                   # starts over
     assert "4 points measured, 0 failed, 0 finished earlier" in capsys.readouterr().out
     assert len(_measured(out)) == 4

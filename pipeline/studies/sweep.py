@@ -297,7 +297,7 @@ def prepare_folder(out: Path, *, force: bool = False) -> list[Path]:
     killed sweep's folder is still recognised as signcast's). force: remove what an earlier sweep wrote there (start
     over); other files are kept. Returns the folders created (outermost first)."""
     out = Path(out)
-    check_folder(out, force=force)
+    check_folder(out, force=force, resumable=True)
     created = []
     for folder in reversed([out, *out.parents]):
         if folder.is_dir():
@@ -544,8 +544,10 @@ def run(settings: SweepSettings, out: str | Path, *, force: bool = False,
     state = SweepState(total=total, skipped=total - sum(len(u.points) for u in todo), units_left=len(todo))
     if max_units is not None:
         todo = todo[:max(0, max_units)]
-    write_records(path, [{"kind": "run", "executor": settings.executor, "workers": getattr(executor, "slots", 0),
-                          "versions": versions(), "task_version": TASK_VERSION}], append=True)
+    measuring = executor is not None and bool(todo)  # a re-run with nothing left to measure appends no line
+    if measuring:
+        write_records(path, [{"kind": "run", "executor": settings.executor, "workers": getattr(executor, "slots", 0),
+                              "versions": versions(), "task_version": TASK_VERSION}], append=True)
     interrupted = False
     try:
         if executor is not None:
@@ -554,10 +556,11 @@ def run(settings: SweepSettings, out: str | Path, *, force: bool = False,
         if executor is not None:
             executor.close(now=interrupted)
     wall_s = time.perf_counter() - started
-    write_records(path, [{"kind": "stage", "stage": f"sweep ({settings.executor})", "wall_s": round(wall_s, 3),
-                          "points_done": state.done, "points_failed": state.failed,
-                          "points_skipped": state.skipped}], append=True)
-    records = read_records(path)
+    if measuring:
+        write_records(path, [{"kind": "stage", "stage": f"sweep ({settings.executor})", "wall_s": round(wall_s, 3),
+                              "points_done": state.done, "points_failed": state.failed,
+                              "points_skipped": state.skipped}], append=True)
+    records = read_records(path) if path.exists() else []
     if report:
         from comparisons.reports.sweep import report_outputs
         write_outputs(out, report_outputs(records))
