@@ -155,9 +155,20 @@ def split_word(language: str, word: str) -> list[str]:
     """Split `word` into the language's units, longest match first, case-insensitively.
 
     Whitespace is kept as the unit " " (a pause); an accented letter the lexicon lacks is spelled as
-    its base letter (Greek tonos: ό -> Ο) when that exists. Returns units as written in the lexicon, e.g.
-    ssp "LLAMA" -> ["LL", "A", "M", "A"]; a character no unit covers raises SigncastError.
+    its base letter (Greek tonos: ό -> Ο) when that exists (substitutions lists them, for a notice). Returns units
+    as written in the lexicon, e.g. ssp "LLAMA" -> ["LL", "A", "M", "A"]; a character no unit covers raises
+    SigncastError.
     """
+    return _split(language, word)[0]
+
+
+def substitutions(language: str, word: str) -> list[tuple[str, str]]:
+    """(letter as written, unit it is spelled as) for each accented letter of word outside the language's alphabet
+    that split_word spells as its base letter, e.g. ase "HÉLLO" -> [("É", "E")]; each pair once."""
+    return list(dict.fromkeys(_split(language, word)[1]))
+
+
+def _split(language: str, word: str) -> tuple[list[str], list[tuple[str, str]]]:
     table = {normalize_unit(entry.unit): entry.unit for entry in entries(language)}
     longest = max(len(key) for key in table)
     written = unicodedata.normalize("NFC", word.strip())
@@ -165,6 +176,7 @@ def split_word(language: str, word: str) -> list[str]:
     if not text:
         raise SigncastError("nothing to fingerspell: the word is empty")
     result: list[str] = []
+    mapped: list[tuple[str, str]] = []
     position = 0
     while position < len(text):
         if text[position].isspace():
@@ -183,13 +195,14 @@ def split_word(language: str, word: str) -> list[str]:
             base = unicodedata.normalize("NFD", text[position])[0]
             if base != text[position] and base in table:
                 result.append(table[base])
+                mapped.append((written[position] if len(written) == len(text) else text[position], table[base]))
                 position += 1
                 continue
             # quote the letter as the user wrote it (Greek capitals too), unless lower-casing changed the length
             letter = written[position] if len(written) == len(text) else text[position]
             raise SigncastError(f"cannot fingerspell {word!r} in {check_language(language)}: no letter "
                                 f"{letter!r}; the lexicon has: {' '.join(units(language))}")
-    return result
+    return result, mapped
 
 
 def read_clip(entry: LexiconEntry) -> SignClip:

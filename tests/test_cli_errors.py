@@ -261,3 +261,10 @@ def test_unwritable_output_exits_2_without_a_traceback_from_the_shell(tmp_path):
     assert result.returncode == 2 and result.stdout == ""
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"signcast render: error: cannot write video {path}: ")
+
+
+def test_a_letter_outside_the_alphabet_is_spelled_as_its_base_letter_with_a_notice(tmp_path, capsys):
+    from media import lexicon
+    assert lexicon.substitutions("ase", "HÉLLO") == [("É", "E")] and lexicon.substitutions("ase", "HELLO") == []
+    assert main(["motion", "ase", "HÉLLO", "-o", str(tmp_path / "h.bvh")]) == 0
+    assert "'É' is not a letter of the ase alphabet: spelled as 'E'" in capsys.readouterr().err

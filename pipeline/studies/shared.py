@@ -401,6 +401,13 @@ def pose_motion(pose: Path, fps: float | None, jitter_filter: str | None,
     return motion, result
 
 
+def notify_substitutions(language: str, word: str, notify: Callable[[str], object] | None) -> None:
+    """One notice per letter of word outside the language's alphabet that is spelled as its base letter."""
+    from media import lexicon
+    for letter, unit in lexicon.substitutions(language, word) if notify else ():
+        notify(f"{letter!r} is not a letter of the {language} alphabet: spelled as {unit!r}")
+
+
 def source_motion(language: str | None, word: str | None, pose: Path | None, fps: float | None,
                   jitter_filter: str | None, notify: Callable[[str], object] | None = None) -> tuple[Motion, str]:
     """(the avatar's Motion, a few words naming its source): a .pose retargeted (at its own rate unless fps), or
@@ -410,6 +417,7 @@ def source_motion(language: str | None, word: str | None, pose: Path | None, fps
     if pose is not None:
         motion, result = pose_motion(pose, fps, jitter_filter, notify)
         return motion, f"{pose.name} (hands: {', '.join(result.hands) or 'none'})"
+    notify_substitutions(language, word, notify)
     return fingerspell(language, word, fps=fps or LEXICON_FPS), f"{language} {word!r}"
 
 
