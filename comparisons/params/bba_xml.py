@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
+from comparisons.params import coding as pc
 from comparisons.params.bba import MASK_FIELDS, MASK_TYPES, VALUE_LIMIT, BBAFrame, BBAHeader, BBAStream, MuscleUpdate
 from media.errors import SigncastError
 
@@ -107,7 +108,11 @@ def from_xml(text: str) -> BBAStream:
         raise SigncastError("BBA XML: the header is missing")
     params = _parameters(header.get("encodingParametersFile"))
     try:
-        fps = float(header.get("frameRate", "10"))
+        rate_text = header.get("frameRate", "10")
+        fps = float(rate_text)
+        if not fps > 0:                 # "00", "0", "-5", "nan": a stream needs a positive rate (issue 37)
+            raise SigncastError(f"BBA XML: bad frameRate {rate_text[:40]!r}: a positive number of frames per second")
+        pc.frame_rate_fields(fps)       # and one the binary stream can signal (SigncastError otherwise)
         stream_header = BBAHeader(header.get("name", ""), fps, params["coding"], int(params["q"]),
                                   int(params["intra_period"]), params["keyframes"] == "1", int(params["rotation_order"]),
                                   int(params.get("header_period", "0")))
