@@ -268,3 +268,14 @@ def test_a_letter_outside_the_alphabet_is_spelled_as_its_base_letter_with_a_noti
     assert lexicon.substitutions("ase", "HÉLLO") == [("É", "E")] and lexicon.substitutions("ase", "HELLO") == []
     assert main(["motion", "ase", "HÉLLO", "-o", str(tmp_path / "h.bvh")]) == 0
     assert "'É' is not a letter of the ase alphabet: spelled as 'E'" in capsys.readouterr().err
+
+
+def test_render_to_mp4_is_refused_naming_mkv_and_a_pose_preview_in_mp4_is_h264(tmp_path, capsys):
+    _fails_with_one_line(capsys, ["render", "ase", "A", "-o", tmp_path / "x.mp4"], "FFV1", "name it .mkv")
+    assert _tree(tmp_path) == set()
+    import av
+    preview = tmp_path / "p.mp4"
+    assert main(["pose", "carphone", "-o", str(tmp_path / "c.pose"), "--frames", "2", "--preview", str(preview),
+                 "--no-progress"]) == 0
+    with av.open(str(preview)) as container:
+        assert container.streams.video[0].codec_context.name == "h264"

@@ -18,7 +18,7 @@ def add_parser(subparsers) -> None:
                     "(pixels; parts not found in a frame are masked).")
     parser.add_argument("video", help="a video file, or the bundled clip name 'carphone'")
     parser.add_argument("-o", "--output", required=True, type=Path, help=".pose file to write")
-    parser.add_argument("--preview", type=Path, help="also write the video with the landmarks drawn (.mkv, .avi, .nut, .mp4)")
+    parser.add_argument("--preview", type=Path, help="also write the video with the landmarks drawn (.mkv, .avi, .nut: lossless FFV1; .mp4: H.264)")
     parser.add_argument("--frames", type=int, default=None, help="use only the first N frames")
     options.add_max_size(parser)
     options.add_no_progress(parser)

@@ -23,7 +23,7 @@ def add_parser(subparsers) -> None:
                     "kernels (skinning, muscles, rasterizer) and write a lossless FFV1 video plus the label "
                     "frames (0 background, 1 body, 2 head, 3 left hand, 4 right hand).")
     add_source_arguments(parser, "fingerspell")
-    parser.add_argument("-o", "--output", required=True, type=Path, help="video file to write (.mkv, .avi, .nut, .mp4)")
+    parser.add_argument("-o", "--output", required=True, type=Path, help="lossless FFV1 video file to write (.mkv, .avi, .nut)")
     parser.add_argument("--labels", type=Path, help="write the label frames (T, H, W) uint8 to this .npz")
     parser.add_argument("--backend", default="auto", help="kernels backend: auto, warp, opencl or numpy (default auto)")
     options.add_size(parser, "352x288", "frame size (also 400x340, 176x144):")

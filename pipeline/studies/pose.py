@@ -20,7 +20,7 @@ from media.video_io import resolve_video, video_info
 from pipeline.studies.shared import DEFAULT_MAX_SIZE, draw_landmarks, extract_landmarks, read_natural_clip
 
 POSE_SUFFIXES = (".pose",)
-PREVIEW_SUFFIXES = (".mkv", ".avi", ".nut", ".mp4")   # containers that hold FFV1
+PREVIEW_SUFFIXES = (".mkv", ".avi", ".nut", ".mp4")   # lossless FFV1, but H.264 in .mp4 (what MP4 players play)
 
 
 @dataclass(frozen=True)
@@ -73,7 +73,12 @@ def run(settings: PoseSettings, *, progress: bool = True) -> PoseResult:
     notes += missing_part_notes(clip, width, height)
     write_pose(settings.output, clip, width, height)
     if settings.preview is not None:
-        write_video(settings.preview, draw_landmarks(frames, clip), video.fps)
+        drawn = draw_landmarks(frames, clip)
+        if settings.preview.suffix.lower() == ".mp4":
+            from media.video_io import crop_even
+            write_video(settings.preview, crop_even(drawn), video.fps, codec="libx264", options={"crf": 18})
+        else:
+            write_video(settings.preview, drawn, video.fps)
     return PoseResult(clip, width, height, shares, speed, notes)
 
 

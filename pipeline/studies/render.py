@@ -12,7 +12,7 @@ import numpy as np
 
 from media.errors import SigncastError
 
-VIDEO_SUFFIXES = (".mkv", ".avi", ".nut", ".mp4")   # containers that hold FFV1
+VIDEO_SUFFIXES = (".mkv", ".avi", ".nut")   # containers that hold FFV1 (MP4 players do not play it: refused)
 BYTES_PER_PIXEL = 4                                 # held until written: RGB frames (3) and labels (1)
 PART_NAMES = ("background", "body", "head", "left_hand", "right_hand")
 
@@ -46,6 +46,9 @@ def check(settings: RenderWordSettings) -> str:
     from media.domain import check_size
     from media.render import check_backend, check_look
     from pipeline.studies.shared import check_source
+    if Path(settings.output).suffix.lower() == ".mp4":
+        raise SigncastError(f"cannot write video {settings.output}: render writes lossless FFV1, which MP4 players "
+                            f"do not play; name it .mkv")
     check_size(*settings.size)
     check_backend(settings.backend)
     check_look(settings.look)
