@@ -279,3 +279,15 @@ def test_render_to_mp4_is_refused_naming_mkv_and_a_pose_preview_in_mp4_is_h264(t
                  "--no-progress"]) == 0
     with av.open(str(preview)) as container:
         assert container.streams.video[0].codec_context.name == "h264"
+
+
+def test_max_size_is_an_upper_limit_accepting_anything_above_the_clip(tmp_path, capsys):
+    from pipeline.commands.options import parse_max_size
+    assert parse_max_size("5000x5000") == (5000, 5000) and parse_max_size("353x289") == (353, 289)
+    assert parse_max_size("none") is None and parse_max_size("cif") == (352, 288)
+    for bad, fragment in (("30x5000", "at least 32"), ("big", "write WIDTHxHEIGHT")):
+        with pytest.raises(SigncastError, match=fragment):
+            parse_max_size(bad)
+    assert main(["pose", "carphone", "-o", str(tmp_path / "c.pose"), "--frames", "2", "--max-size", "5000x5000",
+                 "--no-progress"]) == 0
+    assert "176x144" in capsys.readouterr().out

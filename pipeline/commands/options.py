@@ -54,9 +54,21 @@ def parse_video_codecs(text: str, option: str = "--video-codecs") -> tuple[str, 
 
 
 def parse_max_size(text: str) -> tuple[int, int] | None:
-    """--max-size: (width, height) in pixels, or None for 'none'."""
-    from media.domain import parse_size
-    return None if str(text).strip().lower() == "none" else parse_size(text, "--max-size")
+    """--max-size: (width, height) in pixels, or None for 'none'. An upper limit: any size from the smallest frame
+    (MIN_SIDE) up is accepted, odd or beyond the largest frame (a clip that fits is kept as it is)."""
+    from media.domain import MIN_SIDE, SIZES
+    key = str(text).strip().lower()
+    if key == "none":
+        return None
+    if key in SIZES:
+        return SIZES[key]
+    try:
+        width, height = (int(part) for part in key.split("x"))
+    except ValueError:
+        raise SigncastError(f"bad --max-size {text!r}: write WIDTHxHEIGHT, e.g. 352x288, or none") from None
+    if min(width, height) < MIN_SIDE:
+        raise SigncastError(f"bad --max-size {text!r}: width and height must be at least {MIN_SIDE} pixels")
+    return width, height
 
 
 def add_out(parser: argparse.ArgumentParser, default: Path | None = None) -> None:
