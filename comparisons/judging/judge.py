@@ -200,14 +200,3 @@ def distinct_frames(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             first.append(t)
         inverse[t] = seen[key]
     return np.asarray(first, int), inverse
-
-
-def single_draw(record: dict, k: int) -> dict:
-    """A copy of record with each field it keeps draw by draw (draw_values) replaced by its value in extraction k
-    (the mean where that draw is missing or the record was extracted fewer times): what extraction k alone measured,
-    for matching each extraction on its own."""
-    copy = dict(record)
-    for name, values in (record.get("draw_values") or {}).items():
-        if k < len(values) and values[k] is not None:
-            copy[name] = values[k]
-    return copy

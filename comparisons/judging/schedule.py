@@ -9,8 +9,9 @@
   every swept Q; a point outside the bracket moves the fit only where it reads against the trend (the extractor's
   noise), which the later extractions check.
 - Extractions are added where the answer is unclear (`extractions_agree`): each extraction is matched on its own
-  (its draw of every point and of the ceiling: `per_extraction_matches`); where those matches disagree on the
-  verdict or the bracket, the series' bracketing points (and the ceiling) get more.
+  (its draw of every point and of the threshold's record: comparisons.judging.operating.extraction_matches); where
+  those matches disagree on the verdict or the bracket, the series' points get more (the ceilings and the anchor
+  have them all from the start, so every point's draw k pairs with the threshold's draw k).
 - The frame rates at the matched Q run from the highest down (`next_frame_rate`), and stop at the first rate whose
   monotone fit misses: no lower rate can hold once a higher one does not.
 """
@@ -19,7 +20,6 @@ from __future__ import annotations
 from typing import Callable
 
 from comparisons.judging import matching
-from comparisons.judging.judge import single_draw
 
 
 def _middle(candidates: list[int]) -> int:
@@ -50,15 +50,6 @@ def next_swept_q(swept: tuple[int, ...] | list[int], points: list[dict],
         upper, lower = int(found.upper["q"]), int(found.lower["q"])
         candidates = [q for q in unmeasured if min(upper, lower) < q < max(upper, lower)]
     return _middle(candidates) if candidates else None
-
-
-def per_extraction_matches(points: list[dict], ceiling: dict, criteria_of: Callable[[dict], list],
-                           count: int) -> list[matching.Match]:
-    """One match per extraction k < count: every point's and the ceiling's draw k alone (`judge.single_draw`: the
-    mean where a record has fewer draws), the threshold set from that draw of the ceiling (criteria_of)."""
-    return [matching.cheapest_rate([single_draw(p, k) for p in points], criteria_of(single_draw(ceiling, k)),
-                                   monotone=True)
-            for k in range(count)]
 
 
 def _bracket(found: matching.Match) -> tuple:
