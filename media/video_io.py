@@ -51,6 +51,16 @@ def resolve_video(name_or_path: str) -> Path:
 _DECODE_ERRORS = (av.error.FFmpegError, IndexError, ValueError, OverflowError, ZeroDivisionError)
 
 
+def decode_reason(error: BaseException) -> str:
+    """What a decoder error means, in words (not PyAV's "InvalidDataError [Errno 1094995529]")."""
+    if isinstance(error, av.error.InvalidDataError):
+        return "it is damaged, truncated or not a video (FFmpeg found invalid data)"
+    if isinstance(error, av.error.FFmpegError):
+        words = error.strerror or str(error)
+        return f"FFmpeg says: {words[:1].lower()}{words[1:]}"
+    return f"it is damaged (the decoder failed: {error})" if str(error) else "it is damaged"
+
+
 @dataclass(frozen=True)
 class VideoInfo:
     """What a container says about its first video stream, before decoding."""
@@ -127,7 +137,7 @@ def video_info(path: str | Path) -> VideoInfo:
                 announced = int(round(container.duration / av.time_base * fps))
             info = VideoInfo(int(stream.width), int(stream.height), fps, announced, float(stream.time_base or 0))
     except _DECODE_ERRORS as error:
-        raise SigncastError(f"cannot decode video {path}: {type(error).__name__}: {error}") from None
+        raise SigncastError(f"cannot decode video {path}: {decode_reason(error)}") from None
     if info.width < 2 or info.height < 2:
         raise SigncastError(f"video {path} has no picture size ({info.width}x{info.height})")
     return info
@@ -163,9 +173,9 @@ def read_clip(path: str | Path, max_frames: int | None = None, max_size: tuple[i
             except _DECODE_ERRORS as error:
                 if not frames:
                     raise
-                decode_error = f"{type(error).__name__}: {error}"
+                decode_error = decode_reason(error)
     except _DECODE_ERRORS as error:
-        raise SigncastError(f"cannot decode video {path}: {type(error).__name__}: {error}") from None
+        raise SigncastError(f"cannot decode video {path}: {decode_reason(error)}") from None
     if not frames:
         raise SigncastError(f"video {path} holds no frames")
     fps = info.fps or 25.0

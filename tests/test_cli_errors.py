@@ -291,3 +291,16 @@ def test_max_size_is_an_upper_limit_accepting_anything_above_the_clip(tmp_path, 
     assert main(["pose", "carphone", "-o", str(tmp_path / "c.pose"), "--frames", "2", "--max-size", "5000x5000",
                  "--no-progress"]) == 0
     assert "176x144" in capsys.readouterr().out
+
+
+def test_a_truncated_video_is_refused_in_words(tmp_path, capsys):
+    import numpy as np
+
+    from media.video_io import write_video
+    whole = tmp_path / "whole.mp4"
+    write_video(whole, np.zeros((10, 64, 64, 3), np.uint8), 25, codec="libx264")
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes(whole.read_bytes()[:whole.stat().st_size // 3])
+    error = _fails_with_one_line(capsys, ["pose", cut, "-o", tmp_path / "c.pose"], f"cannot decode video {cut}: ",
+                                 "damaged, truncated or not a video")
+    assert "Errno" not in error and "InvalidDataError" not in error
