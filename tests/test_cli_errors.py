@@ -304,3 +304,15 @@ def test_a_truncated_video_is_refused_in_words(tmp_path, capsys):
     error = _fails_with_one_line(capsys, ["pose", cut, "-o", tmp_path / "c.pose"], f"cannot decode video {cut}: ",
                                  "damaged, truncated or not a video")
     assert "Errno" not in error and "InvalidDataError" not in error
+
+
+def test_video_states_what_video_q_must_contain(tmp_path, capsys):
+    from pipeline.commands.video import OPERATING_Q
+    from pipeline.studies.video import VideoSweep
+    assert OPERATING_Q == VideoSweep().operating_q
+    _fails_with_one_line(capsys, ["video", "--video", "carphone", "--video-q", "6", "--out", tmp_path / "out"],
+                         "--video-q must include 12", "(e.g. --video-q 6,12)")
+    with pytest.raises(SystemExit):
+        main(["video", "--help"])
+    assert "must include 12" in " ".join(capsys.readouterr().out.split())
+    assert "`--video-q` must include 12" in (ROOT / "README.md").read_text()

@@ -92,8 +92,9 @@ def add_param_q(parser: argparse.ArgumentParser, default: str = PARAM_Q) -> None
                         help=f"parameter quantisation values 1..31, comma-separated (default {default})")
 
 
-def add_video_q(parser: argparse.ArgumentParser, default: str = VIDEO_Q) -> None:
-    parser.add_argument("--video-q", default=default, help=f"MPEG-4 quantisers, comma-separated (default {default})")
+def add_video_q(parser: argparse.ArgumentParser, default: str = VIDEO_Q, rule: str = "") -> None:
+    parser.add_argument("--video-q", default=default,
+                        help=f"MPEG-4 quantisers, comma-separated{'; ' + rule if rule else ''} (default {default})")
 
 
 def add_video_codecs(parser: argparse.ArgumentParser, default: str = VIDEO_CODECS) -> None:

@@ -10,6 +10,8 @@ import sys
 from pipeline.commands import options
 from pipeline.outputs import output_folder
 
+OPERATING_Q = 12     # pipeline.studies.video.VideoSweep.operating_q, named here without importing the study
+
 
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -28,7 +30,8 @@ def add_parser(subparsers) -> None:
                         help="frame rate to code at: a natural clip's frames are dropped by presentation time down to it "
                              "(default: the clip's own rate; 25 for --ssv)")
     options.add_max_size(parser)
-    options.add_video_q(parser)
+    options.add_video_q(parser, rule=f"must include {OPERATING_Q}, the operating point of the frame-rate, "
+                                     f"resolution and codec sweeps")
     options.add_video_codecs(parser)
     options.add_size(parser, "400x340", "rendered signer size for --ssv, as the source's Visia:")
     parser.add_argument("--segmentation", choices=("landmarks", "colour"), default="landmarks",

@@ -358,7 +358,8 @@ def check(settings: VideoSettings) -> None:
         check_q(q, "--video-q")
     if settings.sweep.operating_q not in settings.sweep.qs:
         raise SigncastError(f"--video-q must include {settings.sweep.operating_q}, the operating point of the "
-                            f"frame-rate, resolution and codec sweeps")
+                            f"frame-rate, resolution and codec sweeps (e.g. --video-q "
+                            f"{','.join(map(str, sorted({*settings.sweep.qs, settings.sweep.operating_q})))})")
     if settings.ssv is not None:
         check_size(*settings.size)
     check_segmentation(settings.segmentation)
