@@ -59,6 +59,19 @@ from media.motion import N_FAPS, Motion
 FAPU_DIVISOR = 1024
 ANGLE_UNIT_RAD = 1e-5
 
+# The carry solve (`_carry`): at most CARRY_ITERATIONS damped Gauss-Newton iterations per frame, damping in metres,
+# no carrier turning more than CARRY_MAX_TURN radians a step, and a frame stops after the iteration whose largest
+# carrier turn is below CARRY_TOLERANCE radians (most frames of real letters after 6-8 iterations). Stated face
+# error against the full solve (FULL_SOLVE: every frame all 10 iterations, what the rig did before), tested on real
+# letters of four sign languages, synthetic tracks and FAPs beyond reach (tests/test_face_rig.py): every face bone's
+# turn within FACE_TURN_ERROR_RAD (measured 3e-5 rad), the skinned bones' posed heads, which the skin follows,
+# within FACE_HEAD_ERROR_M (measured 2.5e-7 m) and their posed rotations equal to rounding (they come from the
+# targets alone, `bone_turns`). A smaller damping converges in fewer iterations but, far from the rig's reach, to
+# other least-squares points (0.7 mm off on synthetic FAPs), so the damping stays.
+CARRY_ITERATIONS, CARRY_DAMPING, CARRY_MAX_TURN, CARRY_TOLERANCE = 10, 3e-3, 0.3, 1e-4
+FULL_SOLVE = {"iterations": 10, "damping": 3e-3, "max_turn": 0.3, "tolerance": 0.0}
+FACE_HEAD_ERROR_M, FACE_TURN_ERROR_RAD = 1e-6, 1e-4
+
 # The FAPs this rig plays: MPEG-4 name -> id (comparisons/params/fap_table.py; index in Motion.faps = id - 1).
 FAP_IDS = {
     "open_jaw": 3, "lower_t_midlip": 4, "raise_b_midlip": 5, "stretch_l_cornerlip": 6, "stretch_r_cornerlip": 7,
@@ -259,13 +272,15 @@ def _face_rig(skeleton: Skeleton, fapu: Fapu) -> _FaceRig:
 
 
 def _carry_into(plan: _CarryPlan, head_moved: np.ndarray, tail_moved: np.ndarray, quaternions: np.ndarray,
-                column: int, iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> None:
+                column: int, iterations: int = CARRY_ITERATIONS, damping: float = CARRY_DAMPING,
+                max_turn: float = CARRY_MAX_TURN, tolerance: float = CARRY_TOLERANCE) -> None:
     """The carry of a plan (`_carry`) written to quaternions[:, column:column + C + S] ((T, F, 4)): frames held
     bit for bit solved once, the solve, the carriers' quaternions and the skinned bones' turns in one compiled
     call (media/face_rig_solve.carry_into), then the skinned bones' parent^T turned as quaternions."""
     _, parent, turned = face_kernel.carry_into(
         head_moved, tail_moved, plan.carrier_heads, plan.carrier_parents, plan.skinned_heads, plan.skinned_parents,
-        plan.group_members, plan.group_start, *plan.tables, plan.arms, iterations, damping, max_turn, quaternions, column)
+        plan.group_members, plan.group_start, *plan.tables, plan.arms, iterations, damping, max_turn, tolerance, quaternions,
+        column)
     products = face_kernel.transposed_products(parent, turned)
     face_kernel.quaternions_into(products, quaternions, column + len(plan.carriers))
 
@@ -619,7 +634,8 @@ def _carry_plan(skeleton: Skeleton, anchor: str, names: tuple[str, ...]) -> _Car
 
 
 def _carry(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray, np.ndarray]],
-           iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> dict[str, np.ndarray]:
+           iterations: int = CARRY_ITERATIONS, damping: float = CARRY_DAMPING, max_turn: float = CARRY_MAX_TURN,
+           tolerance: float = CARRY_TOLERANCE) -> dict[str, np.ndarray]:
     """Local rotations (T, 4) carrying skinned bones by their unskinned ancestors below `anchor`.
 
     targets: skinned bone -> (head displacement, tail displacement), (T, 3) metres each in the anchor's
@@ -627,27 +643,31 @@ def _carry(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray,
     Gauss-Newton steps (damping in metres; no carrier turns more than max_turn radians a step), each
     the smallest turns that meet the linearised targets at the current pose; unreachable targets end
     at the nearest reachable pose (media/face_rig_solve.carry_into, each frame alone; `_carry_numpy` is the
-    same solve in NumPy; a frame equal to the one before it is not solved again). Each skinned bone then
-    turns so that its tail moves by its own displacement relative to its head.
+    same solve in NumPy; a frame equal to the one before it is not solved again; a frame stops after the
+    iteration whose largest carrier turn is below `tolerance` radians, 0: every frame runs `iterations`). Each
+    skinned bone then turns so that its tail moves by its own displacement relative to its head.
     """
     head_moved = np.stack([head for head, _ in targets.values()], axis=1)          # (T, S, 3)
     tail_moved = np.stack([tail for _, tail in targets.values()], axis=1)
-    return _carry_arrays(skeleton, anchor, tuple(targets), head_moved, tail_moved, iterations, damping, max_turn)
+    return _carry_arrays(skeleton, anchor, tuple(targets), head_moved, tail_moved, iterations, damping, max_turn,
+                         tolerance)
 
 
 def _carry_arrays(skeleton: Skeleton, anchor: str, names: tuple[str, ...], head_moved: np.ndarray,
-                  tail_moved: np.ndarray, iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3
-                  ) -> dict[str, np.ndarray]:
+                  tail_moved: np.ndarray, iterations: int = CARRY_ITERATIONS, damping: float = CARRY_DAMPING,
+                  max_turn: float = CARRY_MAX_TURN, tolerance: float = CARRY_TOLERANCE) -> dict[str, np.ndarray]:
     """`_carry` of the skinned bones `names` with their head and tail displacements as (T, S, 3) arrays."""
     plan = _carry_plan(skeleton, anchor, names)
     quaternions = np.empty((len(head_moved), len(plan.names), 4))
     _carry_into(plan, np.ascontiguousarray(head_moved, dtype=np.float64),
-                np.ascontiguousarray(tail_moved, dtype=np.float64), quaternions, 0, iterations, damping, max_turn)
+                np.ascontiguousarray(tail_moved, dtype=np.float64), quaternions, 0, iterations, damping, max_turn,
+                tolerance)
     return {name: quaternions[:, k] for k, name in enumerate(plan.names)}
 
 
 def _carry_numpy(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.ndarray, np.ndarray]],
-           iterations: int = 10, damping: float = 3e-3, max_turn: float = 0.3) -> dict[str, np.ndarray]:
+                 iterations: int = CARRY_ITERATIONS, damping: float = CARRY_DAMPING, max_turn: float = CARRY_MAX_TURN,
+                 tolerance: float = CARRY_TOLERANCE) -> dict[str, np.ndarray]:
     """`_carry` in NumPy, all frames at once: the readable reference of the compiled kernel
     (media/face_rig_solve.py); tests compare the two.
 
@@ -657,8 +677,9 @@ def _carry_numpy(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.nd
     rest frame. The carriers turn so that each skinned bone's head moves by its displacement: damped
     Gauss-Newton steps (damping in metres; no carrier turns more than max_turn radians a step), each
     the smallest turns that meet the linearised targets at the current pose; unreachable targets end
-    at the nearest reachable pose. Each skinned bone then turns so that its tail moves by its own
-    displacement relative to its head.
+    at the nearest reachable pose; a frame stops after the iteration whose largest carrier turn is below
+    `tolerance` radians (its later steps are computed and dropped). Each skinned bone then turns so that its
+    tail moves by its own displacement relative to its head.
     """
     skinned = [skeleton.index(name) for name in targets]
     chains = [_ancestors_between(skeleton, anchor, skeleton.names[bone]) for bone in skinned]
@@ -667,6 +688,7 @@ def _carry_numpy(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.nd
     wanted = np.stack([head_moved for head_moved, _ in targets.values()], axis=1)              # (T, S, 3)
     n_frames, n_skinned, n_carriers = len(wanted), len(skinned), len(carriers)
     local = np.broadcast_to(np.eye(3), (n_frames, n_carriers, 3, 3)).copy()
+    active = np.ones(n_frames, dtype=bool)
     for _ in range(iterations):
         world = _carrier_poses(skeleton, anchor, carriers, local)
         heads = np.stack([_transform(world[int(skeleton.parents[bone])], skeleton.heads[bone]) for bone in skinned], axis=1)
@@ -685,7 +707,10 @@ def _carry_numpy(skeleton: Skeleton, anchor: str, targets: dict[str, tuple[np.nd
         turn = _rotation_matrices(step)                  # about each carrier's posed head, anchor frame
         for j, bone in enumerate(carriers):
             parent = world[int(skeleton.parents[bone])][0]
-            local[:, j] = np.swapaxes(parent, 1, 2) @ turn[:, j] @ parent @ local[:, j]
+            turned = np.swapaxes(parent, 1, 2) @ turn[:, j] @ parent @ local[:, j]
+            local[active, j] = turned[active]
+        if tolerance > 0:
+            active &= largest >= tolerance
     world = _carrier_poses(skeleton, anchor, carriers, local)
     result = {skeleton.names[bone]: rotations.from_matrix(local[:, j]) for j, bone in enumerate(carriers)}
     for bone, (head_moved, tail_moved) in zip(skinned, targets.values()):

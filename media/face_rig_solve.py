@@ -173,7 +173,7 @@ def held_runs(head_moved):
 @njit(cache=True)
 def carry_into(head_moved, tail_moved, carrier_heads, carrier_parents, skinned_heads, skinned_parents, group_members,
                group_start, chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry, arms,
-               iterations, damping, max_turn, out, column):
+               iterations, damping, max_turn, tolerance, out, column):
     """The face rig's carry of one anchor in one call: `carry` of the distinct frames (`held_runs`; the rig's
     tables from `carry_tables`), the carriers' local turns as quaternions (`from_matrix`) written to
     out[:, column:column + C] ((T, F, 4)), and `bone_turns`.
@@ -185,14 +185,14 @@ def carry_into(head_moved, tail_moved, carrier_heads, carrier_parents, skinned_h
     run, first = held_runs(head_moved)
     local, parent = _solve_rows(head_moved, first, run, carrier_heads, carrier_parents, skinned_heads,
                                 skinned_parents, group_members, group_start, chain_start, chain_index, carried_start,
-                                carried_index, pair_start, pair_index, entry, iterations, damping, max_turn)
+                                carried_index, pair_start, pair_index, entry, iterations, damping, max_turn, tolerance)
     quaternions_into(local, out, column)
     return local, parent, bone_turns(arms, head_moved, tail_moved)
 
 
 @njit(cache=True, error_model="numpy")
 def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents, on_chain, group_members,
-          group_start, iterations, damping, max_turn):
+          group_start, iterations, damping, max_turn, tolerance=0.0):
     """Local turns of the carriers and the posed rotation of each skinned bone's parent.
 
     wanted: (T, S, 3) float64 head displacement of each skinned bone. carrier_heads: (C, 3) rest heads of
@@ -206,23 +206,24 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
     matrices and parent (T, S, 3, 3) the final posed rotation of each skinned bone's parent (identity for
     the anchor).
 
-    Every frame is solved alone, by the same operations in the same order whatever its values (the
-    iteration count is fixed and nothing branches on the data), so the frames go through each operation
-    together: state arrays keep the frame last and every step is a loop over frames, which the compiler
-    turns into vector instructions (sin and cos stay scalar calls, kept out of the vectorised loops).
+    Every frame is solved alone, by the same operations in the same order whatever its values, so the frames go
+    through each operation together: state arrays keep the frame last and every step is a loop over frames,
+    which the compiler turns into vector instructions (sin and cos stay scalar calls, kept out of the vectorised
+    loops). tolerance (radians): a frame stops after the iteration whose largest carrier turn is below it
+    (`_solve_frames`); 0 runs every frame `iterations` times.
     """
     chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry = carry_tables(
         on_chain, group_members, group_start)
     frames = np.arange(wanted.shape[0])
     return _solve_rows(wanted, frames, frames, carrier_heads, carrier_parents, skinned_heads, skinned_parents,
                        group_members, group_start, chain_start, chain_index, carried_start, carried_index, pair_start,
-                       pair_index, entry, iterations, damping, max_turn)
+                       pair_index, entry, iterations, damping, max_turn, tolerance)
 
 
 @njit(cache=True, error_model="numpy")
 def _solve_rows(wanted, rows, source, carrier_heads, carrier_parents, skinned_heads, skinned_parents, group_members,
                 group_start, chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry,
-                iterations, damping, max_turn):
+                iterations, damping, max_turn, tolerance):
     """Solves the frames `rows` (R,) int64 of wanted (T, S, 3) together (_solve_frames) and returns (local
     (T, C, 3, 3), parent (T, S, 3, 3)) of every frame t from the solved frame source[t] (T,) int64 (an index
     into rows)."""
@@ -234,7 +235,8 @@ def _solve_rows(wanted, rows, source, carrier_heads, carrier_parents, skinned_he
                 target[i, r, u] = wanted[rows[u], i, r]
     current, rotation = _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned_parents,
                                       group_members, group_start, chain_start, chain_index, carried_start,
-                                      carried_index, pair_start, pair_index, entry, iterations, damping, max_turn)
+                                      carried_index, pair_start, pair_index, entry, iterations, damping, max_turn,
+                                      tolerance)
     local = np.empty((n_frames, n_carriers, 3, 3))
     parent = np.zeros((n_frames, n_skinned, 3, 3))
     for t in range(n_frames):
@@ -278,16 +280,79 @@ def _frame_out(current, rotation, skinned_parents, u, t, local, parent_out):
 @njit(cache=True, error_model="numpy")
 def _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned_parents, group_members, group_start,
                   chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry, iterations,
-                  damping, max_turn):
+                  damping, max_turn, tolerance):
     """`carry`'s solve with the frame last: target (S, 3, T) head displacements and the rig's tables
     (`carry_tables`) -> current (C, 3, 3, T) the carriers' local turns and rotation (C, 3, 3, T) their final
-    posed rotations."""
+    posed rotations.
+
+    Per-frame stopping: a frame whose largest carrier turn in an iteration is below `tolerance` (radians) is
+    done after that iteration, and the iterations go on with the frames left (the state arrays compacted to
+    them; each frame's arithmetic is its own, so which frames share a batch changes no result). At most
+    `iterations` iterations; tolerance 0 runs them all for every frame."""
     n_skinned, T = target.shape[0], target.shape[2]
     n_carriers = carrier_heads.shape[0]
     current = np.zeros((n_carriers, 3, 3, T))
     for j in range(n_carriers):
         for r in range(3):
             current[j, r, r, :] = 1.0
+    result = current
+    if tolerance > 0.0 and T > 0:
+        result = np.empty((n_carriers, 3, 3, T))
+        active = np.arange(T)
+        left = iterations
+        while left > 0:
+            ran, largest = _iterate(current, target, carrier_heads, carrier_parents, skinned_heads, skinned_parents,
+                                    group_members, group_start, chain_start, chain_index, carried_start, carried_index,
+                                    pair_start, pair_index, entry, left, damping, max_turn, tolerance)
+            left -= ran
+            n_keep = 0
+            for u in range(len(active)):
+                if left > 0 and largest[u] >= tolerance:
+                    n_keep += 1
+                else:
+                    for j in range(n_carriers):
+                        for r in range(3):
+                            for c in range(3):
+                                result[j, r, c, active[u]] = current[j, r, c, u]
+            if n_keep == 0:
+                break
+            if n_keep < len(active):
+                kept = np.empty(n_keep, np.int64)
+                kept_current = np.empty((n_carriers, 3, 3, n_keep))
+                kept_target = np.empty((n_skinned, 3, n_keep))
+                v = 0
+                for u in range(len(active)):
+                    if largest[u] >= tolerance:
+                        kept[v] = active[u]
+                        for j in range(n_carriers):
+                            for r in range(3):
+                                for c in range(3):
+                                    kept_current[j, r, c, v] = current[j, r, c, u]
+                        for i in range(n_skinned):
+                            for r in range(3):
+                                kept_target[i, r, v] = target[i, r, u]
+                        v += 1
+                active, current, target = kept, kept_current, kept_target
+    else:
+        _iterate(current, target, carrier_heads, carrier_parents, skinned_heads, skinned_parents, group_members,
+                 group_start, chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry,
+                 iterations, damping, max_turn, 0.0)
+    rotation = np.empty((n_carriers, 3, 3, T))
+    offset = np.empty((n_carriers, 3, T))
+    _pose_frames(result, carrier_heads, carrier_parents, rotation, offset)
+    return result, rotation
+
+
+@njit(cache=True, error_model="numpy")
+def _iterate(current, target, carrier_heads, carrier_parents, skinned_heads, skinned_parents, group_members,
+             group_start, chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry,
+             iterations, damping, max_turn, tolerance):
+    """Up to `iterations` damped Gauss-Newton iterations of the frames of current (C, 3, 3, T), in place, against
+    target (S, 3, T); with tolerance > 0 it returns after the first iteration in which some frame's largest
+    carrier turn is below tolerance. Returns (the iterations run, largest (T,) each frame's largest carrier turn
+    in the last one, before the max_turn cap)."""
+    n_skinned, T = target.shape[0], target.shape[2]
+    n_carriers = carrier_heads.shape[0]
     rotation = np.empty((n_carriers, 3, 3, T))
     offset = np.empty((n_carriers, 3, T))
     heads = np.empty((n_skinned, 3, T))
@@ -310,7 +375,9 @@ def _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned
     middle = np.empty((1, 3, 3, T))
     product = np.empty((1, 3, 3, T))
     damping2 = damping * damping
+    ran = 0
     for _ in range(iterations):
+        ran += 1
         _pose_frames(current, carrier_heads, carrier_parents, rotation, offset)
         for i in range(n_skinned):
             p = skinned_parents[i]
@@ -433,8 +500,14 @@ def _solve_frames(target, carrier_heads, carrier_parents, skinned_heads, skinned
                 for c in range(3):
                     for t in range(T):
                         current[j, r, c, t] = product[0, r, c, t]
-    _pose_frames(current, carrier_heads, carrier_parents, rotation, offset)
-    return current, rotation
+        if tolerance > 0.0:
+            settled = False
+            for t in range(T):
+                if largest[t] < tolerance:
+                    settled = True
+            if settled:
+                break
+    return ran, largest
 
 
 @njit(cache=True, error_model="numpy")

@@ -47,14 +47,15 @@ def test_compiled_solve_is_the_numpy_solve_within_the_stated_tolerance(avatar, a
         tails = heads + rng.normal(size=heads.shape) * scale * 0.5
         heads[5] = tails[5] = 0.0
         targets = {name: (heads[:, k], tails[:, k]) for k, name in enumerate(names)}
-        got = face_rig._carry(avatar.skeleton, anchor, targets)
-        expected = face_rig._carry_numpy(avatar.skeleton, anchor, targets)
-        assert got.keys() == expected.keys()
-        for name in got:
-            # q and -q are one rotation
-            sign = np.sign(np.sum(got[name] * expected[name], axis=-1, keepdims=True))
-            assert np.abs(got[name] - sign * expected[name]).max() <= CARRY_TOLERANCE, name
-            assert np.allclose(got[name][5], [1.0, 0.0, 0.0, 0.0])     # no target: no turn
+        for settings in ({}, face_rig.FULL_SOLVE):      # frames stopping on the tolerance; all running 10 iterations
+            got = face_rig._carry(avatar.skeleton, anchor, targets, **settings)
+            expected = face_rig._carry_numpy(avatar.skeleton, anchor, targets, **settings)
+            assert got.keys() == expected.keys()
+            for name in got:
+                # q and -q are one rotation
+                sign = np.sign(np.sum(got[name] * expected[name], axis=-1, keepdims=True))
+                assert np.abs(got[name] - sign * expected[name]).max() <= CARRY_TOLERANCE, name
+                assert np.allclose(got[name][5], [1.0, 0.0, 0.0, 0.0])     # no target: no turn
         if scale > 0:
             assert not np.allclose(np.stack(list(got.values())), [1.0, 0.0, 0.0, 0.0])
 
@@ -123,7 +124,8 @@ def _carry_by_steps(plan, head_moved, tail_moved):
     changed[1:] = np.any(rows[1:] != rows[:-1], axis=1)
     local, parent = face_kernel.carry(np.ascontiguousarray(head_moved[changed]), plan.carrier_heads,
                                       plan.carrier_parents, plan.skinned_heads, plan.skinned_parents, plan.on_chain,
-                                      plan.group_members, plan.group_start, 10, 3e-3, 0.3)
+                                      plan.group_members, plan.group_start, face_rig.CARRY_ITERATIONS,
+                                      face_rig.CARRY_DAMPING, face_rig.CARRY_MAX_TURN, face_rig.CARRY_TOLERANCE)
     run = np.cumsum(changed) - 1
     local, parent = local[run], parent[run]
     turned = face_kernel.bone_turns(plan.arms, head_moved, tail_moved)
