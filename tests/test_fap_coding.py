@@ -1,12 +1,12 @@
 """FAPs in the MPEG-4 FBA stream (face, and face + body), their decoders, the .fap file, damage rejection,
-and the byte identity of BAP-only streams across the FAP refactor.
+and BAP-only streams by what a user relies on.
 
-Byte identity: tests/data/fba_bap_clips.npz holds BAP value arrays (T, 296) (int32, BAP units): two ASL
-fingerspelling clips as comparisons.params.fba_mapping.motion_to_baps gave them when the hashes were taken
-("HELLO" at 25 fps, 84 frames; "J" at 10 fps, 25 frames), and a synthetic 48-frame array with an angle
-crossing +-pi, a 15 m root jump and 20 BAPs set once and held (the predictive coder's early intra planes
-and one-frame settling plane). SHA-256 of encode_fba's output for each, taken with the BAP-only coder
-before FAPs were added, must not change.
+BAP-only streams: tests/data/fba_bap_clips.npz holds BAP value arrays (T, 296) (int32, BAP units): two ASL
+fingerspelling clips as comparisons.params.fba_mapping.motion_to_baps gave them ("HELLO" at 25 fps, 84 frames;
+"J" at 10 fps, 25 frames), and a synthetic 48-frame array with an angle crossing +-pi, a 15 m root jump and 20
+BAPs set once and held (the predictive coder's early intra planes and one-frame settling plane). Each stream
+decodes within its stated bound (ROUND_TRIP_STEPS) at the stored rate (BAP_ONLY_STREAMS, RATE_TOLERANCE); the
+predictive streams, integer arithmetic from integer input, also keep the SHA-256 of the BAP-only coder before FAPs.
 """
 import hashlib
 from pathlib import Path
@@ -31,33 +31,43 @@ from media.motion import Motion
 CLIPS = Path(__file__).resolve().parent / "data" / "fba_bap_clips.npz"
 NTSC_FPS = 30000 / 1001          # signalled as 30 x 1000/1001; decoded as 29.97
 CLIP_FPS = {"ase_HELLO_25fps": 25.0, "ase_J_10fps": 10.0, "synthetic_pi_crossing_settling": 25.0}
-BAP_ONLY_SHA256 = [
-    ("ase_HELLO_25fps", "pred", 1, {}, "641a65aea79e3065a7690ceb58d25c2cec3bfb24901131d5b52873dfd3535558"),
-    ("ase_HELLO_25fps", "pred", 4, {}, "5e45548c659a2d48bca7789ddb0789476e3fc29a9be2229309a78a583b549f1d"),
-    ("ase_HELLO_25fps", "pred", 12, {}, "d7fe7c42c044755788dfbac87be0f92f6033ba5da87197928369692d07157484"),
-    ("ase_HELLO_25fps", "pred", 31, {}, "00001e0f23af3ae8a38a823f10b6862cdaf5edc4ef5cb5a058d6ced68e6a02f4"),
-    ("ase_HELLO_25fps", "dct", 1, {}, "02d11055afc764633463a9b20541b28849515b69b0c6cb24fcd44fb03a0999ac"),
-    ("ase_HELLO_25fps", "dct", 4, {}, "5bb1ddf604c34b1c159f8d7bdc35ad03401a799660bf398db26d43a43b9b6e06"),
-    ("ase_HELLO_25fps", "dct", 12, {}, "be7d0361d7136a86dda0dcf831c4f9dceb55fb40c37ee7ebee965fc7ba9aa167"),
-    ("ase_HELLO_25fps", "dct", 31, {}, "787fde53046c98c98383f8545170b1ff5a160fa87f622a2f38c12eadd133156f"),
-    ("ase_HELLO_25fps", "pred", 4, {"intra_period": 8}, "3cd5c623b36779a066dd5524cf3871f7affdeb98c27200f6bcb4a3ac1e7505f3"),
-    ("ase_HELLO_25fps", "dct", 4, {"intra_segments": 1}, "1da75c63418b29ccd53c14b07d34c95370fd51160851f62f835ae001d9bf6f43"),
-    ("ase_J_10fps", "pred", 1, {}, "789622fa1312af3d794ac0cdd77f742410832861dd21852471b916f89bd609c5"),
-    ("ase_J_10fps", "pred", 4, {}, "c1ca01137630490306f8c9f368666ef719ca5b02588eac3210124a523a6e04e4"),
-    ("ase_J_10fps", "pred", 12, {}, "a4e50b44abd4547317816ed4f51603b7af6db3ea734e2b21ff2ce345b45eef74"),
-    ("ase_J_10fps", "pred", 31, {}, "ab6d091193763035dd0f613da3136f1252eb93b2dc390df93ae8a9ee9ac41f48"),
-    ("ase_J_10fps", "dct", 1, {}, "d55be203cbc7083041b86b0ce071cf004241145d49e1014be79dbb86f08c2010"),
-    ("ase_J_10fps", "dct", 4, {}, "30176bb923dd133d81a850d91aac212e9b8554aaeb7a3ba232137598b5d7e594"),
-    ("ase_J_10fps", "dct", 12, {}, "503b8cbb9c4c8ea72fd2cae4e64742abd3f0ca05eb16fb31ea35d0700294620c"),
-    ("ase_J_10fps", "dct", 31, {}, "966e7befaf95211e87a742a23b29938a7cb1e1994b80641b6c1a21b0475c49ad"),
-    ("ase_J_10fps", "pred", 4, {"intra_period": 8}, "208d928c5ecd2a2807356c248817909a9bbe79e454d5c1afe4be5e71aec920d8"),
-    ("ase_J_10fps", "dct", 4, {"intra_segments": 1}, "30176bb923dd133d81a850d91aac212e9b8554aaeb7a3ba232137598b5d7e594"),
-    ("synthetic_pi_crossing_settling", "pred", 1, {}, "6b94caa906c17e7e3927c8a57312dce144ea154f3502a1cf528f84c31b53d8ff"),
-    ("synthetic_pi_crossing_settling", "pred", 4, {}, "40e0b073f3e04d7db6407a1ba85005226c758953f328077ed8ac7a3a166c6db5"),
-    ("synthetic_pi_crossing_settling", "pred", 31, {}, "80aa9bf961282ca1ca3a5edd7283fcc69ee927faf5f1db6b8bac4393910436f1"),
-    ("synthetic_pi_crossing_settling", "dct", 1, {}, "4aaec971cdbfd10c9998765e3b4792d8d537dce5795e678d00a1851e099ea195"),
-    ("synthetic_pi_crossing_settling", "dct", 4, {}, "b2013229d46ae1ef12337a5dc4f708e067622f86a2fbb773fff714b79f1fff17"),
-    ("synthetic_pi_crossing_settling", "dct", 31, {}, "cb7c70710da506165b59988051af82f3f3e53a527bd3eeab2b9d28515d3281b9"),
+# The rate a user relies on: each stream's size in bytes, stored when the SHA-256 pins of these streams were
+# retired (issue 33: sizes of the coder before FAPs). An encoder change may move them by RATE_TOLERANCE; the DCT
+# coder's transform is float arithmetic (NumPy / OpenBLAS products), whose bytes may differ on another CPU (FMA or
+# not). The predictive coder's streams keep their SHA-256 pins: its input is integers (BAP values, int64 steps) and
+# its closed-loop levels, range fields and arithmetic coder are integer arithmetic throughout, so its bytes are the
+# same on every CPU. The decoders are pinned by tests/test_conformance.py.
+RATE_TOLERANCE = 0.02
+# Stated round-trip bounds, in quantiser steps (bap_table.steps() x Q) per BAP: predictive half a step (closed loop,
+# no clipping); DCT one step (measured at most 0.49 on these clips).
+ROUND_TRIP_STEPS = {"pred": 0.5, "dct": 1.0}
+BAP_ONLY_STREAMS = [
+    ("ase_HELLO_25fps", "pred", 1, {}, 6109, "641a65aea79e3065a7690ceb58d25c2cec3bfb24901131d5b52873dfd3535558"),
+    ("ase_HELLO_25fps", "pred", 4, {}, 4262, "5e45548c659a2d48bca7789ddb0789476e3fc29a9be2229309a78a583b549f1d"),
+    ("ase_HELLO_25fps", "pred", 12, {}, 2962, "d7fe7c42c044755788dfbac87be0f92f6033ba5da87197928369692d07157484"),
+    ("ase_HELLO_25fps", "pred", 31, {}, 2003, "00001e0f23af3ae8a38a823f10b6862cdaf5edc4ef5cb5a058d6ced68e6a02f4"),
+    ("ase_HELLO_25fps", "dct", 1, {}, 6263, None),
+    ("ase_HELLO_25fps", "dct", 4, {}, 4662, None),
+    ("ase_HELLO_25fps", "dct", 12, {}, 3584, None),
+    ("ase_HELLO_25fps", "dct", 31, {}, 2720, None),
+    ("ase_HELLO_25fps", "pred", 4, {"intra_period": 8}, 5974, "3cd5c623b36779a066dd5524cf3871f7affdeb98c27200f6bcb4a3ac1e7505f3"),
+    ("ase_HELLO_25fps", "dct", 4, {"intra_segments": 1}, 4798, None),
+    ("ase_J_10fps", "pred", 1, {}, 1092, "789622fa1312af3d794ac0cdd77f742410832861dd21852471b916f89bd609c5"),
+    ("ase_J_10fps", "pred", 4, {}, 885, "c1ca01137630490306f8c9f368666ef719ca5b02588eac3210124a523a6e04e4"),
+    ("ase_J_10fps", "pred", 12, {}, 736, "a4e50b44abd4547317816ed4f51603b7af6db3ea734e2b21ff2ce345b45eef74"),
+    ("ase_J_10fps", "pred", 31, {}, 559, "ab6d091193763035dd0f613da3136f1252eb93b2dc390df93ae8a9ee9ac41f48"),
+    ("ase_J_10fps", "dct", 1, {}, 1127, None),
+    ("ase_J_10fps", "dct", 4, {}, 862, None),
+    ("ase_J_10fps", "dct", 12, {}, 697, None),
+    ("ase_J_10fps", "dct", 31, {}, 552, None),
+    ("ase_J_10fps", "pred", 4, {"intra_period": 8}, 1062, "208d928c5ecd2a2807356c248817909a9bbe79e454d5c1afe4be5e71aec920d8"),
+    ("ase_J_10fps", "dct", 4, {"intra_segments": 1}, 862, None),
+    ("synthetic_pi_crossing_settling", "pred", 1, {}, 492, "6b94caa906c17e7e3927c8a57312dce144ea154f3502a1cf528f84c31b53d8ff"),
+    ("synthetic_pi_crossing_settling", "pred", 4, {}, 421, "40e0b073f3e04d7db6407a1ba85005226c758953f328077ed8ac7a3a166c6db5"),
+    ("synthetic_pi_crossing_settling", "pred", 31, {}, 300, "80aa9bf961282ca1ca3a5edd7283fcc69ee927faf5f1db6b8bac4393910436f1"),
+    ("synthetic_pi_crossing_settling", "dct", 1, {}, 348, None),
+    ("synthetic_pi_crossing_settling", "dct", 4, {}, 293, None),
+    ("synthetic_pi_crossing_settling", "dct", 31, {}, 188, None),
 ]
 
 
@@ -120,11 +130,21 @@ def bap_clips() -> dict[str, np.ndarray]:
         return {name: stored[name].astype(np.int64) for name in stored.files}
 
 
-@pytest.mark.parametrize("name, coding, q, options, digest", BAP_ONLY_SHA256)
-def test_bap_only_streams_are_byte_identical_to_the_coder_before_faps(bap_clips, name, coding, q, options, digest):
-    data = encode_fba(bap_clips[name], CLIP_FPS[name], q, coding, **options)
-    assert hashlib.sha256(data).hexdigest() == digest
+@pytest.mark.parametrize("name, coding, q, options, size, digest", BAP_ONLY_STREAMS)
+def test_bap_only_streams_round_trip_within_their_bound_at_the_stored_rate(bap_clips, name, coding, q, options,
+                                                                           size, digest):
+    """BAP-only streams of real and synthetic clips: the decoder reads what the encoder wrote, every BAP within
+    ROUND_TRIP_STEPS of its value, the size within RATE_TOLERANCE of the stored figure; predictive streams (integer
+    arithmetic) byte for byte."""
+    values = bap_clips[name]
+    data = encode_fba(values, CLIP_FPS[name], q, coding, **options)
     assert _plane_paramsets(data)[0] == fba_codec.PARAMSET_BAP
+    decoded = decode_fba(data)
+    assert decoded.baps.shape == values.shape and decoded.faps is None
+    assert np.all(np.abs(decoded.baps - values) <= ROUND_TRIP_STEPS[coding] * bap_table.steps() * q)
+    assert abs(len(data) - size) <= RATE_TOLERANCE * size, (len(data), size)
+    if digest is not None:
+        assert hashlib.sha256(data).hexdigest() == digest
 
 
 # ------------------------------------------------------------------------------- round trips
