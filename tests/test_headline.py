@@ -151,14 +151,48 @@ def test_the_sensitivity_table_moves_with_the_margin():
     assert cheapest_rate(points, anchored, monotone=True).kbps == pytest.approx(20)
 
 
-def test_message_criteria_hold_the_hands_shape_and_the_wrists_place():
+def test_message_criteria_hold_the_hands_shape_the_wrists_place_and_the_face():
+    """Where hands show, a solution reaches only where the hands and the face (aligned mouth and eyes/brows) both
+    meet their thresholds; a reference without a face leaves the face out."""
     ceiling = {"message_pck": 90.0, "message_location": 0.03, "message_face": 0.02}
     criteria = operating.criteria_for(ceiling, 1.0, 0, message=True)
-    assert [(c.field, c.higher_is_better) for c in criteria] == [("message_pck", True), ("message_location", False)]
+    assert [(c.field, c.higher_is_better) for c in criteria] == [("message_pck", True), ("message_location", False),
+                                                                  ("message_face", False)]
     assert criteria[1].threshold == pytest.approx(0.03 + operating.LOCATION_MARGIN)
     face = operating.face_criterion(ceiling)
     assert face.field == "message_face" and face.threshold == pytest.approx(0.02 + operating.FACE_MARGIN)
+    assert criteria[2] == face
     assert [c.field for c in operating.criteria_for(ceiling, 0.0, 0, message=True)] == ["message_face"]
+    assert [c.field for c in operating.criteria_for({"message_pck": 90.0}, 1.0, 0, message=True)] == ["message_pck"]
+    anchored = operating.anchored_criteria(ceiling, 1.0, message=True)
+    assert anchored[-1].field == "message_face" and anchored[-1].threshold == pytest.approx(0.02)
+    # the face decides: hands that meet with a face that does not is not reached
+    points = [{"kbps": 10.0, "q": 8, "message_pck": 95.0, "message_location": 0.01, "message_face": 0.09},
+              {"kbps": 20.0, "q": 4, "message_pck": 96.0, "message_location": 0.01, "message_face": 0.03}]
+    found = cheapest_rate(points, criteria, monotone=True)
+    assert found.reached and found.upper["q"] == 4 and 10.0 < found.kbps <= 20.0
+    assert not cheapest_rate(points[:1], criteria, monotone=True).reached
+
+
+def test_the_parameter_streams_refresh_every_video_gop_and_a_session_pays_the_avatar_once():
+    from comparisons.params import refresh
+    from comparisons.reports.headline import break_even_s, equal_terms
+    assert refresh.refresh_frames("fba-pred", 12) == 12 and refresh.default_refresh_frames("fba-pred") == 32
+    assert refresh.refresh_frames("bba-dct", 12) == 16 and refresh.default_refresh_frames("bba-dct") == 64
+    # 400 kB once, video 100 kbit/s against parameters 20: 3.2 Mbit / 80 kbit/s = 40 s
+    assert break_even_s(100.0, 20.0, 400_000) == pytest.approx(40.0)
+    assert break_even_s(100.0, 20.0, 400_300, 300) == pytest.approx(40.0)
+    assert break_even_s(20.0, 30.0, 400_000) is None and break_even_s(30.0, 20.0, 0) == 0.0
+    records = [{"kind": "run", "gop_frames": 12, "clip_duration_s": 3.2,
+                "session_costs": {"avatar_file": "a.npz", "avatar_bytes": 400_000, "avatar_zlib_bytes": 399_000,
+                                  "descriptions": {"FBA fba-pred": 300, "NSV libsvtav1": 300}}},
+               {"kind": "point", "solution": "FBA", "codec": "fba-pred", "refresh_frames": 12},
+               {"kind": "matched", "solution": "FBA", "codec": "fba-pred", "kbps": 20.0, "reached": True,
+                "default_refresh": {"kbps": 12.0, "reached": True, "refresh_frames": 32}},
+               {"kind": "matched", "solution": "NSV", "codec": "libsvtav1", "kbps": 100.0, "reached": True}]
+    text = equal_terms(records)
+    assert "after 40.0 s of signing" in text and "400,000 bytes" in text and "every 32 frames" in text
+    assert "At the default refresh: after 36.4 s" in text
 
 
 def test_the_video_scenario_matches_avatars_against_the_source():

@@ -3,7 +3,7 @@ of what they measure."""
 import numpy as np
 import pytest
 
-from comparisons.judging.landmark_draws import MAX_EXTRACTIONS, SHIFTS, leave_out, mean_fields, shifted
+from comparisons.judging.landmark_draws import MAX_EXTRACTIONS, SHIFTS, mean_fields, shifted
 from pipeline.studies.shared import extract_draws
 
 
@@ -26,7 +26,7 @@ def test_the_mean_over_draws_keeps_their_spread_and_skips_undefined_values():
                           {"hand_pck_20": 98.0, "face_error": None, "letter_top1": 100.0}])
     assert fields["hand_pck_20"] == pytest.approx(97.0) and fields["letter_top1"] == pytest.approx(90.0)
     assert fields["face_error"] is None and fields["extractions"] == 2
-    assert fields["draw_sd"] == {"hand_pck_20": pytest.approx(1.0), "letter_top1": pytest.approx(10.0)}
+    assert fields["draw_sd"] == {"hand_pck_20": pytest.approx(2 ** 0.5), "letter_top1": pytest.approx(10 * 2 ** 0.5)}
     assert fields["draw_values"] == {"hand_pck_20": [96.0, 98.0], "letter_top1": [80.0, 100.0]}
     partly = mean_fields([{"hand_error": 0.1}, {"hand_error": None}, {"hand_error": 0.3}])
     assert partly["hand_error"] == pytest.approx(0.2) and partly["draw_values"]["hand_error"] == [0.1, None, 0.3]
@@ -34,14 +34,15 @@ def test_the_mean_over_draws_keeps_their_spread_and_skips_undefined_values():
     assert single == {"hand_pck_20": 96.0, "extractions": 1}
 
 
-def test_a_jackknife_replicate_leaves_one_draw_out_of_every_field_kept_draw_by_draw():
-    record = {"kbps": 10.0, **mean_fields([{"hand_pck_20": 96.0, "hand_error": None}, {"hand_pck_20": 98.0, "hand_error": 0.2},
-                                           {"hand_pck_20": 91.0, "hand_error": None}])}
-    assert leave_out(record, 2)["hand_pck_20"] == pytest.approx(97.0) and leave_out(record, 0)["hand_pck_20"] == 94.5
-    assert leave_out(record, 0)["hand_error"] == 0.2 and leave_out(record, 1)["hand_error"] is None
-    assert leave_out(record, 1)["kbps"] == 10.0 and record["hand_pck_20"] == pytest.approx(95.0)   # a copy
-    assert leave_out(record, 7) == record                                  # no such draw
-    assert leave_out({"hand_pck_20": 96.0, "extractions": 1}, 0) == {"hand_pck_20": 96.0, "extractions": 1}
+def test_the_spread_is_the_sample_deviation_and_intervals_are_t_intervals():
+    from scipy.stats import t
+    from comparisons.judging.landmark_draws import interval, standard_error
+    record = mean_fields([{"hand_pck_20": 96.0}, {"hand_pck_20": 98.0}, {"hand_pck_20": 91.0}])
+    sd = float(np.std([96.0, 98.0, 91.0], ddof=1))
+    assert record["draw_sd"]["hand_pck_20"] == pytest.approx(sd)
+    assert standard_error(record, "hand_pck_20") == pytest.approx(sd / 3 ** 0.5)
+    assert interval(record, "hand_pck_20") == pytest.approx(t.ppf(0.975, 2) * sd / 3 ** 0.5)
+    assert interval({"hand_pck_20": 96.0, "extractions": 1}, "hand_pck_20") is None
 
 
 def test_each_draw_is_moved_back_onto_the_pictures_own_pixel_grid():

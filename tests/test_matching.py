@@ -1,7 +1,6 @@
 """comparisons.judging.matching: the cheapest rate reaching an intelligibility threshold, and the frame rate it holds to."""
 import math
 
-import numpy as np
 import pytest
 
 from comparisons.judging.matching import Criterion, cheapest_rate, fields_at, lowest_fps_holding, threshold_text
@@ -91,42 +90,3 @@ def test_monotone_matching_pools_the_extractors_noise_across_q():
     rates = [point(10, 97.5, fps=25), point(8, 97.0, fps=15), point(6, 97.6, fps=10), point(5, 90.0, fps=5)]
     assert lowest_fps_holding(rates, [threshold]) == 25
     assert lowest_fps_holding(rates, [threshold], monotone=True) == 10
-
-
-def test_the_verdict_margin_counts_standard_errors_of_the_pooled_fit_against_the_threshold_draw_by_draw():
-    from comparisons.judging.matching import verdict_margin
-
-    def drawn(kbps, draws, q, field="hand_pck_20"):
-        return {**point(kbps, sum(draws) / len(draws), q), field: sum(draws) / len(draws), "draw_values": {field: draws}}
-
-    def values(record, field):
-        return record["draw_values"].get(field)
-    threshold = Criterion("hand_pck_20", 97.0)
-    level = {"hand_pck_20": [97.0] * 4}
-    # the dearest point alone against a fixed threshold: differences 1, 0, 2, 1 -> mean 1, sd 0.816, SE 0.408
-    points = [drawn(5, [90.0] * 4, 31), drawn(20, [98.0, 97.0, 99.0, 98.0], 4)]
-    assert verdict_margin(points, [threshold], values, level) == pytest.approx(1 / (np.sqrt(2 / 3) / 2))
-    # a ceiling that moves with the point (the same shift reads both high) leaves no spread in the difference;
-    # one that moves against it doubles it
-    together = {"hand_pck_20": [97.0, 96.0, 98.0, 97.0]}
-    assert verdict_margin(points, [threshold], values, together) == math.inf
-    against = {"hand_pck_20": [97.0, 98.0, 96.0, 97.0]}
-    assert verdict_margin(points, [threshold], values, against) == pytest.approx(1 / (2 * np.sqrt(2 / 3) / 2))
-    # a dearer point reading lower is pooled: the fit (97.5) is the mean of two points, draw by draw
-    pooled = points + [drawn(30, [97.0, 97.0, 97.0, 97.0], 1)]
-    differences = np.array([97.5, 97.0, 98.0, 97.5]) - 97.0
-    assert verdict_margin(pooled, [threshold], values, level) == pytest.approx(
-        0.5 / (differences.std(ddof=1) / 2))
-    # not reached: negative; lower-is-better criteria count the other way; the smallest criterion decides
-    missed = [drawn(20, [96.0, 97.0, 96.0, 97.0], 4)]
-    assert verdict_margin(missed, [threshold], values, level) < -1.7
-    face = Criterion("face_error", 0.05, higher_is_better=False)
-    both = [{**points[1], "face_error": 0.06, "draw_values": {**points[1]["draw_values"],
-                                                             "face_error": [0.05, 0.07, 0.06, 0.06]}}]
-    margin = verdict_margin(both, [threshold, face], values, {**level, "face_error": [0.05] * 4})
-    assert margin == pytest.approx(-0.01 / (np.sqrt(2e-4 / 3) / 2))
-    # no spread and a fit exactly at the threshold; draws missing or of another count: unknown
-    assert verdict_margin([drawn(20, [97.0] * 4, 4)], [threshold], values, level) == 0.0
-    assert verdict_margin(points, [threshold], lambda record, field: None, level) is None
-    assert verdict_margin(points, [threshold], values, {}) is None
-    assert verdict_margin(points, [threshold], values, {"hand_pck_20": [97.0] * 8}) is None

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable
 
 from media.errors import SigncastError
 
@@ -207,51 +206,3 @@ def lowest_fps_holding(points: list[dict], criteria: list[Criterion], *, monoton
         holding = float(point["fps"])
     return holding
 
-
-def verdict_margin(points: list[dict], criteria: list[Criterion],
-                   point_draws: Callable[[dict, str], list[float | None] | None],
-                   threshold_draws: dict[str, list[float | None]]) -> float | None:
-    """How far, in standard errors, the verdict of `cheapest_rate(points, criteria, monotone=True)` stands from its
-    threshold; None where the draws to tell it are missing.
-
-    Every point and the threshold are measured as means over the same draws (the landmark extractions under the same
-    sub-pixel shifts, in the same order): point_draws(point, field) gives a point's value in each draw,
-    threshold_draws[field] the threshold's (a threshold tied to a measured ceiling moves with it, draw by draw). The
-    verdict (reached or not) rests on the dearest point: a match is reached when its monotone fit meets every
-    criterion. For each criterion, that fit minus the threshold (positive where it meets), over the standard error of
-    that difference, estimated draw by draw: d_k = (the mean over the pooled run of points the fit averages there of
-    their draw k) - (the threshold's draw k), over the draws where all are defined, SE = sd(d, ddof 1) / sqrt(K).
-    Paired by draw, because a shift that moves the ceiling's reading tends to move a point's too (or against it): on
-    the demo the correlation over 16 shifts runs from -0.5 to +0.8. The margin is the smallest over the criteria
-    (every criterion must hold for "reached"; one that clearly fails makes "not reached" clear); |margin| under 2 is
-    a call too close for the extractions made. Zero spread: +-inf (0 where the fit equals the threshold).
-    """
-    ordered = sorted(points, key=lambda p: p["kbps"])
-    judged = _fitted(ordered, criteria)
-    margins = []
-    for c in criteria:
-        fitted = c.value(judged[-1])
-        reference = threshold_draws.get(c.field)
-        if fitted is None or not reference:
-            return None
-        run = []                                  # the pooled run at the dear end: the points the fit averages there
-        for i in reversed(range(len(judged))):
-            if c.value(ordered[i]) is None:
-                continue
-            if c.value(judged[i]) != fitted:
-                break
-            run.append(ordered[i])
-        members = [point_draws(point, c.field) for point in run]
-        if any(m is None or len(m) != len(reference) for m in members):
-            return None
-        differences = [sum(m[k] for m in members) / len(members) - reference[k] for k in range(len(reference))
-                       if reference[k] is not None and all(m[k] is not None for m in members)]
-        if len(differences) < 2:
-            return None
-        mean = sum(differences) / len(differences)
-        error = math.sqrt(sum((d - mean) ** 2 for d in differences) / (len(differences) - 1) / len(differences))
-        gap = fitted - c.threshold if c.higher_is_better else c.threshold - fitted
-        if abs(gap) <= 1e-9:
-            gap = 0.0
-        margins.append(gap / error if error > 1e-12 else math.copysign(math.inf, gap) if gap else 0.0)
-    return min(margins)

@@ -1,17 +1,19 @@
 """Each solution's operating point: the threshold tied to the uncoded reference, the next Q to measure, the matched
-record with how clear its verdict is and its rate's jackknife error. Pure functions on records (dicts with a
-"kind": "point", "uncoded", "matched"), on top of comparisons.judging.matching.
+record with how clear its verdict is. Pure functions on records (dicts with a "kind": "point", "uncoded",
+"matched"), on top of comparisons.judging.matching.
 
 - The threshold (`criteria_for`): hand PCK@0.2 within PCK_MARGIN points of the ceiling (the uncoded reference,
   resampled by sub-pixel shifts and re-extracted) where the reference shows a hand in at least MIN_HAND_SHARE of
-  its frames, else face error within FACE_MARGIN interocular distances of it; on fingerspelling also letter top-1
-  no more than LETTER_MARGIN letters of the word below the ceiling's (none where the ceiling reads no letter).
+  its frames, and then also the face: the aligned mouth and eyes/brows error (message_face) within FACE_MARGIN
+  interocular distances of the ceiling's (a solution reaches only where hands AND face meet their thresholds);
+  where the reference shows hands in fewer frames, the face alone; on fingerspelling also letter top-1 no more
+  than LETTER_MARGIN letters of the word below the ceiling's (none where the ceiling reads no letter). The
+  human-anchored threshold (`anchored_criteria`) holds the same criteria at the anchor's own values.
 - Refinement (`q_to_refine`): the next Q inside the matched bracket, or beyond the swept Q where none or all of
   them meet the threshold.
-- Verdicts are taken on each criterion's monotone fit over the swept Q (JUDGED_ON). A matched record carries
-  kbps_se (`rate_spread`: the jackknife standard error of a reached rate over the extractions, kbit/s) and
-  verdict_margin_se (`verdict_margin`: standard errors between the fit at the dearest point and the threshold),
-  with verdict_clear when that is at least CLEAR_VERDICT_SE.
+- Verdicts are taken on each criterion's monotone fit over the swept Q (JUDGED_ON), each extraction matched on its
+  own (`extraction_matches`): the rate is the median of the K rates, with their range, and the verdict is clear
+  when all K agree (`extraction_summary`).
 """
 from __future__ import annotations
 
@@ -21,7 +23,6 @@ import numpy as np
 
 from comparisons.judging import matching
 from comparisons.judging.judge import LOSSLESS, SOURCE, UNCODED_SUBJECTS
-from comparisons.judging.landmark_draws import draw_values, leave_out
 from comparisons.reports.records import INTELLIGIBILITY_FIELDS
 from media.domain import MAX_Q, MIN_Q, Solution
 
@@ -33,9 +34,6 @@ FACE_MARGIN = 0.02           # face error, interocular distances above the uncod
 MIN_HAND_SHARE = 0.1         # a reference showing a hand in fewer frames is matched on the face
 JUDGED_ON = ("each criterion's monotone fit over the swept Q (and frame rates) of the means over the extractions "
              "(comparisons.judging.matching, monotone=True)")
-# a verdict (reached or not) this many standard errors from its threshold is clear; nearer, too close to call for the
-# extractions made (comparisons.judging.matching.verdict_margin)
-CLEAR_VERDICT_SE = 2.0
 QUALITY_FIELDS = ("image_psnr", "ssim", "skin_psnr", "skin_ssim")
 # the sensitivity table: the ceiling-tied threshold's hand margin, points under the ceiling
 SENSITIVITY_MARGINS = (1.0, 2.0, 3.0, 4.0)
@@ -102,6 +100,8 @@ def criteria_for(ceiling: dict, hand_share: float, n_letters: int, *, pck_margin
         if message and ceiling.get(MESSAGE_LOCATION) is not None:
             found.append(matching.Criterion(MESSAGE_LOCATION, ceiling[MESSAGE_LOCATION] + LOCATION_MARGIN,
                                             higher_is_better=False, label="wrist location (shoulder widths)"))
+        face = face_criterion(ceiling, margin=FACE_MARGIN)
+        found += [face] if face is not None else []
     else:
         field = MESSAGE_FACE if message else "face_error"
         found = [matching.Criterion(field, (ceiling.get(field) or 0.0) + FACE_MARGIN, higher_is_better=False,
@@ -124,6 +124,8 @@ def anchored_criteria(anchor: dict, hand_share: float, *, message: bool = False)
         if message and anchor.get(MESSAGE_LOCATION) is not None:
             found.append(matching.Criterion(MESSAGE_LOCATION, anchor[MESSAGE_LOCATION], higher_is_better=False,
                                             label="wrist location (shoulder widths)"))
+        face = face_criterion(anchor, margin=0.0)
+        found += [face] if face is not None else []
     else:
         field = MESSAGE_FACE if message else "face_error"
         found = [matching.Criterion(field, anchor.get(field) or 0.0, higher_is_better=False,
@@ -226,57 +228,46 @@ def _geometric_middle(low: int, high: int, least: int, most: int) -> int:
 
 
 def mark_operating(points: list[dict], kbps: float, criteria: list[matching.Criterion]) -> None:
-    """Sets operating_point (and operating_rule) on the swept point nearest the matched rate kbps (log-rate)."""
-    nearest = min(points, key=lambda r: abs(np.log(max(r["kbps"], 1e-9)) - np.log(max(kbps, 1e-9))))
+    """Sets operating_point (and operating_rule) on the swept point nearest the matched rate kbps (log-rate) among
+    those that meet the threshold as measured (all of them where none does); operating_below_threshold says whether
+    the flagged point misses it."""
+    meeting = [r for r in points if matching.meets(r, criteria)]
+    nearest = min(meeting or points, key=lambda r: abs(np.log(max(r["kbps"], 1e-9)) - np.log(max(kbps, 1e-9))))
     nearest["operating_point"] = True
+    nearest["operating_below_threshold"] = not matching.meets(nearest, criteria)
     nearest["operating_rule"] = f"nearest the matched rate: {matching.threshold_text(criteria)}"
 
 
-def _shifted_draws(values: list[float | None] | None, offset: float) -> list[float | None] | None:
-    """A ceiling's values in each extraction moved by its threshold's offset from its mean: the threshold draw by
-    draw."""
-    return None if values is None else [None if v is None else v + offset for v in values]
-
-
-def verdict_margin(points: list[dict], criteria: list[matching.Criterion], ceiling: dict) -> float | None:
-    """A series' verdict margin in standard errors (comparisons.judging.matching.verdict_margin), each point against
-    the threshold draw by draw: the ceiling's extractions moved by the threshold's offset from their mean."""
-    threshold_draws = {c.field: _shifted_draws(draw_values(ceiling, c.field),
-                                               c.threshold - (ceiling.get(c.field) or 0.0)) for c in criteria}
-    return matching.verdict_margin(points, criteria, draw_values, threshold_draws)
-
-
-def rate_spread(points: list[dict], ceiling: dict, criteria_of, found: matching.Match, count: int) -> float | None:
-    """The jackknife standard error (kbit/s) of a reached match's rate over count landmark extractions: replicate k
-    leaves extraction k out of every point and of the ceiling (landmark_draws.leave_out: the same draw everywhere,
-    as the draws are paired) and matches again with criteria_of(ceiling replicate); SE = sqrt((K - 1) / K *
-    sum (rate_k - mean)^2). None for a match not reached (its rate is the best point's, not a crossing) or with one
-    extraction."""
-    if count < 2 or not found.reached:
-        return None
-    rates = np.array([matching.cheapest_rate([leave_out(point, k) for point in points],
-                                             criteria_of(leave_out(ceiling, k)), monotone=True).kbps
-                      for k in range(count)])
-    return float(np.sqrt((count - 1) / count * np.sum((rates - rates.mean()) ** 2)))
+def at_default_refresh(points: list[dict], threshold_record: dict, criteria_of, count: int) -> dict:
+    """A parameter series matched as `extraction_summary(extraction_matches(...))` with each point's rate at the
+    codec's default refresh (kbps_default_refresh) instead of the video GOP's: the stream decodes to the same motion
+    within rounding (comparisons.params.refresh), so what the viewer reads is the point's own. Points without that
+    rate keep theirs."""
+    moved = [dict(p, kbps=p["kbps_default_refresh"]) if p.get("kbps_default_refresh") is not None else p
+             for p in points]
+    summary = extraction_summary(extraction_matches(moved, threshold_record, criteria_of, count))
+    frames = next((p.get("default_refresh_frames") for p in points if p.get("default_refresh_frames")), None)
+    return {"kbps": summary["kbps"], "kbps_min": summary["kbps_min"], "kbps_max": summary["kbps_max"],
+            "reached": summary["reached"], "refresh_frames": frames}
 
 
 def matched_record(series: Series, found: matching.Match, criteria: list[matching.Criterion], *, clip: str,
-                   fps_holds: float | None, kbps_se: float | None, margin: float | None) -> dict:
+                   fps_holds: float | None) -> dict:
     """The series at its matched rate ("matched" record): the criteria's fields are their monotone fits there (what
     the match was judged on; the measured values, interpolated, under "measured"), every other field interpolated
     in log-rate between the bracketing points (the point's own without a lower bracket). fps_holds: the lowest
-    frame rate down to which the threshold holds; kbps_se: `rate_spread`; margin: `verdict_margin`."""
+    frame rate down to which the threshold holds. The caller adds the per-extraction summary
+    (`extraction_summary`: kbps the median, its range, verdict_clear)."""
     lower = found.lower
     qs = [found.upper["q"]] + ([lower["q"]] if lower is not None else [])
     fields_at = "interpolated in log-rate between the bracketing points" if lower is not None else "the point's own"
     fields = matching.fields_at(found, (*INTELLIGIBILITY_FIELDS, *QUALITY_FIELDS, "joint_error_mm_mean"))
     measured = {name: fields.get(name) for name in found.fitted}
     return {"kind": "matched", "solution": series.solution, "codec": series.codec, "clip": clip,
-            "reference": series.reference, "kbps": found.kbps, "kbps_se": kbps_se,
+            "reference": series.reference, "kbps": found.kbps,
             "q_low": min(qs), "q_high": max(qs),
             "bracket_kbps": [lower["kbps"] if lower is not None else found.upper["kbps"], found.upper["kbps"]],
             "q_shown": found.upper["q"], "threshold": matching.threshold_text(criteria),
-            "reached": found.reached, "verdict_margin_se": margin if margin is not None and np.isfinite(margin) else None,
-            "verdict_clear": None if margin is None else bool(abs(margin) >= CLEAR_VERDICT_SE),
+            "reached": found.reached,
             "fps_holds": fps_holds, "fields_at": fields_at, "judged_on": JUDGED_ON,
             **fields, **found.fitted, "measured": measured}

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import html
 import io
-import math
 import re
 from typing import NamedTuple
 
@@ -39,7 +38,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from comparisons.judging.criteria import SOLUTIONS, criteria_table  # noqa: E402
-from comparisons.judging.landmark_draws import standard_error  # noqa: E402
+from comparisons.judging.landmark_draws import interval  # noqa: E402
 from comparisons.reports import page  # noqa: E402
 from comparisons.reports.records import normalize_records  # noqa: E402
 from comparisons.video.codecs import CODECS as VIDEO_CODECS  # noqa: E402
@@ -419,9 +418,42 @@ def _clips(clips: list[str]) -> str:
     return _list(clips) if len(clips) <= 4 else f"{html.escape(clips[0])} … {html.escape(clips[-1])} ({len(clips)})"
 
 
+def _matched_summary(records: list[dict]) -> str:
+    """The summary where the records have matched records: each solution and codec at its matched rate (the one cost
+    of the whole page), its image quality interpolated there, a rate below the threshold marked as such."""
+    rows = []
+    for m in matched_records(records):
+        picture = operating_picture(m, records)
+        if not (picture.get("width") and picture.get("height")):
+            continue
+        qs = list(dict.fromkeys(q for q in (m.get("q_low"), m.get("q_high")) if q is not None))
+        reached = bool(m.get("reached"))
+        rows.append([_fmt(m["solution"]), _fmt(m.get("codec")), _fmt("Q " + "–".join(f"{q:g}" for q in qs) if qs else None),
+                     _fmt(picture.get("fps"), 0) if picture.get("fps") is None else _fmt(float(picture["fps"]), 0),
+                     _fmt(m.get("kbps"), 1) + ("" if reached else " (below threshold)"), _fmt(m.get("reference")),
+                     _fmt(m.get("skin_psnr"), 2), _fmt(m.get("skin_ssim"), 3), _fmt(m.get("image_psnr"), 2),
+                     _fmt(m.get("ssim"), 3), _meets(m["kbps"]) if reached and m.get("kbps") is not None
+                     else "– (below threshold: the rate that meets it is higher)"])
+    if not rows:
+        return ""
+    return ("<h2>Summary at the matched operating points</h2><p>Each solution and codec at its rate at matched "
+            "intelligibility (the same rate as in every other section of this page), with its image quality "
+            "interpolated there in log-rate between the bracketing Q, each against the frames named in “measured "
+            "against”. A rate marked “below threshold” is the best swept point's: the threshold was not reached, "
+            "so the requirement lines are not judged on it.</p>"
+            + _table("summary", ["solution", "codec", "quantiser bracket", "fps", "kbps", "measured against",
+                                 "PSNR face+hands dB", "SSIM face+hands", "PSNR whole frame dB", "SSIM whole frame",
+                                 "requirements"], rows))
+
+
 def _picture_summary(records: list[dict]) -> str:
     """The operating points with pictures: face-and-hands quality first, the reference of every row, whole-frame
-    figures marked where the background was not sent."""
+    figures marked where the background was not sent. Where the records have matched records, the matched rates
+    (`_matched_summary`)."""
+    if matched_records(records):
+        matched = _matched_summary(records)
+        if matched:
+            return matched
     pictures = [r for r in points(records) if has_picture(r)]
     rows = [r for r in operating_points(records) if has_picture(r)]
     heading = "Summary at the operating points" if rows else "Summary: the quantizer sweep"
@@ -494,6 +526,18 @@ def _parameter_summary(records: list[dict]) -> str:
 def _requirements(records: list[dict]) -> str:
     head = ("<h2>Against the source's requirement lines</h2><p>Broadcast &lt; 100 kbps, webcast &lt; 56 kbps, "
             "phone line &lt; 64 kbps, and at least 15 frames/s for signing comfort.")
+    matched = matched_records(records)
+    if matched:
+        table = []
+        for m in matched:
+            fps = operating_picture(m, records).get("fps")
+            reached = bool(m.get("reached")) and m.get("kbps") is not None
+            table.append([_fmt(_series_key(m)), _fmt(m.get("kbps"), 1) + ("" if reached else " (below threshold)"),
+                          "–" if fps is None else _check(fps >= MIN_COMFORT_FPS - 1e-6, f"{fps:g} fps"),
+                          _meets(m["kbps"]) if reached else "– (below threshold)"])
+        return (head + " Each row is the solution's rate at matched intelligibility (the page's one cost per "
+                "solution); a rate below the threshold is not judged.</p>"
+                + _table("requirements", ["series", "kbps at matched intelligibility", "≥ 15 frames/s", "meets"], table))
     rows = requirement_rows(records)
     if not any(len(row) > 1 for row in rows):
         rates = _list(format(fps, "g") for fps in sorted({r["fps"] for r in points(records)}))
@@ -515,15 +559,30 @@ def _requirements(records: list[dict]) -> str:
 
 
 def _criteria(records: list[dict]) -> str:
-    ops = operating_points(records)
-    kbps_by_solution = {s: min((r["kbps"] for r in ops if r["solution"] == s), default=None) for s in SOLUTIONS}
+    matched = matched_records(records)
+    below: set = set()
+    basis = "kbps at each solution's operating point"
+    if matched:
+        # the matched rate of each solution's cheapest codec that reaches the threshold; a solution reaching it with
+        # none: its cheapest best point, marked below the threshold (ranked last)
+        kbps_by_solution = {}
+        for s in SOLUTIONS:
+            mine = [m for m in matched if m["solution"] == s and m.get("kbps") is not None]
+            reached = [m["kbps"] for m in mine if m.get("reached")]
+            kbps_by_solution[s] = min(reached) if reached else min((m["kbps"] for m in mine), default=None)
+            if mine and not reached:
+                below.add(s)
+        basis = "kbps at matched intelligibility (each solution's cheapest codec reaching the threshold)"
+    else:
+        ops = operating_points(records)
+        kbps_by_solution = {s: min((r["kbps"] for r in ops if r["solution"] == s), default=None) for s in SOLUTIONS}
     missing = [s for s, kbps in kbps_by_solution.items() if kbps is None]
     head = "<h2>Six criteria (source Tables 4.1-4.5 and 4.17)</h2>"
     if missing:
         # A bandwidth rank over some of the solutions would read as a rank over all six.
         return head + (f"<p>The bandwidth row ranks all six solutions at their operating points; these records have no "
                        f"operating point of {_list(missing)}, so the table is left out (run <code>signcast compare</code>).</p>")
-    rows = criteria_table(kbps_by_solution)
+    rows = criteria_table(kbps_by_solution, below, basis)
     return head + ("<p>Scores 1-6, 6 = best. The bandwidth row is recomputed from this run; the other rows are carried "
                    "over from the source with its reason.</p>"
                    + _table("criteria", ["criterion", *SOLUTIONS, "reason"],
@@ -667,7 +726,7 @@ def _plot_intelligibility_sweeps(panel, records: list[dict], field: str, styles:
         style = styles.get(name, {"color": "grey", "marker": "o"})
         panel.plot([r["kbps"] for r in rows], [r[field] for r in rows], "--" if ref in dashed_references else "-",
                    ms=4, label=label, **style)
-        errors = [standard_error(r["record"], field) if len(r["clips"]) == 1 else None for r in rows]
+        errors = [interval(r["record"], field) if len(r["clips"]) == 1 else None for r in rows]
         shown = [(r["kbps"], r[field], e) for r, e in zip(rows, errors) if e is not None]
         if shown:
             panel.errorbar([x for x, _, _ in shown], [y for _, y, _ in shown], yerr=[e for _, _, e in shown],
@@ -676,7 +735,7 @@ def _plot_intelligibility_sweeps(panel, records: list[dict], field: str, styles:
 
 def _plot_matched(panel, records: list[dict], field: str, styles: dict) -> None:
     """The matched operating points as stars: filled where the threshold is reached, open where not; a horizontal bar
-    of the rate's jackknife error (kbps_se) where the record has one."""
+    over the range of the rates matched extraction by extraction (kbps_min-kbps_max) where the record has one."""
     labelled = set()
     for m in matched_records(records):
         if m.get("kbps") is None or m.get(field) is None:
@@ -684,11 +743,10 @@ def _plot_matched(panel, records: list[dict], field: str, styles: dict) -> None:
         reached = bool(m.get("reached", True))
         label = "matched operating point" if reached else "best point (threshold not reached)"
         color = styles.get(_series_key(m), {"color": "black"})["color"]
-        spread = m.get("kbps_se")
-        if isinstance(spread, (int, float)) and spread > 0:
-            # a log axis: the bar is clipped at a tenth of the rate rather than crossing zero
-            panel.errorbar([m["kbps"]], [m[field]], xerr=[[min(spread, 0.9 * m["kbps"])], [spread]], fmt="none",
-                           ecolor=color, elinewidth=2, capsize=4, zorder=4)
+        low, high = m.get("kbps_min"), m.get("kbps_max")
+        if isinstance(low, (int, float)) and isinstance(high, (int, float)) and high > low:
+            panel.errorbar([m["kbps"]], [m[field]], xerr=[[max(m["kbps"] - low, 0.0)], [max(high - m["kbps"], 0.0)]],
+                           fmt="none", ecolor=color, elinewidth=2, capsize=4, zorder=4)
         panel.plot([m["kbps"]], [m[field]], "*", ms=13, color=color, mec="black", mfc=color if reached else "none",
                    ls="none", label=None if label in labelled else label)
         labelled.add(label)
@@ -707,7 +765,7 @@ def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
     """Rate against intelligibility: hand PCK@0.2 (percent) against kbps (log) for every solution's quantizer
     sweep at its top frame rate, the threshold on it, the matched operating points marked; further panels with
     face error (interocular distances) and letter top-1 (percent) where the points carry them. Points measured as
-    the mean of several landmark extractions carry bars of one standard error."""
+    the mean of several landmark extractions carry bars of their 95 % t-interval (K - 1 degrees of freedom)."""
     records = normalize_records(records)
     styles = styles or series_styles(records)
     fields = [f for f in INTELLIGIBILITY_PANELS if f == "hand_pck_20" or _swept_for_intelligibility(records, f)]
@@ -728,9 +786,9 @@ def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
     panels[0][0].set_title("hand keypoints")
     extracted = any(isinstance(r.get("extractions"), int) and r["extractions"] > 1 for r in points(records))
     figure.suptitle(f"Rate against intelligibility, {_against(references)}"
-                    + ("\nbars: one standard error over each point's landmark extractions" if extracted else "")
-                    + ("; across the stars: the matched rate's jackknife error"
-                       if any(isinstance(m.get("kbps_se"), (int, float)) for m in matched_records(records)) else ""),
+                    + ("\nbars: 95 % t-interval over each point's landmark extractions" if extracted else "")
+                    + ("; across the stars: the range of the rates matched extraction by extraction"
+                       if any(isinstance(m.get("kbps_max"), (int, float)) for m in matched_records(records)) else ""),
                     fontsize=10)
     _figure_legend(figure, panels[0])
     return figure
@@ -775,16 +833,14 @@ def chart_intelligibility_vs_fps(records: list[dict], styles: dict | None = None
 
 
 def _bracket(matched: dict) -> str:
-    """kbps, with its standard error where the record has one, and the swept Q values bracketing it:
-    "12.3 ± 0.4 (Q 8–12)"."""
+    """kbps (the median of the rates matched extraction by extraction), with their range where they differ, and the
+    swept Q values bracketing it: "12.3 (11.8–13.0) (Q 8–12)"."""
     low, high = matched.get("q_low"), matched.get("q_high")
     qs = [f"{q:g}" for q in dict.fromkeys(q for q in (low, high) if q is not None)]
-    spread = matched.get("kbps_se")
     low_rate, high_rate = matched.get("kbps_min"), matched.get("kbps_max")
+    spread_text = ""
     if isinstance(low_rate, (int, float)) and isinstance(high_rate, (int, float)) and high_rate > low_rate:
         spread_text = f" ({_fmt(low_rate, 1)}–{_fmt(high_rate, 1)})"
-    else:
-        spread_text = f" ± {_fmt(spread, 1)}" if isinstance(spread, (int, float)) else ""
     return _fmt(matched.get("kbps"), 1) + spread_text + (f" (Q {'–'.join(qs)})" if qs else "")
 
 
@@ -798,9 +854,9 @@ def _reached(matched: dict) -> str:
 
 
 def verdict_note(matched: dict) -> str:
-    """How far the verdict stands from the threshold in standard errors of the extractions ("+3.2 SE", "-0.6 SE: too
-    close to call"; "no spread" where the extractions agreed exactly), "" where the record has no such measure."""
-    clear, margin = matched.get("verdict_clear"), matched.get("verdict_margin_se")
+    """How clear the verdict is, extraction by extraction ("all 4 extractions agree", "2 of 4 extractions reach it:
+    too close to call", "one extraction"); "" where the record does not say."""
+    clear = matched.get("verdict_clear")
     if clear is None:
         return ""
     count, reached = matched.get("extractions"), matched.get("reached_extractions")
@@ -809,12 +865,7 @@ def verdict_note(matched: dict) -> str:
             return "one extraction"
         agree = f"all {count} extractions agree" if clear else f"{reached} of {count} extractions reach it"
         return agree if clear else f"{agree}: too close to call"
-    if isinstance(margin, (int, float)):
-        digits = 1 if abs(margin) >= 0.1 else 2
-        text = f"{math.trunc(margin * 10 ** digits) / 10 ** digits:+.{digits}f} SE"    # toward 0: 1.96 is not "2.0"
-    else:
-        text = "no spread"
-    return text if clear else f"{text}: too close to call"
+    return "" if clear else "too close to call"
 
 
 def _hands_found(matched: dict) -> str:
@@ -873,12 +924,12 @@ def _matched_table(records: list[dict]) -> str:
             if loss:
                 cells.append(_codec_loss(m))
             rows.append(cells + [_holds(m), _channel_marks(m.get("kbps") if m.get("reached") else None)])
-    header = ["solution", "codec", "measured against", "kbps at matched intelligibility ± SE (Q bracket)",
+    header = ["solution", "codec", "measured against", "kbps at matched intelligibility (range) (Q bracket)",
               *(["threshold"] if not shared else []), "reached", "hand PCK@0.2 %", "hand error (hand sizes)", "hands found % (left / right)",
               "face error (interocular distances)", "mouth / eyes error (interocular distances)", "letter top-1 %",
               *(["hand joint error mm", "arm joint error mm"] if joints else []),
               *(["handshape PCK@0.2 % (message)", "wrist location (shoulder widths)"] if message else []),
-              *(["face (aligned mouth and eyes): own verdict"] if face else []),
+              *(["face (aligned mouth and eyes): its threshold, part of the match"] if face else []),
               *(["codec loss: kbps against the lossless render"] if loss else []), "holds down to",
               "delivery channels it fits"]
     return _table("matched", header, rows)
@@ -1045,7 +1096,7 @@ def report_html(records: list, *, poster_png: bytes | None = None,
                         + page.image("parameter_quality", _png(chart_parameter_quality(records, styles)),
                                  "parameter PSNR and VPSNR vs kbps"))
     sections.append(_requirements(records))
-    if operating_points(records):
+    if operating_points(records) or matched_records(records):
         sections.append(_criteria(records))
     sections.append(_every_point(records))
     sections.append(_run(records))

@@ -8,7 +8,10 @@ threshold: threshold_name "human-anchored" or "ceiling-tied" with pck_margin).
 
 - `best_rates(rows)`: per threshold, the cheapest reached rate of the parameter solutions (FBA, BBA), of the video
   solutions coding the person (the NSV family) per codec, and the ratio best video / best parameters;
-- `holds_at(required, measured, fps_holds, reached)`: a requirement line judged on the frame rates measured only.
+- `holds_at(required, measured, fps_holds, reached)`: a requirement line judged on the frame rates measured only;
+- `break_even_s(...)` and `equal_terms(records)`: the parameter streams at the video's refresh (GOP) and at their
+  default, and what a session sends once (the avatar's download, the session descriptions: the run record's
+  session_costs), with the duration of signing after which parameters plus the avatar cost less than video.
 """
 from __future__ import annotations
 
@@ -72,6 +75,93 @@ def holds_at(required: float, measured: list[float], fps_holds: float | None, re
     return fps_holds is not None and fps_holds <= min(candidates) + 1e-6
 
 
+def break_even_s(video_kbps: float, parameter_kbps: float, parameter_once_bytes: int,
+                 video_once_bytes: int = 0) -> float | None:
+    """Seconds of signing after which parameters (parameter_kbps, plus parameter_once_bytes sent once per session:
+    the avatar and its session description) cost less in all than video (video_kbps, plus its description):
+    8 (once_p - once_v) / 1000 (v - p); 0 where parameters cost no more from the start; None where they never do
+    (not cheaper per second)."""
+    once = 8.0 * (parameter_once_bytes - video_once_bytes)
+    if once <= 0 and parameter_kbps <= video_kbps:
+        return 0.0
+    if parameter_kbps >= video_kbps:
+        return None
+    return once / (1000.0 * (video_kbps - parameter_kbps))
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.1f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
+def equal_terms(records: list[dict]) -> str:
+    """The parameter streams on equal terms with video: their matched rates with an intra plane every video GOP (the
+    rates everywhere on this page) and at their codecs' default refresh; the avatar's download and the session
+    descriptions, charged once per session; the break-even duration against the best video codec."""
+    run = next((r for r in records if r.get("kind") == "run"), {})
+    matched = [r for r in records if r.get("kind") == "matched"]
+    params = [r for r in matched if Solution(r["solution"]).mpeg4_parameters]
+    if not params:
+        return ""
+    costs = run.get("session_costs") or {}
+    descriptions = costs.get("descriptions") or {}
+    gop = run.get("gop_frames")
+    refresh = {(r["solution"], r["codec"]): r.get("refresh_frames") for r in records
+               if r.get("kind") == "point" and r.get("refresh_frames") is not None}
+    rows = []
+    for r in params:
+        default = r.get("default_refresh") or {}
+        mark = "" if r.get("reached") else "*"
+        rows.append([html.escape(r["solution"]), html.escape(r["codec"]),
+                     f"{_kbps(r.get('kbps'))}{mark}" + (f" (every {refresh[(r['solution'], r['codec'])]} frames)"
+                                                         if refresh.get((r["solution"], r["codec"])) else ""),
+                     (f"{_kbps(default.get('kbps'))}{'' if default.get('reached') else '*'}"
+                      + (f" (every {default['refresh_frames']} frames)" if default.get("refresh_frames") else ""))
+                     if default else "–",
+                     str(descriptions.get(f"{r['solution']} {r['codec']}", "–"))])
+    parts = ["<h3>Equal terms: refresh, the avatar and the session description</h3>",
+             f"<p>A video decoder can join or recover at each intra picture, every {gop or 12} frames here (the "
+             "video's GOP). The parameter streams are coded the same way: an intra plane every GOP (the DCT coders "
+             "every 16-frame segment, their finest), and every rate on this page is at that refresh; the codecs' "
+             "default refresh (32 frames predictive, 64 DCT) is the second column. * not reached.</p>",
+             page.table("equal_terms", ["solution", "codec", "kbps, refresh every GOP",
+                                        "kbps at the default refresh", "session description bytes"], rows,
+                        escape=False)]
+    avatar = costs.get("avatar_bytes")
+    if avatar:
+        parts.append(f"<p>The terminal needs the avatar to re-render FBA/BBA: {html.escape(str(costs.get('avatar_file')))}, "
+                     f"{avatar:,} bytes as sent (its arrays are deflated already: zlib's best on it is "
+                     f"{costs.get('avatar_zlib_bytes', 0):,}), charged once per session with the parameter stream's "
+                     "session description; every solution's session description (the JSON line <code>signcast "
+                     "live</code> sends on its control connection) is charged once per session too.</p>")
+    reached = [r for r in matched if r.get("reached") and _finite(r.get("kbps"))]
+    video = [r for r in reached if Solution(r["solution"]) in Solution.natural_family()]
+    best_params = min((r for r in params if r.get("reached") and _finite(r.get("kbps"))), key=lambda r: r["kbps"],
+                      default=None)
+    best_video = min(video, key=lambda r: r["kbps"], default=None)
+    if avatar and best_params is not None and best_video is not None:
+        once_p = avatar + int(descriptions.get(f"{best_params['solution']} {best_params['codec']}", 0))
+        once_v = int(descriptions.get(f"{best_video['solution']} {best_video['codec']}", 0))
+        seconds = break_even_s(best_video["kbps"], best_params["kbps"], once_p, once_v)
+        duration = run.get("clip_duration_s")
+        against = (f"the best video, {best_video['solution']} as {CODEC_NAMES.get(best_video['codec'], best_video['codec'])} "
+                   f"at {_kbps(best_video['kbps'])} kbit/s, against {best_params['solution']} {best_params['codec']} at "
+                   f"{_kbps(best_params['kbps'])} kbit/s plus {once_p:,} bytes once")
+        if seconds is None:
+            text = f"Break-even: never: {against}; the parameters cost no less per second."
+        else:
+            text = (f"Break-even: after {_duration(seconds)} of signing, parameters plus the avatar cost less than "
+                    f"video ({against}).")
+            if _finite(duration):
+                text += f" This clip lasts {duration:.1f} s."
+            default = best_params.get("default_refresh") or {}
+            if default.get("reached") and _finite(default.get("kbps")):
+                at_default = break_even_s(best_video["kbps"], default["kbps"], once_p, once_v)
+                text += (" At the default refresh: " + ("never" if at_default is None else
+                                                         f"after {_duration(at_default)}") + ".")
+        parts.append(f"<p><strong>{text}</strong></p>")
+    return "".join(parts)
+
+
 def _kbps(value) -> str:
     return f"{value:.1f}" if _finite(value) else "–"
 
@@ -105,6 +195,9 @@ def recommendation(records: list[dict]) -> str:
     unclear = [f"{r['solution']} {r.get('codec')}" for r in matched if r.get("verdict_clear") is False]
     if unclear:
         sentence += " Too close to call (the extractions disagree): " + ", ".join(unclear) + "."
+    if any(r.get("face_threshold") is not None for r in matched):
+        sentence += (" A solution reaches the threshold only where the hands and the face (aligned mouth and "
+                     "eyes/brows error) both meet theirs.")
     return sentence
 
 
@@ -200,5 +293,6 @@ def headline_section(records: list[dict]) -> str:
                      "figure in the table.</p>")
     parts.append(_thresholds(records))
     parts.append(headline_ratio_text(records))
+    parts.append(equal_terms(records))
     parts.append(sensitivity_table(records))
     return "".join(parts)

@@ -52,11 +52,14 @@ the same way. At the upper bracket's Q the frame rates are swept and fps_holds i
 which the threshold holds. Both decisions are taken on each criterion's monotone fit over the swept Q (frame
 rates), not on the points one by one (JUDGED_ON): intelligibility does not fall when bits or frames are added, so
 where a dearer point reads lower the extractor's noise is pooled (a matched record's criterion fields are the fit's
-at the matched rate, the measured values under "measured"). A reached match's rate carries kbps_se, its jackknife
-standard error over the extractions (Study.rate_spread). Each matched record also says how clear its verdict is:
-verdict_margin_se, the standard errors between the fit at the dearest point and the threshold, taken extraction by
-extraction against the ceiling (comparisons.judging.matching.verdict_margin), and verdict_clear, whether that is at least
-CLEAR_VERDICT_SE.
+at the matched rate, the measured values under "measured"). Each extraction is also matched on its own: the matched
+record's kbps is the median of those K rates, kbps_min / kbps_max their range, and verdict_clear says whether all K
+agree (comparisons.judging.operating.extraction_summary).
+
+Equal terms (issue 35, item 7): FBA/BBA streams refresh (an intra plane) every video GOP (12 frames;
+comparisons.params.refresh), their size at the codec's default refresh kept as kbps_default_refresh (the matched
+record's default_refresh); the run record's session_costs hold what a session sends once (the avatar's download,
+each session description: pipeline.studies.session_cost).
 """
 from __future__ import annotations
 
@@ -74,12 +77,13 @@ from comparisons.judging import operating, schedule
 from comparisons.judging.judge import LOSSLESS, SOURCE, UNCODED_SUBJECTS, Judge, Viewed, hand_share, hold_indices, select_frames
 from comparisons.judging.landmark_draws import MAX_EXTRACTIONS, SHIFTS
 from comparisons.judging.operating import (ANCHOR_CODEC, ANCHOR_FPS, ANCHOR_KBPS, ANCHOR_SIZE, ANCHOR_SUBJECT,
-                                           CEILING_TIED, CLEAR_VERDICT_SE, FACE_MARGIN, HUMAN_ANCHORED, LETTER_MARGIN,
+                                           CEILING_TIED, FACE_MARGIN, HUMAN_ANCHORED, LETTER_MARGIN,
                                            LOCATION_MARGIN, MIN_HAND_SHARE, PCK_MARGIN, SENSITIVITY_MARGINS, Series,
                                            anchored_criteria, criteria_for, q_to_refine)
 from comparisons.video import codecs as video_codecs
 from comparisons.video.anchor import code_at_rate
 from comparisons.params import codecs as param_codecs
+from comparisons.params import refresh as param_refresh
 from comparisons.params.study import face_joint_fields
 from comparisons.reports.comparison import operating_points, verdict_note
 from comparisons.reports.records import make_record, versions
@@ -95,10 +99,11 @@ from media.tiling import tile_videos
 from media.video_io import frame_indices_at_rate, write_video
 from pipeline.stages import StageClock
 from pipeline.studies import shared
+from pipeline.studies.session_cost import session_costs
 from pipeline.studies.shared import DISPLAY_FPS, Scenario, ScenarioSettings, fit_length, render_frames, renderers
 
 __all__ = ["CompareSettings", "run", "check", "LOSSLESS", "SOURCE", "UNCODED_SUBJECTS", "PCK_MARGIN", "LETTER_MARGIN",
-           "FACE_MARGIN", "MIN_HAND_SHARE", "CLEAR_VERDICT_SE", "criteria_for", "q_to_refine", "DISPLAY_FPS"]
+           "FACE_MARGIN", "MIN_HAND_SHARE", "criteria_for", "q_to_refine", "DISPLAY_FPS"]
 
 MAX_REFINEMENTS = 5           # halving a Q 1-31 bracket five times leaves adjacent Q
 # today's codecs beside MPEG-4 Part 2, each swept on its own quantiser scale (constant QP: H.264 0-51, SVT-AV1 1-63),
@@ -318,12 +323,15 @@ class ParamPoints:
         self.hand_joints = [i for i, n in enumerate(skeleton.names) if n.startswith(HAND_BONE_PREFIXES)]
 
     def decoded(self, codec_name: str, q: int, fps: float) -> tuple[Motion, int, int]:
-        """(the motion the terminal shows at the scenario's rate and length, bits sent, frames sent)."""
+        """(the motion the terminal shows at the scenario's rate and length, bits sent, frames sent). The stream
+        refreshes (an intra plane) every video GOP (comparisons.params.refresh: equal terms with the video; its
+        size at the codec's default refresh is kept in self.default_bits)."""
         s = self.scenario
         codec = param_codecs.get_codec(codec_name)
         full = fps >= s.fps * (1 - 1e-3)
         sent = s.motion if full else resample(s.motion, fps)
-        data = codec.encode(sent, q)
+        data = param_refresh.encode(codec_name, sent, q, video_codecs.GOP)
+        self.default_bits = 8 * len(codec.encode(sent, q))
         decoded = codec.decode(data)
         shown = decoded if full else resample(Motion(fps, decoded.bone_names, decoded.rotations,
                                                      decoded.root_translation, decoded.faps), s.fps)
@@ -343,7 +351,10 @@ class ParamPoints:
         width, height = s.size
         fields = make_record(solution_of(codec_name), s.name, codec_name, q, s.fps if full else fps, width, height,
                              bits, s.timing.duration_s, sweep="q" if full else "fps", full_resolution=True,
-                             frames=n_sent, joint_error_mm_mean=float(joint_mm.mean()),
+                             frames=n_sent, refresh_frames=param_refresh.refresh_frames(codec_name, video_codecs.GOP),
+                             default_refresh_frames=param_refresh.default_refresh_frames(codec_name),
+                             kbps_default_refresh=kbps(self.default_bits, s.timing.duration_s),
+                             joint_error_mm_mean=float(joint_mm.mean()),
                              joint_error_mm_max=float(joint_mm.max()),
                              hand_joint_error_mm=float(joint_mm[:, self.hand_joints].mean()),
                              arm_joint_error_mm=float(joint_mm[:, self.arm_joints].mean()),
@@ -709,12 +720,14 @@ class Study:
         lossless render."""
         name, threshold_record, criteria_of = self.primary(series.reference)
         points = series.points(self.records)
-        record = operating.matched_record(series, found, criteria, clip=self.scenario.name, fps_holds=fps_holds,
-                                          kbps_se=None, margin=None)
+        record = operating.matched_record(series, found, criteria, clip=self.scenario.name, fps_holds=fps_holds)
         record.update(pooled_kbps=found.kbps, pooled_reached=found.reached, threshold_name=name,
                       margin_at_match=operating.margin_at(found, points, criteria),
                       **operating.extraction_summary(operating.extraction_matches(
                           points, threshold_record, criteria_of, extractions_of(points))))
+        if any(p.get("kbps_default_refresh") is not None for p in points):
+            record["default_refresh"] = operating.at_default_refresh(points, threshold_record, criteria_of,
+                                                                     extractions_of(points))
         face = operating.face_criterion(threshold_record, margin=0.0 if name == HUMAN_ANCHORED else FACE_MARGIN)
         if face is not None:
             value = matching.fields_at(found, (face.field,)).get(face.field)
@@ -786,17 +799,6 @@ class Study:
                                  points, record, criteria_of, extractions_of(points)))})
         return rows
 
-    def verdict_margin(self, series: Series, criteria: list[matching.Criterion]) -> float | None:
-        """The series' verdict margin in standard errors (comparisons.judging.operating.verdict_margin)."""
-        return operating.verdict_margin(series.points(self.records), criteria, self.ceiling(series.reference))
-
-    def rate_spread(self, series: Series, found: matching.Match) -> float | None:
-        """The jackknife standard error (kbit/s) of a reached match's rate over the landmark extractions
-        (comparisons.judging.operating.rate_spread); None where not reached or extracted once."""
-        return operating.rate_spread(series.points(self.records), self.ceiling(series.reference),
-                                     lambda ceiling: self.criteria(series.reference, ceiling), found,
-                                     extractions_of(series.points(self.records)))
-
     def ceiling(self, reference: str) -> dict:
         return operating.ceiling(self.records, reference)
 
@@ -865,6 +867,9 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                               "kbps": ANCHOR_KBPS, "study": "Tran et al., ASSETS 2013; TACCESS 2015"}
                              if settings.anchor else None),
                   "gop_frames": video_codecs.GOP,
+                  "session_costs": session_costs([(x.solution, x.codec) for x in study.series()], fps=scenario.fps,
+                                                 n_frames=scenario.n_frames, size=scenario.size, clip=scenario.name,
+                                                 refresh=video_codecs.GOP),
                   "workers": pool.workers, "first_extractions": min(FIRST_EXTRACTIONS, settings.extractions),
                   "rounds": [{"round": name, "wall_s": round(seconds, 2), "frames_extracted": frames}
                              for name, seconds, frames in study.round_s],
@@ -924,13 +929,14 @@ def _write_side_by_side(received: list[Received], path: Path, fps: float) -> byt
 def summary_rows(records: list[dict]) -> list[dict]:
     """One row per matched series."""
     return [{"solution": r["solution"], "codec": r["codec"], "reference": r["reference"], "kbps": r["kbps"],
-             "kbps_se": r.get("kbps_se"),
              "q_low": r["q_low"], "q_high": r["q_high"], "reached": r["reached"],
-             "verdict_margin_se": r.get("verdict_margin_se"), "verdict_clear": r.get("verdict_clear"),
+             "verdict_clear": r.get("verdict_clear"),
              "extractions": r.get("extractions"), "reached_extractions": r.get("reached_extractions"),
              "kbps_min": r.get("kbps_min"), "kbps_max": r.get("kbps_max"), "threshold_name": r.get("threshold_name"),
              "fps_holds": r.get("fps_holds"),
              "hand_pck_20": r.get("hand_pck_20"), "face_error": r.get("face_error"),
+             "face": r.get("face_value", r.get("message_face")), "face_ok": r.get("face_ok"),
+             "kbps_default_refresh": (r.get("default_refresh") or {}).get("kbps"),
              "letter_top1": r.get("letter_top1"), "skin_psnr": r.get("skin_psnr"), "threshold": r["threshold"]}
             for r in records if r.get("kind") == "matched"]
 
@@ -957,23 +963,33 @@ def format_summary(records: list[dict]) -> str:
     thresholds = dict.fromkeys((row["reference"], row["threshold"]) for row in rows)
     lines = [f"matched against the {reference} on: {threshold}" for reference, threshold in thresholds]
     lines += [] if rows else ["no matched point"]
-    lines.append(f"{'solution':9} {'codec':9} {'reference':16} {'kbps':>8} {'± SE':>6} {'Q':>6} {'PCK@.2':>7} "
-                 f"{'face':>6} {'top-1':>6} {'skin dB':>7} {'holds to':>9}  verdict")
+    lines.append(f"{'solution':9} {'codec':9} {'reference':16} {'kbps':>8} {'range':>13} {'Q':>6} {'PCK@.2':>7} "
+                 f"{'face':>7} {'top-1':>6} {'skin dB':>7} {'holds to':>9}  verdict")
     for row in rows:
         q = f"{row['q_low']}-{row['q_high']}" if row["q_low"] != row["q_high"] else str(row["q_low"])
         holds = f"{row['fps_holds']:g} fps" if row["fps_holds"] is not None else "–"
         kbps = f"{row['kbps']:.1f}{'' if row['reached'] else '*'}"
+        low, high = row["kbps_min"], row["kbps_max"]
+        spread = f"{low:.1f}-{high:.1f}" if low is not None and high is not None and high > low else "–"
+        face = fmt(row["face"], ">6.3f") + ("" if row["face_ok"] is None else "✔" if row["face_ok"] else "✘")
         lines.append(f"{row['solution']:9} {row['codec']:9} {row['reference']:16} {kbps:>8} "
-                     f"{fmt(row['kbps_se'], '>6.1f')} {q:>6} {fmt(row['hand_pck_20'], '>7.1f')} "
-                     f"{fmt(row['face_error'], '>6.3f')} {fmt(row['letter_top1'], '>6.0f')} "
+                     f"{spread:>13} {q:>6} {fmt(row['hand_pck_20'], '>7.1f')} "
+                     f"{face:>7} {fmt(row['letter_top1'], '>6.0f')} "
                      f"{fmt(row['skin_psnr'], '>7.2f')} {holds:>9}  {_verdict(row)}")
     if any(not row["reached"] for row in rows):
         lines.append("* threshold not reached: the best swept point's rate")
-    if any(row["kbps_se"] is not None for row in rows):
-        lines.append("± SE: the rate's jackknife standard error over the landmark extractions (each left out in turn)")
+    if any(row["kbps_min"] is not None for row in rows):
+        lines.append("kbps: the median of the rates matched extraction by extraction; range: their minimum-maximum")
+    if any(row["face"] is not None for row in rows):
+        lines.append("face: the aligned mouth and eyes/brows error (interocular distances) at the matched rate, "
+                     "✔/✘ against its own threshold (a criterion of the match)")
     if any(row["verdict_clear"] is False for row in rows):
-        lines.append(f"too close to call: the fit at the dearest point is under {CLEAR_VERDICT_SE:g} standard errors of "
-                     "the extractions from the threshold (more --extractions narrow it)")
+        lines.append("too close to call: the extractions, each matched on its own, disagree (more --extractions "
+                     "narrow it)")
+    params = [row for row in rows if row["kbps_default_refresh"] is not None]
+    if params:
+        lines.append("FBA/BBA refresh every video GOP (12 frames); at their default refresh: "
+                     + ", ".join(f"{row['codec']} {row['kbps_default_refresh']:.1f}" for row in params) + " kbps")
     if rows:
         lines.append("judged on each criterion's monotone fit over Q (the extractor's noise pooled): the criteria's "
                      "columns are the fit at the matched rate")
