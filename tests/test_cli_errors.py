@@ -316,3 +316,17 @@ def test_video_states_what_video_q_must_contain(tmp_path, capsys):
         main(["video", "--help"])
     assert "must include 12" in " ".join(capsys.readouterr().out.split())
     assert "`--video-q` must include 12" in (ROOT / "README.md").read_text()
+
+
+def test_param_q_limits_the_seed_002_coders_alike_in_lab_and_params(tmp_path, capsys):
+    from pipeline.studies import lab, params
+    assert lab.codec_qs("dpcm", (2, 31)) == (2,) and lab.codec_qs("fba-pred", (2, 31)) == (2, 31)
+    assert lab.codec_qs("dpcm", None) == tuple(range(1, 8))
+    limited = lab.LabSettings(("ase",), ("dpcm", "fba-pred"), (2, 31), limit_coders=True)
+    assert lab.total_points(limited) == 3
+    assert lab.total_points(lab.LabSettings(("ase",), ("dpcm", "fba-pred"), (2, 31))) == 7 + 2   # lab's default
+    assert params.count_points(params.ParamsSettings("ase", "AB", ("dpcm", "fba-pred"), (2, 31))) == 2 * 3
+    for command in (["lab", "ase"], ["params", "ase", "A"]):
+        _fails_with_one_line(capsys, [*command, "--codecs", "dpcm", "--param-q", "31", "--out", tmp_path / "out"],
+                             "--param-q 31 holds none of dpcm's operating points 1..7")
+    assert not (tmp_path / "out").exists()

@@ -77,7 +77,7 @@ def test_every_codec_rejects_single_bit_errors(name):
 
 def test_params_alphabet_draws_the_seed_002_charts(tmp_path):
     from pipeline.cli import main
-    assert main(["params", "ase", "--alphabet", "--codecs", "dpcm,fba-pred", "--param-q", "8", "--out", str(tmp_path)]) == 0
+    assert main(["params", "ase", "--alphabet", "--codecs", "dpcm,fba-pred", "--param-q", "4", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "lab_waveform_psnr.png").stat().st_size > 10_000
     from comparisons.reports.records import read_records
     points = [r for r in read_records(tmp_path / "records.jsonl") if r.get("kind", "point") == "point"]

@@ -22,7 +22,10 @@ def add_parser(subparsers) -> None:
                         help=f"sign language codes, comma-separated (default: {','.join(EVALUATION_LANGUAGES)}, never "
                              "used to train the coders' tables)")
     options.add_codecs(parser, ",".join(DEFAULT_CODECS))
-    options.add_param_q(parser, ",".join(map(str, MPEG4_Q)))
+    parser.add_argument("--param-q", default=None,
+                        help=f"quantisation values 1..31, comma-separated, as in every command: FBA/BBA's Q, and a "
+                             f"seed-002 coder's operating points 1..N among them (default: {','.join(map(str, MPEG4_Q))} "
+                             f"for FBA/BBA, every operating point of a seed-002 coder)")
     options.add_out(parser)
     options.add_no_progress(parser)
     parser.set_defaults(func=run)
@@ -38,7 +41,8 @@ def execute(languages: str, codecs: str | None, param_q: str | None, out, force:
 
     from pipeline.studies import lab
     settings = lab.LabSettings(options.names(languages), options.names(codecs) if codecs is not None else lab.DEFAULT_CODECS,
-                               options.parse_qs(param_q, "--param-q") if param_q is not None else lab.MPEG4_Q)
+                               options.parse_qs(param_q, "--param-q") if param_q is not None else lab.MPEG4_Q,
+                               limit_coders=param_q is not None)
     lab.check(settings)
     with output_folder(out, force=force) as partial, \
             tqdm(total=lab.total_points(settings), desc="lab", unit="point", file=sys.stderr,

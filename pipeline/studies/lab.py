@@ -26,11 +26,31 @@ from media.errors import SigncastError
 @dataclass(frozen=True)
 class LabSettings:
     """languages: sign language codes; codecs: seed-002 coders and FBA/BBA codecs; mpeg4_q: the Q values of the
-    FBA/BBA codecs (a seed-002 coder visits all its own operating points)."""
+    FBA/BBA codecs (a seed-002 coder visits all its own operating points, unless limit_coders: then those of
+    mpeg4_q among them, as --param-q means in every command: codec_qs)."""
 
     languages: tuple[str, ...] = tuple(EVALUATION_LANGUAGES)
     codecs: tuple[str, ...] = DEFAULT_CODECS
     mpeg4_q: tuple[int, ...] = MPEG4_Q
+    limit_coders: bool = False
+
+
+def codec_qs(name: str, qs: tuple[int, ...] | None) -> tuple[int, ...]:
+    """The Q values --param-q gives codec name, the same in params, lab and compare: qs for FBA/BBA; for a seed-002
+    coder, whose q is its operating point 1..N (1 = lowest rate), those of qs up to N (qs None: all N)."""
+    if name not in WAVEFORM_NAMES + MODEL_NAMES:
+        return tuple(MPEG4_Q if qs is None else qs)
+    count = len(LabCodec(name).settings())
+    return tuple(range(1, count + 1)) if qs is None else tuple(q for q in qs if 1 <= q <= count)
+
+
+def check_codec_qs(codecs, qs: tuple[int, ...] | None) -> None:
+    """Refuse a --param-q that leaves a codec nothing to measure."""
+    for name in codecs:
+        if not codec_qs(name, qs):
+            count = len(LabCodec(name).settings())
+            raise SigncastError(f"--param-q {','.join(map(str, qs))} holds none of {name}'s operating points 1..{count} "
+                                f"(a seed-002 coder's q is its operating point, 1 = lowest rate)")
 
 
 def check(settings: LabSettings) -> None:
@@ -41,20 +61,24 @@ def check(settings: LabSettings) -> None:
         get_codec(name)
     for language in settings.languages:
         lexicon.check_language(language)
+    check_codec_qs(settings.codecs, settings.mpeg4_q if settings.limit_coders else None)
 
 
 def total_points(settings: LabSettings) -> int:
-    return len(settings.languages) * count_points(list(settings.codecs), settings.mpeg4_q)
+    limit = settings.mpeg4_q if settings.limit_coders else None
+    return len(settings.languages) * sum(len(codec_qs(name, limit if name in WAVEFORM_NAMES + MODEL_NAMES
+                                                       else settings.mpeg4_q)) for name in settings.codecs)
 
 
-def measure_language(language: str, codecs, mpeg4_q=MPEG4_Q, progress: Callable[[int], object] | None = None) -> list[dict]:
+def measure_language(language: str, codecs, mpeg4_q=MPEG4_Q, progress: Callable[[int], object] | None = None,
+                     coder_q: tuple[int, ...] | None = None) -> list[dict]:
     """Records of every codec and operating point on the language's whole alphabet."""
     motion = alphabet_motion(language, FPS)
     clip = f"{language}:alphabet"
     records = []
     for name in codecs:
         lab = name in WAVEFORM_NAMES + MODEL_NAMES
-        qs = range(1, len(LabCodec(name).settings()) + 1) if lab else mpeg4_q
+        qs = codec_qs(name, coder_q) if lab else mpeg4_q
         for q in qs:
             point = measure_point(motion, name, q)
             fields = {"family": "seed002-model" if name in MODEL_NAMES else "seed002-waveform" if lab else "mpeg4"}
@@ -75,7 +99,8 @@ def run(settings: LabSettings, out: str | Path, *, progress: Callable[[int], obj
     out.mkdir(parents=True, exist_ok=True)
     records = []
     for language in settings.languages:
-        records += measure_language(lexicon.check_language(language), settings.codecs, settings.mpeg4_q, progress)
+        records += measure_language(lexicon.check_language(language), settings.codecs, settings.mpeg4_q, progress,
+                                    settings.mpeg4_q if settings.limit_coders else None)
     write_records(out / "records.jsonl", records)
     write_outputs(out, {"lab_points.csv": points_rows(records), "lab_ranges.csv": ranges_rows(records),
                         **charts(records)})
