@@ -20,6 +20,7 @@ status is 1 if any target found something.
 
     python benchmarks/fuzz.py --targets all --seconds 60 [--jobs 2] [--findings /tmp/fuzz-findings]
     python benchmarks/fuzz.py --targets fba,bba --total-seconds 600
+    python benchmarks/fuzz.py --targets live --total-seconds 600 --jobs 2   # the live receiver's parsers
 """
 from __future__ import annotations
 
@@ -41,7 +42,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 FUZZ_DIR = ROOT / "tests" / "fuzz"
-INSTRUMENTED = ["comparisons", "media", "pose_format"]
+INSTRUMENTED = ["comparisons", "media", "pose_format", "pipeline.live"]
 _IMPORTS_NUMBA = re.compile(r"^\s*(import numba|from numba[ .])", re.M)
 HANG_CPU_S = 1.0                                # a hang: one input takes more CPU time than this
 WALL_TIMEOUT_S = 10                             # libFuzzer's -timeout: the backstop for endless loops
@@ -73,7 +74,7 @@ def compiled_modules(packages: list[str] = INSTRUMENTED) -> list[str]:
     compiled loops are fuzzed through the instrumented Python that calls them."""
     names = []
     for package in packages:
-        folder = ROOT / package
+        folder = ROOT.joinpath(*package.split("."))
         for path in sorted(folder.rglob("*.py")) if folder.is_dir() else ():
             if _IMPORTS_NUMBA.search(path.read_text(encoding="utf-8", errors="replace")):
                 parts = path.relative_to(ROOT).with_suffix("").parts
@@ -254,7 +255,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="libFuzzer's -timeout, seconds of wall-clock time per input (1 on an idle machine)")
     parser.add_argument("--json", type=Path, help="also write the results to this file (one object per target)")
     args = parser.parse_args(argv)
-    targets = list(fuzz_targets.TARGETS) if args.targets == "all" else args.targets.split(",")
+    targets = (list(fuzz_targets.TARGETS) if args.targets == "all" else list(fuzz_targets.LIVE_TARGET_NAMES)
+               if args.targets == "live" else args.targets.split(","))
     unknown = sorted(set(targets) - set(fuzz_targets.TARGETS))
     if unknown:
         parser.error(f"unknown targets {', '.join(unknown)}")

@@ -45,3 +45,15 @@ def test_the_report_flags_what_misses_en_301_549():
     assert "hinders" in text and "preferred" in text
     assert live_report.verdict(399) == "preferred" and live_report.verdict(800) == "misses 0.4 s"
     assert live_report.verdict(801) == "hinders (> 0.8 s)" and live_report.verdict(None) == ""
+
+
+@pytest.mark.parametrize("field", ["solution", "codec"])
+def test_a_point_without_solution_or_codec_is_left_out_not_a_crash(tmp_path, field):
+    """Found by the live-report fuzz target: a loss point with "codec": null passed validation and the summary
+    raised TypeError formatting it."""
+    path = tmp_path / "records.jsonl"
+    path.write_text(json.dumps(_point()) + "\n" + json.dumps(_point(**{field: None})) + "\n")
+    records = read_records(path)
+    assert len(live_report.loss_points(records)) == 1
+    live_report.summary_text(records)
+    live_report.report_outputs(records)

@@ -202,13 +202,130 @@ def records_seeds() -> dict[str, bytes]:
         return {"fba-A.jsonl": write_records(Path(folder) / "records.jsonl", records).read_bytes()}
 
 
+# ------------------------------------------------------------------------------- live delivery (issue 37)
+
+def _live_stream(codec: str = "fba-pred", frames: int = 5, units: str = "frame", refresh: int = 4) -> list[bytes]:
+    """The units a live sender sends for the first frames of ASL A (each one unit's bytes)."""
+    from pipeline.live import endpoints
+    motion = _letter("A").frames(0, frames)
+    solution = "FBA" if codec.startswith("fba") else "BBA"
+    _, source = endpoints.source_for(solution, codec, 8, motion=motion, fps=motion.fps, refresh=refresh, units=units)
+    return [part for index in range(frames) for unit in source.capture(index) for part in unit.data]
+
+
+def live_units_seeds() -> dict[str, bytes]:
+    return {"A-pred-frame-units.bin": b"".join(_live_stream("fba-pred", 5, "frame", 4)),
+            "A-dct-period-units.bin": b"".join(_live_stream("fba-dct", 6, "period", 3))}
+
+
+def delta_unit_seeds() -> dict[str, bytes]:
+    from comparisons.transport.fba_units import DELTA_PREFIX, HEADER_BYTES
+    out = {}
+    for codec in ("fba-pred", "bba-pred"):
+        deltas = [unit[HEADER_BYTES:] for unit in _live_stream(codec, 4, "frame", 4)
+                  if unit[HEADER_BYTES:].startswith(DELTA_PREFIX)]
+        if deltas:
+            out[f"A-{codec}-delta.bin"] = deltas[0]
+    return out
+
+
+def shape_units_seeds() -> dict[str, bytes]:
+    from comparisons.transport.shape_units import encode_shape_units
+    masks = np.zeros((3, 32, 32), bool)
+    masks[:, 8:20, 6:22] = True
+    masks[1, 4:10, 10:14] = True
+    return {"box-gop1.bin": b"".join(u.data for u in encode_shape_units(masks, 1)),
+            "box-gop2.bin": b"".join(u.data for u in encode_shape_units(masks, 2))}
+
+
+def _datagrams(packets, head: bytes = b"") -> bytes:
+    return b"".join(head + len(p).to_bytes(2, "big") + p for p in packets)
+
+
+def _video_access_units(codec: str) -> list[bytes]:
+    from comparisons.transport.video import LiveEncoder
+    encoder = LiveEncoder(codec, 64, 48, 25.0, 8 if codec == "mpeg4" else 30, gop=12, b_frames=0)
+    frames = np.zeros((3, 48, 64, 3), np.uint8)
+    frames[:, 10:30, 20:40] = 200
+    packets = [p for k, frame in enumerate(frames) for p in encoder.encode(frame, k)] + list(encoder.flush())
+    return [p.data for p in packets]
+
+
+def rtp_seeds() -> dict[str, bytes]:
+    from comparisons.transport import rtp
+    out = {}
+    units = rtp.ParameterPacketizer(seed=1)
+    packets = [p.to_bytes() for k, unit in enumerate(_live_stream("fba-pred", 3, "frame", 4))
+               for p in units.packetize_units([unit], rtp.timestamp_of(k, 25.0))]
+    out["fba-units.bin"] = bytes([0 | 4]) + units.first_sequence.to_bytes(2, "big") + _datagrams(packets)
+    for selector, codec, packetizer in ((1, "libx264", rtp.H264Packetizer(mtu=200, seed=2)),
+                                        (2, "mpeg4", rtp.Mp4vPacketizer(mtu=200, seed=3))):
+        packets = [p.to_bytes() for k, au in enumerate(_video_access_units(codec))
+                   for p in packetizer.packetize(au, rtp.timestamp_of(k, 25.0))]
+        out[f"{codec}.bin"] = (bytes([selector | 4]) + packetizer.first_sequence.to_bytes(2, "big")
+                               + _datagrams(packets))
+    return out
+
+
+def jitter_buffer_seeds() -> dict[str, bytes]:
+    from comparisons.transport import rtp
+    packetizer = rtp.ParameterPacketizer(seed=1)
+    packetizer.ssrc = 0x5EED
+    packets = [p.to_bytes() for k, unit in enumerate(_live_stream("fba-pred", 4, "frame", 4))
+               for p in packetizer.packetize_units([unit], rtp.timestamp_of(k, 25.0))]
+    head = packetizer.first_sequence.to_bytes(2, "big")
+    return {"in-order.bin": head + _datagrams(packets, b"\x0a"),
+            "reordered.bin": head + _datagrams(packets[1:2] + packets[:1] + packets[2:], b"\x05")}
+
+
+def ts_demux_seeds() -> dict[str, bytes]:
+    from comparisons.transport import ts
+    frames = np.zeros((4, 48, 64, 3), np.uint8)
+    frames[:, 10:30, 20:40] = 180
+    programme = ts.encode_programme(frames, 25.0)
+    track = ts.ParameterTrack("fba", 25.0, [(k, unit) for k, unit in enumerate(_live_stream("fba-pred", 4, "frame", 4))])
+    return {"programme-fba.ts": ts.mux_transport_stream(programme, [], [track])}
+
+
+def session_description_seeds() -> dict[str, bytes]:
+    from pipeline.live.session import SessionDescription
+    fba = SessionDescription("FBA", "fba-pred", "units", 4, 25.0, 80, 352, 288, clip="ase-HELLO",
+                             details={"refresh": 25, "units": "frame"},
+                             streams=[{"name": "FBA", "payload": "units", "ssrc": 12345, "first_sequence": 7}])
+    ssv = SessionDescription("SSV", "mpeg4", "objects", 4, 25.0, 80, 176, 144, clip="ase-HELLO",
+                             details={"shape_gop": 1},
+                             streams=[{"name": f"{name}/{part}", "payload": payload, "ssrc": 100 + k,
+                                       "first_sequence": k}
+                                      for k, (name, part, payload) in enumerate(
+                                          [("head", "texture", "mp4v"), ("head", "shape", "units")])])
+    return {"fba.json": fba.to_line(), "ssv.json": ssv.to_line()}
+
+
+def live_report_seeds() -> dict[str, bytes]:
+    from comparisons.reports.records import make_record
+    from pipeline.outputs import write_records
+    records = [{"kind": "run", "clip": "ase-A", "clip_fps": 25.0, "clip_frames": 21, "burst": 2.0, "jitter_ms": 0.0,
+                "seed": 1, "repeats": 1, "refresh": 25, "units": "frame"}]
+    for solution, codec, loss, p50, p95 in (("FBA", "fba-pred", 0.0, 60.0, 120.0), ("FBA", "fba-pred", 0.05, 80.0, 450.0),
+                                            ("NSV", "mpeg4", 0.0, 10.0, 30.0)):
+        records.append(make_record(solution, "ase-A", codec, 4, 25.0, 176, 144, 30000, 0.84, sweep="loss",
+                                   loss_rate=loss, delivered_kbps=40.0, packet_loss=loss, frames_lost=1,
+                                   frames_concealed=1, latency_ms_p50=p50, latency_ms_p95=p95, hand_pck_20=90.0,
+                                   encode_ms_p50=2.0, encode_ms_p95=4.0, network_ms_p50=0.2, network_ms_p95=1.0))
+    with tempfile.TemporaryDirectory() as folder:
+        return {"loss-points.jsonl": write_records(Path(folder) / "records.jsonl", records).read_bytes()}
+
+
 def seeds(target: str) -> dict[str, bytes]:
     """File name -> bytes of the target's seeds."""
     if target.startswith("motion-"):
         return motion_seeds(target.removeprefix("motion-"))
     makers = {"fba": fba_seeds, "bba": bba_seeds, "bba-resilient": bba_seeds, "bba-xml": bba_xml_seeds,
               "bap": bap_seeds, "fap": fap_seeds, "shape": shape_seeds, "bvh": bvh_seeds, "pose": pose_seeds,
-              "records": records_seeds}
+              "records": records_seeds, "live-units": live_units_seeds, "delta-unit": delta_unit_seeds,
+              "shape-units": shape_units_seeds, "rtp": rtp_seeds, "jitter-buffer": jitter_buffer_seeds,
+              "ts-demux": ts_demux_seeds, "session-description": session_description_seeds,
+              "live-report": live_report_seeds}
     return makers[target]()
 
 

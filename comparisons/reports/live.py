@@ -50,9 +50,10 @@ COLUMNS = (("loss_rate", "loss %", 100.0, 1), ("kbps", "stream kbps", 1.0, 2),
 def loss_points(records: list[dict]) -> list[dict]:
     """The loss sweep's points measured against REFERENCE, by solution order, codec and loss rate."""
     points = [r for r in records if r.get("kind", "point") == "point" and r.get("sweep") == "loss"
-              and r.get("reference", REFERENCE) == REFERENCE]
+              and r.get("reference", REFERENCE) == REFERENCE
+              and isinstance(r.get("solution"), str) and isinstance(r.get("codec"), str)]
     order = {name: k for k, name in enumerate(SOLUTION_ORDER)}
-    return sorted(points, key=lambda r: (order.get(r["solution"], 99), r["codec"], r.get("loss_rate") or 0.0))
+    return sorted(points, key=lambda r: (order.get(r["solution"], 99), r["codec"], _number(r.get("loss_rate")) or 0.0))
 
 
 def aggregate(points: list[dict]) -> list[dict]:

@@ -356,10 +356,271 @@ def records(data: bytes) -> None:
     _same(twice, once, "records written and read again")
 
 
+# ------------------------------------------------------------------------------- live delivery (issue 37)
+# The live receiver's parsers: what arrives from the network. Inputs that carry several datagrams frame each as
+# [u16 length][bytes] (big-endian); a length past the end takes what is left.
+
+def _frames(data: bytes, head: int = 0) -> list[tuple[bytes, bytes]]:
+    """(head bytes, body) of each length-prefixed record of `data` (head: bytes before the length)."""
+    out, at = [], 0
+    while at + head + 2 <= len(data):
+        prefix = data[at:at + head]
+        size = int.from_bytes(data[at + head:at + head + 2], "big")
+        body = data[at + head + 2:at + head + 2 + size]
+        out.append((prefix, body))
+        at += head + 2 + size
+    return out
+
+
+def _seal_unit_at(data: bytearray, at: int) -> int:
+    """Repair the CRC-8 of the unit header at `at` and its payload's trailing CRC-32; the unit's end."""
+    from comparisons.params.bits import crc8_bits
+    from comparisons.transport.fba_units import HEADER_BYTES
+    head = data[at:at + HEADER_BYTES]
+    if len(head) < HEADER_BYTES:
+        return len(data)
+    data[at + HEADER_BYTES - 1] = crc8_bits(bytes(head), 24, 8 * (HEADER_BYTES - 1))
+    length = int.from_bytes(head[10:13], "big")
+    end = min(len(data), at + HEADER_BYTES + length)
+    payload = bytes(data[at + HEADER_BYTES:end])
+    if len(payload) > 4:
+        data[end - 4:end] = zlib.crc32(payload[:-4]).to_bytes(4, "big")
+    return max(end, at + 1)
+
+
+def seal_live_units(data: bytes) -> bytes:
+    """A live parameter stream with every unit's header CRC-8 and payload CRC-32 repaired (units found where
+    the start code is)."""
+    from comparisons.transport.fba_units import UNIT_PREFIX
+    out = bytearray(data)
+    at = out.find(UNIT_PREFIX)
+    while at >= 0:
+        at = out.find(UNIT_PREFIX, _seal_unit_at(out, at))
+    return bytes(out)
+
+
+def _decode_live_payload(payload: bytes, n_frames: int):
+    from comparisons.transport import fba_units
+    if payload.startswith(fba_units.DELTA_PREFIX):
+        if n_frames != 1:
+            raise SigncastError("a delta unit covers one frame")
+        return fba_units.read_delta(payload)
+    return fba_units.decode_fba_payload(payload, n_frames)
+
+
+def _rest_reference(delta):
+    from comparisons.transport.fba_units import FrameState
+    rotations = np.tile([1.0, 0.0, 0.0, 0.0], (delta.n_bones - len(delta.new_bones), 1))
+    return FrameState(rotations, np.zeros(3), np.zeros(68, np.int64) if delta.has_faps else None)
+
+
+def _check_delta(delta) -> None:
+    from comparisons.transport.fba_units import apply_delta
+    if delta.n_bones - len(delta.new_bones) < 0:
+        return
+    try:
+        frame = apply_delta(delta, _rest_reference(delta))
+    except SigncastError:
+        return
+    _check_array(frame.rotations, (delta.n_bones, 4), np.float64)
+    _expect(bool(np.allclose(np.linalg.norm(frame.rotations, axis=1), 1.0)), "delta unit rotations not unit length")
+    _check_array(frame.root, (3,), np.float64)
+
+
+def live_units(data: bytes) -> None:
+    """A receiver's live FBA stream (FBA units and delta units), fed in two chunks (the first byte picks the
+    cut): the units it finds decode to their announced frames, the same whole or cut, and never overlap in
+    the bytes."""
+    from comparisons.transport import fba_units
+    cut = data[0] % (len(data) + 1) if data else 0
+
+    def scan(chunks):
+        scanner = fba_units.UnitScanner(_decode_live_payload, (fba_units.FBA_PAYLOAD_PREFIX, fba_units.DELTA_PREFIX))
+        units = []
+        for chunk in chunks:
+            units += scanner.feed(chunk)
+        units += scanner.finish()
+        return units, scanner.skipped
+
+    units, skipped = scan([data[:cut], data[cut:]])
+    whole, skipped_whole = scan([data])
+    _expect([(u.first_frame, u.n_frames) for u in units] == [(u.first_frame, u.n_frames) for u in whole],
+            "a live stream scanned in two chunks gives other units than scanned whole")
+    _expect(0 <= skipped == skipped_whole <= len(data), f"skipped bytes {skipped} / {skipped_whole} of {len(data)}")
+    used = sum(fba_units.HEADER_BYTES for _ in units)
+    _expect(used + skipped <= len(data), "units and skipped bytes add up to more than the input")
+    for unit in units:
+        if isinstance(unit.decoded, fba_units.DeltaPayload):
+            _expect(unit.n_frames == 1, "a delta unit of several frames")
+            _check_delta(unit.decoded)
+        else:
+            _expect(unit.decoded.n_frames == unit.n_frames, "a unit decodes to another frame count than announced")
+
+
+def seal_delta(data: bytes) -> bytes:
+    return data[:-4] + zlib.crc32(data[:-4]).to_bytes(4, "big") if len(data) > 4 else data
+
+
+def delta_unit(data: bytes) -> None:
+    """A delta unit's payload (CRC-32 repaired), applied to a rest frame of its size: unit rotations, and the
+    same frame twice."""
+    from comparisons.transport.fba_units import apply_delta, read_delta
+    delta = read_delta(data)
+    _expect(1 <= delta.n_bones <= 1024 and 1 <= delta.q <= 31, "delta unit fields outside their ranges")
+    _check_delta(delta)
+    if delta.n_bones >= len(delta.new_bones):
+        try:
+            first = apply_delta(delta, _rest_reference(delta))
+        except SigncastError:
+            return
+        again = apply_delta(read_delta(data), _rest_reference(delta))
+        _same(first.rotations, again.rotations, "two applications of the same delta unit")
+
+
+def seal_shape_units(data: bytes) -> bytes:
+    """Shape units with their header CRC-8 and embedded shape streams' length and CRC-32 repaired."""
+    from comparisons.params.bits import crc8_bits
+    from comparisons.transport.shape_units import HEADER_SIZE, START_CODE
+    out = bytearray(data)
+    at = out.find(START_CODE)
+    while at >= 0 and at + HEADER_SIZE <= len(out):
+        length = int.from_bytes(out[at + HEADER_SIZE - 4:at + HEADER_SIZE - 1], "big")
+        end = min(len(out), at + HEADER_SIZE + length)
+        out[at + HEADER_SIZE:end] = seal_shape(bytes(out[at + HEADER_SIZE:end]))
+        out[at + HEADER_SIZE - 1] = crc8_bits(bytes(out[at:at + HEADER_SIZE]), 8 * len(START_CODE), 8 * (HEADER_SIZE - 1))
+        at = out.find(START_CODE, max(end, at + 1))
+    return bytes(out)
+
+
+def shape_units(data: bytes) -> None:
+    from comparisons.transport.shape_units import find_shape_units
+    units, skipped = find_shape_units(data)
+    _expect(0 <= skipped <= len(data), f"skipped {skipped} of {len(data)} bytes")
+    for first, masks in units:
+        _expect(first >= 0 and masks.ndim == 3 and masks.shape[0] >= 1 and masks.dtype == bool,
+                f"a shape unit decoded to {masks.shape} {masks.dtype}")
+    again, skipped_again = find_shape_units(data)
+    _expect(skipped_again == skipped and len(again) == len(units), "two scans of the same shape units differ")
+
+
+RTP_PAYLOADS = ("units", "h264", "mp4v")
+
+
+def rtp_depacketizers(data: bytes) -> None:
+    """Datagrams ([u16 length][bytes] each) parsed as RTP and given to a depacketiser: the first byte picks
+    the payload format (mod 3) and whether the first sequence number is known (bit 2, from the next 2 bytes).
+    Any packets are rebuilt without an exception other than SigncastError, the same way twice, and what is
+    returned holds bytes that arrived."""
+    from comparisons.transport import rtp
+    if len(data) < 3:
+        raise SigncastError("too short")
+    payload = RTP_PAYLOADS[data[0] % 3]
+    first = int.from_bytes(data[1:3], "big") if data[0] & 4 else None
+    packets = []
+    for _, datagram in _frames(data[3:]):
+        try:
+            packets.append(rtp.RtpPacket.parse(datagram))
+        except SigncastError:
+            continue
+    depacketize = {"units": rtp.depacketize_parameters, "h264": rtp.depacketize_h264,
+                   "mp4v": lambda p, f: rtp.depacketize_mp4v(p, f, partial=True)}[payload]
+    result = depacketize(packets, first)
+    again = depacketize(list(packets), first)
+    _same([(u.timestamp, u.data, u.damaged) for u in result.units],
+          [(u.timestamp, u.data, u.damaged) for u in again.units], "two depacketisations of the same packets")
+    _expect(all(a < b for a, b in result.lost_sequence_ranges), "an empty or inverted lost range")
+    arrived = sum(len(p.payload) for p in packets)
+    _expect(sum(len(u.data) for u in result.units) <= 4 * arrived + 64 * len(result.units),
+            "depacketised units hold more bytes than arrived")
+
+
+def jitter_buffer(data: bytes) -> None:
+    """Datagrams ([u8 tenths of a frame interval to wait][u16 length][bytes] each) pushed into a jitter
+    buffer of a 50-frame clip at 25 fps whose first sequence number is the input's first two bytes (RTP
+    version bits set and the SSRC forced where a datagram is long enough, so most are RTP): every frame is
+    released at most once, in increasing order, within the clip, and every datagram is counted once."""
+    from pipeline.live.jitter_buffer import JitterBuffer
+    if len(data) < 2:
+        raise SigncastError("too short")
+    buffer = JitterBuffer("units", 25.0, hold_s=0.04, first_sequence=int.from_bytes(data[:2], "big"), n_frames=50)
+    released, now, pushed = [], 0.0, 0
+    for head, datagram in _frames(data[2:], head=1):
+        now += head[0] / 250.0
+        if len(datagram) >= 12:
+            datagram = bytes([0x80 | (datagram[0] & 0x3F)]) + datagram[1:8] + (0x5EED).to_bytes(4, "big") + datagram[12:]
+        buffer.push(datagram, now)
+        pushed += 1
+        released += [frame for frame, _ in buffer.release(now)]
+    released += [frame for frame, _ in buffer.release(float("inf"))]
+    _expect(released == sorted(set(released)), f"frames released out of order or twice: {released[:20]}")
+    _expect(all(0 <= f < 50 for f in released), "a frame outside the clip was released")
+    counted = (buffer.accepted_packets + buffer.late_packets + buffer.discarded_packets + buffer.malformed_packets
+               + (buffer.probation is not None))
+    _expect(counted <= pushed, f"{counted} datagrams counted of {pushed} pushed")
+
+
+def ts_demux(data: bytes) -> None:
+    """An MPEG-2 TS through PyAV's demuxer and signcast's overhead parser: streams with packets, KLV units
+    unwrapped, overhead figures finite and within the stream's size."""
+    from comparisons.transport import ts
+    demuxed = ts.demux_transport_stream(data)
+    _expect(len(demuxed.streams) >= 1, "a demuxed TS without streams")
+    for stream in demuxed.streams:
+        _expect(all(isinstance(unit, bytes) for _, unit in stream.units), "a KLV unit that is not bytes")
+    cost = ts.stream_overheads(ts.ts_overhead(data, 1.0), demuxed)
+    figures = (cost["total_kbps"], cost["psi_kbps"], cost["pcr_kbps"], cost["null_kbps"])
+    _expect(all(np.isfinite(v) and v >= 0 for v in figures), f"TS overhead figures {figures}")
+    _expect(max(figures) <= 8 * len(data) / 1000 + 1e-6, "a TS overhead figure above the stream's size")
+
+
+def session_description(data: bytes) -> None:
+    """A session description line as a receiver reads it: valid ones are within the receiver's limits and
+    survive being written and read again."""
+    from pipeline.live.session import MAX_SHOWN_BYTES, SessionDescription
+    description = SessionDescription.from_line(data)
+    _expect(description.n_frames * description.width * description.height * 3 <= MAX_SHOWN_BYTES,
+            "a description whose frames exceed the receiver's memory passed")
+    _expect(1.0 <= description.fps <= 240.0, f"frame rate {description.fps} passed")
+    again = SessionDescription.from_line(description.to_line())
+    _same(again.to_line(), description.to_line(), "a session description written and read again")
+
+
+def live_report(data: bytes) -> None:
+    """Records (JSON lines) that pass validation, made into the live report: table rows, the terminal summary,
+    the HTML page; the chart on one input in ENCODER_ORACLE_EVERY (matplotlib is slow)."""
+    from comparisons.reports import live as report
+    from comparisons.reports.records import read_records
+    found = read_records(_as_file(data, ".jsonl"))
+    points = report.aggregate(report.loss_points(found))
+    rows = report.table_rows(points)
+    _expect(len(rows) == len(points) + 1, "live table rows do not match the points")
+    _expect(isinstance(report.summary_text(found), str), "summary is not text")
+    if _encoder_oracle_due(data):
+        outputs = report.report_outputs(found)
+        _expect(outputs["live_loss.png"][:4] == b"\x89PNG", "the live chart is not a PNG")
+    else:
+        _expect("<html" in report.report_html(found, b"\x89PNG\r\n\x1a\n").lower(), "the live report is not HTML")
+
+
 # ------------------------------------------------------------------------------------ registry
 
 MOTION_CODERS = ("quant", "nuquant", "dpcm", "adpcm", "deadreck", "dct", "wavelet", "wavelet-cx", "svq", "tvq",
                  "posture", "gesture", "hybrid")   # = lab_codecs.LAB_CODEC_NAMES (tested), without importing it
+
+LIVE_TARGETS = [
+    Target("live-units", live_units, "comparisons.transport.fba_units.UnitScanner (FBA and delta units; CRCs "
+           "repaired)", seal_live_units),
+    Target("delta-unit", delta_unit, "comparisons.transport.fba_units.read_delta / apply_delta (CRC-32 repaired)",
+           seal_delta),
+    Target("shape-units", shape_units, "comparisons.transport.shape_units.find_shape_units (CRCs repaired)",
+           seal_shape_units),
+    Target("rtp", rtp_depacketizers, "comparisons.transport.rtp: RtpPacket.parse and the three depacketisers"),
+    Target("jitter-buffer", jitter_buffer, "pipeline.live.jitter_buffer.JitterBuffer"),
+    Target("ts-demux", ts_demux, "comparisons.transport.ts.demux_transport_stream and ts_overhead"),
+    Target("session-description", session_description, "pipeline.live.session.SessionDescription.from_line"),
+    Target("live-report", live_report, "comparisons.reports.live on records that pass read_records"),
+]
+LIVE_TARGET_NAMES = tuple(target.name for target in LIVE_TARGETS)   # benchmarks/fuzz.py --targets live
 
 TARGETS: dict[str, Target] = {t.name: t for t in [
     Target("fba", fba, "comparisons.params.fba.decode_fba (CRC-32 repaired)", seal_fba),
@@ -374,6 +635,7 @@ TARGETS: dict[str, Target] = {t.name: t for t in [
     Target("bvh", bvh, "media.bvh.read_bvh"),
     Target("pose", pose, "media.pose_file.read_pose"),
     Target("records", records, "comparisons.reports.records.read_records"),
+    *LIVE_TARGETS,
 ]}
 
 CORPUS_DIR = Path(__file__).resolve().parent / "corpus"
