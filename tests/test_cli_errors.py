@@ -20,7 +20,7 @@ READ_ONLY = Path("/sys")          # sysfs: creating a file or folder there fails
 # every command that writes an --out folder, with arguments that keep its work small
 FOLDER_COMMANDS = {
     "params": ["params", "ase", "AB", "--codecs", "fba-pred", "--param-q", "31"],
-    "lab": ["lab", "ase", "--codecs", "dct", "--param-q", "31"],
+    "lab": ["lab", "ase", "--codecs", "dct", "--param-q", "1"],
     "analyze": ["analyze", "ase"],
     "video": ["video", "--video", "carphone", "--frames", "4", "--video-q", "12", "--video-codecs", "none", "--no-progress"],
     "video --ssv": ["video", "--ssv", "ase", "A", "--size", "64x64", "--frames", "4", "--video-q", "12", "--video-codecs",
