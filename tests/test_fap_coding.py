@@ -5,7 +5,7 @@ BAP-only streams: tests/data/fba_bap_clips.npz holds BAP value arrays (T, 296) (
 fingerspelling clips as comparisons.params.fba_mapping.motion_to_baps gave them ("HELLO" at 25 fps, 84 frames;
 "J" at 10 fps, 25 frames), and a synthetic 48-frame array with an angle crossing +-pi, a 15 m root jump and 20
 BAPs set once and held (the predictive coder's early intra planes and one-frame settling plane). Each stream
-decodes within its stated bound (ROUND_TRIP_STEPS) at the stored rate (BAP_ONLY_STREAMS, RATE_TOLERANCE); the
+decodes within encode_fba's stated bound at the stored rate (BAP_ONLY_STREAMS, RATE_TOLERANCE); the
 predictive streams, integer arithmetic from integer input, also keep the SHA-256 of the BAP-only coder before FAPs.
 """
 import hashlib
@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from motion_samples import smooth_motion
+from test_encoder_bounds import round_trip_bound
 
 from comparisons.params import bap_table
 from comparisons.params import fap_table
@@ -38,9 +39,6 @@ CLIP_FPS = {"ase_HELLO_25fps": 25.0, "ase_J_10fps": 10.0, "synthetic_pi_crossing
 # its closed-loop levels, range fields and arithmetic coder are integer arithmetic throughout, so its bytes are the
 # same on every CPU. The decoders are pinned by tests/test_conformance.py.
 RATE_TOLERANCE = 0.02
-# Stated round-trip bounds, in quantiser steps (bap_table.steps() x Q) per BAP: predictive half a step (closed loop,
-# no clipping); DCT one step (measured at most 0.49 on these clips).
-ROUND_TRIP_STEPS = {"pred": 0.5, "dct": 1.0}
 BAP_ONLY_STREAMS = [
     ("ase_HELLO_25fps", "pred", 1, {}, 6109, "641a65aea79e3065a7690ceb58d25c2cec3bfb24901131d5b52873dfd3535558"),
     ("ase_HELLO_25fps", "pred", 4, {}, 4262, "5e45548c659a2d48bca7789ddb0789476e3fc29a9be2229309a78a583b549f1d"),
@@ -134,14 +132,14 @@ def bap_clips() -> dict[str, np.ndarray]:
 def test_bap_only_streams_round_trip_within_their_bound_at_the_stored_rate(bap_clips, name, coding, q, options,
                                                                            size, digest):
     """BAP-only streams of real and synthetic clips: the decoder reads what the encoder wrote, every BAP within
-    ROUND_TRIP_STEPS of its value, the size within RATE_TOLERANCE of the stored figure; predictive streams (integer
+    encode_fba's stated bound (test_encoder_bounds.round_trip_bound; measured at most 0.49 steps for DCT), the size within RATE_TOLERANCE of the stored figure; predictive streams (integer
     arithmetic) byte for byte."""
     values = bap_clips[name]
     data = encode_fba(values, CLIP_FPS[name], q, coding, **options)
     assert _plane_paramsets(data)[0] == fba_codec.PARAMSET_BAP
     decoded = decode_fba(data)
     assert decoded.baps.shape == values.shape and decoded.faps is None
-    assert np.all(np.abs(decoded.baps - values) <= ROUND_TRIP_STEPS[coding] * bap_table.steps() * q)
+    assert np.all(np.abs(decoded.baps - values) <= round_trip_bound(bap_table.steps(), q, coding))
     assert abs(len(data) - size) <= RATE_TOLERANCE * size, (len(data), size)
     if digest is not None:
         assert hashlib.sha256(data).hexdigest() == digest
