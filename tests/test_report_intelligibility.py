@@ -91,9 +91,9 @@ def test_the_top_table_gives_every_solutions_kbps_at_matched_intelligibility_wit
     assert rows[0][9] == "–"        # no mouth or eyes error in these records
     assert {row[0]: row[11] for row in rows} == {"NSV": "12 fps", "NSV2O": "15 fps", "NSV3O": "12 fps",
                                                  "NSV3O+C": "–", "SSV": "–", "FBA": "10 fps", "BBA": "10 fps"}
-    # the top of the page: before the summary at the operating points and every other table
-    assert page.text.index('data-table="matched"') < min(page.text.index(f'data-table="{name}"')
-                                                        for name in page.tables if name != "matched")
+    # the top of the page after the headline's own tables: before the summary and every other table
+    assert page.text.index('data-table="matched"') < min(page.text.index(f'data-table="{name}"') for name in page.tables
+                                                        if name not in ("matched", "sensitivity", "equal_terms"))
 
 
 def test_the_top_table_marks_the_delivery_channels_each_rate_fits(page):
@@ -246,9 +246,10 @@ def test_the_intelligibility_report_renders_in_headless_chromium(tmp_path):
     assert charts >= 6 and footer == f"rendered {charts}/{charts} charts, {tables}/{tables} tables; all ok"
 
 
-def test_points_averaged_over_several_extractions_carry_standard_error_bars():
-    """A point measured as the mean of K landmark extractions is drawn with a bar of its standard error
-    (draw_sd / sqrt(K)); points extracted once get none."""
+def test_points_averaged_over_several_extractions_carry_t_interval_bars():
+    """A point measured as the mean of K landmark extractions is drawn with a bar of its 95 % t-interval
+    (t(0.975, K - 1) draw_sd / sqrt(K), draw_sd with ddof 1); points extracted once get none."""
+    from scipy.stats import t
     from matplotlib.container import ErrorbarContainer
     records = _records()
     for record in records:
@@ -258,43 +259,45 @@ def test_points_averaged_over_several_extractions_carry_standard_error_bars():
     bars = [c for c in figure.axes[0].containers if isinstance(c, ErrorbarContainer)]
     assert len(bars) == 1                                   # FBA's sweep only
     segments = bars[0].lines[2][0].get_segments()
-    assert len(segments) == len(SWEPT_Q) and all(abs(s[1][1] - s[0][1] - 2.0) < 1e-9 for s in segments)
-    assert "standard error" in figure._suptitle.get_text()
+    half = t.ppf(0.975, 3) * 2.0 / 2
+    assert len(segments) == len(SWEPT_Q) and all(abs(s[1][1] - s[0][1] - 2 * half) < 1e-9 for s in segments)
+    assert "t-interval" in figure._suptitle.get_text()
     plain = chart_rate_intelligibility(_records())
     assert not [c for c in plain.axes[0].containers if isinstance(c, ErrorbarContainer)]
-    assert "standard error" not in plain._suptitle.get_text()
+    assert "t-interval" not in plain._suptitle.get_text()
 
 
-def test_the_reached_column_says_how_many_standard_errors_the_verdict_stands_from_the_threshold(tmp_path):
+def test_the_reached_column_says_whether_the_extractions_agree(tmp_path):
     from comparisons.reports.comparison import verdict_note
     records = _records()
-    margins = {"NSV": (5.66, True), "SSV": (-1.96, False), "NSV3O": (-0.048, False), "FBA": (None, True)}
+    verdicts = {"NSV": (4, 4, True), "SSV": (4, 2, False), "NSV3O": (1, 1, True)}
     for record in records:
-        if record["kind"] == "matched" and record["solution"] in margins:
-            record["verdict_margin_se"], record["verdict_clear"] = margins[record["solution"]]
-            record["kbps_se"] = 12.34 if record["solution"] == "NSV" else None
+        if record["kind"] == "matched" and record["solution"] in verdicts:
+            count, reached, clear = verdicts[record["solution"]]
+            record.update(extractions=count, reached_extractions=reached, verdict_clear=clear, kbps_min=170.0,
+                          kbps_max=190.0)
     page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
-    assert page.tables["matched"][0][3] == "180.0 ± 12.3 (Q 8–16)"            # the rate's jackknife error
+    assert page.tables["matched"][0][3] == "180.0 (170.0–190.0) (Q 8–16)"     # the median and the range
     reached = {row[0]: row[4] for row in page.tables["matched"]}
-    assert reached["NSV"] == "✔ yes (+5.6 SE)"                # truncated toward 0
-    assert reached["SSV"] == "✘ no: rate of the best point (-1.9 SE: too close to call)"
-    assert reached["NSV3O"].endswith("(-0.04 SE: too close to call)")
-    assert reached["FBA"] == "✔ yes (no spread)"             # the extractions agreed exactly
-    assert reached["BBA"] == "✔ yes"                          # records from before the margin
+    assert reached["NSV"] == "✔ yes (all 4 extractions agree)"
+    assert reached["SSV"] == "✘ no: rate of the best point (2 of 4 extractions reach it: too close to call)"
+    assert reached["NSV3O"].endswith("(one extraction)")
+    assert reached["BBA"] == "✔ yes"                          # records that do not say
     assert "too close to call when they do not" in page.text
     assert verdict_note({}) == "" and verdict_note({"verdict_clear": None}) == ""
+    assert verdict_note({"verdict_clear": False}) == "too close to call"
 
 
-def test_a_matched_rate_with_a_jackknife_error_gets_a_horizontal_bar_across_its_star():
+def test_a_matched_rate_gets_a_horizontal_bar_over_its_extractions_range():
     from matplotlib.container import ErrorbarContainer
     records = _records()
     for record in records:
         if record["kind"] == "matched" and record["solution"] == "NSV":
-            record["kbps_se"] = 20.0
+            record.update(kbps_min=160.0, kbps_max=200.0)
     figure = chart_rate_intelligibility(records)
     bars = [c for c in figure.axes[0].containers if isinstance(c, ErrorbarContainer) and c.has_xerr]
     assert len(bars) == 1
     (segment,) = bars[0].lines[2][0].get_segments()
-    assert segment[0][0] == pytest.approx(160.0) and segment[1][0] == pytest.approx(200.0)     # NSV: 180 +- 20
-    assert "jackknife" in figure._suptitle.get_text()
-    assert "jackknife" not in chart_rate_intelligibility(_records())._suptitle.get_text()
+    assert segment[0][0] == pytest.approx(160.0) and segment[1][0] == pytest.approx(200.0)
+    assert "range of the rates matched" in figure._suptitle.get_text()
+    assert "range of the rates matched" not in chart_rate_intelligibility(_records())._suptitle.get_text()
