@@ -301,3 +301,31 @@ def test_a_matched_rate_gets_a_horizontal_bar_over_its_extractions_range():
     assert segment[0][0] == pytest.approx(160.0) and segment[1][0] == pytest.approx(200.0)
     assert "range of the rates matched" in figure._suptitle.get_text()
     assert "range of the rates matched" not in chart_rate_intelligibility(_records())._suptitle.get_text()
+
+
+def test_every_section_gives_the_matched_rate_or_marks_it_below_threshold(tmp_path):
+    """One cost per solution on the whole page: the summary, the source's requirement lines and Table 4.17 use the
+    matched rate; a rate not reaching the threshold is marked, not judged, and ranks last in Table 4.17."""
+    records = _records()
+    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
+    matched = {(m["solution"], m["codec"]): m for m in records if m.get("kind") == "matched"}
+    for row in page.tables["summary"]:
+        m = matched[(row[0], row[1])]
+        assert row[4] == f"{m['kbps']:.1f}" + ("" if m["reached"] else " (below threshold)")
+    for row in page.tables["requirements"]:
+        solution, codec = row[0].split(" · ")
+        m = matched[(solution, codec)]
+        assert row[1].startswith(f"{m['kbps']:.1f}") and (m["reached"] or row[3].startswith("–"))
+    assert "Cheapest at" not in page.text and "cheapest at ≥ 15 fps" not in page.text
+    from comparisons.judging.criteria import SOLUTIONS as COLUMNS
+    bandwidth = next(row for row in page.tables["criteria"] if row[0].startswith("4.17"))
+    unreached = [m["solution"] for m in matched.values() if not m["reached"]]
+    assert unreached and all(bandwidth[1 + list(COLUMNS).index(s)] == "1" for s in unreached if s in COLUMNS)
+    assert "ranked last" in bandwidth[-1]
+
+
+def test_below_threshold_solutions_rank_last_in_the_bandwidth_row():
+    from comparisons.judging.criteria import bandwidth_scores
+    scores = bandwidth_scores({"NSV": 294.0, "NSV2O": 186.0, "NSV3O": 129.0, "SSV": 10.0, "FBA": 9.0, "BBA": 9.0},
+                              {"SSV"})
+    assert scores == {"NSV": 2, "NSV2O": 3, "NSV3O": 4, "SSV": 1, "FBA": 6, "BBA": 6}
