@@ -119,10 +119,10 @@ def equal_terms(records: list[dict]) -> str:
                      if default else "–",
                      str(descriptions.get(f"{r['solution']} {r['codec']}", "–"))])
     parts = ["<h3>Equal terms: refresh, the avatar and the session description</h3>",
-             f"<p>A video decoder can join or recover at each intra picture, every {gop or 12} frames here (the "
-             "video's GOP). The parameter streams are coded the same way: an intra plane every GOP (the DCT coders "
-             "every 16-frame segment, their finest), and every rate on this page is at that refresh; the codecs' "
-             "default refresh (32 frames predictive, 64 DCT) is the second column. * not reached.</p>",
+             (f"<p>A video decoder can join or recover at each intra picture, every {gop or 12} frames here (the "
+              "video's GOP). The parameter streams are coded the same way: an intra plane every GOP (the DCT coders "
+              "every 16-frame segment, their finest), and every rate on this page is at that refresh; the codecs' "
+              "default refresh (32 frames predictive, 64 DCT) is the second column. * not reached.</p>"),
              page.table("equal_terms", ["solution", "codec", "kbps, refresh every GOP",
                                         "kbps at the default refresh", "session description bytes"], rows,
                         escape=False)]
