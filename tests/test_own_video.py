@@ -115,6 +115,6 @@ def test_video_command_refuses_a_file_that_is_not_video(tmp_path, capsys):
 
 def test_video_command_refuses_a_cartoon_with_no_person(tmp_path, capsys):
     out = tmp_path / "out"
-    # the first 24 frames hold a rock that the face cascade takes for a face; its colour is not skin
+    # the pose stage finds "bodies" in these 24 frames; the face mesh model rejects their faces
     code, _, err = _run(capsys, "--video", "bigbuckbunny", "--frames", "24", "--out", out)
-    _assert_refused(code, err, out, "no person found in bigbuckbunny.mp4 (no face in 12 sampled frames)")
+    _assert_refused(code, err, out, "no person found in bigbuckbunny.mp4 (the landmark extractor finds no body with a face in 12 sampled frames)")
