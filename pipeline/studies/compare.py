@@ -390,6 +390,16 @@ class CeilingJob:
     stage: str = "ceilings"
 
 
+@dataclass(frozen=True)
+class ExtractJob:
+    """One extraction of frames (M, H, W, 3) uint8 shown at fps under SHIFTS[shift]."""
+    frames: np.ndarray
+    fps: float
+    shift: int
+    label: str = "landmarks"
+    stage: str = "extraction"
+
+
 @dataclass
 class MeasuredPoint:
     """A point's fields (what was coded and its image quality), its per-extraction intelligibility fields by
@@ -453,7 +463,10 @@ class Measurer:
 
     def run(self, job) -> dict:
         seconds, frames = shared.EXTRACTION["seconds"], shared.EXTRACTION["frames"]
-        result = self.ceiling(job) if isinstance(job, CeilingJob) else self.point(job)
+        if isinstance(job, ExtractJob):
+            result = {"observed": self.extract(job.frames, job.fps, (job.shift,), job.label)[0]}
+        else:
+            result = self.ceiling(job) if isinstance(job, CeilingJob) else self.point(job)
         result.update(extraction_s=shared.EXTRACTION["seconds"] - seconds,
                       extracted_frames=shared.EXTRACTION["frames"] - frames)
         return result
@@ -528,8 +541,12 @@ class Study:
 
     def draws(self, frames: np.ndarray, fps: float, label: str) -> list[SignClip]:
         """The landmarks of frames (M, H, W, 3) uint8 shown at fps, extracted `extractions` times, each under its
-        sub-pixel shift (pipeline.studies.shared.extract_draws), here in this process."""
-        return shared.extract_draws(frames, fps, self.settings.extractions, label, self.progress)
+        sub-pixel shift (pipeline.studies.shared.extract_draws): one job per shift on the pool while it is open,
+        else here in this process."""
+        if self.pool is None or not self.pool.open:
+            return shared.extract_draws(frames, fps, self.settings.extractions, label, self.progress)
+        jobs = [ExtractJob(frames, fps, k, label) for k in range(self.settings.extractions)]
+        return [result["observed"] for result in self.run_jobs(jobs, f"{label}: {len(jobs)} extractions")]
 
     # -------------------------------------------------------------------------------------------------------
     # the execution: independent jobs in rounds on the pool (issue 36)

@@ -304,6 +304,11 @@ class StudyPool:
             raise
         return results
 
+    @property
+    def open(self) -> bool:
+        """Whether jobs can run: in this process (one worker), or on the pool until it is closed."""
+        return self.workers == 1 or self.pool is not None
+
     def close(self) -> None:
         if self.pool is not None:
             self.pool.shutdown(wait=True, cancel_futures=True)
