@@ -64,7 +64,7 @@ ANGLE_UNIT_RAD = 1e-5
 # carrier turn is below CARRY_TOLERANCE radians (most frames of real letters after 6-8 iterations). Stated face
 # error against the full solve (FULL_SOLVE: every frame all 10 iterations, what the rig did before), tested on real
 # letters of four sign languages, synthetic tracks and FAPs beyond reach (tests/test_face_rig.py): every face bone's
-# turn within FACE_TURN_ERROR_RAD (measured 3e-5 rad), the skinned bones' posed heads, which the skin follows,
+# turn within FACE_TURN_ERROR_RAD (measured 4e-5 rad), the skinned bones' posed heads, which the skin follows,
 # within FACE_HEAD_ERROR_M (measured 2.5e-7 m) and their posed rotations equal to rounding (they come from the
 # targets alone, `bone_turns`). A smaller damping converges in fewer iterations but, far from the rig's reach, to
 # other least-squares points (0.7 mm off on synthetic FAPs), so the damping stays.
@@ -275,14 +275,12 @@ def _carry_into(plan: _CarryPlan, head_moved: np.ndarray, tail_moved: np.ndarray
                 column: int, iterations: int = CARRY_ITERATIONS, damping: float = CARRY_DAMPING,
                 max_turn: float = CARRY_MAX_TURN, tolerance: float = CARRY_TOLERANCE) -> None:
     """The carry of a plan (`_carry`) written to quaternions[:, column:column + C + S] ((T, F, 4)): frames held
-    bit for bit solved once, the solve, the carriers' quaternions and the skinned bones' turns in one compiled
-    call (media/face_rig_solve.carry_into), then the skinned bones' parent^T turned as quaternions."""
-    _, parent, turned = face_kernel.carry_into(
+    bit for bit solved once, the solve, the carriers' quaternions and the skinned bones' parent^T turned as
+    quaternions in one compiled call (media/face_rig_solve.carry_into)."""
+    face_kernel.carry_into(
         head_moved, tail_moved, plan.carrier_heads, plan.carrier_parents, plan.skinned_heads, plan.skinned_parents,
-        plan.group_members, plan.group_start, *plan.tables, plan.arms, iterations, damping, max_turn, tolerance, quaternions,
-        column)
-    products = face_kernel.transposed_products(parent, turned)
-    face_kernel.quaternions_into(products, quaternions, column + len(plan.carriers))
+        plan.group_members, plan.group_start, *plan.tables, plan.arms, iterations, damping, max_turn, tolerance,
+        quaternions, column)
 
 
 def _face_bone_rotations_numpy(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dict[str, np.ndarray]:

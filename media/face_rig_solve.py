@@ -26,8 +26,8 @@ between then to_matrix), compiled; tests/test_face_rig_speed.py checks them agai
 per component.
 
 `carry_into` is what media/face_rig.py calls per anchor and clip: the held frames (`held_runs`), the solve
-with the rig's index tables made once (`carry_tables`), the carriers' quaternions written into the caller's
-array (`quaternions_into`) and `bone_turns`, in one call.
+with the rig's index tables made once (`carry_tables`), the carriers' and the skinned bones' quaternions written
+into the caller's array (`quaternions_into`, `bone_turns`), in one call.
 
 All geometry is in the anchor's rest frame, metres. Compiled nopython with cache=True; imports nothing
 of signcast.
@@ -176,18 +176,18 @@ def carry_into(head_moved, tail_moved, carrier_heads, carrier_parents, skinned_h
                iterations, damping, max_turn, tolerance, out, column):
     """The face rig's carry of one anchor in one call: `carry` of the distinct frames (`held_runs`; the rig's
     tables from `carry_tables`), the carriers' local turns as quaternions (`from_matrix`) written to
-    out[:, column:column + C] ((T, F, 4)), and `bone_turns`.
+    out[:, column:column + C] ((T, F, 4)), then the skinned bones' rotations parent^T turned (`bone_turns`,
+    `transposed_products`) as quaternions to out[:, column + C:column + C + S].
 
-    head_moved, tail_moved (T, S, 3) metres; arms (S, 3). Returns local (T, C, 3, 3) and parent (T, S, 3, 3) as
-    `carry` gives them for every frame and turned (T, S, 3, 3) (`bone_turns`). The skinned bones' rotations are
-    parent^T turned, which the caller takes (`transposed_products`).
+    head_moved, tail_moved (T, S, 3) metres; arms (S, 3). Returns nothing (what it makes is in out).
     """
     run, first = held_runs(head_moved)
     local, parent = _solve_rows(head_moved, first, run, carrier_heads, carrier_parents, skinned_heads,
                                 skinned_parents, group_members, group_start, chain_start, chain_index, carried_start,
                                 carried_index, pair_start, pair_index, entry, iterations, damping, max_turn, tolerance)
     quaternions_into(local, out, column)
-    return local, parent, bone_turns(arms, head_moved, tail_moved)
+    quaternions_into(transposed_products(parent, bone_turns(arms, head_moved, tail_moved)), out,
+                     column + carrier_heads.shape[0])
 
 
 @njit(cache=True, error_model="numpy")

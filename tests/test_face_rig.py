@@ -210,4 +210,4 @@ def test_the_face_is_the_full_solves_within_the_stated_error(avatar):
             worst = max(worst, np.abs(heads - full_heads).max())
             np.testing.assert_allclose(turns, full_turns, rtol=0, atol=1e-12)
     assert worst <= face_rig.FACE_HEAD_ERROR_M         # measured 2.5e-7 m
-    assert turn_error <= face_rig.FACE_TURN_ERROR_RAD  # measured 3e-5 rad
+    assert turn_error <= face_rig.FACE_TURN_ERROR_RAD  # measured 4e-5 rad
