@@ -11,7 +11,11 @@ and the landmark extraction's seconds: the Holistic graph's own calls, timed in 
 runs points on a process pool, in its workers (the run record's `extraction_s`); its share is those seconds over
 wall time x the processes that ran it. Appended as one JSON line to --out.
 
-    .venv/bin/python benchmarks/compare_time.py [--runs video,demo] [--frames N] [--out FILE] [--label TEXT]
+    .venv/bin/python benchmarks/compare_time.py [--runs video,demo] [--frames N] [--clip NAME] [--full]
+                                                [--out FILE] [--label TEXT]
+
+--full runs the schedule before issue 36 (every swept Q, frame rate and extraction) on today's code: the
+matched rates of the faster schedule are checked against its per-extraction ranges.
 
 Run from another checkout (e.g. a worktree at an older commit) with PYTHONPATH set to it to time the code before.
 """
@@ -86,7 +90,8 @@ def timed_run(name: str, settings, out_dir: Path) -> dict:
     extraction = float(run_record["extraction_s"]) if run_record.get("extraction_s") is not None else timer.seconds
     matched = {f"{r['solution']} {r['codec']} / {r.get('reference')}": {
                    "kbps": r["kbps"], "kbps_se": r.get("kbps_se"), "reached": r["reached"],
-                   "q": [r["q_low"], r["q_high"]], "kbps_range": r.get("kbps_range")}
+                   "q": [r["q_low"], r["q_high"]], "kbps_min": r.get("kbps_min"), "kbps_max": r.get("kbps_max"),
+                   "pooled_kbps": r.get("pooled_kbps"), "extractions": r.get("extractions")}
                for r in records if r.get("kind") == "matched"}
     return {"run": name, "wall_s": round(wall, 1), "stages": stages, "workers": workers,
             "extraction_s": round(extraction, 1),
@@ -102,6 +107,11 @@ def main() -> int:
     parser.add_argument("--frames", type=int, default=CLIP_FRAMES, help="frames of the video run's clip")
     parser.add_argument("--out", default="compare_time.jsonl", help="JSON lines appended here")
     parser.add_argument("--label", default="", help="a label for this checkout (e.g. before, after)")
+    parser.add_argument("--full", action="store_true",
+                        help="the full schedule (every swept Q, frame rate and extraction): the figures to check the "
+                             "faster schedule's against")
+    parser.add_argument("--clip", default=None, help="the video run's clip instead of the avatar render "
+                                                     "(e.g. carphone), with --frames frames")
     args = parser.parse_args()
     from pipeline.studies.compare import CompareSettings
     results = []
@@ -109,11 +119,15 @@ def main() -> int:
         folder = Path(folder)
         for name in args.runs.split(","):
             if name == "video":
-                settings = CompareSettings(clip=str(make_clip(folder, args.frames)))
+                clip = args.clip if args.clip is not None else str(make_clip(folder, args.frames))
+                settings = CompareSettings(clip=clip, max_clip_frames=args.frames if args.clip else None)
             elif name == "demo":
                 settings = CompareSettings.demo()
             else:
                 raise SystemExit(f"unknown run {name!r}: choose video or demo")
+            if args.full:
+                from dataclasses import replace
+                settings = replace(settings, full_schedule=True)
             result = dict(timed_run(name, settings, folder / name), label=args.label)
             results.append(result)
             with open(args.out, "a") as out:

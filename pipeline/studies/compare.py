@@ -149,6 +149,9 @@ class CompareSettings:
     other_solutions: tuple[str, ...] = OTHER_SOLUTIONS                # the solutions coded with them
     anchor: bool = True           # measure the human anchor (Tran et al.'s point) and match on it
     workers: int | None = None    # processes the points run on (None: every CPU; 1: in this process, in order)
+    # measure every swept Q, every frame rate and every extraction (the schedule before issue 36), instead of
+    # stopping where the answer is decided; for checking the faster schedule's figures
+    full_schedule: bool = False
 
     def codec_qs(self, codec: str) -> tuple[int, ...]:
         """The quantisers swept for a video codec (MPEG-4 Part 2: video.qs)."""
@@ -622,7 +625,10 @@ class Study:
         full = (series.solution, series.codec)
         shifts = tuple(range(plan.extractions))
         if plan.phase == "sweep":
-            q = schedule.next_swept_q(self.qs(series), points, criteria)
+            if self.settings.full_schedule:
+                q = next((q for q in sorted(self.qs(series), reverse=True) if q not in {r["q"] for r in points}), None)
+            else:
+                q = schedule.next_swept_q(self.qs(series), points, criteria)
             if q is not None:
                 return [PointJob(*full, q, s.fps, shifts, "Q sweep")]
             plan.phase = "refine"
@@ -649,7 +655,10 @@ class Study:
             found = matching.cheapest_rate(points, criteria, monotone=True)
             q = int(found.upper["q"])
             at_q = [r for r in series.points(self.records, "fps") if r["q"] == q] + [found.upper]
-            rate = schedule.next_frame_rate(self.lower_rates(), at_q, criteria)
+            if self.settings.full_schedule:
+                rate = next((f for f in self.lower_rates() if f not in {r["fps"] for r in at_q}), None)
+            else:
+                rate = schedule.next_frame_rate(self.lower_rates(), at_q, criteria)
             if rate is not None:
                 return [PointJob(*full, q, rate, shifts, "frame rates")]
             plan.phase = "done"
@@ -658,7 +667,8 @@ class Study:
     def measure_all(self) -> None:
         """Every series measured in rounds: each round, every series not done gives its next jobs
         (`next_jobs`), and the round's jobs run at once on the pool."""
-        plans = {series: SeriesPlan(min(FIRST_EXTRACTIONS, self.settings.extractions)) for series in self.series()}
+        first = self.settings.extractions if self.settings.full_schedule else FIRST_EXTRACTIONS
+        plans = {series: SeriesPlan(min(first, self.settings.extractions)) for series in self.series()}
         self.announce_cost(plans)
         n = 0
         while True:
@@ -699,7 +709,8 @@ class Study:
         frames = len(self.judge.measured)
         points = extractions = 0
         for series, plan in plans.items():
-            search = int(np.ceil(np.log2(len(self.qs(series)) + 1)))
+            search = (len(self.qs(series)) if self.settings.full_schedule
+                      else int(np.ceil(np.log2(len(self.qs(series)) + 1))))
             n = search + self.settings.refinements + len(self.lower_rates())
             points += n
             extractions += frames * (n * plan.extractions
@@ -715,7 +726,7 @@ class Study:
 
     def announce_cost(self, plans: dict) -> None:
         points, extractions = self.cost_bound(plans)
-        first = min(FIRST_EXTRACTIONS, self.settings.extractions)
+        first = min(plan.extractions for plan in plans.values())
         self.note(f"at most {points} points x {len(self.judge.measured)} frames x {first}"
                   f"{f'-{self.settings.extractions}' if self.settings.extractions > first else ''} extractions "
                   f"(at most {extractions} frame extractions) on {self.pool.workers} process"
@@ -887,7 +898,9 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                   "session_costs": session_costs([(x.solution, x.codec) for x in study.series()], fps=scenario.fps,
                                                  n_frames=scenario.n_frames, size=scenario.size, clip=scenario.name,
                                                  refresh=video_codecs.GOP),
-                  "workers": pool.workers, "first_extractions": min(FIRST_EXTRACTIONS, settings.extractions),
+                  "workers": pool.workers, "full_schedule": settings.full_schedule,
+                  "first_extractions": (settings.extractions if settings.full_schedule
+                                        else min(FIRST_EXTRACTIONS, settings.extractions)),
                   "rounds": [{"round": name, "wall_s": round(seconds, 2), "frames_extracted": frames}
                              for name, seconds, frames in study.round_s],
                   "extraction_s": round(extraction_s, 2)}
