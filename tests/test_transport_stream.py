@@ -178,3 +178,15 @@ def test_mux_rejects_bad_tracks(programme):
         mux_transport_stream(programme, signer_data=ParameterTrack("fba", FPS, [(3, b"a"), (1, b"b")]))
     with pytest.raises(SigncastError):
         ts_overhead(mux_transport_stream(programme), 0.0)
+
+
+def test_a_ts_that_adds_a_stream_after_its_start_is_rejected_cleanly():
+    """Found by the ts-demux fuzz target (issue 37, 10-minute run): a mutated TS made FFmpeg find a stream after
+    the container opened, and PyAV's demuxer raised IndexError; now a SigncastError."""
+    from pathlib import Path
+
+    from comparisons.transport import ts
+    from media.errors import SigncastError
+    data = (Path(__file__).parent / "data" / "live" / "ts-stream-added-later.ts").read_bytes()
+    with pytest.raises(SigncastError, match="adds an elementary stream"):
+        ts.demux_transport_stream(data)

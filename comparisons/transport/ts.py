@@ -246,19 +246,34 @@ def demux_transport_stream(data: bytes) -> Demuxed:
     """Every stream of the TS through PyAV's demuxer: PID (stream.id), kind, codec, packets (pts s, bytes);
     signcast's KLV parameter units unwrapped. SigncastError for input that is not a whole TS."""
     _check_ts(data)
-    streams: list[DemuxedStream] = []
+    found: dict[int, DemuxedStream] = {}
+
+    def described(stream) -> DemuxedStream:
+        if stream.index not in found:       # FFmpeg may add a stream while demuxing (a PMT that changes)
+            context = stream.codec_context
+            codec = context.name if context is not None else getattr(stream, "name", None)
+            found[stream.index] = DemuxedStream(stream.index, int(stream.id), stream.type, codec, [])
+        return found[stream.index]
+
     try:
         with av.open(io.BytesIO(data), "r", format="mpegts") as container:
             for stream in container.streams:
-                context = stream.codec_context
-                codec = context.name if context is not None else getattr(stream, "name", None)
-                streams.append(DemuxedStream(stream.index, int(stream.id), stream.type, codec, []))
-            for packet in container.demux():
+                described(stream)
+            packets = container.demux()
+            while True:
+                try:
+                    packet = next(packets)
+                except StopIteration:
+                    break
+                except IndexError:          # PyAV's stream list is fixed at open: FFmpeg found a stream later
+                    raise SigncastError("the transport stream adds an elementary stream after its start, which "
+                                        "PyAV's demuxer cannot follow") from None
                 if packet.size == 0 or packet.pts is None:
                     continue
-                streams[packet.stream.index].packets.append((float(packet.pts * packet.time_base), bytes(packet)))
+                described(packet.stream).packets.append((float(packet.pts * packet.time_base), bytes(packet)))
     except av.error.FFmpegError as error:
         raise SigncastError(f"cannot demux the transport stream: {error}") from None
+    streams = [found[index] for index in sorted(found)]
     if not streams:
         raise SigncastError("the transport stream carries no elementary stream")
     for stream in streams:
