@@ -12,7 +12,8 @@ set) differs only in its defaults (see `retarget`) and in where the phalanx leng
   median, in shoulder widths (clavicle_elevations: clamped to 8 deg, turned about the sternal end;
   shoulder01 turns back, so the arm below moves up and down without swinging); spine roll follows
   the shoulder line less what the clavicles raise (clamped to 20 deg, shared 0.2/0.4/0.4 by
-  spine03/02/01). Torso yaw and lean and clavicle protraction are not driven: in 2D keypoints they
+  spine03/02/01), measured from the clip's median shoulder-line tilt (the camera's roll or the signer's
+  posture at rest, which also levels the eyes' line: a torso nothing moves stays upright). Torso yaw and lean and clavicle protraction are not driven: in 2D keypoints they
   show only as the shoulder line's or the shoulders-to-hips distance's foreshortening, and over 40
   lexicon clips of signers facing the camera those alone read as 9-26 deg of yaw and 8-25 deg of
   lean (the shoulder landmarks shift as the arms rise); MediaPipe's depth (z) is no better: it is
@@ -58,8 +59,8 @@ set) differs only in its defaults (see `retarget`) and in where the phalanx leng
   hand) leaves its arm unposed: "natural" (the default) hangs it beside the body in the MPEG-4
   neutral posture (neutral_pose: upper arm NEUTRAL_ARM_ABDUCTION out of the vertical, elbow,
   wrist and fingers straight, palm facing the thigh, the hand beside the thigh) turned by REST_ARM
-  (the palm 20 deg back: one BAP, elbow_twisting, is all it costs an FBA stream); "a-pose" keeps
-  the avatar's rest pose.
+  (the palm 20 deg back; the fingers relaxed: slightly curled and nearly together, the thumb's joints a
+  little bent: 20 constant BAPs in an FBA stream); "a-pose" keeps the avatar's rest pose.
   A hand that is seen, but not in some frames (also at the start or end of the clip), holds the
   nearest frame where it was seen: a hand leaving the picture stays where it was last seen
   rather than dropping to rest along a path nobody observed. No output is ever NaN.
@@ -180,17 +181,26 @@ NEUTRAL_ARM_ABDUCTION = 14.0
 # The natural rest of an arm whose hand is never seen: degrees about the joints' anatomical axes
 # (joint_axes) away from the neutral, i.e. the BAP values it costs. The upper arm turns `flexion`
 # forward and `abduction` out, the elbow flexes `elbow`, the forearm twists `twist` (positive turns the
-# palm backward), the fingers flex at each joint (knuckle, middle, last; thumb: base, MCP, IP). Only the
-# twist is not zero, so the idle arm costs an FBA stream one BAP (elbow_twisting): a hand hanging exactly
-# in the neutral, its palm flat to the thigh, is seen edge-on from the front, and MediaPipe's handedness
-# cannot tell which hand it is (median 0.51 on the rendered ASL "AB"; palm turned 20 deg back: 0.28).
+# palm backward), the fingers flex at each joint (knuckle, middle, last; thumb: base, MCP, IP) and the
+# knuckles of the index, middle, ring and little fingers turn sideways by finger_spread (abduction, mirrored
+# for the right hand like the BAPs; negative closes the index towards the middle finger). The twist: a hand
+# hanging exactly in the neutral, its palm flat to the thigh, is seen edge-on from the front, and MediaPipe's
+# handedness cannot tell which hand it is (median 0.51 on the rendered ASL "AB"; palm turned 20 deg back:
+# 0.28). The fingers: the neutral's straight fingers keep the rig's spread (index 16, ring 11, little 14 deg
+# from the middle finger) and read as a splayed, tense hand; a relaxed hand hangs with its fingers slightly
+# curled (more at the middle joint) and nearly together, the thumb's base turned in (thumb_spread: its
+# abduction) so that its tip lies by the index finger's middle joint, its joints a little bent. Each non-zero
+# value is one BAP the idle arm costs an FBA stream: 1 twist + 12 finger flexions + 3 spreads + 4 thumb
+# = 20, all constant (docs/retargeting.md, "The natural rest of an unseen arm").
 REST_ARM = {
     "flexion": 0.0,
     "abduction": 0.0,
     "elbow": 0.0,
     "twist": 20.0,
-    "finger_curl": (0.0, 0.0, 0.0),
-    "thumb_curl": (0.0, 0.0, 0.0),
+    "finger_curl": (20.0, 30.0, 15.0),
+    "finger_spread": (-12.0, 0.0, 8.0, 10.0),
+    "thumb_curl": (10.0, 15.0, 10.0),
+    "thumb_spread": -15.0,
 }
 
 
@@ -444,9 +454,17 @@ def _torso_rotations(pose: np.ndarray, pose_valid: np.ndarray, skeleton: Skeleto
     seen = lambda *names: all(pose_valid[:, index[name]].any() for name in names)
     result = {}
 
+    # The shoulder line's tilt that the clip holds throughout (its median) is the camera's roll or the signer's
+    # posture at rest, not a lean: a head-and-shoulders clip shot at a slant (carphone: shoulders and eyes both
+    # 15 deg off level) would otherwise tip the whole avatar and swing its resting arms out. Lines are measured
+    # from it, so a torso nothing moves stays upright and only a change of tilt leans it.
+    both = pose_valid[:, index["LEFT_SHOULDER"]] & pose_valid[:, index["RIGHT_SHOULDER"]]
+    level = plane[:, index["LEFT_SHOULDER"]] - plane[:, index["RIGHT_SHOULDER"]]
+    camera_roll = float(np.median(np.arctan2(level[both, 1], level[both, 0]))) if both.any() else 0.0
+
     def roll_of(left: str, right: str) -> np.ndarray:
         v = plane[:, index[left]] - plane[:, index[right]]
-        return np.arctan2(v[:, 1], v[:, 0]) if seen(left, right) else np.zeros(n_frames)
+        return np.arctan2(v[:, 1], v[:, 0]) - camera_roll if seen(left, right) else np.zeros(n_frames)
 
     shoulder_line = roll_of("LEFT_SHOULDER", "RIGHT_SHOULDER")
     if skeleton is not None and seen("LEFT_SHOULDER", "RIGHT_SHOULDER"):
@@ -458,7 +476,7 @@ def _torso_rotations(pose: np.ndarray, pose_valid: np.ndarray, skeleton: Skeleto
         explained = np.sin(elevations) * levers / avatar_width                      # (T, 2) shoulder widths
         line = plane[:, index["LEFT_SHOULDER"]] - plane[:, index["RIGHT_SHOULDER"]]
         width = np.median(np.linalg.norm(line, axis=-1))
-        shoulder_line = np.arctan2(line[:, 1] - (explained[:, 0] - explained[:, 1]) * width, line[:, 0])
+        shoulder_line = np.arctan2(line[:, 1] - (explained[:, 0] - explained[:, 1]) * width, line[:, 0]) - camera_roll
     shoulder_roll = np.clip(shoulder_line, *np.radians([-SHOULDER_ROLL_MAX, SHOULDER_ROLL_MAX]))
     head_roll = np.clip(roll_of("LEFT_EYE", "RIGHT_EYE"), *np.radians([-HEAD_ROLL_MAX, HEAD_ROLL_MAX])) - shoulder_roll
     yaw = np.zeros(n_frames)
@@ -703,9 +721,13 @@ def natural_rest(skeleton: Skeleton, side: str) -> dict[str, np.ndarray]:
     mirror = 1.0 if side == "L" else -1.0
     turns = [("upperarm01", 0, REST_ARM["flexion"]), ("upperarm01", 2, mirror * REST_ARM["abduction"]),
              ("lowerarm01", 0, REST_ARM["elbow"]), ("lowerarm02", 1, mirror * REST_ARM["twist"])]
+    spreads = dict(zip(("index", "middle", "ring", "little"), REST_ARM.get("finger_spread", (0.0,) * 4)))
     for finger, chain in FINGER_CHAINS.items():
         curls = REST_ARM["thumb_curl" if finger == "thumb" else "finger_curl"]
         turns += [(bone, 0, curl) for (bone, _, _), curl in zip(chain, curls)]
+        # flexion first, then abduction about the moved axis: the BAPs' own order (fba_mapping.EULER_ORDER)
+        spread = REST_ARM.get("thumb_spread", 0.0) if finger == "thumb" else spreads.get(finger, 0.0)
+        turns.append((chain[0][0], 2, mirror * spread))
     for bone, axis, degrees in turns:
         if degrees:
             name = f"{bone}.{side}"

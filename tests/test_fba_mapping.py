@@ -93,14 +93,16 @@ def test_mpeg4_neutral_maps_to_zero_and_the_a_pose_does_not(skeleton):
     assert np.degrees(a_pose[elbow] * bap_table.ROTATION_UNIT_RAD) > 30.0              # the rig's bent elbow
 
 
-def test_natural_rest_of_an_unseen_arm_costs_one_bap(skeleton, letters):
+def test_natural_rest_of_an_unseen_arm_costs_its_stated_baps(skeleton, letters):
     values = motion_to_baps(letters["B"])
     bap_map = avatar_bap_map(skeleton)
     left_arm = [i for b in bap_map.bones if b.bone.endswith(".L") and b.bone.startswith(
         ("upperarm", "lowerarm", "wrist", "finger", "metacarpal")) for i in b.baps]
     moving = [i for i in left_arm if values[:, i - 1].any()]
-    assert moving == [bap_table.BY_NAME["l_elbow_twisting"].id]                      # the palm turned back a little
-    twist = values[:, moving[0] - 1] * bap_table.ROTATION_UNIT_RAD
+    # the palm turned back a little (elbow_twisting) and the relaxed hand: 12 finger flexions, 3 spreads, 4 thumb
+    assert bap_table.BY_NAME["l_elbow_twisting"].id in moving and len(moving) == 20
+    assert not {bap_table.BY_NAME[f"l_shoulder_{a}"].id for a in ("flexion", "abduct", "twisting")} & set(moving)
+    twist = values[:, bap_table.BY_NAME["l_elbow_twisting"].id - 1] * bap_table.ROTATION_UNIT_RAD
     np.testing.assert_allclose(np.degrees(twist), retarget.REST_ARM["twist"], atol=1e-3)
 
 
@@ -138,10 +140,12 @@ def test_group_budget_attributes_a_letters_bits_to_its_groups(letters):
     values = motion_to_baps(motion)
     budget = group_budget(values, motion.fps, 4, "pred")
     assert budget.total_bits == 8 * len(encode_fba(values, motion.fps, 4, "pred"))
-    assert 15 not in budget.group_bits and 17 not in budget.group_bits                 # the resting left hand
+    # the resting left hand (groups 15, 17) holds its relaxed pose: constant BAPs, a third of the signing hand's bits
+    assert budget.group_bits.get(15, 0) + budget.group_bits.get(17, 0) < budget.group_bits[16] / 3
     assert budget.group_bits[16] > 0 and budget.group_bits[7] > 0                      # right hand, right arm
     assert budget.overhead_bits + sum(budget.group_bits.values()) + budget.interaction_bits == budget.total_bits
-    assert abs(budget.interaction_bits) < 0.2 * budget.total_bits
+    # 24 % on this letter since its resting hand holds 19 more constant BAPs (issue 38; 0.2 held before)
+    assert abs(budget.interaction_bits) < 0.3 * budget.total_bits
     assert group_label(16) == "right hand 1"
     with pytest.raises(SigncastError):
         group_budget(values[:, :186], motion.fps, 4, "pred")

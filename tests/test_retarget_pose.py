@@ -229,3 +229,72 @@ def test_render_command_renders_a_pose_file_with_both_arms_posed(tmp_path, capsy
     out = capsys.readouterr().out
     assert "b.pose (hands: right)" in out and "at 10 fps" in out
     assert video.stat().st_size > 0 and preview.stat().st_size > 0
+
+
+# --------------------------------------------------------------------------- relaxed rest hand, upright torso
+
+def _rest_points(skeleton, side="L"):
+    from media.motion import Motion
+    pose = retarget.natural_rest(skeleton, side)
+    names = tuple(pose)
+    motion = Motion(25.0, names, np.stack([pose[n] for n in names])[None], np.zeros((1, 3)))
+    return joint_positions(skeleton, motion)[0], joint_positions(skeleton, motion, tails=True)[0]
+
+
+def test_the_resting_hand_is_relaxed_not_splayed(skeleton):
+    """Fingers slightly curled at every joint and nearly together, the thumb's tip by the index finger (the
+    neutral's straight fingers keep the rig's 11-16 deg spread and the thumb 6 cm from the index knuckle)."""
+    heads, tails = _rest_points(skeleton)
+    bone = lambda name: tails[skeleton.index(name)] - heads[skeleton.index(name)]
+    unit = lambda v: v / np.linalg.norm(v)
+    angle = lambda a, b: np.degrees(np.arccos(np.clip(unit(a) @ unit(b), -1.0, 1.0)))
+    for finger in (2, 4, 5):                                  # proximal phalanges nearly parallel to the middle's
+        assert angle(bone(f"finger{finger}-1.L"), bone("finger3-1.L")) < 7.0
+    for finger in (2, 3, 4, 5):                               # each joint bent a little, none a fist
+        chain = [bone(f"finger{finger}-{k}.L") for k in (1, 2, 3)]
+        assert 20.0 < angle(chain[0], chain[1]) < 45.0 and 5.0 < angle(chain[1], chain[2]) < 30.0
+    thumb_tip = tails[skeleton.index("finger1-3.L")]
+    index_middle = tails[skeleton.index("finger2-2.L")]
+    assert np.linalg.norm(thumb_tip - index_middle) < 0.045
+
+
+def test_the_relaxed_rest_costs_its_stated_baps(skeleton, asl_b):
+    """The idle left arm of a one-handed clip: exactly REST_ARM's non-zero values, each one constant BAP."""
+    from comparisons.params.fba_mapping import avatar_bap_map, motion_to_baps
+    values = motion_to_baps(retarget.retarget(read_pose(asl_b), skeleton).motion)
+    bap_map = avatar_bap_map(skeleton)
+    left_arm = [i for b in bap_map.bones if b.bone.endswith(".L") and b.bone.startswith(
+        ("upperarm", "lowerarm", "wrist", "finger", "metacarpal")) for i in b.baps]
+    moving = [i for i in left_arm if values[:, i - 1].any()]
+    rest = retarget.REST_ARM
+    nonzero = lambda values: int(np.count_nonzero(values))
+    stated = (nonzero([rest[k] for k in ("flexion", "abduction", "elbow", "twist", "thumb_spread")])
+              + 4 * nonzero(rest["finger_curl"]) + nonzero(rest["finger_spread"]) + nonzero(rest["thumb_curl"]))
+    assert len(moving) == stated == 20
+    assert np.all(values[:, [i - 1 for i in moving]] == values[:1, [i - 1 for i in moving]])
+
+
+@pytest.fixture(scope="module")
+def carphone_pose(tmp_path_factory):
+    """carphone's first 30 frames as a .pose: a head-and-shoulders clip shot at a slant (shoulders and eyes
+    15 deg off level), no hand seen."""
+    path = tmp_path_factory.mktemp("carphone") / "c.pose"
+    assert main(["pose", "carphone", "-o", str(path), "--frames", "30", "--no-progress"]) == 0
+    return path
+
+
+def test_an_undriven_torso_stays_upright_and_unseen_arms_rest(skeleton, carphone_pose):
+    result = retarget.retarget(read_pose(carphone_pose), skeleton)
+    motion = result.motion
+    assert result.hands == ()
+    for bone in ("spine01", "spine02", "spine03"):
+        _, angle = rotations.to_axis_angle(motion.rotations[:, motion.bone(bone)])
+        assert np.all(np.degrees(angle) < 2.0), bone               # formerly 5.9, 5.9 and 3.0 deg
+    heads = joint_positions(skeleton, motion)
+    rest = np.radians(retarget.NEUTRAL_ARM_ABDUCTION)
+    for side, outwards in (("L", 1.0), ("R", -1.0)):
+        upper = heads[:, skeleton.index(f"lowerarm01.{side}")] - heads[:, skeleton.index(f"upperarm01.{side}")]
+        out = np.degrees(np.arctan2(outwards * upper[:, 0], -upper[:, 1]))   # out of the vertical, in the frontal plane
+        assert np.all(np.abs(out - np.degrees(rest)) < 4.0), (side, out.min(), out.max())   # formerly 28-29 and 0
+    neck = heads[:, skeleton.index("neck01")] - heads[:, skeleton.index("spine01")]
+    assert np.all(np.degrees(np.arctan2(np.abs(neck[:, 0]), neck[:, 1])) < 3.0)            # upright
