@@ -110,7 +110,7 @@ def read_natural_clip(name_or_path: str, max_frames: int | None = None,
         notes.append(f"downscaled {path.name} from {clip.source_size[0]}x{clip.source_size[1]} to "
                      f"{clip.size[0]}x{clip.size[1]} to fit --max-size {max_size[0]}x{max_size[1]} "
                      f"(--max-size none keeps the size)")
-    with tqdm(total=min(faces.SAMPLED_FRAMES, read), desc="look for a face", unit="frame", disable=not progress) as bar:
+    with tqdm(total=min(faces.SAMPLED_FRAMES, read), desc="look for a person", unit="frame", disable=not progress) as bar:
         faces.check_person(clip.frames, path.name, progress=bar.update)
     if fps is not None and abs(fps - clip.fps) > 1e-3 * clip.fps:     # 29.97 asks for 30000/1001's own rate
         clip = clip.at_rate(fps)
