@@ -208,8 +208,8 @@ def carry(wanted, carrier_heads, carrier_parents, skinned_heads, skinned_parents
 
     Every frame is solved alone, by the same operations in the same order whatever its values, so the frames go
     through each operation together: state arrays keep the frame last and every step is a loop over frames,
-    which the compiler turns into vector instructions (sin and cos stay scalar calls, kept out of the vectorised
-    loops). tolerance (radians): a frame stops after the iteration whose largest carrier turn is below it
+    which the compiler turns into vector instructions (the turns' sin and 1 - cos as Taylor series,
+    `_sine_versine`). tolerance (radians): a frame stops after the iteration whose largest carrier turn is below it
     (`_solve_frames`); 0 runs every frame `iterations` times.
     """
     chain_start, chain_index, carried_start, carried_index, pair_start, pair_index, entry = carry_tables(
@@ -481,9 +481,7 @@ def _iterate(current, target, carrier_heads, carrier_parents, skinned_heads, ski
                 unit = max(angle, 1e-300)
                 axis[0, t], axis[1, t], axis[2, t] = vx / unit, vy / unit, vz / unit
                 sine[t] = angle
-            for t in range(T):              # scalar sin / cos, kept out of the vectorised loops
-                versine[t] = 1.0 - np.cos(sine[t])
-                sine[t] = np.sin(sine[t])
+            _sine_versine(sine, versine)
             # local = parent^T turn parent local, parent: the carrier's parent posed at this iteration's start
             p = carrier_parents[j]
             if T < FEW_FRAMES:          # one loop, the turn and the products in registers
@@ -508,6 +506,35 @@ def _iterate(current, target, carrier_heads, carrier_parents, skinned_heads, ski
             if settled:
                 break
     return ran, largest
+
+
+# Below this angle `_sine_versine` sums Taylor series (the terms left out are below 1e-19 of the result there);
+# every step's turn is at most max_turn (0.3 rad in media/face_rig.py), so the library's sin and cos, scalar calls
+# the compiler cannot vectorise, run only for larger turns.
+SERIES_LIMIT = 0.5
+
+
+@njit(cache=True, error_model="numpy")
+def _sine_versine(angle, versine):
+    """angle (T,) radians, >= 0 -> sin(angle) in place and versine (T,) = 1 - cos(angle): Taylor series in
+    angle^2 by Horner's rule up to the 13th and 14th powers when every angle is below SERIES_LIMIT (a vectorised
+    loop; within a few ulp of the library's, and 1 - cos without its cancellation), else np.sin / np.cos."""
+    large = False
+    for t in range(len(angle)):
+        large = large or angle[t] >= SERIES_LIMIT
+    if large:
+        for t in range(len(angle)):
+            a = angle[t]
+            versine[t] = 1.0 - np.cos(a)
+            angle[t] = np.sin(a)
+        return
+    for t in range(len(angle)):
+        a = angle[t]
+        a2 = a * a
+        versine[t] = a2 * (0.5 - a2 * (1.0 / 24 - a2 * (1.0 / 720 - a2 * (1.0 / 40320 - a2 * (
+            1.0 / 3628800 - a2 * (1.0 / 479001600 - a2 * (1.0 / 87178291200)))))))
+        angle[t] = a * (1.0 - a2 * (1.0 / 6 - a2 * (1.0 / 120 - a2 * (1.0 / 5040 - a2 * (
+            1.0 / 362880 - a2 * (1.0 / 39916800 - a2 * (1.0 / 6227020800)))))))
 
 
 @njit(cache=True, error_model="numpy")
