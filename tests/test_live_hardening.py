@@ -325,3 +325,18 @@ def test_receive_listens_within_3_s_of_starting():
     finally:
         process.wait(60)
     assert line.startswith("listening on") and elapsed < 3.0, (line, elapsed)
+
+
+def test_the_description_limits_are_the_coders_and_checking_them_loads_no_coder():
+    import subprocess
+    import sys
+    from comparisons.params.fba import MAX_FRAMES
+    from pipeline.live import session
+    assert session.MAX_FRAMES == MAX_FRAMES
+    code = ("import sys, json; from pipeline.live.session import SessionDescription as D; "
+            f"D.from_line({_description()!r}); "
+            "print(sorted(m for m in sys.modules if m.startswith(('comparisons.params', 'comparisons.lab', 'scipy'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
+    with pytest.raises(SigncastError, match="codec"):
+        SessionDescription.from_line(_description(codec="bba-pred"))

@@ -37,6 +37,8 @@ MAX_DESCRIPTION = 1 << 16   # bytes of the control line
 MIN_FPS = 1.0               # frame rates a session may declare: MIN_FPS .. media.domain.MAX_FPS
 MAX_STREAMS = 16            # RTP streams of one session (NSV3O+C has 8)
 MAX_SHOWN_BYTES = 4 << 30   # what the receiver may hold of shown frames, n_frames x height x width x 3
+MAX_FRAMES = 216_000        # = comparisons.params.fba.MAX_FRAMES, the parameter coders' limit (tested equal;
+                            # not imported: the receiver checks a description before it loads the coders)
 
 
 def _bad(what: str) -> SigncastError:
@@ -82,8 +84,7 @@ class SessionDescription:
         a codec it is sent with, Q in the codec's range, fps in MIN_FPS..MAX_FPS, 1..MAX_FRAMES frames (the
         parameter coders' limit), an even picture size in MIN_SIDE..MAX_SIDE whose frames fit MAX_SHOWN_BYTES,
         1..MAX_STREAMS streams with distinct SSRCs; SigncastError naming the first field that fails."""
-        from comparisons.params.fba import MAX_FRAMES
-        from media.domain import MAX_FPS, MAX_SIDE, MIN_SIDE, Solution
+        from media.domain import MAX_FPS, MAX_SIDE, MIN_SIDE, Solution, solution_of
         integer = lambda value: isinstance(value, int) and not isinstance(value, bool)
         for name in ("solution", "codec", "payload", "clip"):
             if not isinstance(getattr(self, name), str) or len(getattr(self, name)) > 200:
@@ -97,9 +98,13 @@ class SessionDescription:
         if self.payload not in PAYLOADS:
             raise _bad(f"payload format {self.payload[:40]!r}")
         if solution.kind == "parameters":
-            from comparisons.params.codecs import codec_names
-            from media.domain import solution_of
-            if self.codec not in codec_names() or solution_of(self.codec) != solution or self.payload != "units":
+            # fba-* / bba-* by name here (light: the receiver validates before it loads any codec); an unknown
+            # codec of the right family is refused when the sink is built (comparisons.params.codecs.get_codec)
+            try:
+                family = solution_of(self.codec)
+            except SigncastError:
+                family = None
+            if family != solution or self.payload != "units":
                 raise _bad(f"{solution} is not sent with codec {self.codec[:40]!r} in payload {self.payload!r}")
             low, high = 1, 31
         else:
