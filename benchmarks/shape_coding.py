@@ -21,6 +21,16 @@ before the loops moved into comparisons/video/shape_cae.py, same masks, same set
     352x288  clothes       43.10   14.53
 
     python benchmarks/shape_coding.py [--frames 20] [--repeats 3] [--cores 2]
+
+--bits (issue 39): where the shape bits go instead of the speed. Per object (signer, head, each hand) of the
+avatar's render of ASL "AB" at 320x240 (labels from the label buffer) and, with --clip carphone, of a real clip
+(labels by the landmark segmentation): the share of each CAE block mode (transparent, opaque, intra, inter,
+no update = "copy"), the bits by category (box, modes, shape motion vectors, intra and inter CAE pixels; the
+information -log2 p of each decoded symbol, comparisons.video.shape.shape_bit_account), the blocks with a
+vector and those whose vector differs from its prediction, the learning cost (pixel bits beyond a model that
+knew each GOP's statistics) and the bits per shape per frame.
+
+    python benchmarks/shape_coding.py --bits [--frames 36] [--clip carphone]
 """
 from __future__ import annotations
 
@@ -83,13 +93,75 @@ def render_masks(width: int, height: int, frames: int):
     return {name: masks[name] for name in OBJECTS}
 
 
+BIT_OBJECTS = {"signer": (1, 2, 3, 4), "head": (2,), "left_hand": (3,), "right_hand": (4,)}
+
+
+def avatar_labels(width: int, height: int, frames: int):
+    """(frames, height, width) uint8 part labels of the avatar's render of ASL "AB" (its label buffer)."""
+    import numpy as np
+
+    from media.avatar import load_avatar
+    from media.fingerspelling import fingerspell
+    from media.render import AvatarRenderer, RenderSettings
+
+    renderer = AvatarRenderer(load_avatar(), RenderSettings(width=width, height=height, backend="numpy"))
+    labels = []
+    for _, frame_labels in renderer.frames(fingerspell("ase", "AB")):
+        labels.append(frame_labels)
+        if len(labels) == frames:
+            break
+    return np.stack(labels)
+
+
+def clip_labels(name: str, frames: int):
+    """Part labels of a natural clip (pipeline.studies.shared: read, landmarks, landmark segmentation)."""
+    from pipeline.studies.shared import read_natural_clip, segment_clip
+
+    clip, _ = read_natural_clip(name, max_frames=frames, progress=False)
+    return segment_clip(clip.frames, progress=False, method="landmarks", fps=clip.fps)
+
+
+def print_bits(source: str, labels) -> None:
+    import numpy as np
+
+    from comparisons.video.shape import encode_shape, shape_bit_account
+
+    print(f"\n{source}: {labels.shape[2]}x{labels.shape[1]}, {labels.shape[0]} frames, GOP {GOP}")
+    print(f"{'object':11} {'transp':>6} {'opaque':>6} {'intra':>6} {'inter':>6} {'copy':>6}  {'box':>5} {'mode':>5}"
+          f" {'mv':>5} {'intra':>5} {'inter':>5} {'learn':>5} {'mv blk':>7} {'bits/frame':>10}")
+    print(f"{'':11} {'(% of coded blocks)':>34}  {'(% of the payload bits)':>29} {'moved':>13}")
+    for name, parts in BIT_OBJECTS.items():
+        masks = np.isin(labels, parts)
+        stream, _ = encode_shape(masks, gop=GOP)
+        account = shape_bit_account(stream)
+        modes = account["modes"]
+        blocks = max(1, sum(modes.values()))
+        bits = account["bits"]
+        payload = max(1e-9, sum(bits.values()))
+        shares = " ".join(f"{100 * modes[m] / blocks:6.1f}" for m in ("transparent", "opaque", "intra_cae",
+                                                                      "inter_cae", "copy"))
+        costs = " ".join(f"{100 * bits[c] / payload:5.1f}" for c in ("header", "mode", "mv", "intra_cae",
+                                                                     "inter_cae"))
+        print(f"{name:11} {shares}  {costs} {100 * account['learning_bits'] / payload:5.1f}"
+              f" {account['mv_nonzero']:3d}/{account['mv_blocks']:<4d}"
+              f" {account['total_bits'] / account['frames']:10.1f}", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, default=20)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--cores", type=int, default=2)
+    parser.add_argument("--bits", action="store_true", help="where the shape bits go (modes, vectors, learning)")
+    parser.add_argument("--clip", default=None, help="with --bits, also a natural clip (e.g. carphone)")
     args = parser.parse_args()
     pin(args.cores)
+    if args.bits:
+        frames = args.frames if args.frames != 20 else 36
+        print_bits('avatar ASL "AB" (label buffer)', avatar_labels(320, 240, frames))
+        if args.clip:
+            print_bits(f"{args.clip} (landmark segmentation)", clip_labels(args.clip, frames))
+        return
 
     import numpy as np
 

@@ -142,6 +142,7 @@ class Solution(StrEnum):
     NSV2O = "NSV2O"
     NSV3O = "NSV3O"
     NSV3O_C = "NSV3O+C"
+    NSV_ROI = "NSV-ROI"      # one H.264 stream, lower quantiser on the face and hands (comparisons/video/roi.py)
     SSV = "SSV"
     FBA = "FBA"
     BBA = "BBA"
@@ -153,7 +154,14 @@ class Solution(StrEnum):
 
     @property
     def natural(self) -> bool:
-        return self in (Solution.NSV, Solution.NSV2O, Solution.NSV3O, Solution.NSV3O_C)
+        return self in (Solution.NSV, Solution.NSV2O, Solution.NSV3O, Solution.NSV3O_C, Solution.NSV_ROI)
+
+    @property
+    def roi(self) -> bool:
+        """NSV-ROI: region-of-interest coding in one H.264 stream (libx264 only). The MPEG-4 Visual studies (the Q
+        sweep, live delivery, compare's series) do not code it, so video() and natural_family() leave it out;
+        `signcast video` lists it beside NSV2O/NSV3O when its codecs include libx264."""
+        return self is Solution.NSV_ROI
 
     @property
     def avatar(self) -> bool:
@@ -178,7 +186,7 @@ class Solution(StrEnum):
 
     @classmethod
     def video(cls) -> tuple["Solution", ...]:
-        return tuple(s for s in cls if s.kind == "video")
+        return tuple(s for s in cls if s.kind == "video" and not s.roi)
 
     @classmethod
     def parameters(cls) -> tuple["Solution", ...]:
@@ -186,7 +194,7 @@ class Solution(StrEnum):
 
     @classmethod
     def natural_family(cls) -> tuple["Solution", ...]:
-        return tuple(s for s in cls if s.natural)
+        return tuple(s for s in cls if s.natural and not s.roi)
 
     @classmethod
     def avatars(cls) -> tuple["Solution", ...]:

@@ -217,5 +217,5 @@ def test_the_report_orders_every_solution_and_the_criteria_cover_the_sources_six
     from comparisons.judging.criteria import SOLUTIONS
     from comparisons.reports.comparison import SOLUTION_ORDER as REPORT_ORDER
     assert REPORT_ORDER is SOLUTION_ORDER
-    assert SOLUTION_ORDER == ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "SSV", "FBA", "BBA", "motion coder")
+    assert SOLUTION_ORDER == ("NSV", "NSV2O", "NSV3O", "NSV3O+C", "NSV-ROI", "SSV", "FBA", "BBA", "motion coder")
     assert [s for s in SOLUTION_ORDER if s in SOLUTIONS] == list(SOLUTIONS)

@@ -16,8 +16,10 @@ def test_video_command_on_carphone_writes_records_tables_plots_and_overlays(tmp_
     assert code == 0
     records = read_records(out / "records.jsonl")
     points = [r for r in records if r.get("kind") == "point"]
-    # 4 solutions x (2 Q at carphone's own 29.97 fps + 4 lower frame rates + half resolution + x264)
-    assert len(points) == 4 * 8
+    # 4 solutions x (2 Q at carphone's own 29.97 fps + 4 lower frame rates + half resolution + x264), and NSV-ROI
+    assert len(points) == 4 * 8 + 1
+    roi = [r for r in points if r["solution"] == "NSV-ROI"]
+    assert len(roi) == 1 and roi[0]["codec"] == "libx264" and roi[0]["sweep"] == "codec" and roi[0]["shape_bits"] == 0
     native = 29.97
     by_key = {(r["solution"], r["codec"], r["q"], round(r["fps"], 2), r["width"]): r for r in points}
     nsv = by_key[("NSV", "mpeg4", 12, native, 176)]

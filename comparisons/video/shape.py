@@ -335,3 +335,54 @@ def decode_shape(stream: bytes) -> np.ndarray:
                                     coder.model.zeros, coder.model.ones, canvas.counts, int(inter)))
         masks[t] = canvas.to_array(height, width)
     return masks
+
+
+def shape_bit_account(stream: bytes) -> dict:
+    """Where a stream from encode_shape spends its bits (statistics for benchmarks/shape_coding.py; the stream is
+    checked by decode_shape first). Returns frames, total_bits (the whole stream, header included), modes (the
+    count of each BAB mode), bits (information in bits by category: header = presence flag and bounding box,
+    mode, mv, intra_cae and inter_cae pixels; their sum is the payload to within the coder's few bits of
+    termination), mv_blocks and mv_nonzero (blocks with a shape motion vector, and those whose vector differs
+    from its prediction), and learning_bits: the pixel bits beyond what a model that already knew each GOP's
+    context statistics would spend (sum over GOPs and contexts of n x the empirical entropy), the price of
+    adaptive models that start from the prior at every intra frame."""
+    masks = decode_shape(stream)
+    stream = bytes(stream)
+    _, _, width, height, frames, gop, _, _ = _HEADER.unpack_from(stream)
+    blocks_y, blocks_x = -(-height // BAB), -(-width // BAB)
+    coder = BinaryArithmeticDecoder(stream[_HEADER.size:])
+    canvas = _Canvas(blocks_y, blocks_x)
+    costs = np.zeros(kc.N_COSTS, np.float64)
+    hist = np.zeros((2, N_CONTEXTS), np.int64)
+    mv_blocks = np.zeros(2, np.int64)
+    learning = 0.0
+
+    def gop_entropy() -> float:
+        n = hist.sum(axis=0)
+        used = n > 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            p = hist[:, used] / n[used]
+            terms = np.where(p > 0, -p * np.log2(np.where(p > 0, p, 1)), 0.0)
+        return float((terms.sum(axis=0) * n[used]).sum())
+
+    entropy = 0.0
+    for t in range(frames):
+        if t:
+            canvas.next_frame()
+        inter = t % gop != 0
+        if not inter:
+            coder.reset_model()
+            entropy += gop_entropy()
+            hist[:] = 0
+        coder.check(kc.account_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
+                                     canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
+                                     coder.model.zeros, coder.model.ones, canvas.counts, int(inter), costs, hist,
+                                     mv_blocks))
+    entropy += gop_entropy()
+    pixel_bits = costs[kc.COST_INTRA] + costs[kc.COST_INTER]
+    learning = pixel_bits - entropy
+    names = ("header", "mode", "mv", "intra_cae", "inter_cae")
+    assert masks.shape[0] == frames
+    return {"frames": frames, "total_bits": 8 * len(stream), "modes": canvas.mode_counts(),
+            "bits": {name: float(costs[k]) for k, name in enumerate(names)},
+            "mv_blocks": int(mv_blocks[0]), "mv_nonzero": int(mv_blocks[1]), "learning_bits": learning}

@@ -548,3 +548,109 @@ def decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.n
             else:
                 _fill_block(cur, prev, stride, start, mode, shift)
     return OK
+
+
+# ------------------------------------------------------------------------------------- accounting (statistics only)
+# Where a stream's bits go (benchmarks/shape_coding.py): decode_frame again, charging each decoded symbol its
+# information, -log2 of the probability the model gave it, to one of these categories. Nothing here writes a
+# stream; the streams and the decoder above are unchanged.
+COST_HEADER, COST_MODE, COST_MV, COST_INTRA, COST_INTER = 0, 1, 2, 3, 4
+N_COSTS = 5
+
+
+@njit(cache=True)
+def _decode_charged(data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray, ctx: int,
+                    costs: np.ndarray, category: int) -> int:
+    p = p0(zeros, ones, ctx)
+    bit = decode(data, regs, zeros, ones, ctx)
+    costs[category] += -np.log2((65536 - p) / 65536.0) if bit else -np.log2(p / 65536.0)
+    return bit
+
+
+@njit(cache=True)
+def _decode_mv_charged(data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray, component: int,
+                       costs: np.ndarray) -> int:
+    base = CTX_MV + component * 10
+    if not _decode_charged(data, regs, zeros, ones, base, costs, COST_MV):
+        return 0
+    negative = _decode_charged(data, regs, zeros, ones, base + 1, costs, COST_MV)
+    magnitude, limit = 1, 2 * SEARCH_RANGE
+    while magnitude < limit and _decode_charged(data, regs, zeros, ones, base + 2 + min(magnitude - 1, 7), costs,
+                                                COST_MV):
+        magnitude += 1
+    return -magnitude if negative else magnitude
+
+
+@njit(cache=True)
+def account_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
+                  border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
+                  zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, costs: np.ndarray,
+                  pixel_hist: np.ndarray, mv_blocks: np.ndarray) -> int:
+    """decode_frame, and: costs (N_COSTS,) float64 gets each symbol's information in bits by category (the box's
+    raw bits count 1 each); pixel_hist (2, N_CONTEXTS) int64 counts the decoded pixel values per context (for
+    the cost of a model that had known the statistics: the learning cost); mv_blocks (2,) int64 counts the
+    blocks with a motion vector and those whose vector differs from its prediction."""
+    blocks_y, blocks_x = modes.shape
+    present = _decode_charged(data, regs, zeros, ones, CTX_PRESENT, costs, COST_HEADER)
+    if regs[STATUS] != OK or not present:
+        return regs[STATUS]
+    nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
+    by0 = decode_raw(data, regs, nby)
+    by1 = decode_raw(data, regs, nby)
+    bx0 = decode_raw(data, regs, nbx)
+    bx1 = decode_raw(data, regs, nbx)
+    costs[COST_HEADER] += 2 * (nby + nbx)
+    if regs[STATUS] != OK:
+        return regs[STATUS]
+    if not (by0 <= by1 < blocks_y and bx0 <= bx1 < blocks_x):
+        return BAD_BOX
+    order = _mode_order(inter)
+    for by in range(by0, by1 + 1):
+        for bx in range(bx0, bx1 + 1):
+            y0, x0 = by * BAB, bx * BAB
+            start = (y0 + border) * stride + x0 + border
+            ctx0 = _mode_context(modes, previous_modes, by, bx, inter)
+            mode = order[order.size - 1]
+            for position in range(order.size - 1):
+                if _decode_charged(data, regs, zeros, ones, ctx0 + position, costs, COST_MODE):
+                    mode = order[position]
+                    break
+            mv_x, mv_y = 0, 0
+            if mode == COPY or mode == INTER_CAE:
+                pred_x, pred_y = _mv_predictor(mvs, has_mv, by, bx)
+                dx = _decode_mv_charged(data, regs, zeros, ones, 0, costs)
+                dy = _decode_mv_charged(data, regs, zeros, ones, 1, costs)
+                mv_x, mv_y = pred_x + dx, pred_y + dy
+                if regs[STATUS] != OK:
+                    return regs[STATUS]
+                if abs(mv_x) > SEARCH_RANGE or abs(mv_y) > SEARCH_RANGE:
+                    return BAD_MV
+                mvs[by, bx, 0], mvs[by, bx, 1], has_mv[by, bx] = mv_x, mv_y, 1
+                mv_blocks[0] += 1
+                if dx != 0 or dy != 0:
+                    mv_blocks[1] += 1
+            if regs[STATUS] != OK:
+                return regs[STATUS]
+            modes[by, bx] = mode
+            counts[mode] += 1
+            shift = mv_y * stride + mv_x
+            if mode == INTRA_CAE or mode == INTER_CAE:
+                category = COST_INTRA if mode == INTRA_CAE else COST_INTER
+                for r in range(BAB):
+                    row = start + r * stride
+                    for c in range(BAB):
+                        i = row + c
+                        if mode == INTRA_CAE:
+                            ctx = _intra_context(cur, i, stride)
+                        else:
+                            ctx = _inter_context(cur, prev, i, i + shift, stride)
+                        bit = _decode_charged(data, regs, zeros, ones, ctx, costs, category)
+                        cur[i] = bit
+                        pixel_hist[bit, ctx] += 1
+                    cur[row + BAB] = cur[row + BAB + 1] = cur[row + BAB - 1]
+                _clear_right(cur, stride, start)
+                if regs[STATUS] != OK:
+                    return regs[STATUS]
+            else:
+                _fill_block(cur, prev, stride, start, mode, shift)
+    return OK

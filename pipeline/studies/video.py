@@ -9,7 +9,8 @@ measured over the clip's real duration. Sweeps, all with MPEG-4 Part 2 at fixed 
   linear fit;
 - "resolution": half width and height at Q = 12, the clip's rate (Tables 4.8, 4.11, 4.14);
 - "codec": H.264 (libx264) and AV1 (SVT-AV1) at matched quality (each object's PSNR inside its shape at least
-  that of MPEG-4 at Q = 12).
+  that of MPEG-4 at Q = 12); with libx264 also NSV-ROI (comparisons/video/roi.py: one stream, the face and
+  hands at a lower quantiser than the rest, at the cheapest CRF whose skin PSNR reaches NSV's at Q = 12).
 NSV3O+C's clothes are coded at Q = 31 (Table 4.15). Outputs go to the study's folder: records.jsonl (each
 record appended as it is measured), CSV tables, PNG plots and mask overlays.
 
@@ -36,6 +37,7 @@ from comparisons.video import quality as image_quality
 from comparisons.reports import comparison as report
 from comparisons.video import codecs as video_codecs
 from comparisons.video import objects as video_objects
+from comparisons.video import roi as video_roi
 from comparisons.reports.records import make_record, versions
 from pipeline.outputs import write_records
 from media import segmentation
@@ -162,6 +164,14 @@ def code_clip(frames: np.ndarray, labels: np.ndarray, clip: str, settings: Video
         records.append(record)
         if records_path is not None:
             write_records(records_path, [record], append=True)
+    if Solution.NSV in operating and any(c in video_roi.ROI_CODECS for c in settings.other_codecs):
+        config = configs[0]
+        coded, crf = code_roi_matched(operating[Solution.NSV], config.frames, config.labels, config.fps)
+        record = _record(coded, config, clip, "libx264", crf, timing, settings, software, "codec")
+        record["object_q"] = {"frame": crf}
+        records.append(record)
+        if records_path is not None:
+            write_records(records_path, [record], append=True)
     run = {"kind": "run", "clip": clip, "frames": len(frames), "source_fps": settings.source_fps,
            "native_fps": timing.native_fps, "duration_s": timing.duration_s, "backend": "cpu", "versions": software,
            "shape_streams": _shape_summary(shapes, timing.duration_s)}
@@ -169,6 +179,26 @@ def code_clip(frames: np.ndarray, labels: np.ndarray, clip: str, settings: Video
     if records_path is not None:
         write_records(records_path, [run], append=True)
     return records
+
+
+def code_roi_matched(reference: video_objects.CodedSolution, frames: np.ndarray, labels: np.ndarray,
+                     fps: float) -> tuple[video_objects.CodedSolution, int]:
+    """NSV-ROI (comparisons/video/roi.py): one libx264 stream with the face and hands at a lower quantiser than
+    the rest, at the cheapest CRF whose skin PSNR reaches the reference's (the NSV operating point's): the
+    skin, not the whole frame, is what the region coding spends its bits on. Returns the solution and its CRF."""
+    skin = segmentation.object_masks(labels)["skin"]
+    target = image_quality.psnr(frames, reference.picture, skin)
+
+    def encode_at(crf: int):
+        coded = video_roi.encode_roi(frames, labels, fps, video_roi.RoiSettings(crf=crf))
+        return coded, image_quality.psnr(frames, coded.picture, skin)
+
+    crf, coded, _ = video_codecs.match_quality(encode_at, video_roi.CRF_RANGE, target)
+    height, width = frames.shape[1:3]
+    whole = np.ones(frames.shape[:3], bool)
+    frame = video_objects.CodedObject("frame", crf, (0, height, 0, width), len(coded.data), 0, coded.picture, whole,
+                                      100.0)
+    return video_objects.CodedSolution(Solution.NSV_ROI, [frame], coded.picture, whole), crf
 
 
 def _shape_summary(shapes: video_objects.ShapeCache, duration_s: float) -> list[dict]:
@@ -194,7 +224,7 @@ def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
 def _area(record: dict) -> float | None:
     return {Solution.NSV: None, Solution.NSV2O: record["signer_area_percent"],
             Solution.NSV3O: record["skin_area_percent"], Solution.NSV3O_C: record["skin_area_percent"],
-            Solution.SSV: record["skin_area_percent"]}.get(record["solution"])
+            Solution.NSV_ROI: record["skin_area_percent"], Solution.SSV: record["skin_area_percent"]}.get(record["solution"])
 
 
 def write_tables(records: list[dict], out_dir: Path) -> list[Path]:
