@@ -157,10 +157,8 @@ def raster(triangles: wp.array(dtype=wp.int32), vertices: wp.array(dtype=wp.vec4
         z0 = v0[2]
         z1 = v1[2]
         z2 = v2[2]
-        flipped = int(0)  # noqa: UP018, RUF046 - Warp: a typed variable that the branch below may change
         if area > wp.int64(0):
             area = -area
-            flipped = 1
             x1 = wp.int64(v2[0])
             y1 = wp.int64(v2[1])
             x2 = wp.int64(v1[0])

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from comparisons.reports.lab import charts, count_points, operating_ranges, points_rows, ranges_rows
+from comparisons.reports.lab import charts, operating_ranges, points_rows, ranges_rows
 from comparisons.lab.codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec, alphabet_motion
 from comparisons.lab.settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, FPS, MPEG4_Q
 from comparisons.params.codecs import get_codec
