@@ -72,14 +72,21 @@ class ExtractionTimer:
 
 def timed_run(name: str, settings, out_dir: Path) -> dict:
     from pipeline.studies.compare import run
+    import resource
     load_before = os.getloadavg()
     timer = ExtractionTimer()
+
+    def cpu() -> float:
+        return sum(getattr(resource.getrusage(who), field) for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)
+                   for field in ("ru_utime", "ru_stime"))
+    cpu_before = cpu()
     started = time.perf_counter()
     try:
         result = run(settings, out_dir, progress=False)
     finally:
         timer.close()
     wall = time.perf_counter() - started
+    cpu_s = cpu() - cpu_before
     load_after = os.getloadavg()
     records = result.records
     run_record = next(r for r in records if r.get("kind") == "run")
@@ -93,12 +100,16 @@ def timed_run(name: str, settings, out_dir: Path) -> dict:
                    "q": [r["q_low"], r["q_high"]], "kbps_min": r.get("kbps_min"), "kbps_max": r.get("kbps_max"),
                    "pooled_kbps": r.get("pooled_kbps"), "extractions": r.get("extractions")}
                for r in records if r.get("kind") == "matched"}
-    return {"run": name, "wall_s": round(wall, 1), "stages": stages, "workers": workers,
+    # CPU seconds: this process and its waited-for children, plus the pool workers' jobs (the study's count);
+    # on an idle machine of `cpus` cores the run takes about max(cpu_s / min(workers, cpus), the serial stages)
+    cpu_s += float(run_record.get("worker_cpu_s") or 0.0)
+    return {"run": name, "wall_s": round(wall, 1), "cpu_s": round(cpu_s, 1), "stages": stages, "workers": workers,
             "extraction_s": round(extraction, 1),
             "extraction_share": round(extraction / (wall * min(workers, os.cpu_count() or 1)), 3),
             "points": len({(r["solution"], r["codec"], r["q"], r["fps"]) for r in points}),
             "load_before": [round(v, 2) for v in load_before], "load_after": [round(v, 2) for v in load_after],
-            "cpus": os.cpu_count(), "matched": matched}
+            "cpus": os.cpu_count(), "matched": matched, "rounds": run_record.get("rounds"),
+            "point_extractions": sorted(int(r.get("extractions") or 0) for r in points)}
 
 
 def main() -> int:
@@ -132,7 +143,7 @@ def main() -> int:
             results.append(result)
             with open(args.out, "a") as out:
                 out.write(json.dumps(result) + "\n")
-            print(f"{args.label} {name}: {result['wall_s']:.0f} s wall, {result['points']} points, extraction "
+            print(f"{args.label} {name}: {result['wall_s']:.0f} s wall, {result['cpu_s']:.0f} CPU s, {result['points']} points, extraction "
                   f"{result['extraction_s']:.0f} s ({100 * result['extraction_share']:.0f} % of {result['workers']} "
                   f"process(es) x wall); load {result['load_before']} -> {result['load_after']}")
             for stage, seconds in result["stages"].items():

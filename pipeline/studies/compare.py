@@ -465,13 +465,13 @@ class Measurer:
                 "observed": draws[job.shifts.index(0)] if 0 in job.shifts else None}
 
     def run(self, job) -> dict:
-        seconds, frames = shared.EXTRACTION["seconds"], shared.EXTRACTION["frames"]
+        seconds, frames, cpu = shared.EXTRACTION["seconds"], shared.EXTRACTION["frames"], time.process_time()
         if isinstance(job, ExtractJob):
             result = {"observed": self.extract(job.frames, job.fps, (job.shift,), job.label)[0]}
         else:
             result = self.ceiling(job) if isinstance(job, CeilingJob) else self.point(job)
         result.update(extraction_s=shared.EXTRACTION["seconds"] - seconds,
-                      extracted_frames=shared.EXTRACTION["frames"] - frames)
+                      extracted_frames=shared.EXTRACTION["frames"] - frames, cpu_s=time.process_time() - cpu)
         return result
 
 
@@ -515,6 +515,7 @@ class Study:
         self.pool: shared.StudyPool | None = None
         self.notify = notify
         self.extraction_s, self.extracted_frames = 0.0, 0   # landmark extraction in the pool's jobs
+        self.jobs_cpu_s = 0.0                               # CPU seconds of the pool's jobs (all their threads)
         self.round_s: list[tuple[str, float, int]] = []     # (round, wall seconds, frames extracted)
 
     def series(self) -> list[Series]:
@@ -570,6 +571,7 @@ class Study:
         for result in results:
             self.extraction_s += result["extraction_s"]
             self.extracted_frames += result["extracted_frames"]
+            self.jobs_cpu_s += result["cpu_s"]
         self.round_s.append((desc, time.perf_counter() - started, sum(r["extracted_frames"] for r in results)))
         return results
 
@@ -903,7 +905,9 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                                         else min(FIRST_EXTRACTIONS, settings.extractions)),
                   "rounds": [{"round": name, "wall_s": round(seconds, 2), "frames_extracted": frames}
                              for name, seconds, frames in study.round_s],
-                  "extraction_s": round(extraction_s, 2)}
+                  "extraction_s": round(extraction_s, 2),
+                  # CPU seconds of the jobs run in pool workers (with one worker they ran in this process)
+                  "worker_cpu_s": round(study.jobs_cpu_s, 2) if pool.workers > 1 else 0.0}
     all_records = [run_record] + study.records + clock.records()
     write_records(out_dir / "records.jsonl", all_records)
     write_bytes(out_dir / "side_by_side_poster.png", poster)
