@@ -1,8 +1,9 @@
 """The FBA encoders (fba-pred, fba-dct: body and face) and the shape coder by what a user relies on (issue 33):
 the decoder reads what the encoder wrote, every value comes back within the bound stated in the encoder's
 docstring, and the rate stays within RATE_TOLERANCE of the stored figure. Their bytes may differ between CPUs
-(the DCT's float products, FMA or not; the retargeting in front of them); the decoders are pinned by
-tests/test_conformance.py.
+(the DCT's float products, FMA or not; the Motion -> BAP split in front of them); the decoders are pinned by
+tests/test_conformance.py. Rates are pinned on the stored letters (retargeted once); letters retargeted now and
+hypothesis-generated tracks are held to the bounds alone.
 
 Stated bounds, per parameter in its own unit (comparisons/params/fba.py encode_fba):
 - predictive (BAPs and FAPs): half a quantiser step, step = bap_table.steps() x Q (FAPs: fap_table.steps() x
@@ -13,6 +14,8 @@ Stated bounds, per parameter in its own unit (comparisons/params/fba.py encode_f
 - shape (comparisons/video/shape.py encode_shape): lossless.
 """
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,37 +28,22 @@ from comparisons.params.fba import decode_fba, encode_fba
 from comparisons.params.fba_mapping import motion_to_baps
 from comparisons.video.shape import decode_shape, encode_shape
 from media.fingerspelling import letter_motion
+from media.motion import Motion
 
 RATE_TOLERANCE = 0.02
 QS = (1, 8, 31)
-# Stored sizes in bytes at 25 fps (the coder of this commit): (language, letter, coding, Q) -> (the letter's body
-# and face in one stream, its face alone). Measured with the letters' faces as FAPs (fap_quant = Q).
+# Stored sizes in bytes at 25 fps, measured 6 Dec 2026 on the stored ASL letters (tests/data/codec_letter_motions.npz,
+# retargeted once, so a retargeting change does not move them): (letter, coding, Q) -> (the letter's body and face
+# in one stream, its face alone), fap_quant = Q. An encoder change may move them by RATE_TOLERANCE; beyond it,
+# re-measure deliberately and say why in the commit.
 STORED_BYTES = {
-    ('ase', 'A', 'pred', 1): (1984, 803),
-    ('ase', 'A', 'pred', 8): (1013, 420),
-    ('ase', 'A', 'pred', 31): (502, 176),
-    ('ase', 'A', 'dct', 1): (1633, 651),
-    ('ase', 'A', 'dct', 8): (1009, 373),
-    ('ase', 'A', 'dct', 31): (616, 197),
-    ('ase', 'H', 'pred', 1): (1807, 787),
-    ('ase', 'H', 'pred', 8): (1055, 429),
-    ('ase', 'H', 'pred', 31): (525, 178),
-    ('ase', 'H', 'dct', 1): (1668, 637),
-    ('ase', 'H', 'dct', 8): (1057, 378),
-    ('ase', 'H', 'dct', 31): (652, 187),
-    ('ase', 'J', 'pred', 1): (2262, 923),
-    ('ase', 'J', 'pred', 8): (1328, 472),
-    ('ase', 'J', 'pred', 31): (765, 207),
-    ('ase', 'J', 'dct', 1): (2231, 776),
-    ('ase', 'J', 'dct', 8): (1407, 468),
-    ('ase', 'J', 'dct', 31): (904, 224),
-    ('bzs', 'B', 'pred', 1): (2074, 851),
-    ('bzs', 'B', 'pred', 8): (1260, 488),
-    ('bzs', 'B', 'pred', 31): (707, 268),
-    ('bzs', 'B', 'dct', 1): (1930, 737),
-    ('bzs', 'B', 'dct', 8): (1243, 468),
-    ('bzs', 'B', 'dct', 31): (781, 275),
+    ('A', 'pred', 1): (1984, 803), ('A', 'pred', 8): (1013, 420), ('A', 'pred', 31): (502, 176),
+    ('A', 'dct', 1): (1633, 651), ('A', 'dct', 8): (1009, 373), ('A', 'dct', 31): (616, 197),
+    ('J', 'pred', 1): (2262, 923), ('J', 'pred', 8): (1328, 472), ('J', 'pred', 31): (765, 207),
+    ('J', 'dct', 1): (2231, 776), ('J', 'dct', 8): (1407, 468), ('J', 'dct', 31): (904, 224),
 }
+# Letters retargeted now (media.fingerspelling.letter_motion), for the round-trip bounds only.
+LIVE_LETTERS = (("ase", "H"), ("ase", "J"), ("bzs", "B"))
 
 
 def round_trip_bound(steps: np.ndarray, q: int, coding: str) -> np.ndarray:
@@ -84,25 +72,35 @@ def _check_round_trip(baps, faps, q: int, coding: str, fps: float = 25.0) -> byt
     return data
 
 
-@pytest.fixture(scope="module")
-def letters():
-    out = {}
-    for language, letter in sorted({key[:2] for key in STORED_BYTES}):
-        motion = letter_motion(language, letter, 25.0)
-        assert motion.faps is not None
-        out[(language, letter)] = (motion_to_baps(motion), motion.faps)
-    return out
+def _stored_letter_motion(letter: str) -> Motion:
+    """ASL `letter` at 25 fps with its face as stored in tests/data/codec_letter_motions.npz."""
+    with np.load(Path(__file__).resolve().parent / "data" / "codec_letter_motions.npz") as stored:
+        return Motion(float(stored[f"{letter}/fps"]), [str(n) for n in stored[f"{letter}/bone_names"]],
+                      stored[f"{letter}/rotations"], stored[f"{letter}/root_translation"], stored[f"{letter}/faps"])
 
 
 @pytest.mark.parametrize("coding", ["pred", "dct"])
-def test_fba_streams_of_real_letters_round_trip_within_the_bound_at_the_stored_rate(letters, coding):
-    """Body and face together, and the face alone (the FAP streams), of real fingerspelled letters at Q 1, 8, 31."""
-    for (language, letter), (baps, faps) in letters.items():
+def test_fba_streams_of_stored_letters_round_trip_within_the_bound_at_the_stored_rate(coding):
+    """Body and face together, and the face alone (the FAP streams), of the stored letters at Q 1, 8, 31."""
+    for letter in sorted({key[0] for key in STORED_BYTES}):
+        motion = _stored_letter_motion(letter)
+        baps = motion_to_baps(motion)
         for q in QS:
-            both = _check_round_trip(baps, faps, q, coding)
-            face = _check_round_trip(None, faps, q, coding)
-            for data, stored in zip((both, face), STORED_BYTES[(language, letter, coding, q)]):
-                assert abs(len(data) - stored) <= RATE_TOLERANCE * stored, (language, letter, coding, q, len(data))
+            both = _check_round_trip(baps, motion.faps, q, coding, motion.fps)
+            face = _check_round_trip(None, motion.faps, q, coding, motion.fps)
+            for data, stored in zip((both, face), STORED_BYTES[(letter, coding, q)]):
+                assert abs(len(data) - stored) <= RATE_TOLERANCE * stored, (letter, coding, q, len(data), stored)
+
+
+@pytest.mark.parametrize("coding", ["pred", "dct"])
+def test_fba_streams_of_letters_retargeted_now_round_trip_within_the_bound(coding):
+    for language, letter in LIVE_LETTERS:
+        motion = letter_motion(language, letter, 25.0)
+        assert motion.faps is not None
+        baps = motion_to_baps(motion)
+        for q in QS:
+            _check_round_trip(baps, motion.faps, q, coding)
+            _check_round_trip(None, motion.faps, q, coding)
 
 
 def test_the_dct_bound_is_about_one_step():
