@@ -5,11 +5,13 @@ Senders ("sources"): capture(i) is called at frame i's capture time and returns 
 finish() returns what is left after the last frame.
 - NSV (VideoSource): the frame is encoded at once by a live PyAV encoder (comparisons.transport.video.LiveEncoder,
   no B-frames: each would delay every frame by one frame interval) and its packet sent as one access unit.
-- FBA / BBA (ParameterSource): frames are gathered into refresh periods; when a period's last frame is captured,
-  the period is coded by the parameter codec as one self-contained stream (intra first) and sent as one unit
-  (comparisons.transport.fba_units: start code, frame numbers, CRC-8, the stream with its own checks). A unit decodes alone,
-  so a lost one costs exactly its frames; the price is look-ahead: a period's first frame waits refresh - 1
-  frame intervals before it can be sent.
+- FBA / BBA (ParameterSource), low delay (units "frame", the default of `live` and `send`): every frame is a
+  unit sent as it is captured: the codec's own one-frame stream at least every refresh frames, a delta unit
+  predicted from that intra frame between (comparisons.transport.fba_units.encode_delta). With units "period",
+  frames are gathered into refresh periods; when a period's last frame is captured, the period is coded by the
+  parameter codec as one self-contained stream (intra first) and sent as one unit (comparisons.transport.fba_units:
+  start code, frame numbers, CRC-8, the stream with its own checks). A unit decodes alone, so a lost one costs
+  exactly its frames; the price is look-ahead: a period's first frame waits refresh - 1 frame intervals.
 
 Receivers ("sinks"): receive(frame, depacketized) is called as the jitter buffer releases each capture instant's
 data and returns the indices of the frames now ready to show; finish() returns (shown (T, H, W, 3) uint8,
