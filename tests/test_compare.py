@@ -345,6 +345,12 @@ def test_the_q_search_runs_coarse_to_fine_and_stops_once_the_fit_has_crossed_bet
     assert next_swept_q(swept, _fit_points({12: 85.0, 6: 92.0, 2: 86.0}), criteria) is None
     # a cheaper point meeting by chance below a dearer miss does not stop the search: pooled, 12 and 6 miss
     assert next_swept_q(swept, _fit_points({12: 91.0, 6: 87.0}), criteria) == 2
+    # every extraction's own fit must have crossed too: the means meet at Q 12 and miss at 24 and 31, but one
+    # extraction alone misses at 12 (on a second criterion, say), so the search goes on finer, to Q 6
+    crossed = _fit_points({12: 95.0, 31: 80.0, 24: 85.0})
+    missed = _fit_points({12: 89.0, 31: 80.0, 24: 85.0})
+    assert next_swept_q(swept, crossed, criteria, [(crossed, criteria)]) is None
+    assert next_swept_q(swept, crossed, criteria, [(crossed, criteria), (missed, criteria)]) == 6
 
 
 def test_frame_rates_run_from_the_highest_down_and_stop_at_the_first_miss():

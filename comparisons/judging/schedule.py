@@ -4,8 +4,9 @@
 - The Q sweep runs coarse to fine as a search over the swept Q (`next_swept_q`): the first point is the middle of
   the swept Q; then, on the monotone fit of the points measured so far (comparisons.judging.matching), the middle
   of the swept Q still unmeasured between the bracket's two points (finer than the dearest point where it misses,
-  coarser than the cheapest where it meets). A series stops when no swept Q is left between its fit's crossing
-  points: the fit has crossed the threshold between two neighbours of the sweep. The Q sweep alone would measure
+  coarser than the cheapest where it meets), asked for by the fit of the means or by any extraction's own fit. A
+  series stops when no swept Q is left between any of those fits' crossing points: every fit has crossed the
+  threshold between two neighbours of the sweep. The Q sweep alone would measure
   every swept Q; a point outside the bracket moves the fit only where it reads against the trend (the extractor's
   noise), which the later extractions check.
 - Extractions are added where the answer is unclear (`extractions_agree`): each extraction is matched on its own
@@ -28,28 +29,36 @@ def _middle(candidates: list[int]) -> int:
     return ordered[(len(ordered) - 1) // 2]
 
 
-def next_swept_q(swept: tuple[int, ...] | list[int], points: list[dict],
-                 criteria: list[matching.Criterion]) -> int | None:
+def _candidates(found: matching.Match, measured: set[int], unmeasured: list[int]) -> set[int]:
+    """The unmeasured swept Q where a match asks for its next point: finer than the finest measured where it is not
+    reached, coarser than its point where the cheapest meets, else strictly between its bracket's two Q."""
+    if not found.reached:
+        finest = min(measured)
+        return {q for q in unmeasured if q < finest}
+    if found.lower is None:
+        coarsest = int(found.upper["q"])
+        return {q for q in unmeasured if q > coarsest}
+    upper, lower = int(found.upper["q"]), int(found.lower["q"])
+    return {q for q in unmeasured if min(upper, lower) < q < max(upper, lower)}
+
+
+def next_swept_q(swept: tuple[int, ...] | list[int], points: list[dict], criteria: list[matching.Criterion],
+                 extractions: list[tuple[list[dict], list[matching.Criterion]]] = ()) -> int | None:
     """The next swept Q to measure for one series, or None where its search is over (see the module's
     description). points: the series' Q-sweep points measured so far (refined points included: they bound the
-    search like any other)."""
+    search like any other); extractions: each extraction's (points, criteria) as it alone read them
+    (operating.pick), whose matches ask for points too: the search stops only where the fit of the means and every
+    extraction's fit have crossed the threshold between neighbours of the sweep (clearly crossed)."""
     measured = {int(p["q"]) for p in points}
     unmeasured = [int(q) for q in swept if int(q) not in measured]
     if not unmeasured:
         return None
     if not points:
         return _middle(unmeasured)
-    found = matching.cheapest_rate(points, criteria, monotone=True)
-    if not found.reached:                          # even the dearest point misses: finer
-        finest = min(measured)
-        candidates = [q for q in unmeasured if q < finest]
-    elif found.lower is None:                      # the cheapest point meets: coarser
-        coarsest = int(found.upper["q"])
-        candidates = [q for q in unmeasured if q > coarsest]
-    else:                                          # between the bracket's two points
-        upper, lower = int(found.upper["q"]), int(found.lower["q"])
-        candidates = [q for q in unmeasured if min(upper, lower) < q < max(upper, lower)]
-    return _middle(candidates) if candidates else None
+    wanted = _candidates(matching.cheapest_rate(points, criteria, monotone=True), measured, unmeasured)
+    for points_k, criteria_k in extractions:
+        wanted |= _candidates(matching.cheapest_rate(points_k, criteria_k, monotone=True), measured, unmeasured)
+    return _middle(sorted(wanted)) if wanted else None
 
 
 def _bracket(found: matching.Match) -> tuple:

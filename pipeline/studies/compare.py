@@ -629,8 +629,10 @@ class Study:
         if plan.phase == "sweep":
             if self.settings.full_schedule:
                 q = next((q for q in sorted(self.qs(series), reverse=True) if q not in {r["q"] for r in points}), None)
-            else:
-                q = schedule.next_swept_q(self.qs(series), points, criteria)
+            else:              # each extraction's own fit asks for points too (the verdict is theirs)
+                own = [([operating.pick(p, k) for p in points], criteria_of(operating.pick(record, k)))
+                       for k in range(plan.extractions)]
+                q = schedule.next_swept_q(self.qs(series), points, criteria, own)
             if q is not None:
                 return [PointJob(*full, q, s.fps, shifts, "Q sweep")]
             plan.phase = "refine"
