@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from media.domain import Solution
 
-# The source tables' six columns, in its order: media.domain.Solution without NSV3O+C and the seed-002 motion coders,
-# which have no column of their own here.
-SOLUTIONS = tuple(s for s in Solution if s not in (Solution.NSV3O_C, Solution.MOTION_CODER))
+# The source tables' six columns, in its order: media.domain.Solution without NSV3O+C, NSV-ROI (today's counterpart,
+# not in the source) and the seed-002 motion coders, which have no column of their own here.
+SOLUTIONS = tuple(s for s in Solution if s not in (Solution.NSV3O_C, Solution.NSV_ROI, Solution.MOTION_CODER))
 
 CARRIED_OVER = {
     "4.1 Equipment at the producer's side": (

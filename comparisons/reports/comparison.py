@@ -129,7 +129,8 @@ def quantiser(record: dict) -> str:
         return f"setting {q} ({record['setting']})"
     if codec in OTHER_VIDEO_CODECS:
         low, high = VIDEO_CODECS[codec][1]
-        return f"{OTHER_VIDEO_CODECS[codec]} QP {q} ({low}-{high})"
+        scale = "CRF" if record.get("rate_control") == "crf" else "QP"
+        return f"{OTHER_VIDEO_CODECS[codec]} {scale} {q} ({low}-{high})"
     clothes = [o["q"] for o in record.get("objects") or [] if isinstance(o, dict) and o.get("name") == "clothes"]
     return f"Q {q}" + (f" (+{clothes[0]} clothes)" if clothes else "")
 

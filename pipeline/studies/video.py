@@ -169,6 +169,7 @@ def code_clip(frames: np.ndarray, labels: np.ndarray, clip: str, settings: Video
         coded, crf = code_roi_matched(operating[Solution.NSV], config.frames, config.labels, config.fps)
         record = _record(coded, config, clip, "libx264", crf, timing, settings, software, "codec")
         record["object_q"] = {"frame": crf}
+        record["rate_control"] = "crf"          # q is x264's CRF (addroi needs CRF mode), not a constant QP
         records.append(record)
         if records_path is not None:
             write_records(records_path, [record], append=True)
