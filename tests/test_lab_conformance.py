@@ -5,6 +5,10 @@ Decoders are pinned: every stored stream decodes to exactly the stored integers 
 levels, indices and key frames before dequantisation), on every CPU, since integer decoding is exact by
 construction. The floats built from them are held to the encoder's stored error.
 
+The letters are the stored ones the streams were coded from (tests/data/codec_letter_motions.npz, retargeted once,
+through tools.make_lab_conformance.letter_dofs), not letters retargeted now: a retargeting change (31debf2's resting
+hand and upright torso) moves the motion, not the coders, and must not move the error against "its letter".
+
 Encoders are tested by what a user relies on, on the same letters: the decoder reads what they write and rebuilds
 exactly the encoder's reconstruction; the rate stays within RATE_TOLERANCE of the stored stream's length; the error
 stays within ERROR_TOLERANCE of the stored figure, and within the coder's stated bound where its docstring states
