@@ -707,14 +707,12 @@ class Study:
         return matched
 
     def cost_bound(self, plans: dict) -> tuple[int, int]:
-        """(points, frame extractions) at most: per series the search over its swept Q (a binary search), its
-        refinements and the frame rates, at the first extractions, plus the added extractions where every series
-        needs them."""
+        """(points, frame extractions) at most: per series every swept Q, its refinements and the frame rates, at the
+        first extractions, plus the added extractions where every series needs them."""
         frames = len(self.judge.measured)
         points = extractions = 0
         for series, plan in plans.items():
-            search = (len(self.qs(series)) if self.settings.full_schedule
-                      else int(np.ceil(np.log2(len(self.qs(series)) + 1))))
+            search = len(self.qs(series))      # a search stops earlier, but may measure every swept Q
             n = search + self.settings.refinements + len(self.lower_rates())
             points += n
             extractions += frames * (n * plan.extractions
