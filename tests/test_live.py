@@ -214,7 +214,7 @@ def test_live_report_renders_in_headless_chromium(live_run):
 
 @pytest.mark.parametrize("argv, fragment", [
     (["live", "--loss-rates", "150", "--out", "{tmp}/x"], "outside 0..100"),
-    (["live", "--codecs", "fba-nope", "--out", "{tmp}/x"], "unknown parameter codec"),
+    (["live", "--codecs", "fba-nope", "--out", "{tmp}/x"], "give an MPEG-4 parameter codec (fba-pred"),
     (["live", "--refresh", "0", "--out", "{tmp}/x"], "refresh period"),
     (["send", "ase", "A", "--to", "127.0.0.1:{port}"], "cannot reach the receiver"),
     (["send", "ase", "A", "--to", "nowhere"], "bad address"),

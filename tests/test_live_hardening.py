@@ -340,3 +340,27 @@ def test_the_description_limits_are_the_coders_and_checking_them_loads_no_coder(
     assert out.strip() == "[]", out
     with pytest.raises(SigncastError, match="codec"):
         SessionDescription.from_line(_description(codec="bba-pred"))
+
+
+def test_send_names_exactly_what_it_accepts():
+    """An unknown codec lists the MPEG-4 parameter codecs and the video codecs send takes, not the seed-002 coders
+    it refuses."""
+    from pipeline.studies.live import parse_send
+    with pytest.raises(SigncastError) as refused:
+        parse_send("h265")
+    message = str(refused.value)
+    assert "fba-pred" in message and "bba-dct" in message and "mpeg4" in message and "libx264" in message
+    assert "wavelet" not in message and "dpcm" not in message
+
+
+def test_each_video_codec_gets_its_own_default_quantiser():
+    """No --video-q: MPEG-4 at Q 4 and x264 at QP 28 (x264 at 'Q 4' would be over a megabit a second)."""
+    from pipeline.studies.live import DEFAULT_VIDEO_Q, SendSettings
+    assert DEFAULT_VIDEO_Q == {"mpeg4": 4, "libx264": 28}
+    assert SendSettings("libx264", None, ("127.0.0.1", 5004)).resolved_q() == 28
+    assert SendSettings("mpeg4", None, ("127.0.0.1", 5004)).resolved_q() == 4
+    assert SendSettings("fba-pred", None, ("127.0.0.1", 5004)).resolved_q() == 4
+    assert SendSettings("SSV:libx264:30", None, ("127.0.0.1", 5004)).resolved_q() == 30
+    assert SendSettings("libx264", 20, ("127.0.0.1", 5004)).resolved_q() == 20
+    network = SendSettings("libx264", None, ("127.0.0.1", 5004)).network()
+    assert network.video_q is None          # LiveStudy.q_of then takes DEFAULT_VIDEO_Q["libx264"]

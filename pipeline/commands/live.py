@@ -51,8 +51,9 @@ def add_parser(subparsers) -> None:
                              f"SOLUTION:libx264 for H.264, or a parameter codec (fba-pred, fba-dct, bba-pred, "
                              f"bba-dct, bba-key); a last :Q sets that item's quantiser (NSV2O:mpeg4:8, fba-pred:8) "
                              f"(default {DEFAULT_CODECS}, at --video-q and --param-q)")
-    parser.add_argument("--video-q", type=int, default=4,
-                        help="video quantiser (mpeg4 1..31, libx264 0..51; default 4)")
+    parser.add_argument("--video-q", type=int, default=None,
+                        help="video quantiser (mpeg4 Q 1..31, libx264 QP 0..51; default: each codec's own, "
+                             "mpeg4 Q 4, libx264 QP 28)")
     parser.add_argument("--param-q", type=int, default=4, help="FBA/BBA quantisation 1..31 (default 4)")
     parser.add_argument("--loss-rates", default=DEFAULT_LOSS_RATES,
                         help=f"percent of datagrams lost, comma-separated (default {DEFAULT_LOSS_RATES})")

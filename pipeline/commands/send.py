@@ -21,7 +21,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--codec", default="fba-pred",
                         help="fba-pred, fba-dct, bba-pred, bba-dct (FBA, BBA), mpeg4 or libx264 (NSV: the avatar's "
                              "render as video), SSV or SSV:libx264 (its skin objects with shape) (default fba-pred)")
-    parser.add_argument("--q", type=int, default=4, help="quantiser of the codec (default 4)")
+    parser.add_argument("--q", type=int, default=None,
+                        help="quantiser of the codec on its own scale (default: FBA/BBA Q 4, mpeg4 Q 4, libx264 QP 28)")
     parser.add_argument("--to", required=True, metavar="[HOST:]PORT", help="the receiver's address")
     parser.add_argument("--loss", type=float, default=0.0, help="percent of datagrams the relay drops (default 0)")
     add_network_arguments(parser)

@@ -20,6 +20,8 @@ or a .pose retargeted), whose lossless render NSV codes as its natural video.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import threading
 from dataclasses import dataclass
 from pathlib import Path
@@ -61,7 +63,7 @@ class LiveSettings:
     language, word, pose, size,
     landmark_step, backend: the scenario, as in `signcast compare`."""
     codecs: tuple[str, ...] = (*Solution.video(), "fba-pred", "fba-dct", "bba-pred", "bba-dct")
-    video_q: int = 4
+    video_q: int | None = None         # None: each video codec's own default (DEFAULT_VIDEO_Q)
     param_q: int = 4
     loss_rates: tuple[float, ...] = LOSS_RATES
     burst: float = 1.0
@@ -87,6 +89,11 @@ class LiveSettings:
 
 VIDEO_SOLUTIONS = Solution.video()
 DEFAULT_VIDEO_CODEC = "mpeg4"
+# Each video codec's own default quantiser, on its own scale: MPEG-4 Q 4 (1..31); x264 constant QP 28 (0..51),
+# where a signer at 352x288 and 25 fps costs about what MPEG-4 Q 4 does (one number for both would be x264 QP 4,
+# over a megabit a second: an easy way to a misleading H.264 figure).
+DEFAULT_VIDEO_Q = {"mpeg4": 4, "libx264": 28}
+DEFAULT_PARAM_Q = 4
 
 
 def parse_send(item: str) -> tuple[str, str, int | None]:
@@ -107,9 +114,9 @@ def parse_send(item: str) -> tuple[str, str, int | None]:
         if rest and not rest[0].lstrip("-").isdigit():
             codec, rest = rest[0], rest[1:]
         if solution not in VIDEO_SOLUTIONS or codec not in endpoints.VIDEO_CODECS:
-            if parts[0].islower() and parts[0] not in endpoints.VIDEO_CODECS:
-                param_codecs.get_codec(parts[0])          # names the known parameter codecs
-            raise SigncastError(f"cannot send {item!r} live: give a parameter codec, one of "
+            mpeg4 = [name for name in param_codecs.codec_names() if solution_of(name).mpeg4_parameters]
+            raise SigncastError(f"cannot send {item!r} live: give an MPEG-4 parameter codec ({', '.join(mpeg4)}), "
+                                f"a video codec ({', '.join(endpoints.VIDEO_CODECS)}: NSV), one of "
                                 f"{', '.join(VIDEO_SOLUTIONS)}, or SOLUTION:CODEC[:Q] with a video solution and "
                                 f"{' or '.join(endpoints.VIDEO_CODECS)}")
     if len(rest) > 1:
@@ -250,11 +257,13 @@ class LiveStudy:
         self.settings, self.scenario, self.renderer_for, self.progress = settings, scenario, renderer_for, progress
         self.judge = Judge(scenario, settings.landmark_step, shared.letter_recogniser(scenario))
 
-    def q_of(self, solution: str, q: int | None = None) -> int:
-        """The item's own Q, or the settings' video / parameter Q."""
+    def q_of(self, solution: str, codec: str, q: int | None = None) -> int:
+        """The item's own Q, or the settings' video / parameter Q, or the video codec's own default."""
         if q is not None:
             return q
-        return self.settings.video_q if solution in VIDEO_SOLUTIONS else self.settings.param_q
+        if solution not in VIDEO_SOLUTIONS:
+            return self.settings.param_q
+        return self.settings.video_q if self.settings.video_q is not None else DEFAULT_VIDEO_Q[codec]
 
     def description(self, solution: str, codec: str, payload: str, q: int) -> SessionDescription:
         s, scenario = self.settings, self.scenario
@@ -277,7 +286,7 @@ class LiveStudy:
     def point(self, send_item: str, rate: float, seed: int) -> tuple[list[dict], Delivery]:
         """Deliver one solution and codec at one loss rate and judge what was shown: one record per reference."""
         solution, codec, q = parse_send(send_item)
-        q = self.q_of(solution, q)
+        q = self.q_of(solution, codec, q)
         payload, source = self.source(solution, codec, q)
         description = self.description(solution, codec, payload, q)
         endpoints.warm_up(codec, self.renderer_for(*self.scenario.size), self.scenario.motion)
@@ -429,7 +438,7 @@ class SendSettings:
     the signing (language, word or pose), the rendered size (NSV and SSV send the render), the receiver's address,
     and the relay's loss (loss_rate: fraction of datagrams 0..1, burst, jitter_ms, reorder, seed; no relay when all are 0)."""
     codec: str
-    q: int
+    q: int | None                      # None: the codec's default (DEFAULT_VIDEO_Q, or DEFAULT_PARAM_Q)
     destination: tuple[str, int]
     language: str = "ase"
     word: str = "HELLO"
@@ -445,13 +454,25 @@ class SendSettings:
     seed: int = 1
     backend: str = "auto"
 
+    def resolved_q(self) -> int:
+        """q as given, else the item's own :Q, else the codec's default (DEFAULT_VIDEO_Q, DEFAULT_PARAM_Q)."""
+        solution, codec, item_q = parse_send(self.codec)
+        if self.q is not None:
+            return self.q
+        if item_q is not None:
+            return item_q
+        return DEFAULT_VIDEO_Q[codec] if solution in VIDEO_SOLUTIONS else DEFAULT_PARAM_Q
+
     def network(self) -> LiveSettings:
-        video = parse_send(self.codec)[0] in VIDEO_SOLUTIONS
+        solution, codec, item_q = parse_send(self.codec)
+        video = solution in VIDEO_SOLUTIONS
+        q = self.q if self.q is not None else item_q
         return LiveSettings(codecs=(self.codec,), loss_rates=(self.loss_rate,), burst=self.burst,
                             jitter_ms=self.jitter_ms, reorder=self.reorder, refresh=self.refresh, units=self.units,
                             seed=self.seed,
                             shape_gop=self.shape_gop, language=self.language, word=self.word, pose=self.pose,
-                            size=self.size, video_q=self.q if video else 4, param_q=4 if video else self.q,
+                            size=self.size, video_q=q if video else None,
+                            param_q=DEFAULT_PARAM_Q if video or q is None else q,
                             backend=self.backend)
 
 
@@ -485,6 +506,7 @@ def run_send(settings: SendSettings, *, progress: bool = True) -> dict:
     """Sends one session to settings.destination (through a lossy relay in this process when loss is set);
     returns a summary of what was sent."""
     check_send(settings)
+    settings = dataclasses.replace(settings, q=settings.resolved_q())
     solution, codec, _ = parse_send(settings.codec)
     name, motion, frames, labels = _signing(settings, solution, progress)
     payload, source = endpoints.source_for(solution, codec, settings.q, frames=frames, labels=labels, motion=motion,
