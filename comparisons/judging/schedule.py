@@ -18,7 +18,6 @@
 """
 from __future__ import annotations
 
-from typing import Callable
 
 from comparisons.judging import matching
 

@@ -676,7 +676,7 @@ class Study:
         self.announce_cost(plans)
         n = 0
         while True:
-            jobs, extras = [], []
+            jobs = []
             for series, plan in plans.items():
                 for job in self.next_jobs(series, plan):
                     jobs.append(job)
