@@ -18,7 +18,6 @@
 """
 from __future__ import annotations
 
-
 from comparisons.judging import matching
 
 
