@@ -41,3 +41,18 @@ def perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.n
 def view_projection(eye, target, fovy_deg: float, aspect: float, near: float, far: float, up=(0.0, 1.0, 0.0)) -> np.ndarray:
     """(4, 4) float32 world -> clip matrix, the `camera` argument of kernels.raster.rasterize."""
     return (perspective(fovy_deg, aspect, near, far) @ look_at(eye, target, up)).astype(np.float32)
+
+
+def zoomed(camera: np.ndarray, scale: float, offset=(0.0, 0.0)) -> np.ndarray:
+    """(4, 4) float32 world -> clip matrix: `camera` with its image zoomed by `scale` about the image centre and
+    then moved by `offset` (x right, y up, normalised device units: 2 is the image's width or height).
+
+    A longer focal length and a lens shift, not a warp of the picture: the image is rasterized at full
+    resolution. Depth and w are untouched, so clipping, depth order and back faces stay as they were."""
+    scale = float(scale)
+    if not (np.isfinite(scale) and scale > 0) or not np.all(np.isfinite(offset)):
+        raise KernelError(f"zoomed: bad scale {scale} or offset {tuple(offset)}")
+    image = np.eye(4)
+    image[0, 0] = image[1, 1] = scale
+    image[:2, 3] = offset                # added as offset * w before the divide: offset after it
+    return (image @ np.asarray(camera, np.float64)).astype(np.float32)

@@ -3,7 +3,7 @@
 Per frame: bone matrices (media.kinematics), muscle contraction from elbow flexion, muscle
 displacement of the rest-pose skin (kernels.muscles, eq. 3.6), skinning (linear blend, or rigid
 segments for the FBA-style body), then the rasterizer (kernels.raster) from a camera framing the
-signing space. Frames are (H, W, 3) uint8 RGB, labels (H, W) uint8 (DESIGN.md part labels).
+signing space, or the avatar as a source clip frames its person (RenderSettings.framing, media.framing). Frames are (H, W, 3) uint8 RGB, labels (H, W) uint8 (DESIGN.md part labels).
 """
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ from media.avatar import Avatar
 from media.domain import BODY, CLOTHES, DEFAULT_SIZE, EYE_WHITE, IRIS, SKIN_TONE
 from media.errors import SigncastError
 from media.face_rig import with_face_bones
+from media.framing import Framing
 from media.kinematics import bone_matrices, joint_positions
 from media.motion import Motion
 from media.muscles import activations, muscle_influence, stacked_control_points
@@ -97,13 +98,16 @@ def triangle_colours(avatar: Avatar) -> np.ndarray:
 @dataclass(frozen=True)
 class RenderSettings:
     """width, height: pixels; look: 'shaded' or 'flat'; segmented: rigid FBA-style segments instead of
-    the seamless skin; backend: kernels backend; muscles: apply the muscle deformation."""
+    the seamless skin; backend: kernels backend; muscles: apply the muscle deformation; framing: the signing-space
+    camera zoomed and shifted to frame the avatar like a source clip's person (media.framing.fit_framing; None: the
+    full figure)."""
     width: int = DEFAULT_SIZE[0]
     height: int = DEFAULT_SIZE[1]
     look: str = "shaded"
     segmented: bool = False
     backend: str = "auto"
     muscles: bool = True
+    framing: Framing | None = None
 
 
 class AvatarRenderer:
@@ -114,6 +118,8 @@ class AvatarRenderer:
         check_backend(settings.backend)
         self.avatar, self.settings = avatar, settings
         self.camera = signing_space_camera(avatar, settings.width, settings.height)
+        if settings.framing is not None:
+            self.camera = settings.framing.camera(self.camera)
         self.colours = immutable(triangle_colours(avatar))
         self.dominant_bone = immutable(avatar.weights.dominant_bone())
         self.use_muscles = settings.muscles and bool(avatar.muscles)

@@ -23,38 +23,15 @@ from __future__ import annotations
 import numpy as np
 
 from comparisons.judging.intelligibility import EYES_POINTS, IRIS_POINTS, MOUTH_POINTS, hand_sizes
+from media.framing import ANCHOR_POINTS, apply_similarity, fit_similarity   # shared with the avatar's framing
 
 PCK_THRESHOLD = 0.2                 # hand sizes
-# pose points of the torso and face the clip-wide similarity is fitted on: nose, eyes, ears, mouth, shoulders
-ANCHOR_POINTS = (0, 2, 5, 7, 8, 9, 10, 11, 12)
 LEFT_SHOULDER, RIGHT_SHOULDER = 11, 12
 POSE_WRIST = {"left": 15, "right": 16}
 HAND_COMPONENT = {"left": "LEFT_HAND_LANDMARKS", "right": "RIGHT_HAND_LANDMARKS"}
 # face mesh points that move little with expression: forehead, nose bridge and tip, cheekbones, jaw corners,
 # the eyes' outer and inner corners
 FACE_ANCHORS = (10, 151, 9, 8, 168, 6, 197, 195, 5, 4, 1, 234, 454, 127, 356, 93, 323, 132, 361, 33, 263, 133, 362)
-
-
-def fit_similarity(source: np.ndarray, target: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """The similarity x -> scale R x + t (scale > 0, R a rotation (2, 2), det +1, no reflection) that maps
-    source (N, 2) onto target (N, 2) best in least squares (Umeyama 1991); points pixels. Returns (scale, R, t)."""
-    source = np.asarray(source, np.float64)[:, :2]
-    target = np.asarray(target, np.float64)[:, :2]
-    mu_s, mu_t = source.mean(axis=0), target.mean(axis=0)
-    a, b = source - mu_s, target - mu_t
-    covariance = b.T @ a / len(a)
-    u, singular, vt = np.linalg.svd(covariance)
-    d = np.diag([1.0, np.sign(np.linalg.det(u @ vt)) or 1.0])
-    rotation = u @ d @ vt
-    variance = np.mean(np.sum(a * a, axis=1))
-    scale = float(np.trace(np.diag(singular) @ d) / variance) if variance > 0 else 1.0
-    return scale, rotation, mu_t - scale * rotation @ mu_s
-
-
-def apply_similarity(transform: tuple[float, np.ndarray, np.ndarray], points: np.ndarray) -> np.ndarray:
-    """points (..., 2) mapped by (scale, R, t)."""
-    scale, rotation, translation = transform
-    return scale * np.asarray(points, np.float64)[..., :2] @ rotation.T + translation
 
 
 def _rotation_only(source: np.ndarray, target: np.ndarray) -> np.ndarray:
