@@ -159,3 +159,20 @@ def write_pose(path: str | Path, clip: SignClip, width: int, height: int) -> int
     except OSError as error:
         raise SigncastError(f"cannot write pose file {path}: {error.strerror or error}") from None
     return path.stat().st_size
+
+
+def frame_size(source: str | Path | bytes) -> tuple[int, int] | None:
+    """(width, height) in pixels of the frame a `.pose` file's x, y refer to (its header's dimensions); None where
+    the header gives none (0). Reads only the header; SigncastError when it is unreadable."""
+    from pose_format.pose_header import PoseHeader
+    from pose_format.utils.reader import BufferReader
+    where = "pose data" if isinstance(source, (bytes, bytearray, memoryview)) else f"pose file {source}"
+    try:
+        data = bytes(source) if isinstance(source, (bytes, bytearray, memoryview)) else Path(source).read_bytes()
+        header = PoseHeader.read(BufferReader(data))
+        width, height = int(header.dimensions.width), int(header.dimensions.height)
+    except OSError as error:
+        raise SigncastError(f"cannot read {where}: {error.strerror}") from None
+    except Exception as error:  # pose-format raises struct, numpy, unicode and value errors on damage
+        raise SigncastError(f"damaged {where}: unreadable header ({type(error).__name__}: {error})") from None
+    return (width, height) if width > 0 and height > 0 else None
