@@ -190,8 +190,9 @@ def _latency_flags(points: list[dict]) -> str:
     if not misses:
         return ("<p><b>EN 301 549:</b> every point's 95th-percentile latency is under 0.4 s (the preferred "
                 "end-to-end delay).</p>")
-    items = "".join(f"<li>{html.escape(str(r['solution']))} {html.escape(str(r['codec']))} at "
-                    f"{_cell(r.get('loss_rate'), 100.0, 1)} % loss: p95 {_cell(r.get('latency_ms_p95'), 1.0, 0)} ms, "
+    items = "".join(f"<li>{html.escape(str(r['solution']))} {html.escape(str(r['codec']))}"
+                    + (f" at {_cell(r['loss_rate'], 100.0, 1)} % loss" if r.get("loss_rate") is not None else "")
+                    + f": p95 {_cell(r.get('latency_ms_p95'), 1.0, 0)} ms, "
                     f"{html.escape(verdict(r.get('latency_ms_p95')))}</li>" for r in misses)
     return (f"<p><b>EN 301 549</b> prefers an end-to-end delay under 0.4 s and says over 0.8 s hinders "
             f"conversation. These points miss 0.4 s at the 95th percentile:</p><ul>{items}</ul>")
@@ -244,6 +245,38 @@ def report_html(records: list[dict], figure_png: bytes) -> str:
     return page.page("signcast live: delivery over a lossy network",
                      f"{head}{figure}<h2>Every point</h2>{table}{_transport_streams(records)}", max_width_px=1300,
                      extra_style="td { text-align: right; }")
+
+
+def received_sessions(records: list[dict]) -> list[dict]:
+    """The delivery records `signcast receive` wrote (kind "point", sweep "receive"), one per received session."""
+    return [r for r in records if r.get("kind", "point") == "point" and r.get("sweep") == "receive"]
+
+
+RECEIVED_COLUMNS = (("frames_lost", "frames lost", 1.0, 0), ("frames_concealed", "frames concealed", 1.0, 0),
+                    ("received_kbps", "arrived kbps (with IP/UDP/RTP headers)", 1.0, 2),
+                    ("packets_received", "datagrams read", 1.0, 0), ("late_packets", "late datagrams", 1.0, 0),
+                    ("discarded_packets", "refused datagrams", 1.0, 0), ("jitter_measured_ms", "jitter ms", 1.0, 0),
+                    ("hold_ms", "jitter buffer hold ms", 1.0, 0), ("latency_ms_p50", "latency p50 ms", 1.0, 0),
+                    ("latency_ms_p95", "latency p95 ms", 1.0, 0))
+
+
+def receive_report_html(records: list[dict]) -> str:
+    """The page of what `signcast receive` measured: per received session, what arrived, what was lost and
+    concealed, and the latency (whole and per stage) against EN 301 549. A receiver has no reference to read the
+    signing against, so the page has no intelligibility; `signcast live` measures that."""
+    sessions = received_sessions(records)
+    head = ("<p>What the receiver measured of each session it received over RTP/UDP (the sender's side, and what "
+            "a viewer could read of it, are measured by <code>signcast live</code>, which holds the reference): "
+            "frames that never arrived were held from the last shown one. Latency: from each frame's capture to "
+            "the moment it was ready to show, over the frames that arrived.</p>")
+    rows = [[r["solution"], r["codec"], r.get("q"), r.get("clip"), f"{_cell(r.get('fps'), 1, 3)}",
+             *(_cell(r.get(name), scale, digits) for name, _, scale, digits in RECEIVED_COLUMNS),
+             verdict(r.get("latency_ms_p95"))] for r in sessions]
+    table = _html_table("received sessions", ["solution", "codec", "Q", "clip", "fps",
+                                              *(label for _, label, _, _ in RECEIVED_COLUMNS), "EN 301 549 (p95)"],
+                        rows)
+    body = f"{head}{_latency_flags(sessions)}<h2>Received sessions</h2>{table}{_stage_table(sessions)}"
+    return page.page("signcast receive: what arrived", body, max_width_px=1300, extra_style="td { text-align: right; }")
 
 
 def report_outputs(records: list[dict]) -> dict:
