@@ -66,6 +66,11 @@ def add_natural_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a .pose file: with --video, that video's landmarks (signcast pose, same --max-size); "
                              "alone, the avatar performs it (avatar-only scenario)")
     parser.add_argument("--frames", type=int, default=None, help="only the first N frames (default: all)")
+    parser.add_argument("--framing", default=None, choices=("source", "full-figure"),
+                        help="with --video, where the avatar stands in the frame: 'source' frames it like the person "
+                             "(one zoom and shift of the render camera per clip, fitted from the avatar's shoulders "
+                             "and face to the person's; the default), 'full-figure' the signing space from the hips "
+                             "to above the head; the avatar-only scenarios render the full figure")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -83,7 +88,7 @@ def scenario_fields(args: argparse.Namespace) -> dict:
     from media.domain import parse_size
     fields = dict(language=args.language, word=args.word, clip=getattr(args, "video", None),
                   pose=getattr(args, "pose", None), size=parse_size(args.size), backend=args.backend,
-                  max_clip_size=options.parse_max_size(args.max_size))
+                  max_clip_size=options.parse_max_size(args.max_size), framing=getattr(args, "framing", None))
     for name, field in (("frames", "max_clip_frames"), ("extractions", "extractions"), ("refine", "refinements"),
                         ("landmark_step", "landmark_step")):
         if getattr(args, name, None) is not None:

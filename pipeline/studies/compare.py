@@ -6,9 +6,11 @@ Scenarios (one pipeline):
   the same size, e.g. by `signcast pose` with the same --max-size) or are extracted here. NSV, NSV2O, NSV3O and
   NSV3O+C code the clip itself (segmented by landmarks). The avatar's motion is those landmarks retargeted
   (media.retarget), at the clip's frame rate, over the same frames; it is rendered losslessly at the clip's
-  size (width x height): the "lossless render". Sizes are made equal by rendering at the natural frame's size:
-  the renderer frames the signing space for that aspect (hips to above the head, both arms' reach), so the
-  avatar fills the frame as the renderer frames it, not as the person filled the camera's frame.
+  size (width x height): the "lossless render". The avatar is framed like the person (framing "source",
+  media.framing: one scale and shift per clip from its shoulders and face to the person's, as a camera zoom and
+  shift), so that its hands cover the person's pixels and the side-by-side tiles line up; framing "full-figure"
+  keeps the signing-space camera (hips to above the head, both arms' reach). The terminal's re-renders use the
+  same camera.
 - "word" (`compare LANGUAGE WORD`, the demo): the avatar fingerspells the word at DISPLAY_FPS, rendered
   losslessly at `size`; that render is the reference of every solution: the NSV family codes it as if it were
   a natural video (segmented by landmarks), SSV with the renderer's label buffer; letters are recognised.
@@ -115,6 +117,8 @@ ARM_BONES = ("upperarm01", "upperarm02", "lowerarm01", "lowerarm02", "wrist")   
 HAND_BONE_PREFIXES = ("metacarpal", "finger")
 SIZE_RULE = ("the avatar is rendered at the natural frame's size; the renderer frames the signing space for "
              "that aspect, so the avatar fills the frame as the renderer frames it")
+SOURCE_SIZE_RULE = ("the avatar is rendered at the natural frame's size, framed like the person (one scale and shift "
+                    "per clip fitted from its shoulders and face to the person's, as a camera zoom and shift)")
 
 
 @dataclass(frozen=True)
@@ -152,6 +156,7 @@ class CompareSettings:
     # measure every swept Q, every frame rate and every extraction (the schedule before issue 36), instead of
     # stopping where the answer is decided; for checking the faster schedule's figures
     full_schedule: bool = False
+    framing: str | None = None    # media.framing.FRAMINGS; None: "source" with a clip (the avatar scenarios: full figure)
 
     def codec_qs(self, codec: str) -> tuple[int, ...]:
         """The quantisers swept for a video codec (MPEG-4 Part 2: video.qs)."""
@@ -161,7 +166,7 @@ class CompareSettings:
     def signing(self) -> ScenarioSettings:
         """The scenario's own settings (pipeline.studies.shared.load_scenario)."""
         return ScenarioSettings(self.language, self.word, self.clip, self.pose, self.size, self.backend,
-                                self.max_clip_frames, self.max_clip_size)
+                                self.max_clip_frames, self.max_clip_size, self.framing)
 
     @property
     def scenario(self) -> str:
@@ -435,7 +440,7 @@ class Measurer:
         self.settings, self.scenario, self.progress = settings, scenario, progress
         self.judge = Judge(scenario, settings.landmark_step, recogniser)
         self.video = VideoPoints(scenario)
-        self.params = ParamPoints(scenario, renderers(settings.backend)(*scenario.size))
+        self.params = ParamPoints(scenario, renderers(settings.backend)(*scenario.size, scenario.framing))
         self.cache = shared.ExtractionCache()
 
     def extract(self, frames: np.ndarray, fps: float, shifts: tuple[int, ...], label: str) -> list[SignClip]:
@@ -858,7 +863,7 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
     renderer_for = renderers(settings.backend)
     with clock.stage("scenario: reference, landmarks, retargeting, lossless render"):
         scenario = shared.load_scenario(settings.signing, renderer_for, progress=progress, notify=notify)
-    study = Study(settings, scenario, renderer_for(*scenario.size), records_path, progress, notify)
+    study = Study(settings, scenario, renderer_for(*scenario.size, scenario.framing), records_path, progress, notify)
     pool = study.start_pool()
     with pool:
         with clock.stage("uncoded references"):
@@ -881,7 +886,11 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                   "scenario": scenario.kind, "clip": scenario.name, "clip_fps": scenario.fps,
                   "clip_duration_s": scenario.timing.duration_s, "clip_frames": scenario.n_frames,
                   "clip_size": list(scenario.size), "display_fps": scenario.fps, "signer_size": list(scenario.size),
-                  "size_rule": SIZE_RULE if scenario.kind == "video" else "the reference is the avatar's render",
+                  "size_rule": ((SOURCE_SIZE_RULE if scenario.framing else SIZE_RULE) if scenario.kind == "video"
+                                else "the reference is the avatar's render"),
+                  "framing": ({"framing": "source", "scale": scenario.framing.scale,
+                               "shift": list(scenario.framing.shift)} if scenario.framing
+                              else {"framing": "full-figure"}),
                   "pck_margin": PCK_MARGIN, "face_margin": FACE_MARGIN, "letter_margin": LETTER_MARGIN,
                   "min_hand_share": MIN_HAND_SHARE,
                   "refinements": settings.refinements,
@@ -927,7 +936,8 @@ def _tiles(study: Study, matched: list[dict]) -> list[Received]:
     # each frame shows the landmarks of the last measured frame (every landmark_step-th)
     last_measured = np.maximum(np.searchsorted(study.judge.measured, np.arange(s.n_frames), side="right") - 1, 0)
     if s.kind == "video":
-        tiles.append(Received(shared.draw_landmarks(s.render, s.render_landmarks), "avatar: lossless render"))
+        framed = "framed like the person" if s.framing else "full figure"
+        tiles.append(Received(shared.draw_landmarks(s.render, s.render_landmarks), f"avatar: lossless render, {framed}"))
     for solution in (*Solution.natural_family(), *Solution.avatars()):
         candidates = [m for m in matched if m["solution"] == solution]
         if not candidates:
@@ -941,9 +951,9 @@ def _tiles(study: Study, matched: list[dict]) -> list[Received]:
             frames = viewed.frames
         observed = select_frames(study.observed[(solution, best["codec"], q, s.fps)], last_measured)
         codec = f" {best['codec']}"
-        tiles.append(Received(shared.draw_landmarks(frames, observed),
-                              f"{solution}{codec} Q{q}, matched {best['kbps']:.1f} kbps"
-                              f"{'' if best['reached'] else ' (not reached)'}", solution))
+        rate = (f"matched {best['kbps']:.1f} kbps" if best["reached"]
+                else f"best point {best['kbps']:.1f} kbps, below threshold")
+        tiles.append(Received(shared.draw_landmarks(frames, observed), f"{solution}{codec} Q{q}, {rate}", solution))
     return tiles
 
 

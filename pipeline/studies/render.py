@@ -23,7 +23,9 @@ class RenderWordSettings:
     (T, H, W) uint8; preview: a PNG of frame preview_frame (None: the middle one); size: (width, height) pixels;
     fps: frames per second (None: 25 for a word, the file's own for a .pose); look: shaded or flat; segmented: an
     FBA-style segmented body; backend: kernels; pose: a .pose file to retarget instead of a word; jitter_filter:
-    one-euro, binomial or off for its keypoints (None: media.retarget's default)."""
+    one-euro, binomial or off for its keypoints (None: media.retarget's default); framing: "source" frames the avatar
+    like the .pose's person (one camera zoom and shift per clip, media.framing), "full-figure" the signing space;
+    None: "source" with a .pose, "full-figure" for a word."""
 
     language: str | None
     word: str | None
@@ -38,6 +40,7 @@ class RenderWordSettings:
     backend: str = "auto"
     pose: Path | None = None
     jitter_filter: str | None = None
+    framing: str | None = None
 
 
 def check(settings: RenderWordSettings) -> str:
@@ -53,6 +56,11 @@ def check(settings: RenderWordSettings) -> str:
     check_backend(settings.backend)
     check_look(settings.look)
     check_source(settings.language, settings.word, settings.pose, settings.fps, settings.jitter_filter)
+    if settings.framing is not None:
+        from media.framing import check_framing
+        if check_framing(settings.framing) == "source" and settings.pose is None:
+            raise SigncastError("--framing source frames the avatar like the person of a .pose: give --pose "
+                                "(a fingerspelled word is framed as the full figure)")
     return backends.describe(settings.backend)   # a backend that cannot run here fails now, in one line
 
 
@@ -65,18 +73,18 @@ def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable
     from media.render import RenderSettings, render_motion
     from media.video_io import write_video
     from pipeline.checks import check_memory
-    from pipeline.studies.shared import source_motion
+    from pipeline.studies.shared import framed_source_motion
 
     width, height = settings.size
-    motion, source = source_motion(settings.language, settings.word, settings.pose, settings.fps,
-                                   settings.jitter_filter, notify)
+    motion, source, framing = framed_source_motion(settings.language, settings.word, settings.pose, settings.fps,
+                                                   settings.jitter_filter, settings.size, settings.framing, notify)
     if settings.preview_frame is not None and not 0 <= settings.preview_frame < motion.n_frames:
         raise SigncastError(f"--preview-frame {settings.preview_frame} outside 0..{motion.n_frames - 1}")
     check_memory(motion.n_frames, width, height, BYTES_PER_PIXEL, "render")
     chosen = check(settings)
     avatar = load_avatar()
     render_settings = RenderSettings(width=width, height=height, look=settings.look, segmented=settings.segmented,
-                                     backend=settings.backend)
+                                     backend=settings.backend, framing=framing)
     if settings.backend == "auto" and notify:
         notify(f"backend auto chose {chosen}")
     started = time.perf_counter()
@@ -92,9 +100,16 @@ def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable
         middle = motion.n_frames // 2 if settings.preview_frame is None else settings.preview_frame
         _write_png(settings.preview, frames[middle])
     return (f"{settings.output}: {source}, {motion.n_frames} frames {width}x{height} at "
-            f"{motion.fps:g} fps, {settings.look}{', segmented' if settings.segmented else ''}, {size} bytes; "
+            f"{motion.fps:g} fps, {settings.look}{', segmented' if settings.segmented else ''}, "
+            f"{_framing_words(framing)}, {size} bytes; "
             f"rendered at {motion.n_frames / (rendered - started):.1f} frames/s, "
             f"{motion.n_frames / elapsed:.1f} frames/s with encoding")
+
+
+def _framing_words(framing) -> str:
+    if framing is None:
+        return "full figure"
+    return f"framed like the person (zoom {framing.scale:.3f}, shift {framing.shift[0]:+.3f}, {framing.shift[1]:+.3f} frames)"
 
 
 def _write_png(path: Path, rgb: np.ndarray) -> None:

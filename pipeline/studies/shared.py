@@ -33,6 +33,7 @@ from media.video_io import Clip, crop_even, fit_size, read_clip, resolve_video, 
 from pipeline.checks import check_memory
 
 if TYPE_CHECKING:
+    from media.framing import Framing
     from media.render import AvatarRenderer
 
 DEFAULT_MAX_SIZE = (352, 288)   # (width, height), CIF: larger clips are scaled down to fit unless asked otherwise
@@ -421,9 +422,40 @@ def source_motion(language: str | None, word: str | None, pose: Path | None, fps
 
     if pose is not None:
         motion, result = pose_motion(pose, fps, jitter_filter, notify)
-        return motion, f"{pose.name} (hands: {', '.join(result.hands) or 'none'})"
+        return motion, _pose_source(pose, result)
     notify_substitutions(language, word, notify)
     return fingerspell(language, word, fps=fps or LEXICON_FPS), f"{language} {word!r}"
+
+
+def _pose_source(pose: Path, result) -> str:
+    return f"{pose.name} (hands: {', '.join(result.hands) or 'none'})"
+
+
+def framed_source_motion(language: str | None, word: str | None, pose: Path | None, fps: float | None,
+                         jitter_filter: str | None, size: tuple[int, int], framing: str | None,
+                         notify: Callable[[str], object] | None = None) -> tuple[Motion, str, "Framing | None"]:
+    """source_motion's (Motion, source words) and the avatar's framing in a frame of `size` (width, height): like the
+    .pose's person where framing is "source" (None: "source" for a .pose), else None (the full figure; always for a
+    word)."""
+    if pose is None or (framing or "source") != "source":
+        return *source_motion(language, word, pose, fps, jitter_filter, notify), None
+    motion, result = pose_motion(pose, fps, jitter_filter, notify)
+    return motion, _pose_source(pose, result), pose_framing(pose, result.motion, size, notify)
+
+
+def pose_framing(pose: Path, motion: Motion, size: tuple[int, int],
+                 notify: Callable[[str], object] | None = None) -> "Framing | None":
+    """The framing (source_framing) of the avatar moving as `motion` (the .pose's frames, at its own rate) like the
+    person of the .pose in a frame of `size`; None, with a one-line notice, where the file gives no frame size or
+    shows no shoulder or face."""
+    from media.pose_file import frame_size
+    source_size = frame_size(pose)
+    if source_size is None:
+        if notify:
+            notify(f"{pose.name} gives no frame size: the avatar is framed as the full figure")
+        return None
+    clip = read_pose(pose)
+    return source_framing(fit_length(motion, clip.n_frames), clip, source_size, size, pose.name, notify)
 
 
 
@@ -438,7 +470,9 @@ class ScenarioSettings:
     frames; alone: the avatar-only scenario's motion); language, word: the fingerspelled word (neither clip nor
     pose); size: (width, height) pixels of the avatar scenarios' render (the video scenario renders at the clip's
     size); max_clip_frames: only the first N frames (None: all); max_clip_size: (width, height) a natural clip is
-    scaled down to fit (None keeps it); backend: the kernels' backend."""
+    scaled down to fit (None keeps it); backend: the kernels' backend; framing: where the avatar stands in the
+    video scenario's frame (media.framing.FRAMINGS: "source" like the clip's person, "full-figure" the signing
+    space; None: "source" with a clip); the avatar scenarios always render the full figure."""
     language: str = "ase"
     word: str = "HELLO"
     clip: str | None = None
@@ -447,6 +481,7 @@ class ScenarioSettings:
     backend: str = "auto"
     max_clip_frames: int | None = None
     max_clip_size: tuple[int, int] | None = DEFAULT_MAX_SIZE
+    framing: str | None = None
 
     @property
     def scenario(self) -> str:
@@ -484,6 +519,12 @@ def check_scenario(settings: ScenarioSettings) -> None:
         lexicon.split_word(lexicon.check_language(settings.language), settings.word)
     if settings.scenario == "video":
         resolve_video(settings.clip)
+    if settings.framing is not None:
+        from media.framing import check_framing
+        check_framing(settings.framing)
+        if settings.framing == "source" and settings.scenario != "video":
+            raise SigncastError("framing 'source' frames the avatar like a video's person: give --video "
+                                "(the avatar scenarios render the full figure)")
 
 
 def expected_frames(settings: ScenarioSettings) -> tuple[int, int, int]:
@@ -506,7 +547,8 @@ class Scenario:
     """The signing every solution carries. frames: (T, H, W, 3) uint8 reference frames; labels: (T, H, W) uint8
     part labels of them (for the NSV family); landmarks: the reference's; motion: the avatar's (T frames at fps);
     render, render_labels, render_landmarks: its lossless render (the reference itself in the avatar scenarios);
-    spans: (letter, first frame, end frame) of a fingerspelled word, else None."""
+    spans: (letter, first frame, end frame) of a fingerspelled word, else None; framing: the camera's zoom and shift
+    of every render of the avatar (media.framing; None: the full figure)."""
     kind: str
     name: str
     fps: float
@@ -520,6 +562,7 @@ class Scenario:
     render_landmarks: SignClip
     spans: list | None = None
     language: str | None = None
+    framing: Framing | None = None
 
     @property
     def n_frames(self) -> int:
@@ -561,10 +604,27 @@ def _video_scenario(settings, renderer_for, progress, notify) -> Scenario:
         notify(f"{clip.path.name} shows no hand in enough frames: the avatar's arms rest")
     motion = fit_length(retargeted.motion, len(frames))
     height, width = frames.shape[1:3]
-    render, render_labels = render_frames(renderer_for(width, height), motion, "render: lossless", progress)
+    framing = None
+    if (settings.framing or "source") == "source":
+        framing = source_framing(motion, landmarks, (width, height), (width, height), clip.path.name, notify)
+    render, render_labels = render_frames(renderer_for(width, height, framing), motion, "render: lossless", progress)
     render_landmarks = extract_landmarks(render, clip.fps, "landmarks: lossless render", progress)
     return Scenario("video", clip.path.stem, clip.fps, Timing.of_clip(clip), frames, labels, landmarks,
-                    motion, render, render_labels, render_landmarks)
+                    motion, render, render_labels, render_landmarks, framing=framing)
+
+
+def source_framing(motion: Motion, landmarks: SignClip, source_size: tuple[int, int], size: tuple[int, int],
+                   where: str, notify: Callable[[str], object] | None = None):
+    """The media.framing.Framing that puts the avatar moving as `motion` where the person of `landmarks` stands
+    (pose pixels of a source_size (width, height) frame, the same frames as the motion) in a frame of `size`; None,
+    with a one-line notice, where the person shows no shoulder or no face point in any frame (the full figure)."""
+    from media.avatar import load_avatar
+    from media.framing import fit_framing, to_frame
+    pose = to_frame(landmarks.points["POSE_LANDMARKS"], source_size, size)
+    framing = fit_framing(load_avatar(), motion, pose, landmarks.confidence["POSE_LANDMARKS"], *size)
+    if framing is None and notify:
+        notify(f"{where}: no shoulders or no face found in any frame: the avatar is framed as the full figure")
+    return framing
 
 
 def _avatar_scenario(settings, renderer_for, progress) -> Scenario:
@@ -625,18 +685,19 @@ def render_frames(renderer: AvatarRenderer, motion: Motion, label: str, progress
     return frames, labels
 
 
-def renderers(backend: str) -> Callable[[int, int], AvatarRenderer]:
-    """renderer_for(width, height): the vendored avatar's shaded renderer at that size, made once per size."""
+def renderers(backend: str) -> Callable[..., AvatarRenderer]:
+    """renderer_for(width, height, framing=None): the vendored avatar's shaded renderer at that size and framing
+    (media.framing.Framing; None: the full figure), made once per size and framing."""
     from media.avatar import load_avatar
     from media.render import AvatarRenderer, RenderSettings
     avatar = load_avatar()
-    made: dict[tuple[int, int], AvatarRenderer] = {}
+    made: dict[tuple, AvatarRenderer] = {}
 
-    def renderer_for(width: int, height: int) -> AvatarRenderer:
-        if (width, height) not in made:
-            made[(width, height)] = AvatarRenderer(avatar, RenderSettings(width=width, height=height, look="shaded",
-                                                                          backend=backend))
-        return made[(width, height)]
+    def renderer_for(width: int, height: int, framing: "Framing | None" = None) -> AvatarRenderer:
+        if (width, height, framing) not in made:
+            made[(width, height, framing)] = AvatarRenderer(avatar, RenderSettings(
+                width=width, height=height, look="shaded", backend=backend, framing=framing))
+        return made[(width, height, framing)]
 
     return renderer_for
 
