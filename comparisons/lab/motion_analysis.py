@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import welch
 
+from comparisons.reports.figures import suptitle
+
 BAND_EDGES_HZ = (1.0, 3.0, 7.0, 15.0)
 DOWN_DB = 50.0
 MOVING = 1e-4
@@ -169,7 +171,7 @@ def analysis_outputs(prefix: str, analysis: MotionAnalysis) -> dict:
             axes[1][k].plot(grid, np.exp(-np.abs(grid - d.mean()) / b) / (2 * b), "k--", lw=1, label="Laplacian fit")
             axes[1][k].legend(fontsize=7)
         axes[1][k].set(title=f"{group}: frame differences", xlabel="degrees per frame")
-    figure.suptitle(f"{prefix}: distributions of values and frame differences (moving DOFs)")
+    suptitle(figure, f"{prefix}: distributions of values and frame differences (moving DOFs)", fontsize=11)
     figure.tight_layout()
     outputs[f"{prefix}_distributions.png"] = figure
 

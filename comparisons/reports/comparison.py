@@ -38,6 +38,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from comparisons.judging.criteria import SOLUTIONS, criteria_table  # noqa: E402
+from comparisons.reports.figures import figure_png, suptitle  # noqa: E402,F401
 from comparisons.judging.landmark_draws import interval  # noqa: E402
 from comparisons.reports import page  # noqa: E402
 from comparisons.reports.records import normalize_records  # noqa: E402
@@ -153,21 +154,6 @@ def series_styles(records: list[dict]) -> dict[str, dict]:
     names = sorted({(r.get("codec") in OTHER_VIDEO_CODECS, _order(r["solution"]), _series_key(r)) for r in points(records)})
     return {name: {"color": PALETTE[i % len(PALETTE)], "marker": MARKERS[(i // 10) % len(MARKERS)]}
             for i, (_, _, name) in enumerate(names)}
-
-
-def figure_png(figure, *, empty: str | None = None) -> bytes:
-    """The PNG bytes of a matplotlib figure (closed after), or of a one-line placeholder figure saying `empty`
-    when figure is None."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as pyplot
-    if figure is None:
-        figure = pyplot.figure(figsize=(6, 1))
-        figure.text(0.5, 0.5, empty or "nothing to plot", ha="center")
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
-    pyplot.close(figure)
-    return buffer.getvalue()
 
 
 def _png(figure) -> bytes:
@@ -330,7 +316,7 @@ def chart_rate_quality(records: list[dict], metric: str, styles: dict | None = N
         panel.grid(True, which="both", alpha=0.3)
     panels[0].set_ylabel(metric.upper() + (" (dB)" if metric == "psnr" else "")
                          + " against the reference frames")
-    figure.suptitle(measured_against(records), fontsize=9)
+    suptitle(figure, measured_against(records))
     _figure_legend(figure, panels)
     return figure
 
@@ -368,8 +354,8 @@ def chart_parameter_quality(records: list[dict], styles: dict | None = None):
         panel.set_ylabel(f"{metric.replace('param_', '').upper()} dB")
         panel.set_title(title)
         panel.grid(True, which="both", alpha=0.3)
-    figure.suptitle("Against the motion before coding (full-precision BAPs, rotation BAPs that move); "
-                    "not comparable with image PSNR", fontsize=9)
+    suptitle(figure, "Against the motion before coding (full-precision BAPs, rotation BAPs that move); "
+                     "not comparable with image PSNR")
     _figure_legend(figure, panels)
     return figure
 
@@ -786,7 +772,7 @@ def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
             panel.text(panel.get_xlim()[0], value, f" threshold {value:g} %", fontsize=7, va="bottom", color="firebrick")
     panels[0][0].set_title("hand keypoints")
     extracted = any(isinstance(r.get("extractions"), int) and r["extractions"] > 1 for r in points(records))
-    figure.suptitle(f"Rate against intelligibility, {_against(references)}"
+    suptitle(figure, f"Rate against intelligibility, {_against(references)}"
                     + ("\nbars: 95 % t-interval over each point's landmark extractions" if extracted else "")
                     + ("; across the stars: the range of the rates matched extraction by extraction"
                        if any(isinstance(m.get("kbps_max"), (int, float)) for m in matched_records(records)) else ""),

@@ -17,6 +17,7 @@ import numpy as np
 
 from comparisons.lab.codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec
 from comparisons.lab.settings import MPEG4_CODECS, MPEG4_Q
+from comparisons.reports.figures import suptitle
 
 
 # Seed 002 Appendix III, conversational sequence (kb/s, dB): PSNR for waveform, VPSNR for model-based coders.
@@ -89,7 +90,7 @@ def _chart(records: list[dict], names: list[str], quality: str, title: str):
                  title=f"{clip.split(':')[0]}: whole alphabet, 25 fps")
         axis.grid(True, which="both", alpha=0.3)
     axes[0][0].legend(fontsize=7, ncol=2, title="dotted x: seed 002 (conv., 30 Hz)", title_fontsize=7)
-    figure.suptitle(title)
+    suptitle(figure, title, fontsize=11)
     figure.tight_layout()
     return figure
 

@@ -14,7 +14,7 @@ from collections import defaultdict
 import numpy as np
 
 from comparisons.reports import page
-from comparisons.reports.comparison import figure_png
+from comparisons.reports.figures import figure_png
 from media.domain import SOLUTION_ORDER
 
 REFERENCE = "source video"

@@ -30,6 +30,7 @@ import numpy as np
 
 from comparisons.judging import matching
 from comparisons.reports import page
+from comparisons.reports.figures import figure_png, suptitle
 from media.domain import SOLUTION_ORDER
 
 JOINT_ERROR_MM = 2.0        # the FBA root-translation step, and the key-frame analyser's translation bound
@@ -194,7 +195,7 @@ def chart(table: list[dict]):
         axes.set_ylim(0, axes.get_ylim()[1] * 1.2)        # headroom: no marker on the frame, none under the legend
         axes.grid(True, axis="y", alpha=0.3)
         axes.legend(fontsize=7, ncol=min(len(codecs), 5))
-    figure.suptitle(f"Rate at the matched operating point, against {MEASURED_AGAINST}\n{CRITERION.text()}; "
+    suptitle(figure, f"Rate at the matched operating point, against {MEASURED_AGAINST}\n{CRITERION.text()}; "
                     f"where the motion has a face, {FACE_CRITERION.text()}", fontsize=9)
     figure.tight_layout()
     return figure
@@ -262,7 +263,6 @@ def report_html(records: list[dict], table: list[dict], figure_png: bytes) -> st
 def report_outputs(records: list[dict]) -> dict:
     """sweep_table.csv (rows), sweep_kbps.png (bytes) and report.html (text) from the records, by file name; the
     study layer writes them (pipeline.outputs.write_outputs)."""
-    from comparisons.reports.comparison import figure_png        # matplotlib: not in the sweep's workers, which import this module
     table = cells(matched_points(records))
     png = figure_png(chart(table) if table else None, empty="no measured point yet")
     return {"sweep_table.csv": table_rows(table), "sweep_kbps.png": png, "report.html": report_html(records, table, png)}
