@@ -132,6 +132,15 @@ def waist_heights(clip: SignClip) -> np.ndarray:
     return np.where(seen, waist, np.inf)
 
 
+def signing_hands(reference: SignClip) -> np.ndarray:
+    """(T, 2) bool: in each frame, whether the reference shows its left / right hand (HAND_COMPONENTS' order)
+    signing: all 21 points found and the wrist above the waist (`waist_heights`). The hands `measure` and
+    comparisons.judging.message count; an observed hand in any other frame enters no measure."""
+    waist = waist_heights(reference)
+    return np.stack([shown(reference, component) & (reference.points[component][:, 0, 1] < waist)
+                     for component in HAND_COMPONENTS.values()], axis=1)
+
+
 def _percent(share: float) -> float:
     return 100.0 * float(share)
 

@@ -19,7 +19,7 @@ from typing import Protocol
 
 import numpy as np
 
-from comparisons.judging.intelligibility import measure
+from comparisons.judging.intelligibility import measure, signing_hands
 from comparisons.judging.landmark_draws import mean_fields
 from comparisons.judging.message import message_fields
 from comparisons.video import quality as image_quality
@@ -126,6 +126,24 @@ class Judge:
         if Solution(solution).avatar:
             refs.append((LOSSLESS, self.render_reference))
         return refs
+
+    def hands_to_extract(self, references: list[SignClip]) -> np.ndarray:
+        """(M, 2) bool: at each measured frame, whether the left / right hand of what the viewer sees is read by any
+        measure against these references (the measured frames' landmarks): where it signs in one of them
+        (intelligibility.signing_hands), and a fingerspelled word's signing hand inside its letters' spans (the
+        letters read it wherever it is found). A hand at rest or missing in every reference is read by nothing,
+        so the extractor need not look for it (rest frames are scored for the face and body only)."""
+        wanted = np.logical_or.reduce([signing_hands(reference) for reference in references])
+        if self.recogniser is not None and self.spans:
+            from comparisons.judging.letters import signing_hand
+            side = list(HAND_COMPONENTS).index(signing_hand(self.signing.language))
+            for _, first, end in self.spans:
+                wanted[first:end, side] = True
+        return wanted
+
+    def hands_for(self, solution: str) -> np.ndarray:
+        """(M, 2) bool: `hands_to_extract` of the references a solution's points are measured against."""
+        return self.hands_to_extract([reference for _, reference in self.references(solution)])
 
     def draw_fields(self, reference: SignClip, observed: SignClip) -> dict:
         """The intelligibility, message and letter fields of one extraction (observed: the landmarks of the measured

@@ -222,21 +222,25 @@ class HandTracker:
         self._frames_without_palm_search = PALM_FALLBACK_PERIOD   # the first frame searches
 
     def process(self, frame: np.ndarray, pose: np.ndarray | None = None,
-                pose_visibility: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+                pose_visibility: np.ndarray | None = None,
+                sides: tuple[str, ...] = SIDES) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Hands of one frame (H, W, 3) uint8 RGB, given the pose landmarks (33, 3) in frame pixels and their
         visibility (33,) in [0, 1] (None: no pose; no visibility: all visible). Returns {'left', 'right'}
         (the person's own sides) -> (points (21, 3) float64 frame pixels x, y, z; confidence (21,) float64:
         the hand's presence probability, all 0 with points 0 when that hand was not found). The same hands'
-        world landmarks are then in `self.world` (side -> (21, 3) metres, or None)."""
+        world landmarks are then in `self.world` (side -> (21, 3) metres, or None).
+
+        sides: the sides looked for in this frame; the others run no model (not tracked, not searched by palm
+        detection) and are returned as not found, so the next frame looks for them afresh."""
         frame = _checked_frame(frame)
         pose, pose_visibility = _checked_pose(pose, pose_visibility)
-        hands = {side: self._track(frame, side, pose, pose_visibility) for side in SIDES}
+        hands = {side: self._track(frame, side, pose, pose_visibility) if side in sides else None for side in SIDES}
         if hands["left"] is not None and hands["right"] is not None and same_hand(hands["left"], hands["right"]):
             loser = _weaker_claim(hands["left"], hands["right"], pose)
             hands[loser] = None
-        if any(hand is None for hand in hands.values()):
+        if any(hands[side] is None for side in sides):
             if self._frames_without_palm_search + 1 >= PALM_FALLBACK_PERIOD:
-                self._palm_fallback(frame, hands, pose)
+                self._palm_fallback(frame, hands, pose, sides)
                 self._frames_without_palm_search = 0
             else:
                 self._frames_without_palm_search += 1
@@ -263,19 +267,21 @@ class HandTracker:
                     return hand
         return None
 
-    def _palm_fallback(self, frame: np.ndarray, hands: dict[str, Hand | None], pose: np.ndarray | None) -> None:
-        """Fills sides still without a hand from palm detection (hands overlapping one already found are
-        dropped). With a pose a palm's hand goes to the side of the nearest pose wrist, and is dropped if that
-        side is taken; two new hands take the pairing with the smaller total wrist distance. Without a pose,
-        two new hands split by handedness (the more right-handed one is right); a single one goes to its
-        handedness's side, or to the free side when that one is taken (one signer has one hand per side)."""
+    def _palm_fallback(self, frame: np.ndarray, hands: dict[str, Hand | None], pose: np.ndarray | None,
+                       sides: tuple[str, ...] = SIDES) -> None:
+        """Fills sides of `sides` still without a hand from palm detection (hands overlapping one already found are
+        dropped; a side not in `sides` counts as taken). With a pose a palm's hand goes to the side of the nearest
+        pose wrist, and is dropped if that side is taken; two new hands take the pairing with the smaller total
+        wrist distance. Without a pose, two new hands split by handedness (the more right-handed one is right); a
+        single one goes to its handedness's side, or to the free side when that one is taken (one signer has one
+        hand per side)."""
         found: list[Hand] = []
         for roi in palm_rois(frame):
             hand = hand_in_roi(frame, roi)
             if hand is not None and not any(same_hand(hand, other) for other in found + list(hands.values())
                                             if other is not None):
                 found.append(hand)
-        free = [side for side in SIDES if hands[side] is None]
+        free = [side for side in SIDES if hands[side] is None and side in sides]
         if len(found) == 2 and len(free) == 2:
             if pose is None:
                 right_first = found[0].right_handedness >= found[1].right_handedness
@@ -288,11 +294,12 @@ class HandTracker:
         for hand in found:
             if pose is None:
                 side = "right" if hand.right_handedness >= 0.5 else "left"
-                if hands[side] is not None:
+                if side not in free:
                     side = "left" if side == "right" else "right"
             else:
                 side = min(SIDES, key=lambda s: _wrist_distance(hand, pose, s))
-            if hands[side] is None:
+            if side in free:
+                free.remove(side)
                 hands[side] = hand
 
 

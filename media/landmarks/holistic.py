@@ -23,6 +23,7 @@ LEFT_HAND_WORLD, RIGHT_HAND_WORLD = HAND_WORLD_COMPONENTS
 SIZES = {name: len(points) for name, points in WORLD_LAYOUT}
 # the parts a user is told about, and the component that says whether each was found
 PARTS = {"pose": POSE, "face": FACE, "left hand": LEFT_HAND, "right hand": RIGHT_HAND}
+HAND_SIDES = ("left", "right")     # the person's own sides, in the order of extract_landmarks' `hands` columns
 
 Landmarks = dict[str, tuple[np.ndarray, np.ndarray]]   # component -> ((N, 3) points, (N,) confidence)
 
@@ -48,19 +49,20 @@ class HolisticTracker:
         self.hands.reset()
         self.face.reset()
 
-    def process(self, frame: np.ndarray) -> Landmarks:
-        """One frame (H, W, 3) uint8 RGB -> its landmarks by component (missing parts: zeros)."""
+    def process(self, frame: np.ndarray, hands: tuple[str, ...] = HAND_SIDES) -> Landmarks:
+        """One frame (H, W, 3) uint8 RGB -> its landmarks by component (missing parts: zeros). hands: the sides
+        ('left', 'right') whose hand models run in this frame (the others are reported missing)."""
         frame = np.ascontiguousarray(frame)
         result = empty_landmarks()
         pose = self.pose.process(frame)
         if pose is not None:
             result[POSE] = (pose.points, pose.visibility)
             result[WORLD] = (pose.world, pose.visibility.copy())
-        hands = self.hands.process(frame, None if pose is None else pose.points,
-                                   None if pose is None else pose.visibility)
+        found = self.hands.process(frame, None if pose is None else pose.points,
+                                   None if pose is None else pose.visibility, sides=tuple(hands))
         for side, name, world_name in (("left", LEFT_HAND, LEFT_HAND_WORLD), ("right", RIGHT_HAND, RIGHT_HAND_WORLD)):
-            if side in hands:
-                points, confidence = hands[side]
+            if side in found:
+                points, confidence = found[side]
                 result[name] = (np.asarray(points, np.float64), np.asarray(confidence, np.float64))
                 world = getattr(self.hands, "world", {}).get(side)
                 if world is not None:
@@ -75,18 +77,20 @@ class HolisticTracker:
 
 
 def extract_landmarks(frames: Iterable[np.ndarray], fps: float, n_frames: int | None = None,
-                      progress: Callable[[int], object] | None = None) -> SignClip:
+                      progress: Callable[[int], object] | None = None, hands: np.ndarray | None = None) -> SignClip:
     """Landmarks of every frame (H, W, 3) uint8 RGB of one video shown at fps frames per second, as a SignClip in
     the lexicon's layout plus the hands' world landmarks (WORLD_LAYOUT; metres): points component -> (T, N, 3) float64, confidence component -> (T, N) in [0, 1], 0 (and
     coordinates 0) where missing. n_frames: stop after this many frames (None: all). progress: called with 1 after
-    each frame."""
+    each frame. hands: (T, 2) bool, whether the left and the right hand's models run in each frame (None: both in
+    every frame); a hand not looked for is missing in that frame."""
     tracker = HolisticTracker()
     points = {name: [] for name in SIZES}
     confidence = {name: [] for name in SIZES}
     for index, frame in enumerate(frames):
         if n_frames is not None and index >= n_frames:
             break
-        for name, (values, scores) in tracker.process(frame).items():
+        sides = HAND_SIDES if hands is None else tuple(side for side, on in zip(HAND_SIDES, hands[index]) if on)
+        for name, (values, scores) in tracker.process(frame, sides).items():
             scores = np.clip(np.nan_to_num(np.asarray(scores, np.float64)), 0.0, 1.0)
             values = np.asarray(values, np.float64)
             seen = (scores > 0) & np.all(np.isfinite(values), axis=-1)

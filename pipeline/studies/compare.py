@@ -154,8 +154,17 @@ class CompareSettings:
     anchor: bool = True           # measure the human anchor (Tran et al.'s point) and match on it
     workers: int | None = None    # processes the points run on (None: every CPU; 1: in this process, in order)
     # measure every swept Q, every frame rate and every extraction (the schedule before issue 36), instead of
-    # stopping where the answer is decided; for checking the faster schedule's figures
+    # stopping where the answer is decided, and look for both hands in every measured frame (as all_hands);
+    # for checking the faster schedule's figures
     full_schedule: bool = False
+    # look for both hands in every measured frame of what the viewer sees; else only where a reference shows the
+    # hand signing (or a letter span needs the signing hand: Judge.hands_to_extract), rests scored for the face
+    all_hands: bool = False
+
+    @property
+    def every_hand(self) -> bool:
+        """Whether the extractor looks for both hands in every measured frame (all_hands or full_schedule)."""
+        return self.all_hands or self.full_schedule
     framing: str | None = None    # media.framing.FRAMINGS; None: "source" with a clip (the avatar scenarios: full figure)
 
     def codec_qs(self, codec: str) -> tuple[int, ...]:
@@ -400,12 +409,14 @@ class CeilingJob:
 
 @dataclass(frozen=True)
 class ExtractJob:
-    """One extraction of frames (M, H, W, 3) uint8 shown at fps under SHIFTS[shift]."""
+    """One extraction of frames (M, H, W, 3) uint8 shown at fps under SHIFTS[shift]; hands: (M, 2) bool, where the
+    left / right hand is looked for (None: everywhere)."""
     frames: np.ndarray
     fps: float
     shift: int
     label: str = "landmarks"
     stage: str = "extraction"
+    hands: np.ndarray | None = None
 
 
 @dataclass
@@ -443,28 +454,36 @@ class Measurer:
         self.params = ParamPoints(scenario, renderers(settings.backend)(*scenario.size, scenario.framing))
         self.cache = shared.ExtractionCache()
 
-    def extract(self, frames: np.ndarray, fps: float, shifts: tuple[int, ...], label: str) -> list[SignClip]:
-        return shared.extract_draws(frames, fps, len(shifts), label, self.progress, shifts=shifts, cache=self.cache)
+    def extract(self, frames: np.ndarray, fps: float, shifts: tuple[int, ...], label: str,
+                hands: np.ndarray | None = None) -> list[SignClip]:
+        """Extractions of frames (M, H, W, 3) under the shifts; hands: (M, 2) bool where each hand is looked for
+        (ignored with settings.every_hand)."""
+        return shared.extract_draws(frames, fps, len(shifts), label, self.progress, shifts=shifts, cache=self.cache,
+                                    hands=None if self.settings.every_hand else hands)
 
     def ceiling(self, job: CeilingJob) -> dict:
         s, measured = self.scenario, self.judge.measured
         frames = s.frames if job.subject == "source" else s.render
-        observed = self.extract(frames[measured], s.fps, (job.shift,), f"re-extract the {job.subject}")[0]
+        reference = self.judge.reference if job.subject == "source" else self.judge.render_reference
+        observed = self.extract(frames[measured], s.fps, (job.shift,), f"re-extract the {job.subject}",
+                                self.judge.hands_to_extract([reference]))[0]
         return {"observed": observed}
 
     def point(self, job: PointJob) -> dict:
         s, measured = self.scenario, self.judge.measured
         parameters = Solution(job.solution).mpeg4_parameters
         label = f"landmarks: {job.codec if parameters else f'{job.solution} {job.codec}'} Q{job.q} {job.fps:g} fps"
+        hands = self.judge.hands_for(job.solution)                     # (M, 2) where each hand is read
         if parameters:
             viewed, _ = self.params.code(job.codec, job.q, job.fps)
-            draws = self.extract(viewed.frames[measured], s.fps, job.shifts, label)
+            draws = self.extract(viewed.frames[measured], s.fps, job.shifts, label, hands)
         else:
             viewed, sent, hold = self.video.code(job.solution, job.q, job.fps, job.codec)
             # the distinct sent frames on screen at the measured frames, extracted once each
             distinct, on_screen = np.unique(hold[measured], return_inverse=True)
             draws = [select_frames(observed, on_screen, s.fps)
-                     for observed in self.extract(sent[distinct], min(job.fps, s.fps), job.shifts, label)]
+                     for observed in self.extract(sent[distinct], min(job.fps, s.fps), job.shifts, label,
+                                                  held_hands(hands, on_screen, len(distinct)))]
         base = dict(viewed.fields, **self.judge.quality(job.solution, viewed)) if job.quality else None
         return {"base": base, "draws": dict(self.judge.intelligibility_draws(job.solution, draws)),
                 "observed": draws[job.shifts.index(0)] if 0 in job.shifts else None}
@@ -472,12 +491,21 @@ class Measurer:
     def run(self, job) -> dict:
         seconds, frames, cpu = shared.EXTRACTION["seconds"], shared.EXTRACTION["frames"], time.process_time()
         if isinstance(job, ExtractJob):
-            result = {"observed": self.extract(job.frames, job.fps, (job.shift,), job.label)[0]}
+            result = {"observed": self.extract(job.frames, job.fps, (job.shift,), job.label, job.hands)[0]}
         else:
             result = self.ceiling(job) if isinstance(job, CeilingJob) else self.point(job)
         result.update(extraction_s=shared.EXTRACTION["seconds"] - seconds,
                       extracted_frames=shared.EXTRACTION["frames"] - frames, cpu_s=time.process_time() - cpu)
         return result
+
+
+def held_hands(hands: np.ndarray, on_screen: np.ndarray, n_pictures: int) -> np.ndarray:
+    """(D, 2) bool: the hands to look for in each of n_pictures pictures, where on_screen (M,) gives the picture shown
+    at each measured frame and hands (M, 2) the hands read there: a picture held over several measured frames is
+    looked at for every hand read in any of them."""
+    wanted = np.zeros((n_pictures, 2), bool)
+    np.logical_or.at(wanted, on_screen, hands)
+    return wanted
 
 
 def extractions_of(points: list[dict]) -> int:
@@ -548,13 +576,15 @@ class Study:
     def lower_rates(self) -> list[float]:
         return sorted({f for f in self.settings.video.frame_rates if f < self.scenario.fps * (1 - 1e-3)}, reverse=True)
 
-    def draws(self, frames: np.ndarray, fps: float, label: str) -> list[SignClip]:
+    def draws(self, frames: np.ndarray, fps: float, label: str, hands: np.ndarray | None = None) -> list[SignClip]:
         """The landmarks of frames (M, H, W, 3) uint8 shown at fps, extracted `extractions` times, each under its
         sub-pixel shift (pipeline.studies.shared.extract_draws): one job per shift on the pool while it is open,
-        else here in this process."""
+        else here in this process. hands: (M, 2) bool where each hand is looked for (None, or
+        settings.every_hand: everywhere)."""
+        hands = None if self.settings.every_hand else hands
         if self.pool is None or not self.pool.open:
-            return shared.extract_draws(frames, fps, self.settings.extractions, label, self.progress)
-        jobs = [ExtractJob(frames, fps, k, label) for k in range(self.settings.extractions)]
+            return shared.extract_draws(frames, fps, self.settings.extractions, label, self.progress, hands=hands)
+        jobs = [ExtractJob(frames, fps, k, label, hands=hands) for k in range(self.settings.extractions)]
         return [result["observed"] for result in self.run_jobs(jobs, f"{label}: {len(jobs)} extractions")]
 
     # -------------------------------------------------------------------------------------------------------
@@ -789,8 +819,10 @@ class Study:
         coded = code_at_rate(s.frames, kept, fps, ANCHOR_KBPS, ANCHOR_SIZE, ANCHOR_CODEC)
         hold = np.arange(s.n_frames) if full else hold_indices(s.timing.times_s, fps, len(kept))
         distinct, on_screen = np.unique(hold[self.judge.measured], return_inverse=True)
+        hands = held_hands(self.judge.hands_for("NSV"), on_screen, len(distinct))
         draws = [select_frames(observed, on_screen, s.fps)
-                 for observed in self.draws(coded.decoded[distinct], fps, "landmarks: human anchor (Tran's point)")]
+                 for observed in self.draws(coded.decoded[distinct], fps, "landmarks: human anchor (Tran's point)",
+                                            hands)]
         fields = {"kind": "anchor", "subject": ANCHOR_SUBJECT, "solution": "NSV", "codec": ANCHOR_CODEC,
                   "clip": s.name, "fps": fps, "frames": len(kept), "kbps": kbps(coded.bits, s.timing.duration_s),
                   "target_kbps": ANCHOR_KBPS, "width": coded.size[0], "height": coded.size[1],
@@ -889,7 +921,8 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                   "size_rule": ((SOURCE_SIZE_RULE if scenario.framing else SIZE_RULE) if scenario.kind == "video"
                                 else "the reference is the avatar's render"),
                   "framing": ({"framing": "source", "scale": scenario.framing.scale,
-                               "shift": list(scenario.framing.shift)} if scenario.framing
+                               "shift": list(scenario.framing.shift), "turn_deg": scenario.framing.turn}
+                              if scenario.framing
                               else {"framing": "full-figure"}),
                   "pck_margin": PCK_MARGIN, "face_margin": FACE_MARGIN, "letter_margin": LETTER_MARGIN,
                   "min_hand_share": MIN_HAND_SHARE,
@@ -910,6 +943,9 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                                                  n_frames=scenario.n_frames, size=scenario.size, clip=scenario.name,
                                                  refresh=video_codecs.GOP),
                   "workers": pool.workers, "full_schedule": settings.full_schedule,
+                  "hands_looked_for": ("every measured frame" if settings.every_hand else
+                                       "where a reference shows the hand signing, and the signing hand in letter "
+                                       "spans (rests scored for the face and body)"),
                   "first_extractions": (settings.extractions if settings.full_schedule
                                         else min(FIRST_EXTRACTIONS, settings.extractions)),
                   "rounds": [{"round": name, "wall_s": round(seconds, 2), "frames_extracted": frames}

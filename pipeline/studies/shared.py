@@ -167,41 +167,49 @@ EXTRACTION = {"seconds": 0.0, "frames": 0}     # this process's landmark extract
 
 
 def extract_landmarks(frames: np.ndarray, fps: float, label: str = "landmarks", progress: bool = True, *,
-                      leave: bool = False) -> SignClip:
+                      leave: bool = False, hands: np.ndarray | None = None) -> SignClip:
     """Landmarks (pixels) of frames (T, H, W, 3) uint8 RGB shown at fps (signcast's Holistic graph), with a progress
-    bar (counts, ETA; kept on screen when done with leave). Its time and frames are added to EXTRACTION."""
+    bar (counts, ETA; kept on screen when done with leave). hands: (T, 2) bool, the frames in which the left and the
+    right hand are looked for (None: every frame). Its time and frames are added to EXTRACTION."""
     import time
     from media.landmarks.holistic import extract_landmarks as holistic
     started = time.perf_counter()
     try:
         with tqdm(total=len(frames), desc=label, unit="frame", disable=not progress, leave=leave) as bar:
-            return holistic(frames, fps, progress=bar.update)
+            return holistic(frames, fps, progress=bar.update, hands=hands)
     finally:
         EXTRACTION["seconds"] += time.perf_counter() - started
         EXTRACTION["frames"] += len(frames)
 
 
 def extract_draws(frames: np.ndarray, fps: float, count: int, label: str, progress: bool, *,
-                  shifts: tuple[int, ...] | None = None, cache: "ExtractionCache | None" = None) -> list[SignClip]:
+                  shifts: tuple[int, ...] | None = None, cache: "ExtractionCache | None" = None,
+                  hands: np.ndarray | None = None) -> list[SignClip]:
     """Extractions of frames (T, H, W, 3) uint8, each at one of the SHIFTS (comparisons.judging.landmark_draws; the
     first count, or those indexed by shifts), with the found points moved back by the shift onto the frames' own
-    pixel grid (missing points stay at 0).
+    pixel grid (missing points stay at 0). hands: (T, 2) bool, the frames in which the left and the right hand are
+    looked for (None: every frame; comparisons.judging.judge.hands_to_extract).
 
     Each distinct picture is extracted once (comparisons.judging.judge.distinct_frames: a frame byte-identical to
-    an earlier one, held on screen or decoded alike, takes that frame's landmarks), and a subject whose distinct
-    pictures were all extracted before under the same shift (cache) is not extracted again."""
+    an earlier one, held on screen or decoded alike, takes that frame's landmarks, its hands looked for where any
+    of those frames needs them), and a subject whose distinct pictures were all extracted before under the same
+    shift and hands (cache) is not extracted again."""
     from comparisons.judging.judge import distinct_frames, select_frames
     first, inverse = distinct_frames(frames)
     pictures = frames[first]
     indices = tuple(range(count)) if shifts is None else tuple(shifts)
-    key = ExtractionCache.key(pictures, fps)
+    if hands is not None:
+        wanted = np.zeros((len(first), 2), bool)
+        np.logical_or.at(wanted, inverse, np.asarray(hands, bool))
+        hands = wanted
+    key = ExtractionCache.key(pictures, fps, hands)
     draws = []
     for n, k in enumerate(indices):
         shift = SHIFTS[k]
         found = cache.get(key, k) if cache is not None else None
         if found is None:
             text = label + (f" ({n + 1}/{len(indices)})" if len(indices) > 1 else "")
-            found = unshift(extract_landmarks(shifted(pictures, shift), fps, text, progress), shift)
+            found = unshift(extract_landmarks(shifted(pictures, shift), fps, text, progress, hands=hands), shift)
             if cache is not None:
                 cache.put(key, k, found)
         draws.append(found if len(first) == len(frames) else select_frames(found, inverse))
@@ -218,11 +226,12 @@ class ExtractionCache:
         self.hits = 0
 
     @staticmethod
-    def key(pictures: np.ndarray, fps: float) -> bytes:
+    def key(pictures: np.ndarray, fps: float, hands: np.ndarray | None = None) -> bytes:
         import hashlib
         digest = hashlib.blake2b(digest_size=20)
         digest.update(repr((pictures.shape, round(float(fps), 6))).encode())
         digest.update(np.ascontiguousarray(pictures).tobytes())
+        digest.update(b"every hand" if hands is None else np.packbits(np.asarray(hands, bool)).tobytes())
         return digest.digest()
 
     def get(self, key: bytes, shift: int) -> SignClip | None:
