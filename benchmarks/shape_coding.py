@@ -28,9 +28,12 @@ avatar's render of ASL "AB" at 320x240 (labels from the label buffer) and, with 
 no update = "copy"), the bits by category (box, modes, shape motion vectors, intra and inter CAE pixels; the
 information -log2 p of each decoded symbol, comparisons.video.shape.shape_bit_account), the blocks with a
 vector and those whose vector differs from its prediction, the learning cost (pixel bits beyond a model that
-knew each GOP's statistics) and the bits per shape per frame.
+knew each GOP's statistics) and the bits per shape per frame; then the same masks coded lossy (the alpha
+threshold, comparisons.video.shape.encode_shape's shape_error) at each --shape-error: bits per frame, their
+ratio to the lossless stream's, and the shape error (wrong pixels over the object's pixels) that the decoder's
+masks really have.
 
-    python benchmarks/shape_coding.py --bits [--frames 36] [--clip carphone]
+    python benchmarks/shape_coding.py --bits [--frames 36] [--clip carphone] [--shape-error 0.5,1,2]
 """
 from __future__ import annotations
 
@@ -121,10 +124,10 @@ def clip_labels(name: str, frames: int):
     return segment_clip(clip.frames, progress=False, method="landmarks", fps=clip.fps)
 
 
-def print_bits(source: str, labels) -> None:
+def print_bits(source: str, labels, shape_errors: tuple[float, ...]) -> None:
     import numpy as np
 
-    from comparisons.video.shape import encode_shape, shape_bit_account
+    from comparisons.video.shape import decode_shape, encode_shape, shape_bit_account
 
     print(f"\n{source}: {labels.shape[2]}x{labels.shape[1]}, {labels.shape[0]} frames, GOP {GOP}")
     print(f"{'object':11} {'transp':>6} {'opaque':>6} {'intra':>6} {'inter':>6} {'copy':>6}  {'box':>5} {'mode':>5}"
@@ -145,6 +148,22 @@ def print_bits(source: str, labels) -> None:
         print(f"{name:11} {shares}  {costs} {100 * account['learning_bits'] / payload:5.1f}"
               f" {account['mv_nonzero']:3d}/{account['mv_blocks']:<4d}"
               f" {account['total_bits'] / account['frames']:10.1f}", flush=True)
+    if not shape_errors:
+        return
+    print("lossy shape (alpha threshold): bits/frame, x lossless, measured shape error %")
+    print(f"{'object':11} " + " ".join(f"{'<= ' + format(e, 'g') + ' %':>24}" for e in shape_errors))
+    for name, parts in BIT_OBJECTS.items():
+        masks = np.isin(labels, parts)
+        lossless = len(encode_shape(masks, gop=GOP)[0])
+        cells = []
+        for error in shape_errors:
+            stream, stats = encode_shape(masks, gop=GOP, shape_error=error)
+            wrong = int(np.count_nonzero(decode_shape(stream) != masks))
+            if wrong != stats.error_pixels:
+                raise SystemExit(f"{name}: the decoder's masks are not the encoder's")
+            measured = 100.0 * wrong / max(1, int(masks.sum()))
+            cells.append(f"{8 * len(stream) / len(masks):9.1f} {len(stream) / lossless:5.2f}x {measured:6.2f}%")
+        print(f"{name:11} " + " ".join(f"{c:>24}" for c in cells), flush=True)
 
 
 def main() -> None:
@@ -154,13 +173,16 @@ def main() -> None:
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--bits", action="store_true", help="where the shape bits go (modes, vectors, learning)")
     parser.add_argument("--clip", default=None, help="with --bits, also a natural clip (e.g. carphone)")
+    parser.add_argument("--shape-error", default="0.5,1,2",
+                        help="with --bits, the lossy settings (percent of the object's pixels, comma-separated)")
     args = parser.parse_args()
     pin(args.cores)
     if args.bits:
         frames = args.frames if args.frames != 20 else 36
-        print_bits('avatar ASL "AB" (label buffer)', avatar_labels(320, 240, frames))
+        errors = tuple(float(e) for e in args.shape_error.split(",") if e.strip())
+        print_bits('avatar ASL "AB" (label buffer)', avatar_labels(320, 240, frames), errors)
         if args.clip:
-            print_bits(f"{args.clip} (landmark segmentation)", clip_labels(args.clip, frames))
+            print_bits(f"{args.clip} (landmark segmentation)", clip_labels(args.clip, frames), errors)
         return
 
     import numpy as np

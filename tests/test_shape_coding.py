@@ -151,3 +151,35 @@ def test_payload_that_ends_early_is_rejected_while_decoding():
     crafted = recrc(stream[:9] + struct.pack(">I", MAX_PIXELS // (64 * 64)) + stream[13:])
     with pytest.raises(SigncastError, match="payload ends before the last frame"):
         decode_shape(crafted)
+
+
+@pytest.mark.parametrize("shape_error", [0.5, 1.0, 3.0])
+def test_lossy_shape_decodes_to_the_encoders_masks_within_the_stated_error(shape_error):
+    masks = moving_ellipses(frames=12, height=64, width=80, seed=3)
+    lossless, _ = encode_shape(masks, gop=6)
+    stream, stats = encode_shape(masks, gop=6, shape_error=shape_error)
+    decoded = decode_shape(stream)
+    wrong = (decoded != masks).sum(axis=(1, 2))
+    # the decoder's masks are the encoder's: the wrong pixels it reports are those the decoder gives
+    assert int(wrong.sum()) == stats.error_pixels and stats.object_pixels == int(masks.sum())
+    # every frame within its budget, so the clip too
+    assert np.all(wrong <= np.floor(shape_error / 100 * masks.sum(axis=(1, 2))))
+    assert 0 < stats.shape_error <= shape_error
+    assert len(stream) < len(lossless)
+
+
+def test_shape_error_zero_is_lossless_and_out_of_range_is_refused():
+    masks = moving_ellipses(frames=4)
+    stream, stats = encode_shape(masks, gop=4, shape_error=0.0)
+    assert stream == encode_shape(masks, gop=4)[0] and stats.error_pixels == 0
+    for bad in (-0.1, 10.5):
+        with pytest.raises(SigncastError, match="shape error"):
+            encode_shape(masks, shape_error=bad)
+
+
+def test_damaged_lossy_shape_stream_is_rejected():
+    stream, _ = encode_shape(moving_ellipses(frames=6), gop=6, shape_error=2.0)
+    damaged = bytearray(stream)
+    damaged[len(stream) // 2] ^= 0x10
+    with pytest.raises(SigncastError, match="CRC"):
+        decode_shape(bytes(damaged))

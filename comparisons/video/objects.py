@@ -2,8 +2,8 @@
 
 Each video object is coded as its own texture stream over its bounding box (the union of its masks over the
 sequence, aligned to the 16x16 macroblock grid), with the pixels outside its shape padded, plus its binary
-shape coded losslessly by `comparisons.video.shape`. The object's cost is texture bytes + shape bytes.
-The receiving side decodes both and composes the objects onto a black frame for quality measurement.
+shape coded by `comparisons.video.shape` (losslessly, or within a stated shape error: ShapeCache.shape_error).
+The object's cost is texture bytes + shape bytes. The receiving side decodes both and composes the objects onto a black frame for quality measurement.
 
 Padding (the texture encoder has no shape tool, so padding must keep the outside cheap): MPEG-4 repetitive
 padding in each frame (transparent runs in a row take the value of the opaque pixel at their border, or the
@@ -163,6 +163,7 @@ class CodedObject:
     decoded_texture: np.ndarray              # (T, y1-y0, x1-x0, 3) uint8
     decoded_masks: np.ndarray                # (T, H, W) bool, the whole frame
     area_percent: float
+    shape_errors: tuple[int, int] = (0, 0)   # (wrong pixels, object pixels) of the decoded shape, all frames
 
     @property
     def bits(self) -> int:
@@ -171,19 +172,28 @@ class CodedObject:
 
 @dataclass
 class ShapeCache:
-    """Coded shapes by (object name, frame-set key): the shape is independent of the texture quantiser."""
+    """Coded shapes by (object name, frame-set key): the shape is independent of the texture quantiser.
+
+    shape_error: percent of each object's pixels its decoded shape may get wrong (0: lossless; see
+    comparisons.video.shape.encode_shape). streams maps a key to (shape bytes, decoded masks, wrong pixels,
+    object pixels)."""
 
     streams: dict = field(default_factory=dict)
+    shape_error: float = 0.0
 
     def get(self, key, masks: np.ndarray) -> tuple[int, np.ndarray]:
         """(shape bytes, decoded masks) for masks (T, H, W), coding and decoding once per key."""
         if key not in self.streams:
-            stream, _ = shape_coding.encode_shape(masks, gop=video_codecs.GOP)
+            stream, stats = shape_coding.encode_shape(masks, gop=video_codecs.GOP, shape_error=self.shape_error)
             decoded = shape_coding.decode_shape(stream)
-            if not np.array_equal(decoded, masks):
-                raise SigncastError(f"shape decoder did not reproduce the masks of {key}")
-            self.streams[key] = (len(stream), decoded)
-        return self.streams[key]
+            if int(np.count_nonzero(decoded != masks)) != stats.error_pixels:
+                raise SigncastError(f"shape decoder did not reproduce the encoder's masks of {key}")
+            self.streams[key] = (len(stream), decoded, stats.error_pixels, stats.object_pixels)
+        return self.streams[key][:2]
+
+    def errors(self, key) -> tuple[int, int]:
+        """(wrong pixels, object pixels) of a coded key."""
+        return self.streams[key][2:]
 
 
 def code_object(name: str, frames: np.ndarray, masks: np.ndarray | None, fps: float, codec: str, q: int,
@@ -205,13 +215,14 @@ def code_object(name: str, frames: np.ndarray, masks: np.ndarray | None, fps: fl
     box = bounding_box(masks, (height, width))
     if box is None:
         return None
-    shapes = shapes or ShapeCache()
-    shape_bytes, decoded_masks = shapes.get(shape_key or (name, masks.shape, id(masks)), masks)
+    shapes = shapes if shapes is not None else ShapeCache()
+    key = shape_key or (name, masks.shape, id(masks))
+    shape_bytes, decoded_masks = shapes.get(key, masks)
     y0, y1, x0, x1 = box
     texture = pad_object(frames[:, y0:y1, x0:x1], decoded_masks[:, y0:y1, x0:x1], skip_transparent=skip_transparent)
     coded = video_codecs.code_video(texture, fps, codec, q)
     return CodedObject(name, q, box, len(coded.data), shape_bytes, coded.decoded, decoded_masks,
-                       100.0 * float(masks.mean()))
+                       100.0 * float(masks.mean()), shapes.errors(key))
 
 
 def compose(objects: list[CodedObject], frame_shape: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -254,6 +265,12 @@ class CodedSolution:
     @property
     def shape_bits(self) -> int:
         return sum(8 * obj.shape_bytes for obj in self.objects)
+
+    @property
+    def shape_error(self) -> float:
+        """Percent: decoded shape pixels unlike the masks over the objects' pixels (0 for lossless shape)."""
+        wrong = sum(obj.shape_errors[0] for obj in self.objects)
+        return 100.0 * wrong / max(1, sum(obj.shape_errors[1] for obj in self.objects))
 
 
 def code_solution(solution: str, frames: np.ndarray, labels: np.ndarray | None, fps: float, codec: str, q: int,

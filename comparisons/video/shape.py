@@ -13,8 +13,9 @@ Departures from the standard, stated: (1) probabilities are adaptive counts per 
 intra frame (every `gop` frames) to a prior skewed towards "the pixel repeats its neighbours / its
 motion-compensated pixel", instead of the standard's fixed tables, which are not reproduced here;
 (2) modes and motion-vector differences are binarised and coded by the same arithmetic coder instead of
-VLCs; (3) one arithmetic codeword covers the whole sequence; (4) no size conversion and no transposed
-scan (both lossy or optional tools); (5) every predicted frame refers to the previous frame in display order.
+VLCs; (3) one arithmetic codeword covers the whole sequence; (4) no size conversion (CR 1/2, 1/4) and no
+transposed scan; lossy shape is the alpha threshold alone, an encoder's choice under a per-frame budget of
+wrong pixels (encode_shape's shape_error) that the decoder needs no word of; (5) every predicted frame refers to the previous frame in display order.
 
 Stream layout (version 2): a 22-byte header (magic, version, width, height, frames, gop, payload length, then a
 CRC-32 of the 18 header bytes before it and of the payload) and the arithmetic-coded payload. Version 1
@@ -61,6 +62,8 @@ _CRC_OFFSET = _HEADER.size - 4         # the CRC is the header's last field
 MAX_SIDE = 4096                        # pixels, width and height
 MAX_PIXELS = 1 << 28                   # frames x height x width: decoded (T, H, W) bool masks take <= 256 MiB
 PRIOR_WEIGHT = 8                       # initial count of the likely symbol in a pixel context
+MAX_SHAPE_ERROR = 10.0                 # percent of the object's pixels, the most lossy shape may cost
+ALPHA_TH = 3                           # lossy shape: wrong pixels allowed per 4x4 sub-block of a uniform / copied BAB
 
 MODE_NAMES = {TRANSPARENT: "transparent", OPAQUE: "opaque", INTRA_CAE: "intra_cae", INTER_CAE: "inter_cae",
               COPY: "copy"}
@@ -209,10 +212,17 @@ class ShapeStats:
     n_bytes: int
     frames: int
     mode_counts: dict[str, int]
+    error_pixels: int = 0       # decoded pixels unlike the input masks (0: lossless)
+    object_pixels: int = 0      # opaque pixels of the input masks, all frames
 
     @property
     def bits_per_frame(self) -> float:
         return 8.0 * self.n_bytes / max(1, self.frames)
+
+    @property
+    def shape_error(self) -> float:
+        """Percent: wrong pixels over the object's pixels (0 for lossless coding or an empty object)."""
+        return 100.0 * self.error_pixels / max(1, self.object_pixels)
 
 
 class _Canvas:
@@ -268,37 +278,59 @@ def _check_masks(masks: np.ndarray) -> np.ndarray:
     return np.asarray(masks, dtype=bool)  # no copy of boolean masks
 
 
-def encode_shape(masks: np.ndarray, gop: int = 12) -> tuple[bytes, ShapeStats]:
-    """Code a binary mask sequence (T, H, W) bool losslessly; returns the stream and its statistics.
-
-    Frames 0, gop, 2*gop, ... are intra (probabilities reset); the others are predicted from the previous frame.
-    """
-    masks = _check_masks(masks)
-    if not 1 <= gop <= 255:
-        raise SigncastError(f"shape GOP must be 1..255 frames, got {gop}")
-    frames, height, width = masks.shape
-    blocks_y, blocks_x = -(-height // BAB), -(-width // BAB)
-    padded = np.zeros((frames, blocks_y * BAB, blocks_x * BAB), bool)
-    padded[:, :height, :width] = masks
-    coder = BinaryArithmeticEncoder()
-    canvas = _Canvas(blocks_y, blocks_x)
-    words = np.zeros(canvas.previous.size, np.uint16)          # motion-search scratch (row_words)
-    costs = _cost_table()
-    frame_bits = kc.BITS_PER_SYMBOL * (kc.SYMBOLS_PER_FRAME + kc.SYMBOLS_PER_BLOCK * blocks_y * blocks_x)
+def _frames(frames: int, gop: int, canvas: _Canvas, coder):
+    """Frame indices t with inter (0 for intra), after moving the canvas on and, at intra frames, resetting
+    the coder's model."""
     for t in range(frames):
         if t:
             canvas.next_frame()
         inter = t % gop != 0
         if not inter:
             coder.reset_model()
+        yield t, int(inter)
+
+
+def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0) -> tuple[bytes, ShapeStats]:
+    """Code a binary mask sequence (T, H, W) bool; returns the stream and its statistics.
+
+    Frames 0, gop, 2*gop, ... are intra (probabilities reset); the others are predicted from the previous frame.
+    shape_error 0 (percent) codes losslessly. Above 0 the encoder may decode up to floor(shape_error / 100 x
+    the frame's opaque pixels) pixels of each frame wrongly (so the clip's shape error, wrong pixels over
+    object pixels, stays <= shape_error %), spent as the standard's alpha threshold: a BAB with at most
+    ALPHA_TH wrong pixels in every 4x4 sub-block is coded transparent, opaque or copied from the
+    motion-compensated previous shape (at the predicted vector first, then at the searched one), first come
+    first served in scan order. The stream format and the decoder are the lossless ones: lossy shape is an
+    encoder's choice, and stats.shape_error reports what it cost.
+    """
+    masks = _check_masks(masks)
+    if not 1 <= gop <= 255:
+        raise SigncastError(f"shape GOP must be 1..255 frames, got {gop}")
+    if not 0.0 <= shape_error <= MAX_SHAPE_ERROR:
+        raise SigncastError(f"shape error must be 0..{MAX_SHAPE_ERROR} percent of the object's pixels, "
+                            f"got {shape_error}")
+    frames, height, width = masks.shape
+    blocks_y, blocks_x = -(-height // BAB), -(-width // BAB)
+    padded = np.zeros((frames, blocks_y * BAB, blocks_x * BAB), bool)
+    padded[:, :height, :width] = masks
+    object_pixels = padded.sum(axis=(1, 2))
+    budgets = np.floor(shape_error / 100.0 * object_pixels).astype(np.int64)
+    alpha_th = ALPHA_TH if shape_error > 0 else 0
+    coder = BinaryArithmeticEncoder()
+    canvas = _Canvas(blocks_y, blocks_x)
+    words = np.zeros(canvas.previous.size, np.uint16)          # motion-search scratch (row_words)
+    costs = _cost_table()
+    frame_bits = kc.BITS_PER_SYMBOL * (kc.SYMBOLS_PER_FRAME + kc.SYMBOLS_PER_BLOCK * blocks_y * blocks_x)
+    wrong = 0
+    for t, inter in _frames(frames, gop, canvas, coder):
         coder.reserve(frame_bits)
-        kc.encode_frame(padded[t].view(np.uint8), canvas.current, canvas.previous, canvas.stride, canvas.border,
-                        canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv, coder.model.zeros,
-                        coder.model.ones, coder.buffer, coder.registers, canvas.counts, int(inter), costs, words)
+        wrong += kc.encode_frame(padded[t].view(np.uint8), canvas.current, canvas.previous, canvas.stride,
+                                 canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
+                                 coder.model.zeros, coder.model.ones, coder.buffer, coder.registers, canvas.counts,
+                                 inter, costs, words, alpha_th, int(budgets[t]))
     payload = coder.finish()
     fields = _HEADER.pack(MAGIC, VERSION, width, height, frames, gop, len(payload), 0)[:_CRC_OFFSET]
     stream = fields + struct.pack(">I", zlib.crc32(payload, zlib.crc32(fields))) + payload
-    return stream, ShapeStats(len(stream), frames, canvas.mode_counts())
+    return stream, ShapeStats(len(stream), frames, canvas.mode_counts(), int(wrong), int(object_pixels.sum()))
 
 
 def decode_shape(stream: bytes) -> np.ndarray:
@@ -324,15 +356,10 @@ def decode_shape(stream: bytes) -> np.ndarray:
     coder = BinaryArithmeticDecoder(payload)
     canvas = _Canvas(blocks_y, blocks_x)
     masks = np.zeros((frames, height, width), bool)
-    for t in range(frames):
-        if t:
-            canvas.next_frame()
-        inter = t % gop != 0
-        if not inter:
-            coder.reset_model()
+    for t, inter in _frames(frames, gop, canvas, coder):
         coder.check(kc.decode_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
                                     canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
-                                    coder.model.zeros, coder.model.ones, canvas.counts, int(inter)))
+                                    coder.model.zeros, coder.model.ones, canvas.counts, inter))
         masks[t] = canvas.to_array(height, width)
     return masks
 
@@ -366,17 +393,13 @@ def shape_bit_account(stream: bytes) -> dict:
         return float((terms.sum(axis=0) * n[used]).sum())
 
     entropy = 0.0
-    for t in range(frames):
-        if t:
-            canvas.next_frame()
-        inter = t % gop != 0
+    for t, inter in _frames(frames, gop, canvas, coder):
         if not inter:
-            coder.reset_model()
             entropy += gop_entropy()
             hist[:] = 0
         coder.check(kc.account_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
                                      canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
-                                     coder.model.zeros, coder.model.ones, canvas.counts, int(inter), costs, hist,
+                                     coder.model.zeros, coder.model.ones, canvas.counts, inter, costs, hist,
                                      mv_blocks))
     entropy += gop_entropy()
     pixel_bits = costs[kc.COST_INTRA] + costs[kc.COST_INTER]

@@ -377,18 +377,88 @@ def _bounding_box(frame: np.ndarray) -> tuple[int, int, int, int]:
     return y_min // BAB, y_max // BAB, x_min // BAB, x_max // BAB
 
 
+# what the accounting charges (statistics only, see the end of this module)
+COST_HEADER, COST_MODE, COST_MV, COST_INTRA, COST_INTER = 0, 1, 2, 3, 4
+N_COSTS = 5
+
+
+@njit(cache=True)
+def _decode_symbol(data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray, ctx: int,
+                   costs: np.ndarray, category: int, charge: int) -> int:
+    """decode(), and with charge the symbol's information -log2 p in bits added to costs[category]."""
+    if not charge:
+        return decode(data, regs, zeros, ones, ctx)
+    p = p0(zeros, ones, ctx)
+    bit = decode(data, regs, zeros, ones, ctx)
+    costs[category] += -np.log2((65536 - p) / 65536.0) if bit else -np.log2(p / 65536.0)
+    return bit
+
+
+@njit(cache=True)
+def _cae_pixels(buffer: np.ndarray, data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray,
+                cur: np.ndarray, prev: np.ndarray, stride: int, start: int, shift: int, mode: int, encoding: int,
+                frame: np.ndarray, y0: int, x0: int, costs: np.ndarray, pixel_hist: np.ndarray, charge: int) -> None:
+    """The 256 intra or inter CAE pixels of the BAB at flat canvas index start (shift: the flat offset of the
+    motion-compensated previous pixels), coded into buffer from frame's BAB at (y0, x0) (encoding), or decoded
+    from data; either way written into cur. Decoding with charge, costs (N_COSTS,) and pixel_hist (2, N_CONTEXTS)
+    get each pixel's information and value."""
+    category = COST_INTRA if mode == INTRA_CAE else COST_INTER
+    for r in range(BAB):
+        row = start + r * stride
+        for c in range(BAB):
+            i = row + c
+            if mode == INTRA_CAE:
+                ctx = _intra_context(cur, i, stride)
+            else:
+                ctx = _inter_context(cur, prev, i, i + shift, stride)
+            if encoding:
+                cur[i] = encode(buffer, regs, zeros, ones, ctx, I(frame[y0 + r, x0 + c]))
+            else:
+                bit = _decode_symbol(data, regs, zeros, ones, ctx, costs, category, charge)
+                cur[i] = bit
+                if charge:
+                    pixel_hist[bit, ctx] += 1
+        cur[row + BAB] = cur[row + BAB + 1] = cur[row + BAB - 1]
+    _clear_right(cur, stride, start)
+
+
+@njit(cache=True)
+def _block_errors(frame: np.ndarray, y0: int, x0: int, prev: np.ndarray, stride: int, border: int, mode: int,
+                  mv_x: int, mv_y: int, alpha_th: int) -> int:
+    """Pixels of the BAB at (y0, x0) that transparent, opaque or copy (at (mv_x, mv_y)) would get wrong, or -1
+    when a 4x4 sub-block has more than alpha_th of them (the standard's alpha threshold test)."""
+    total = 0
+    for sy in range(0, BAB, 4):
+        for sx in range(0, BAB, 4):
+            errors = 0
+            for r in range(sy, sy + 4):
+                for c in range(sx, sx + 4):
+                    if mode == COPY:
+                        value = I(prev[(y0 + mv_y + r + border) * stride + x0 + mv_x + c + border])
+                    else:
+                        value = 1 if mode == OPAQUE else 0
+                    errors += value ^ I(frame[y0 + r, x0 + c])
+            if errors > alpha_th:
+                return -1
+            total += errors
+    return total
+
+
 @njit(cache=True)
 def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int, border: int,
                  modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
                  zeros: np.ndarray, ones: np.ndarray, buffer: np.ndarray, regs: np.ndarray, counts: np.ndarray,
-                 inter: int, costs: np.ndarray, words: np.ndarray) -> None:
+                 inter: int, costs: np.ndarray, words: np.ndarray, alpha_th: int, budget: int) -> int:
     """Code one frame (padded (blocks_y * BAB, blocks_x * BAB) uint8 mask) into buffer, writing the decoded
     result into cur (flat canvas) and modes / mvs / has_mv; counts (5,) gets the modes used. The caller
-    leaves room in buffer for BITS_PER_SYMBOL x (SYMBOLS_PER_FRAME + SYMBOLS_PER_BLOCK x blocks) bits."""
+    leaves room in buffer for BITS_PER_SYMBOL x (SYMBOLS_PER_FRAME + SYMBOLS_PER_BLOCK x blocks) bits.
+    Lossy shape (alpha_th > 0, the standard's alpha threshold): a BAB is coded transparent, opaque or copied
+    when none of its 4x4 sub-blocks has more than alpha_th wrong pixels and the frame's wrong pixels stay
+    <= budget. Returns the frame's wrong pixels."""
     blocks_y, blocks_x = modes.shape
     by0, by1, bx0, bx1 = _bounding_box(frame)
     if not encode(buffer, regs, zeros, ones, CTX_PRESENT, 1 if by0 >= 0 else 0):
-        return
+        return 0
     nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
     encode_raw(buffer, regs, by0, nby)
     encode_raw(buffer, regs, by1, nby)
@@ -397,6 +467,8 @@ def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: i
     order = _mode_order(inter)
     window = np.zeros((BAB + 2, BAB + 4), np.int64)
     bits = np.zeros(BAB * BAB, np.float64)
+    no_costs, no_hist = np.zeros(N_COSTS), np.zeros((2, 1), np.int64)
+    wrong = 0
     if inter:
         row_words(prev, words)
     for by in range(by0, by1 + 1):
@@ -404,31 +476,52 @@ def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: i
             y0, x0 = by * BAB, bx * BAB
             start = (y0 + border) * stride + x0 + border
             # the mode decision: uniform BABs are transparent / opaque; in predicted frames an exact match of the
-            # motion-compensated previous shape is copied, else inter or intra CAE, whichever the estimate favours
+            # motion-compensated previous shape is copied, else inter or intra CAE, whichever the estimate favours.
+            # Lossy, a BAB within the alpha threshold (and the frame's budget) is transparent, opaque or copied.
             opaque = 0
             for r in range(BAB):
                 for c in range(BAB):
                     opaque += I(frame[y0 + r, x0 + c])
-            mode, mv_x, mv_y = INTRA_CAE, 0, 0
+            mode, mv_x, mv_y, errors = INTRA_CAE, 0, 0, -1
             if opaque == 0:
                 mode = TRANSPARENT
             elif opaque == BAB * BAB:
                 mode = OPAQUE
-            elif inter:
-                pred_x, pred_y = _mv_predictor(mvs, has_mv, by, bx)
-                mv_x, mv_y, errors = motion_search(frame, y0, x0, words, stride, border, pred_x, pred_y)
-                if errors == 0:
-                    mode = COPY
-                else:
-                    mv_bits = 2.0 + 2.0 * (abs(mv_x - pred_x) + abs(mv_y - pred_y))
-                    inter_bits = estimate_cae_bits(frame, y0, x0, cur, prev, stride, border, 1, mv_x, mv_y,
-                                                   zeros, ones, costs, window, bits) + mv_bits
-                    intra_bits = estimate_cae_bits(frame, y0, x0, cur, prev, stride, border, 0, 0, 0,
-                                                   zeros, ones, costs, window, bits)
-                    if inter_bits < intra_bits:
-                        mode = INTER_CAE
+            else:
+                if alpha_th > 0:
+                    uniform = OPAQUE if 2 * opaque > BAB * BAB else TRANSPARENT
+                    errors = _block_errors(frame, y0, x0, prev, stride, border, uniform, 0, 0, alpha_th)
+                    if 0 <= errors <= budget - wrong:
+                        mode = uniform
+                        wrong += errors
+                if mode == INTRA_CAE and inter:
+                    pred_x, pred_y = _mv_predictor(mvs, has_mv, by, bx)
+                    if alpha_th > 0:
+                        errors = _block_errors(frame, y0, x0, prev, stride, border, COPY, pred_x, pred_y, alpha_th)
+                    if 0 < errors <= budget - wrong:
+                        mode, mv_x, mv_y = COPY, pred_x, pred_y
+                        wrong += errors
                     else:
-                        mode, mv_x, mv_y = INTRA_CAE, 0, 0
+                        mv_x, mv_y, errors = motion_search(frame, y0, x0, words, stride, border, pred_x, pred_y)
+                        if errors > 0:
+                            if alpha_th > 0:
+                                errors = _block_errors(frame, y0, x0, prev, stride, border, COPY, mv_x, mv_y,
+                                                       alpha_th)
+                            if alpha_th == 0 or errors > budget - wrong:
+                                errors = -1
+                        if errors >= 0:
+                            mode = COPY
+                            wrong += errors
+                        else:
+                            mv_bits = 2.0 + 2.0 * (abs(mv_x - pred_x) + abs(mv_y - pred_y))
+                            inter_bits = estimate_cae_bits(frame, y0, x0, cur, prev, stride, border, 1, mv_x, mv_y,
+                                                           zeros, ones, costs, window, bits) + mv_bits
+                            intra_bits = estimate_cae_bits(frame, y0, x0, cur, prev, stride, border, 0, 0, 0,
+                                                           zeros, ones, costs, window, bits)
+                            if inter_bits < intra_bits:
+                                mode = INTER_CAE
+                            else:
+                                mode, mv_x, mv_y = INTRA_CAE, 0, 0
             # the mode, as binary decisions along `order`
             ctx0 = _mode_context(modes, previous_modes, by, bx, inter)
             for position in range(order.size - 1):
@@ -443,19 +536,11 @@ def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: i
             counts[mode] += 1
             shift = mv_y * stride + mv_x
             if mode == INTRA_CAE or mode == INTER_CAE:
-                for r in range(BAB):
-                    row = start + r * stride
-                    for c in range(BAB):
-                        i = row + c
-                        if mode == INTRA_CAE:
-                            ctx = _intra_context(cur, i, stride)
-                        else:
-                            ctx = _inter_context(cur, prev, i, i + shift, stride)
-                        cur[i] = encode(buffer, regs, zeros, ones, ctx, I(frame[y0 + r, x0 + c]))
-                    cur[row + BAB] = cur[row + BAB + 1] = cur[row + BAB - 1]
-                _clear_right(cur, stride, start)
+                _cae_pixels(buffer, buffer, regs, zeros, ones, cur, prev, stride, start, shift, mode, 1, frame, y0, x0,
+                            no_costs, no_hist, 0)
             else:
                 _fill_block(cur, prev, stride, start, mode, shift)
+    return wrong
 
 
 @njit(cache=True)
@@ -474,124 +559,26 @@ def _encode_mv_component(buffer: np.ndarray, regs: np.ndarray, zeros: np.ndarray
 
 @njit(cache=True)
 def _decode_mv_component(data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray,
-                         component: int) -> int:
+                         component: int, costs: np.ndarray, charge: int) -> int:
     base = CTX_MV + component * 10
-    if not decode(data, regs, zeros, ones, base):
+    if not _decode_symbol(data, regs, zeros, ones, base, costs, COST_MV, charge):
         return 0
-    negative = decode(data, regs, zeros, ones, base + 1)
+    negative = _decode_symbol(data, regs, zeros, ones, base + 1, costs, COST_MV, charge)
     magnitude, limit = 1, 2 * SEARCH_RANGE
-    while magnitude < limit and decode(data, regs, zeros, ones, base + 2 + min(magnitude - 1, 7)):
+    while magnitude < limit and _decode_symbol(data, regs, zeros, ones, base + 2 + min(magnitude - 1, 7), costs,
+                                               COST_MV, charge):
         magnitude += 1
     return -magnitude if negative else magnitude
 
 
 @njit(cache=True)
-def decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
-                 border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
-                 zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int) -> int:
-    """Decode one frame from the payload into cur (flat canvas), modes, mvs, has_mv; counts (5,) gets the
-    modes. Returns OK, or the first error met: PAYLOAD_ENDS, BAD_BOX, BAD_MV (nothing is read or written
-    outside the canvas after an error)."""
-    blocks_y, blocks_x = modes.shape
-    present = decode(data, regs, zeros, ones, CTX_PRESENT)
-    if regs[STATUS] != OK or not present:
-        return regs[STATUS]
-    nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
-    by0 = decode_raw(data, regs, nby)
-    by1 = decode_raw(data, regs, nby)
-    bx0 = decode_raw(data, regs, nbx)
-    bx1 = decode_raw(data, regs, nbx)
-    if regs[STATUS] != OK:
-        return regs[STATUS]
-    if not (by0 <= by1 < blocks_y and bx0 <= bx1 < blocks_x):
-        return BAD_BOX
-    order = _mode_order(inter)
-    for by in range(by0, by1 + 1):
-        for bx in range(bx0, bx1 + 1):
-            y0, x0 = by * BAB, bx * BAB
-            start = (y0 + border) * stride + x0 + border
-            ctx0 = _mode_context(modes, previous_modes, by, bx, inter)
-            mode = order[order.size - 1]
-            for position in range(order.size - 1):
-                if decode(data, regs, zeros, ones, ctx0 + position):
-                    mode = order[position]
-                    break
-            mv_x, mv_y = 0, 0
-            if mode == COPY or mode == INTER_CAE:
-                pred_x, pred_y = _mv_predictor(mvs, has_mv, by, bx)
-                mv_x = pred_x + _decode_mv_component(data, regs, zeros, ones, 0)
-                mv_y = pred_y + _decode_mv_component(data, regs, zeros, ones, 1)
-                if regs[STATUS] != OK:
-                    return regs[STATUS]
-                if abs(mv_x) > SEARCH_RANGE or abs(mv_y) > SEARCH_RANGE:
-                    return BAD_MV
-                mvs[by, bx, 0], mvs[by, bx, 1], has_mv[by, bx] = mv_x, mv_y, 1
-            if regs[STATUS] != OK:
-                return regs[STATUS]
-            modes[by, bx] = mode
-            counts[mode] += 1
-            shift = mv_y * stride + mv_x
-            if mode == INTRA_CAE or mode == INTER_CAE:
-                for r in range(BAB):
-                    row = start + r * stride
-                    for c in range(BAB):
-                        i = row + c
-                        if mode == INTRA_CAE:
-                            ctx = _intra_context(cur, i, stride)
-                        else:
-                            ctx = _inter_context(cur, prev, i, i + shift, stride)
-                        cur[i] = decode(data, regs, zeros, ones, ctx)
-                    cur[row + BAB] = cur[row + BAB + 1] = cur[row + BAB - 1]
-                _clear_right(cur, stride, start)
-                if regs[STATUS] != OK:
-                    return regs[STATUS]
-            else:
-                _fill_block(cur, prev, stride, start, mode, shift)
-    return OK
-
-
-# ------------------------------------------------------------------------------------- accounting (statistics only)
-# Where a stream's bits go (benchmarks/shape_coding.py): decode_frame again, charging each decoded symbol its
-# information, -log2 of the probability the model gave it, to one of these categories. Nothing here writes a
-# stream; the streams and the decoder above are unchanged.
-COST_HEADER, COST_MODE, COST_MV, COST_INTRA, COST_INTER = 0, 1, 2, 3, 4
-N_COSTS = 5
-
-
-@njit(cache=True)
-def _decode_charged(data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray, ctx: int,
-                    costs: np.ndarray, category: int) -> int:
-    p = p0(zeros, ones, ctx)
-    bit = decode(data, regs, zeros, ones, ctx)
-    costs[category] += -np.log2((65536 - p) / 65536.0) if bit else -np.log2(p / 65536.0)
-    return bit
-
-
-@njit(cache=True)
-def _decode_mv_charged(data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray, component: int,
-                       costs: np.ndarray) -> int:
-    base = CTX_MV + component * 10
-    if not _decode_charged(data, regs, zeros, ones, base, costs, COST_MV):
-        return 0
-    negative = _decode_charged(data, regs, zeros, ones, base + 1, costs, COST_MV)
-    magnitude, limit = 1, 2 * SEARCH_RANGE
-    while magnitude < limit and _decode_charged(data, regs, zeros, ones, base + 2 + min(magnitude - 1, 7), costs,
-                                                COST_MV):
-        magnitude += 1
-    return -magnitude if negative else magnitude
-
-
-@njit(cache=True)
-def account_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
+def _decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
                   border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
                   zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, costs: np.ndarray,
-                  pixel_hist: np.ndarray, mv_blocks: np.ndarray) -> int:
-    """decode_frame, and: costs (N_COSTS,) float64 gets each symbol's information in bits by category (the box's
-    raw bits count 1 each); pixel_hist (2, N_CONTEXTS) int64 counts the decoded pixel values per context (for
-    the cost of a model that had known the statistics: the learning cost); mv_blocks (2,) int64 counts the
-    blocks with a motion vector and those whose vector differs from its prediction."""
+                  pixel_hist: np.ndarray, mv_blocks: np.ndarray, charge: int) -> int:
+    """decode_frame; with charge also account_frame's statistics."""
     blocks_y, blocks_x = modes.shape
-    present = _decode_charged(data, regs, zeros, ones, CTX_PRESENT, costs, COST_HEADER)
+    present = _decode_symbol(data, regs, zeros, ones, CTX_PRESENT, costs, COST_HEADER, charge)
     if regs[STATUS] != OK or not present:
         return regs[STATUS]
     nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
@@ -605,6 +592,7 @@ def account_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.
     if not (by0 <= by1 < blocks_y and bx0 <= bx1 < blocks_x):
         return BAD_BOX
     order = _mode_order(inter)
+    no_frame = np.zeros((1, 1), np.uint8)
     for by in range(by0, by1 + 1):
         for bx in range(bx0, bx1 + 1):
             y0, x0 = by * BAB, bx * BAB
@@ -612,14 +600,14 @@ def account_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.
             ctx0 = _mode_context(modes, previous_modes, by, bx, inter)
             mode = order[order.size - 1]
             for position in range(order.size - 1):
-                if _decode_charged(data, regs, zeros, ones, ctx0 + position, costs, COST_MODE):
+                if _decode_symbol(data, regs, zeros, ones, ctx0 + position, costs, COST_MODE, charge):
                     mode = order[position]
                     break
             mv_x, mv_y = 0, 0
             if mode == COPY or mode == INTER_CAE:
                 pred_x, pred_y = _mv_predictor(mvs, has_mv, by, bx)
-                dx = _decode_mv_charged(data, regs, zeros, ones, 0, costs)
-                dy = _decode_mv_charged(data, regs, zeros, ones, 1, costs)
+                dx = _decode_mv_component(data, regs, zeros, ones, 0, costs, charge)
+                dy = _decode_mv_component(data, regs, zeros, ones, 1, costs, charge)
                 mv_x, mv_y = pred_x + dx, pred_y + dy
                 if regs[STATUS] != OK:
                     return regs[STATUS]
@@ -635,22 +623,38 @@ def account_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.
             counts[mode] += 1
             shift = mv_y * stride + mv_x
             if mode == INTRA_CAE or mode == INTER_CAE:
-                category = COST_INTRA if mode == INTRA_CAE else COST_INTER
-                for r in range(BAB):
-                    row = start + r * stride
-                    for c in range(BAB):
-                        i = row + c
-                        if mode == INTRA_CAE:
-                            ctx = _intra_context(cur, i, stride)
-                        else:
-                            ctx = _inter_context(cur, prev, i, i + shift, stride)
-                        bit = _decode_charged(data, regs, zeros, ones, ctx, costs, category)
-                        cur[i] = bit
-                        pixel_hist[bit, ctx] += 1
-                    cur[row + BAB] = cur[row + BAB + 1] = cur[row + BAB - 1]
-                _clear_right(cur, stride, start)
+                _cae_pixels(no_frame[0], data, regs, zeros, ones, cur, prev, stride, start, shift, mode, 0, no_frame, 0,
+                            0, costs, pixel_hist, charge)
                 if regs[STATUS] != OK:
                     return regs[STATUS]
             else:
                 _fill_block(cur, prev, stride, start, mode, shift)
     return OK
+
+
+@njit(cache=True)
+def decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
+                 border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
+                 zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int) -> int:
+    """Decode one frame from the payload into cur (flat canvas), modes, mvs, has_mv; counts (5,) gets the
+    modes. Returns OK, or the first error met: PAYLOAD_ENDS, BAD_BOX, BAD_MV (nothing is read or written
+    outside the canvas after an error)."""
+    return _decode_frame(data, regs, cur, prev, stride, border, modes, previous_modes, mvs, has_mv, zeros, ones,
+                         counts, inter, np.zeros(N_COSTS), np.zeros((2, 1), np.int64), np.zeros(2, np.int64), 0)
+
+
+# ------------------------------------------------------------------------------------- accounting (statistics only)
+# Where a stream's bits go (benchmarks/shape_coding.py): decode_frame again, charging each decoded symbol its
+# information, -log2 of the probability the model gave it, to a COST_* category. Nothing here writes a stream.
+
+@njit(cache=True)
+def account_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
+                  border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
+                  zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, costs: np.ndarray,
+                  pixel_hist: np.ndarray, mv_blocks: np.ndarray) -> int:
+    """decode_frame, and: costs (N_COSTS,) float64 gets each symbol's information in bits by category (the box's
+    raw bits count 1 each); pixel_hist (2, N_CONTEXTS) int64 counts the decoded pixel values per context (for
+    the cost of a model that had known the statistics: the learning cost); mv_blocks (2,) int64 counts the
+    blocks with a motion vector and those whose vector differs from its prediction."""
+    return _decode_frame(data, regs, cur, prev, stride, border, modes, previous_modes, mvs, has_mv, zeros, ones,
+                         counts, inter, costs, pixel_hist, mv_blocks, 1)

@@ -18,7 +18,7 @@ def add_parser(subparsers) -> None:
         "video", help="code a signer as video objects (NSV, NSV2O, NSV3O, NSV3O+C, SSV) and measure rate and quality",
         description="Segment a signer video into signer, head and hands (or render the synthetic signer with its label buffer), code "
                     "each solution's video objects with MPEG-4 Part 2 at fixed Q (GOP I B B P ..., 12 frames) plus "
-                    "lossless binary shape, sweep Q, frame rate and resolution, compare with H.264 and AV1 at "
+                    "binary shape (lossless unless --shape-error), sweep Q, frame rate and resolution, compare with H.264 and AV1 at "
                     "matched quality, and write records.jsonl, CSV tables, PNG plots and mask overlays to --out.")
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--video", help="a video file, or the bundled clip name 'carphone'")
@@ -38,6 +38,9 @@ def add_parser(subparsers) -> None:
                         help="how a natural clip is cut into signer, head and hands: landmarks (selfie segmentation, "
                              "face and hand landmarks, skin colour learnt from the face; default) or colour (the "
                              "source's colour models of background and clothes, skin as the rest)")
+    parser.add_argument("--shape-error", type=float, default=0.0, metavar="PERCENT",
+                        help="lossy binary shape: each object's decoded shape may get at most this percent of its "
+                             "pixels wrong (the standard's alpha threshold; default 0, lossless)")
     options.add_no_progress(parser)
     parser.set_defaults(func=run)
 
@@ -50,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
                              other_codecs=options.parse_video_codecs(args.video_codecs))
     settings = video.VideoSettings(video=args.video, ssv=tuple(args.ssv) if args.ssv else None, frames=args.frames,
                                    fps=args.fps, max_size=options.parse_max_size(args.max_size),
-                                   size=parse_size(args.size), sweep=sweep, segmentation=args.segmentation)
+                                   size=parse_size(args.size), sweep=sweep, segmentation=args.segmentation,
+                                   shape_error=args.shape_error)
     video.check(settings)
     with output_folder(args.out, force=args.force) as out:
         result = video.run(settings, out, progress=not args.no_progress,

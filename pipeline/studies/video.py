@@ -38,6 +38,7 @@ from comparisons.reports import comparison as report
 from comparisons.video import codecs as video_codecs
 from comparisons.video import objects as video_objects
 from comparisons.video import roi as video_roi
+from comparisons.video.shape import MAX_SHAPE_ERROR
 from comparisons.reports.records import make_record, versions
 from pipeline.outputs import write_records
 from media import segmentation
@@ -95,7 +96,7 @@ def _record(coded: video_objects.CodedSolution, config: _Config, clip: str, code
         operating_point=bool(q == settings.operating_q and sweep == "q"),
         native_fps=timing.native_fps,
         texture_bits=coded.bits - coded.shape_bits, shape_bits=coded.shape_bits,
-        shape_kbps=kbps(coded.shape_bits, duration_s),
+        shape_kbps=kbps(coded.shape_bits, duration_s), shape_error_percent=coded.shape_error,
         signer_area_percent=areas["signer"], skin_area_percent=areas["skin"], clothes_area_percent=areas["clothes"],
         objects=objects, frames=len(config.frames), backend="cpu", versions=software, **quality)
     if clothes_bits is not None:
@@ -120,7 +121,8 @@ def coverage_line(method: str, coverage: dict) -> str:
 def code_clip(frames: np.ndarray, labels: np.ndarray, clip: str, settings: VideoSweep = VideoSweep(),
                     *, timing: Timing | None = None, records_path: str | Path | None = None,
                     progress: bool = True,
-                    operating: dict[str, video_objects.CodedSolution] | None = None) -> list[dict]:
+                    operating: dict[str, video_objects.CodedSolution] | None = None,
+                    shape_error: float = 0.0) -> list[dict]:
     """Every measured point of the study as records. frames (T, H, W, 3) uint8 RGB at settings.source_fps;
     labels (T, H, W) uint8 part labels (0 background, 1 body/clothes, 2 head, 3 left hand, 4 right hand).
 
@@ -128,6 +130,7 @@ def code_clip(frames: np.ndarray, labels: np.ndarray, clip: str, settings: Video
     records_path: a records.jsonl that each record is appended to as soon as it is measured.
     operating: filled with each solution's coded pictures at the operating Q (the frames' own rate, full size),
     for callers that show them (compare's side by side) without coding them again.
+    shape_error: percent of each object's pixels its coded shape may get wrong (0: lossless shape).
     """
     frames, labels = np.asarray(frames), np.asarray(labels)
     if labels.shape != frames.shape[:3]:
@@ -138,7 +141,7 @@ def code_clip(frames: np.ndarray, labels: np.ndarray, clip: str, settings: Video
     if len(timing.times_s) != len(frames):
         raise SigncastError(f"{len(timing.times_s)} presentation times for {len(frames)} frames")
     software = versions()
-    shapes = video_objects.ShapeCache()
+    shapes = video_objects.ShapeCache(shape_error=shape_error)
     configs = _configs(frames, labels, settings, timing)
     jobs = [(c, s, q) for c in configs for s in settings.solutions
             for q in (settings.qs if c.sweep == "q" else (settings.operating_q,))]
@@ -204,10 +207,11 @@ def code_roi_matched(reference: video_objects.CodedSolution, frames: np.ndarray,
 
 def _shape_summary(shapes: video_objects.ShapeCache, duration_s: float) -> list[dict]:
     rows = []
-    for (name, config_key), (n_bytes, masks) in shapes.streams.items():
+    for (name, config_key), (n_bytes, masks, wrong, pixels) in shapes.streams.items():
         rows.append({"object": name, "config": config_key, "frames": len(masks), "bytes": n_bytes,
                      "bits_per_frame": 8.0 * n_bytes / len(masks), "kbps": kbps(8.0 * n_bytes, duration_s),
-                     "area_percent": 100.0 * float(masks.mean())})
+                     "area_percent": 100.0 * float(masks.mean()),
+                     "shape_error_percent": 100.0 * wrong / max(1, pixels)})
     return rows
 
 
@@ -314,14 +318,18 @@ def main_table(records: list[dict]) -> str:
     qs = sorted({r["q"] for r in q_sweep})
     solutions = sorted({r["solution"] for r in q_sweep}, key=report._order)
     rate = f"{q_sweep[0]['fps']:.4g} fps" if q_sweep else "the clip's rate"
-    lines = [f"kbps at {rate}, full resolution, MPEG-4 Part 2 (skin PSNR dB at Q=12 in brackets)",
+    lines = [(f"kbps at {rate}, full resolution, MPEG-4 Part 2 (at Q=12 in brackets: skin PSNR dB; shape kbps and "
+              "shape error, wrong shape pixels over the objects' pixels)"),
              f"{'solution':<10}" + "".join(f"{'Q=' + str(q):>9}" for q in qs) + f"{'area':>8}"]
     for solution in solutions:
         row = {r["q"]: r for r in q_sweep if r["solution"] == solution}
         area = _area(next(iter(row.values())))
         cells = "".join(f"{row[q]['kbps']:9.1f}" if q in row else f"{'-':>9}" for q in qs)
         op = next((r for r in row.values() if r["operating_point"]), None)
-        extra = f"  [{op['skin_psnr']:.2f}]" if op and op.get("skin_psnr") is not None else ""
+        extra = f"  [{op['skin_psnr']:.2f}" if op and op.get("skin_psnr") is not None else ""
+        if extra and op.get("shape_bits"):
+            extra += f"; shape {op['shape_kbps']:.1f} kbps, error {op.get('shape_error_percent', 0.0):.2f}%"
+        extra += "]" if extra else ""
         lines.append(f"{solution:<10}{cells}{'' if area is None else f'{area:7.1f}%':>8}{extra}")
     codec_rows = [r for r in points if r["sweep"] == "codec" or (r["sweep"] == "q" and r["operating_point"])]
     if codec_rows:
@@ -357,7 +365,8 @@ class VideoSettings:
     max_size: (width, height) a natural clip is scaled down to fit (None keeps its size); size: (width, height) of
     the rendered signer; sweep: Q, codecs (its source_fps and solutions are set from the source); segmentation:
     how a natural clip is cut into parts, "landmarks" or "colour" (the rendered signer is coded with its label
-    buffer and both methods are measured against it)."""
+    buffer and both methods are measured against it); shape_error: percent of each object's pixels its coded
+    shape may get wrong (0: lossless shape; comparisons.video.shape.encode_shape)."""
 
     video: str | None = None
     ssv: tuple[str, str] | None = None
@@ -367,6 +376,7 @@ class VideoSettings:
     size: tuple[int, int] = (400, 340)
     sweep: VideoSweep = VideoSweep()
     segmentation: str = DEFAULT_SEGMENTATION
+    shape_error: float = 0.0
 
 
 @dataclass
@@ -394,6 +404,9 @@ def check(settings: VideoSettings) -> None:
     if settings.ssv is not None:
         check_size(*settings.size)
     check_segmentation(settings.segmentation)
+    if not 0.0 <= settings.shape_error <= MAX_SHAPE_ERROR:
+        raise SigncastError(f"bad --shape-error {settings.shape_error:g}: 0 (lossless) to {MAX_SHAPE_ERROR:g} "
+                            "percent of the object's pixels")
 
 
 def run(settings: VideoSettings, out: str | Path, *, progress: bool = True,
@@ -412,7 +425,7 @@ def run(settings: VideoSettings, out: str | Path, *, progress: bool = True,
     sweep = replace(settings.sweep, source_fps=extra["fps"], solutions=solutions)
     records_path = write_records(out / "records.jsonl", extra["records"])
     records = code_clip(frames, labels, clip, sweep, timing=extra.get("timing"), records_path=records_path,
-                        progress=progress)
+                        progress=progress, shape_error=settings.shape_error)
     records = extra["records"] + records
     written = write_outputs(records, frames, labels, out)
     for name, (overlay_frames, overlay_labels) in extra.get("overlays", {}).items():
