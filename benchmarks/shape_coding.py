@@ -79,20 +79,9 @@ def best_time(run, repeats: int) -> float:
 
 def render_masks(width: int, height: int, frames: int):
     """Object name -> (frames, height, width) bool masks of ASL "AB"."""
-    import numpy as np
-
-    from media.avatar import load_avatar
-    from media.fingerspelling import fingerspell
-    from media.render import AvatarRenderer, RenderSettings
     from media.segmentation import object_masks
 
-    renderer = AvatarRenderer(load_avatar(), RenderSettings(width=width, height=height, backend="numpy"))
-    labels = []
-    for _, frame_labels in renderer.frames(fingerspell("ase", "AB")):
-        labels.append(frame_labels)
-        if len(labels) == frames:
-            break
-    masks = object_masks(np.stack(labels))
+    masks = object_masks(avatar_labels(width, height, frames))
     return {name: masks[name] for name in OBJECTS}
 
 
