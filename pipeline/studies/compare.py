@@ -160,12 +160,12 @@ class CompareSettings:
     # look for both hands in every measured frame of what the viewer sees; else only where a reference shows the
     # hand signing (or a letter span needs the signing hand: Judge.hands_to_extract), rests scored for the face
     all_hands: bool = False
+    framing: str | None = None    # media.framing.FRAMINGS; None: "source" with a clip (the avatar scenarios: full figure)
 
     @property
     def every_hand(self) -> bool:
         """Whether the extractor looks for both hands in every measured frame (all_hands or full_schedule)."""
         return self.all_hands or self.full_schedule
-    framing: str | None = None    # media.framing.FRAMINGS; None: "source" with a clip (the avatar scenarios: full figure)
 
     def codec_qs(self, codec: str) -> tuple[int, ...]:
         """The quantisers swept for a video codec (MPEG-4 Part 2: video.qs)."""
