@@ -43,16 +43,21 @@ def view_projection(eye, target, fovy_deg: float, aspect: float, near: float, fa
     return (perspective(fovy_deg, aspect, near, far) @ look_at(eye, target, up)).astype(np.float32)
 
 
-def zoomed(camera: np.ndarray, scale: float, offset=(0.0, 0.0)) -> np.ndarray:
-    """(4, 4) float32 world -> clip matrix: `camera` with its image zoomed by `scale` about the image centre and
-    then moved by `offset` (x right, y up, normalised device units: 2 is the image's width or height).
 
-    A longer focal length and a lens shift, not a warp of the picture: the image is rasterized at full
-    resolution. Depth and w are untouched, so clipping, depth order and back faces stay as they were."""
-    scale = float(scale)
-    if not (np.isfinite(scale) and scale > 0) or not np.all(np.isfinite(offset)):
-        raise KernelError(f"zoomed: bad scale {scale} or offset {tuple(offset)}")
+def image_affine(camera: np.ndarray, linear, offset=(0.0, 0.0)) -> np.ndarray:
+    """(4, 4) float32 world -> clip matrix: `camera` followed by the map n -> linear n + offset of its image, in
+    normalised device coordinates (x right, y up; 2 is the image's width or height): linear (2, 2) with a positive
+    determinant (a zoom, a turn; a mirror would turn front faces into back faces), offset (2,).
+
+    A longer focal length, a roll and a lens shift, not a warp of the picture: the image is rasterized at full
+    resolution. Depth and w are untouched, so clipping and depth order stay as they were."""
+    linear = np.asarray(linear, np.float64)
+    offset = np.asarray(offset, np.float64)
+    if linear.shape != (2, 2) or offset.shape != (2,) or not (np.all(np.isfinite(linear)) and np.all(np.isfinite(offset))
+                                                                 and np.linalg.det(linear) > 0):
+        raise KernelError(f"image_affine: need a finite (2, 2) map with a positive determinant and a (2,) offset, "
+                          f"got {linear.tolist()} and {offset.tolist()}")
     image = np.eye(4)
-    image[0, 0] = image[1, 1] = scale
+    image[:2, :2] = linear
     image[:2, 3] = offset                # added as offset * w before the divide: offset after it
     return (image @ np.asarray(camera, np.float64)).astype(np.float32)

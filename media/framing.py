@@ -1,10 +1,11 @@
 """Framing the avatar like the person: where the avatar stands in the frame.
 
 "full-figure" is the signing-space camera (media.render.signing_space_camera: hips to above the head, both arms'
-reach). "source" frames the avatar like the person of a source clip: one similarity per clip (scale and shift; no
-rotation, the avatar stands upright), fitted in least squares from the avatar's shoulders and face points, as the
+reach). "source" frames the avatar like the person of a source clip: one similarity per clip (scale and shift; the
+avatar stands upright), fitted in least squares from the avatar's shoulders and face points, as the
 signing-space camera projects them over the clip's motion, onto the person's same points (the pose's ANCHOR_POINTS:
-nose, eyes, ears, mouth corners, shoulders, in every frame that shows them). It is applied as a camera change (a
+nose, eyes, ears, mouth corners, shoulders, in every frame that shows them), with a turn only where the person's
+picture is tilted by more than MIN_TURN_DEG (carphone: 16 degrees). It is applied as a camera change (a
 zoom and a lens shift, kernels.camera.zoomed), not as a warp of the rendered picture, so the avatar is rasterized at
 full resolution with the person's scale and position in the same frame size, and its hands cover the same pixels.
 
@@ -27,6 +28,9 @@ FRAMINGS = ("source", "full-figure")
 ANCHOR_POINTS = (0, 2, 5, 7, 8, 9, 10, 11, 12)
 _FACE_ANCHORS = 7                       # the first seven of ANCHOR_POINTS are on the face, the last two shoulders
 MIN_SCALE, MAX_SCALE = 0.05, 20.0       # a fit outside this is not a framing of the same person: full figure
+# below this the fitted turn is the extractor's noise (an upright avatar read as a person: 1-1.4 degrees), and the
+# avatar stays upright
+MIN_TURN_DEG = 3.0
 # Where MediaPipe's pose model places these points on the avatar's picture, from its geometric points: metres, x
 # outward (away from the midline), y up, per anchor. Measured once: the pose landmarks extracted from the avatar's
 # full-figure render (ase HELLO, first 40 frames, 352x288), mean offset from the geometric points projected by the
@@ -72,22 +76,32 @@ def check_framing(name: str) -> str:
 
 @dataclass(frozen=True)
 class Framing:
-    """The picture of the full-figure camera zoomed by `scale` about the frame's top-left corner and moved by `shift`
-    (fractions of the frame's width and height, x right, y down): pixel p -> scale p + shift * (width, height).
-    Independent of the frame size at one aspect ratio."""
+    """The picture of the full-figure camera zoomed by `scale` and turned by `turn` degrees (clockwise on screen)
+    about the frame's top-left corner, then moved by `shift` (fractions of the frame's width and height, x right, y
+    down): pixel p -> scale R(turn) p + shift * (width, height). Independent of the frame size at one aspect ratio
+    where turn is 0."""
     scale: float
     shift: tuple[float, float]
+    turn: float = 0.0
+
+    def _linear(self) -> np.ndarray:
+        c, s = np.cos(np.radians(self.turn)), np.sin(np.radians(self.turn))
+        return self.scale * np.array([[c, -s], [s, c]])
 
     def apply(self, points: np.ndarray, width: int, height: int) -> np.ndarray:
         """points (..., 2) pixels of the full-figure picture -> (..., 2) pixels of the framed one."""
-        return self.scale * np.asarray(points, np.float64)[..., :2] + np.multiply(self.shift, (width, height))
+        return np.asarray(points, np.float64)[..., :2] @ self._linear().T + np.multiply(self.shift, (width, height))
 
-    def camera(self, full_figure: np.ndarray) -> np.ndarray:
-        """(4, 4) float32 world -> clip matrix: the full-figure camera (4, 4) zoomed and shifted."""
-        # pixel x = (x_ndc + 1) W / 2 and y = (1 - y_ndc) H / 2, so p -> s p + t is x_ndc -> s x_ndc + s - 1 + 2 t_x / W
-        # and y_ndc -> s y_ndc + 1 - s - 2 t_y / H
-        offset = (self.scale - 1 + 2 * self.shift[0], 1 - self.scale - 2 * self.shift[1])
-        return cameras.zoomed(full_figure, self.scale, offset)
+    def camera(self, full_figure: np.ndarray, width: int, height: int) -> np.ndarray:
+        """(4, 4) float32 world -> clip matrix: the full-figure camera (4, 4) of a width x height frame zoomed,
+        turned and shifted."""
+        # pixel p = D n + c with D = diag(W/2, -H/2), c = (W/2, H/2); p -> A p + t is n -> D^-1 A D n + D^-1 (A c + t - c)
+        d = np.diag([width / 2, -height / 2])
+        centre = np.array([width / 2, height / 2])
+        linear = self._linear()
+        inverse = np.linalg.inv(d)
+        offset = inverse @ (linear @ centre + np.multiply(self.shift, (width, height)) - centre)
+        return cameras.image_affine(full_figure, inverse @ linear @ d, offset)
 
 
 def project(points: np.ndarray, camera: np.ndarray, width: int, height: int) -> np.ndarray:
@@ -156,7 +170,7 @@ def fit_framing(avatar, motion, person_pose: np.ndarray, person_confidence: np.n
 
     person_pose: (T, 33, >=2) pixels of a width x height frame, the person's pose landmarks over the same T frames;
     person_confidence: (T, 33), 0 where a point is not found. Every (frame, anchor point) the person shows is one
-    pair; scale and shift only. None (frame the full figure) where the person never shows a shoulder or never a face
+    pair; scale and shift, and a turn where the fitted one exceeds MIN_TURN_DEG. None (frame the full figure) where the person never shows a shoulder or never a face
     point, or the fit is no framing (scale outside MIN_SCALE..MAX_SCALE)."""
     from media.render import signing_space_camera
     person_pose = np.asarray(person_pose, np.float64)
@@ -168,10 +182,14 @@ def fit_framing(avatar, motion, person_pose: np.ndarray, person_confidence: np.n
     full_figure = signing_space_camera(avatar, width, height)
     avatar_points = anchor_track(avatar, motion, full_figure, width, height)
     person_points = person_pose[:, ANCHOR_POINTS, :2]
-    scale, _, shift = fit_similarity(avatar_points[shown], person_points[shown], rotate=False)
+    scale, rotation, shift = fit_similarity(avatar_points[shown], person_points[shown])
+    turn = float(np.degrees(np.arctan2(rotation[1, 0], rotation[0, 0])))
+    if abs(turn) < MIN_TURN_DEG:
+        scale, _, shift = fit_similarity(avatar_points[shown], person_points[shown], rotate=False)
+        turn = 0.0
     if not (np.isfinite(scale) and MIN_SCALE <= scale <= MAX_SCALE and np.all(np.isfinite(shift))):
         return None
-    return Framing(float(scale), (float(shift[0]) / width, float(shift[1]) / height))
+    return Framing(float(scale), (float(shift[0]) / width, float(shift[1]) / height), turn)
 
 
 def to_frame(points: np.ndarray, source_size: tuple[int, int], size: tuple[int, int]) -> np.ndarray:

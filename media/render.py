@@ -119,7 +119,7 @@ class AvatarRenderer:
         self.avatar, self.settings = avatar, settings
         self.camera = signing_space_camera(avatar, settings.width, settings.height)
         if settings.framing is not None:
-            self.camera = settings.framing.camera(self.camera)
+            self.camera = settings.framing.camera(self.camera, settings.width, settings.height)
         self.colours = immutable(triangle_colours(avatar))
         self.dominant_bone = immutable(avatar.weights.dominant_bone())
         self.use_muscles = settings.muscles and bool(avatar.muscles)

@@ -77,7 +77,8 @@ def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable
 
     width, height = settings.size
     motion, source, framing = framed_source_motion(settings.language, settings.word, settings.pose, settings.fps,
-                                                   settings.jitter_filter, settings.size, settings.framing, notify)
+                                                   settings.jitter_filter, settings.size, settings.framing, notify,
+                                                   backend=settings.backend)
     if settings.preview_frame is not None and not 0 <= settings.preview_frame < motion.n_frames:
         raise SigncastError(f"--preview-frame {settings.preview_frame} outside 0..{motion.n_frames - 1}")
     check_memory(motion.n_frames, width, height, BYTES_PER_PIXEL, "render")
@@ -109,7 +110,9 @@ def run(settings: RenderWordSettings, *, progress: bool = True, notify: Callable
 def _framing_words(framing) -> str:
     if framing is None:
         return "full figure"
-    return f"framed like the person (zoom {framing.scale:.3f}, shift {framing.shift[0]:+.3f}, {framing.shift[1]:+.3f} frames)"
+    turn = f", turn {framing.turn:+.1f} deg" if framing.turn else ""
+    return (f"framed like the person (zoom {framing.scale:.3f}, shift {framing.shift[0]:+.3f}, {framing.shift[1]:+.3f} "
+            f"frames{turn})")
 
 
 def _write_png(path: Path, rgb: np.ndarray) -> None:

@@ -442,18 +442,19 @@ def _pose_source(pose: Path, result) -> str:
 
 def framed_source_motion(language: str | None, word: str | None, pose: Path | None, fps: float | None,
                          jitter_filter: str | None, size: tuple[int, int], framing: str | None,
-                         notify: Callable[[str], object] | None = None) -> tuple[Motion, str, "Framing | None"]:
+                         notify: Callable[[str], object] | None = None, *,
+                         backend: str = "auto") -> tuple[Motion, str, "Framing | None"]:
     """source_motion's (Motion, source words) and the avatar's framing in a frame of `size` (width, height): like the
     .pose's person where framing is "source" (None: "source" for a .pose), else None (the full figure; always for a
     word)."""
     if pose is None or (framing or "source") != "source":
         return *source_motion(language, word, pose, fps, jitter_filter, notify), None
     motion, result = pose_motion(pose, fps, jitter_filter, notify)
-    return motion, _pose_source(pose, result), pose_framing(pose, result.motion, size, notify)
+    return motion, _pose_source(pose, result), pose_framing(pose, result.motion, size, notify, backend=backend)
 
 
-def pose_framing(pose: Path, motion: Motion, size: tuple[int, int],
-                 notify: Callable[[str], object] | None = None) -> "Framing | None":
+def pose_framing(pose: Path, motion: Motion, size: tuple[int, int], notify: Callable[[str], object] | None = None,
+                 *, backend: str = "auto") -> "Framing | None":
     """The framing (source_framing) of the avatar moving as `motion` (the .pose's frames, at its own rate) like the
     person of the .pose in a frame of `size`; None, with a one-line notice, where the file gives no frame size or
     shows no shoulder or face."""
@@ -464,7 +465,8 @@ def pose_framing(pose: Path, motion: Motion, size: tuple[int, int],
             notify(f"{pose.name} gives no frame size: the avatar is framed as the full figure")
         return None
     clip = read_pose(pose)
-    return source_framing(fit_length(motion, clip.n_frames), clip, source_size, size, pose.name, notify)
+    return source_framing(fit_length(motion, clip.n_frames), clip, source_size, size, pose.name, notify,
+                          backend=backend)
 
 
 
@@ -615,25 +617,57 @@ def _video_scenario(settings, renderer_for, progress, notify) -> Scenario:
     height, width = frames.shape[1:3]
     framing = None
     if (settings.framing or "source") == "source":
-        framing = source_framing(motion, landmarks, (width, height), (width, height), clip.path.name, notify)
+        framing = source_framing(motion, landmarks, (width, height), (width, height), clip.path.name, notify,
+                                 backend=settings.backend)
     render, render_labels = render_frames(renderer_for(width, height, framing), motion, "render: lossless", progress)
     render_landmarks = extract_landmarks(render, clip.fps, "landmarks: lossless render", progress)
     return Scenario("video", clip.path.stem, clip.fps, Timing.of_clip(clip), frames, labels, landmarks,
                     motion, render, render_labels, render_landmarks, framing=framing)
 
 
+FRAMING_CHECK_FRAMES = 12     # frames of the framed avatar read back by the landmark extractor to correct the fit
+
+
 def source_framing(motion: Motion, landmarks: SignClip, source_size: tuple[int, int], size: tuple[int, int],
-                   where: str, notify: Callable[[str], object] | None = None):
+                   where: str, notify: Callable[[str], object] | None = None, *, backend: str = "auto",
+                   read_back: bool = True):
     """The media.framing.Framing that puts the avatar moving as `motion` where the person of `landmarks` stands
     (pose pixels of a source_size (width, height) frame, the same frames as the motion) in a frame of `size`; None,
-    with a one-line notice, where the person shows no shoulder or no face point in any frame (the full figure)."""
+    with a one-line notice, where the person shows no shoulder or no face point in any frame (the full figure).
+
+    read_back: then render FRAMING_CHECK_FRAMES frames (evenly spread over those where the person shows the anchors)
+    framed so, extract their landmarks with the extractor that judges the message, and correct the scale and shift
+    by the least-squares fit of those anchors onto the person's: where the landmark model places the avatar's
+    shoulders and ears moves with the pose and the picture's size, by 4-8 % of the scale
+    (docs/retargeting.md, "Framing the avatar like the person")."""
     from media.avatar import load_avatar
-    from media.framing import fit_framing, to_frame
+    from media.framing import ANCHOR_POINTS, Framing, fit_framing, fit_similarity, to_frame
+    avatar = load_avatar()
     pose = to_frame(landmarks.points["POSE_LANDMARKS"], source_size, size)
-    framing = fit_framing(load_avatar(), motion, pose, landmarks.confidence["POSE_LANDMARKS"], *size)
-    if framing is None and notify:
-        notify(f"{where}: no shoulders or no face found in any frame: the avatar is framed as the full figure")
-    return framing
+    confidence = landmarks.confidence["POSE_LANDMARKS"]
+    framing = fit_framing(avatar, motion, pose, confidence, *size)
+    if framing is None:
+        if notify:
+            notify(f"{where}: no shoulders or no face found in any frame: the avatar is framed as the full figure")
+        return None
+    candidates = np.flatnonzero(np.sum(confidence[:, ANCHOR_POINTS] > 0, axis=1) == len(ANCHOR_POINTS))
+    if not read_back or not len(candidates):
+        return framing
+    from media.render import AvatarRenderer, RenderSettings
+    picked = candidates[np.unique(np.linspace(0, len(candidates) - 1, FRAMING_CHECK_FRAMES).round().astype(int))]
+    renderer = AvatarRenderer(avatar, RenderSettings(*size, look="shaded", backend=backend, framing=framing))
+    shown_motion = Motion(motion.fps, motion.bone_names, motion.rotations[picked], motion.root_translation[picked],
+                          None if motion.faps is None else motion.faps[picked])
+    frames, _ = render_frames(renderer, shown_motion, "framing: read back", False)
+    seen = extract_landmarks(frames, motion.fps, "framing: read back", False)
+    shown = seen.confidence["POSE_LANDMARKS"][:, ANCHOR_POINTS] > 0
+    if shown.sum() < len(ANCHOR_POINTS):
+        return framing
+    scale, _, shift = fit_similarity(seen.points["POSE_LANDMARKS"][:, ANCHOR_POINTS, :2][shown],
+                                     pose[picked][:, ANCHOR_POINTS][shown], rotate=False)
+    shift_pixels = scale * np.multiply(framing.shift, size) + shift
+    return Framing(framing.scale * scale, (float(shift_pixels[0]) / size[0], float(shift_pixels[1]) / size[1]),
+                   framing.turn)
 
 
 def _avatar_scenario(settings, renderer_for, progress) -> Scenario:
