@@ -28,10 +28,11 @@ avatar's render of ASL "AB" at 320x240 (labels from the label buffer) and, with 
 no update = "copy"), the bits by category (box, modes, shape motion vectors, intra and inter CAE pixels; the
 information -log2 p of each decoded symbol, comparisons.video.shape.shape_bit_account), the blocks with a
 vector and those whose vector differs from its prediction, the learning cost (pixel bits beyond a model that
-knew each GOP's statistics) and the bits per shape per frame; then the same masks coded lossy (the alpha
-threshold, comparisons.video.shape.encode_shape's shape_error) at each --shape-error: bits per frame, their
-ratio to the lossless stream's, and the shape error (wrong pixels over the object's pixels) that the decoder's
-masks really have.
+knew each GOP's statistics) and the bits per shape per frame; then the bits per frame of the version 2 stream
+(the coder before issue 39, lossless), and against them the lossless version 3 stream (a predicted frame may
+reuse the previous box) and the lossy ones (the alpha threshold, comparisons.video.shape.encode_shape's
+shape_error) at each --shape-error: bits per frame, their ratio to version 2's, and the shape error (wrong pixels
+over the object's pixels) that the decoder's masks really have.
 
     python benchmarks/shape_coding.py --bits [--frames 36] [--clip carphone] [--shape-error 0.5,1,2]
 """
@@ -139,20 +140,22 @@ def print_bits(source: str, labels, shape_errors: tuple[float, ...]) -> None:
               f" {account['total_bits'] / account['frames']:10.1f}", flush=True)
     if not shape_errors:
         return
-    print("lossy shape (alpha threshold): bits/frame, x lossless, measured shape error %")
-    print(f"{'object':11} " + " ".join(f"{'<= ' + format(e, 'g') + ' %':>24}" for e in shape_errors))
+    print("bits/frame, x the version 2 stream (the coder before issue 39), measured shape error %: lossless in "
+          "version 3 (same-box flag), then lossy (alpha threshold)")
+    print(f"{'object':11} {'version 2':>9} {'lossless':>24} "
+          + " ".join(f"{'<= ' + format(e, 'g') + ' %':>24}" for e in shape_errors))
     for name, parts in BIT_OBJECTS.items():
         masks = np.isin(labels, parts)
-        lossless = len(encode_shape(masks, gop=GOP)[0])
+        lossless = len(encode_shape(masks, gop=GOP, version=2)[0])
         cells = []
-        for error in shape_errors:
+        for error in (0.0, *shape_errors):
             stream, stats = encode_shape(masks, gop=GOP, shape_error=error)
             wrong = int(np.count_nonzero(decode_shape(stream) != masks))
             if wrong != stats.error_pixels:
                 raise SystemExit(f"{name}: the decoder's masks are not the encoder's")
             measured = 100.0 * wrong / max(1, int(masks.sum()))
             cells.append(f"{8 * len(stream) / len(masks):9.1f} {len(stream) / lossless:5.2f}x {measured:6.2f}%")
-        print(f"{name:11} " + " ".join(f"{c:>24}" for c in cells), flush=True)
+        print(f"{name:11} {8 * lossless / len(masks):9.1f} " + " ".join(f"{c:>24}" for c in cells), flush=True)
 
 
 def main() -> None:

@@ -1,7 +1,10 @@
 """The compiled shape coder writes byte-identical streams to the pure-Python coder it replaced.
 
 The SHA-256 of every stream below was recorded from comparisons/video/shape.py before its per-pixel loops
-moved into comparisons/video/shape_cae.py; a changed hash means the stream format or the encoder's decisions changed.
+moved into comparisons/video/shape_cae.py (version 2 streams, which encode_shape still writes on request); a
+changed hash means the stream format or the encoder's decisions changed. Version 3 (the default since issue 39:
+a predicted frame may reuse the previous box) makes the same decisions, its synthetic streams are pinned too,
+and on the rendered masks it is never larger than version 2 in predicted frames.
 Inputs: real masks (20 frames of ASL "AB" rendered at 176x144 by the NumPy backend: head, right hand, signer,
 clothes) and synthetic ones (empty, full, noise, a moving disc, a shape that jumps beyond the search range),
 each coded at GOP 1, 4 and 12 and decoded back exactly. The synthetic inputs pin the coder's bytes. The rendered
@@ -33,6 +36,26 @@ RENDERED_BYTES = {
     "clothes": (1935, 870, 584),
 }
 RATE_TOLERANCE = 0.02
+STREAM_SHA256_V3 = {    # (input, gop) -> SHA-256 of the version 3 stream (same-box flag), recorded at issue 39
+    ('disc', 1): "b2d2f7ee9b4f23c79b93e56f4b8583388c76868aad531105497686d80e35261c",
+    ('disc', 4): "a71fa3664cc7b186c51a3f4167fa0ca79aa79851b493626021f301b35753532a",
+    ('disc', 12): "8a210b1bfa9de2b865de9f2f9800777727edfe03d5f0cee9275f50d212c6c849",
+    ('empty', 1): "391817df8b7d8d342eb88e92808fadbd10383bc4536f7019c107185bb46b723c",
+    ('empty', 4): "40dbe743b213be4cc990287048a624d9d88bc5b4ee6d2ef49bd16dfcce50cf76",
+    ('empty', 12): "2357198a14c31b5d70459dc556f3deddcea92ecaab4e33e9c567cfcc238e26d4",
+    ('full', 1): "1cf56dcfcd8f482c71bc3778b90a5d68914e3b157aca6dd009c6bc5f0e1d3a82",
+    ('full', 4): "2b697ac5c0a5a040909083e60432459edfdee77f960aaaeb783b53843aa148a9",
+    ('full', 12): "1de342a5b8493b0b31dfaa703037ba1e3d7d02d063c50c8dc14788b0427562de",
+    ('jump', 1): "dd705f45a1593f5a499422912fb398ea6200210d6f3fe956ee67847eefcd95f3",
+    ('jump', 4): "a790485b1429f20c5c6957e3549fed55bb853f758b78142a2b146b9cb13cae8d",
+    ('jump', 12): "ce029639f6e03b3f0fbb98a0081e245c427dbc12fef1085fd79f26f9f479f995",
+    ('noise', 1): "ab166ea66452add01f9794dbc3f1c3ab0e0ec45dcc79b01df1a3b554f78441fe",
+    ('noise', 4): "c2a52e99c0121a5831dea01e80c4751d42bcba31db7771ea6c93743c57e00d2d",
+    ('noise', 12): "8ea8d89a61c6b8c1f9d663ee54a38fbb6ea76308f4e945ac62d80fd153235d42",
+    ('noise_odd', 1): "de11614c5431ded55e66bc9bf45ea828a9d4c5c5d4f87ff54e88c6f1e2e626c1",
+    ('noise_odd', 4): "836a3d3e290a167258bdfab5e18beeb8c67b38cbb651199b8d8413583df29308",
+    ('noise_odd', 12): "2c606ef885ad15dd0e5a3e94443dd14598ad321231f2fc4ce4e169492bce9dc6",
+}
 STREAM_SHA256 = {    # (input, gop) -> SHA-256 of the stream, recorded from the pure-Python coder
     ('empty', 1): "0a8dbec6036c4ae3899d20e689e4ce69cbf6cbc6f178c77649f12d7ceb2f11d8",
     ('empty', 4): "abac19291268776f4134a1222f60bc0eadbe3b96727cd9c17ddc927aaacdbc54",
@@ -102,7 +125,7 @@ def synthetic_masks() -> dict[str, np.ndarray]:
 
 
 def _check(name: str, masks: np.ndarray, gop: int) -> None:
-    stream, stats = encode_shape(masks, gop=gop)
+    stream, stats = encode_shape(masks, gop=gop, version=2)
     assert stats.n_bytes == len(stream)
     assert np.array_equal(decode_shape(stream), masks), f"{name} at GOP {gop} does not decode to itself"
     assert _sha(stream) == STREAM_SHA256[(name, gop)], f"{name} at GOP {gop}: the stream changed"
@@ -112,10 +135,14 @@ def _check(name: str, masks: np.ndarray, gop: int) -> None:
 def test_rendered_object_streams_decode_exactly_at_the_stored_rate(rendered_masks, name):
     masks = rendered_masks[name]
     for gop, expected in zip(GOPS, RENDERED_BYTES[name]):
-        stream, stats = encode_shape(masks, gop=gop)
+        stream, stats = encode_shape(masks, gop=gop, version=2)
         assert stats.n_bytes == len(stream)
         assert np.array_equal(decode_shape(stream), masks), f"{name} at GOP {gop} does not decode to itself"
         assert abs(len(stream) - expected) <= RATE_TOLERANCE * expected, (name, gop, len(stream), expected)
+        # version 3 (the default) codes the same decisions and reuses the box: fewer bytes when it stays put
+        current = encode_shape(masks, gop=gop)[0]
+        assert np.array_equal(decode_shape(current), masks)
+        assert len(current) <= len(stream) if gop > 1 else len(current) == len(stream)
 
 
 @pytest.mark.parametrize("name", sorted(synthetic_masks()))
@@ -123,6 +150,9 @@ def test_synthetic_streams_are_unchanged(name):
     masks = synthetic_masks()[name]
     for gop in GOPS:
         _check(name, masks, gop)
+        stream = encode_shape(masks, gop=gop)[0]
+        assert np.array_equal(decode_shape(stream), masks), f"{name} at GOP {gop}, version 3"
+        assert _sha(stream) == STREAM_SHA256_V3[(name, gop)], f"{name} at GOP {gop}: the version 3 stream changed"
 
 
 def test_the_kernels_sum_rounds_as_numpy_does():

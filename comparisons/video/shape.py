@@ -17,9 +17,11 @@ VLCs; (3) one arithmetic codeword covers the whole sequence; (4) no size convers
 transposed scan; lossy shape is the alpha threshold alone, an encoder's choice under a per-frame budget of
 wrong pixels (encode_shape's shape_error) that the decoder needs no word of; (5) every predicted frame refers to the previous frame in display order.
 
-Stream layout (version 2): a 22-byte header (magic, version, width, height, frames, gop, payload length, then a
-CRC-32 of the 18 header bytes before it and of the payload) and the arithmetic-coded payload. Version 1
-streams (CRC of the payload alone) are rejected. Masks are at most MAX_SIDE pixels wide and high and
+Stream layout (version 3): a 22-byte header (magic, version, width, height, frames, gop, payload length, then a
+CRC-32 of the 18 header bytes before it and of the payload) and the arithmetic-coded payload. Each frame codes a
+presence flag, then its box: in version 3 a predicted frame after a present one first codes whether its box is
+the previous frame's (adaptive context), and only otherwise the four raw fields; version 2 (still read and, on
+request, written) always codes them raw. Version 1 streams (CRC of the payload alone) are rejected. Masks are at most MAX_SIDE pixels wide and high and
 frames x height x width <= MAX_PIXELS (decoded masks <= 256 MiB); both ends check this before coding or
 allocating. The decoder rejects bad magic, truncation and corruption (length / CRC / impossible values,
 a payload that ends before the last frame) with SigncastError.
@@ -56,7 +58,8 @@ __all__ = ["BAB", "COUNT_LIMIT", "MAX_PIXELS", "MAX_SIDE", "MODE_NAMES", "N_CONT
            "BinaryArithmeticDecoder", "BinaryArithmeticEncoder", "ShapeStats", "decode_shape", "encode_shape"]
 
 MAGIC = b"SCSH"
-VERSION = 2                            # 2: the CRC covers the header too
+VERSION = 3                            # 2: the CRC covers the header too; 3: predicted frames may reuse the box
+VERSIONS = (2, 3)                      # read and written
 _HEADER = struct.Struct(">4sBHHIBII")
 _CRC_OFFSET = _HEADER.size - 4         # the CRC is the header's last field
 MAX_SIDE = 4096                        # pixels, width and height
@@ -241,6 +244,7 @@ class _Canvas:
         self.previous_modes = np.zeros((blocks_y, blocks_x), np.int64)
         self.mvs = np.zeros((blocks_y, blocks_x, 2), np.int64)            # (dx, dy) pixels
         self.has_mv = np.zeros((blocks_y, blocks_x), np.uint8)
+        self.box = np.zeros(5, np.int64)                                  # previous frame: present, by0, by1, bx0, bx1
         self.counts = np.zeros(len(MODE_NAMES), np.int64)
 
     def next_frame(self) -> None:
@@ -290,7 +294,8 @@ def _frames(frames: int, gop: int, canvas: _Canvas, coder):
         yield t, int(inter)
 
 
-def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0) -> tuple[bytes, ShapeStats]:
+def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
+                 version: int = VERSION) -> tuple[bytes, ShapeStats]:
     """Code a binary mask sequence (T, H, W) bool; returns the stream and its statistics.
 
     Frames 0, gop, 2*gop, ... are intra (probabilities reset); the others are predicted from the previous frame.
@@ -300,11 +305,14 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0) -> 
     ALPHA_TH wrong pixels in every 4x4 sub-block is coded transparent, opaque or copied from the
     motion-compensated previous shape (at the predicted vector first, then at the searched one), first come
     first served in scan order. The stream format and the decoder are the lossless ones: lossy shape is an
-    encoder's choice, and stats.shape_error reports what it cost.
+    encoder's choice, and stats.shape_error reports what it cost. version 2 writes the format without the
+    same-box flag (the bytes of the coder before issue 39).
     """
     masks = _check_masks(masks)
     if not 1 <= gop <= 255:
         raise SigncastError(f"shape GOP must be 1..255 frames, got {gop}")
+    if version not in VERSIONS:
+        raise SigncastError(f"shape stream version must be one of {VERSIONS}, got {version}")
     if not 0.0 <= shape_error <= MAX_SHAPE_ERROR:
         raise SigncastError(f"shape error must be 0..{MAX_SHAPE_ERROR} percent of the object's pixels, "
                             f"got {shape_error}")
@@ -323,12 +331,14 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0) -> 
     wrong = 0
     for t, inter in _frames(frames, gop, canvas, coder):
         coder.reserve(frame_bits)
-        wrong += kc.encode_frame(padded[t].view(np.uint8), canvas.current, canvas.previous, canvas.stride,
-                                 canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
-                                 coder.model.zeros, coder.model.ones, coder.buffer, coder.registers, canvas.counts,
-                                 inter, costs, words, alpha_th, int(budgets[t]))
+        kc.encode_frame(padded[t].view(np.uint8), canvas.current, canvas.previous, canvas.stride, canvas.border,
+                        canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv, coder.model.zeros,
+                        coder.model.ones, coder.buffer, coder.registers, canvas.counts, inter, costs, words, alpha_th,
+                        int(budgets[t]), canvas.box, int(version >= 3))
+        if alpha_th:    # the kernel's budget also counts the padding past the frame's edge; report what is seen
+            wrong += int(np.count_nonzero(canvas.to_array(height, width) != masks[t]))
     payload = coder.finish()
-    fields = _HEADER.pack(MAGIC, VERSION, width, height, frames, gop, len(payload), 0)[:_CRC_OFFSET]
+    fields = _HEADER.pack(MAGIC, version, width, height, frames, gop, len(payload), 0)[:_CRC_OFFSET]
     stream = fields + struct.pack(">I", zlib.crc32(payload, zlib.crc32(fields))) + payload
     return stream, ShapeStats(len(stream), frames, canvas.mode_counts(), int(wrong), int(object_pixels.sum()))
 
@@ -341,9 +351,10 @@ def decode_shape(stream: bytes) -> np.ndarray:
     magic, version, width, height, frames, gop, length, crc = _HEADER.unpack_from(stream)
     if magic != MAGIC:
         raise SigncastError("not a signcast shape stream (bad magic)")
-    if version != VERSION:
-        raise SigncastError(f"unsupported shape stream version {version} (this signcast reads version {VERSION}; "
-                            "version 1 streams, whose header is outside the CRC, must be coded again)")
+    if version not in VERSIONS:
+        raise SigncastError(f"unsupported shape stream version {version} (this signcast reads versions "
+                            f"{', '.join(map(str, VERSIONS))}; version 1 streams, whose header is outside the CRC, "
+                            "must be coded again)")
     payload = stream[_HEADER.size:]
     if len(payload) != length:
         raise SigncastError(f"shape stream truncated or padded: payload {len(payload)} bytes, header says {length}")
@@ -359,7 +370,8 @@ def decode_shape(stream: bytes) -> np.ndarray:
     for t, inter in _frames(frames, gop, canvas, coder):
         coder.check(kc.decode_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
                                     canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
-                                    coder.model.zeros, coder.model.ones, canvas.counts, inter))
+                                    coder.model.zeros, coder.model.ones, canvas.counts, inter, canvas.box,
+                                    int(version >= 3)))
         masks[t] = canvas.to_array(height, width)
     return masks
 
@@ -375,7 +387,7 @@ def shape_bit_account(stream: bytes) -> dict:
     adaptive models that start from the prior at every intra frame."""
     masks = decode_shape(stream)
     stream = bytes(stream)
-    _, _, width, height, frames, gop, _, _ = _HEADER.unpack_from(stream)
+    _, version, width, height, frames, gop, _, _ = _HEADER.unpack_from(stream)
     blocks_y, blocks_x = -(-height // BAB), -(-width // BAB)
     coder = BinaryArithmeticDecoder(stream[_HEADER.size:])
     canvas = _Canvas(blocks_y, blocks_x)
@@ -399,8 +411,8 @@ def shape_bit_account(stream: bytes) -> dict:
             hist[:] = 0
         coder.check(kc.account_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
                                      canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
-                                     coder.model.zeros, coder.model.ones, canvas.counts, inter, costs, hist,
-                                     mv_blocks))
+                                     coder.model.zeros, coder.model.ones, canvas.counts, inter, canvas.box,
+                                     int(version >= 3), costs, hist, mv_blocks))
     entropy += gop_entropy()
     pixel_bits = costs[kc.COST_INTRA] + costs[kc.COST_INTER]
     learning = pixel_bits - entropy

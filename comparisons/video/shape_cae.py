@@ -44,7 +44,8 @@ CTX_MODE_I = 1536                      # 81 neighbour contexts x 2 bins
 CTX_MODE_P = CTX_MODE_I + 81 * 2       # 25 contexts x 4 bins
 CTX_MV = CTX_MODE_P + 25 * 4           # per component: zero, sign, 8 magnitude bins
 CTX_PRESENT = CTX_MV + 2 * 10
-N_CONTEXTS = CTX_PRESENT + 1
+CTX_SAME_BOX = CTX_PRESENT + 1         # version 3: "the previous frame's bounding box" flag of a predicted frame
+N_CONTEXTS = CTX_SAME_BOX + 1
 
 LOW, HIGH, PENDING, NBITS = range(4)              # encoder registers
 VALUE, POSITION, STATUS = 2, 3, 4                 # decoder registers (LOW, HIGH as the encoder's)
@@ -53,7 +54,7 @@ OK, PAYLOAD_ENDS, BAD_BOX, BAD_MV = range(4)      # decoder status codes
 # it (>= 2^14) and each renormalising shift doubles it, so <= 17 shifts (each one output bit, now or pending)
 BITS_PER_SYMBOL = 18
 SYMBOLS_PER_BLOCK = 4 + 2 * 17 + BAB * BAB         # mode bins, two MV components, the pixels
-SYMBOLS_PER_FRAME = 1 + 4 * 12                     # presence, the bounding box (<= 12 raw bits per field)
+SYMBOLS_PER_FRAME = 2 + 4 * 12                     # presence, same-box flag, the box (<= 12 raw bits per field)
 MAX_COUNT = COUNT_LIMIT                            # a context's counts stay in 1..MAX_COUNT - 1
 
 
@@ -448,22 +449,29 @@ def _block_errors(frame: np.ndarray, y0: int, x0: int, prev: np.ndarray, stride:
 def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int, border: int,
                  modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
                  zeros: np.ndarray, ones: np.ndarray, buffer: np.ndarray, regs: np.ndarray, counts: np.ndarray,
-                 inter: int, costs: np.ndarray, words: np.ndarray, alpha_th: int, budget: int) -> int:
+                 inter: int, costs: np.ndarray, words: np.ndarray, alpha_th: int, budget: int,
+                 box: np.ndarray, predict_box: int) -> int:
     """Code one frame (padded (blocks_y * BAB, blocks_x * BAB) uint8 mask) into buffer, writing the decoded
     result into cur (flat canvas) and modes / mvs / has_mv; counts (5,) gets the modes used. The caller
     leaves room in buffer for BITS_PER_SYMBOL x (SYMBOLS_PER_FRAME + SYMBOLS_PER_BLOCK x blocks) bits.
     Lossy shape (alpha_th > 0, the standard's alpha threshold): a BAB is coded transparent, opaque or copied
     when none of its 4x4 sub-blocks has more than alpha_th wrong pixels and the frame's wrong pixels stay
-    <= budget. Returns the frame's wrong pixels."""
+    <= budget. box (5,) int64: (present, by0, by1, bx0, bx1) of the previous frame, replaced by this one's;
+    predict_box (version 3): a predicted frame whose box is the previous frame's says so in one flag.
+    Returns the frame's wrong pixels."""
     blocks_y, blocks_x = modes.shape
     by0, by1, bx0, bx1 = _bounding_box(frame)
+    flagged = predict_box != 0 and inter != 0 and box[0] == 1
+    same = box[1] == by0 and box[2] == by1 and box[3] == bx0 and box[4] == bx1
+    box[0], box[1], box[2], box[3], box[4] = (1 if by0 >= 0 else 0), by0, by1, bx0, bx1
     if not encode(buffer, regs, zeros, ones, CTX_PRESENT, 1 if by0 >= 0 else 0):
         return 0
-    nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
-    encode_raw(buffer, regs, by0, nby)
-    encode_raw(buffer, regs, by1, nby)
-    encode_raw(buffer, regs, bx0, nbx)
-    encode_raw(buffer, regs, bx1, nbx)
+    if not (flagged and encode(buffer, regs, zeros, ones, CTX_SAME_BOX, 1 if same else 0)):
+        nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
+        encode_raw(buffer, regs, by0, nby)
+        encode_raw(buffer, regs, by1, nby)
+        encode_raw(buffer, regs, bx0, nbx)
+        encode_raw(buffer, regs, bx1, nbx)
     order = _mode_order(inter)
     window = np.zeros((BAB + 2, BAB + 4), np.int64)
     bits = np.zeros(BAB * BAB, np.float64)
@@ -574,23 +582,30 @@ def _decode_mv_component(data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, 
 @njit(cache=True)
 def _decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
                   border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
-                  zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, costs: np.ndarray,
-                  pixel_hist: np.ndarray, mv_blocks: np.ndarray, charge: int) -> int:
+                  zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, box: np.ndarray,
+                  predict_box: int, costs: np.ndarray, pixel_hist: np.ndarray, mv_blocks: np.ndarray,
+                  charge: int) -> int:
     """decode_frame; with charge also account_frame's statistics."""
     blocks_y, blocks_x = modes.shape
+    flagged = predict_box != 0 and inter != 0 and box[0] == 1
+    box[0] = 0
     present = _decode_symbol(data, regs, zeros, ones, CTX_PRESENT, costs, COST_HEADER, charge)
     if regs[STATUS] != OK or not present:
         return regs[STATUS]
-    nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
-    by0 = decode_raw(data, regs, nby)
-    by1 = decode_raw(data, regs, nby)
-    bx0 = decode_raw(data, regs, nbx)
-    bx1 = decode_raw(data, regs, nbx)
-    costs[COST_HEADER] += 2 * (nby + nbx)
+    if flagged and _decode_symbol(data, regs, zeros, ones, CTX_SAME_BOX, costs, COST_HEADER, charge):
+        by0, by1, bx0, bx1 = box[1], box[2], box[3], box[4]
+    else:
+        nby, nbx = _bits_for(blocks_y), _bits_for(blocks_x)
+        by0 = decode_raw(data, regs, nby)
+        by1 = decode_raw(data, regs, nby)
+        bx0 = decode_raw(data, regs, nbx)
+        bx1 = decode_raw(data, regs, nbx)
+        costs[COST_HEADER] += 2 * (nby + nbx)
     if regs[STATUS] != OK:
         return regs[STATUS]
     if not (by0 <= by1 < blocks_y and bx0 <= bx1 < blocks_x):
         return BAD_BOX
+    box[0], box[1], box[2], box[3], box[4] = 1, by0, by1, bx0, bx1
     order = _mode_order(inter)
     no_frame = np.zeros((1, 1), np.uint8)
     for by in range(by0, by1 + 1):
@@ -635,12 +650,14 @@ def _decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.
 @njit(cache=True)
 def decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
                  border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
-                 zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int) -> int:
-    """Decode one frame from the payload into cur (flat canvas), modes, mvs, has_mv; counts (5,) gets the
-    modes. Returns OK, or the first error met: PAYLOAD_ENDS, BAD_BOX, BAD_MV (nothing is read or written
-    outside the canvas after an error)."""
+                 zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, box: np.ndarray,
+                 predict_box: int) -> int:
+    """Decode one frame from the payload into cur (flat canvas), modes, mvs, has_mv, box (as encode_frame's);
+    counts (5,) gets the modes. Returns OK, or the first error met: PAYLOAD_ENDS, BAD_BOX, BAD_MV (nothing is
+    read or written outside the canvas after an error)."""
     return _decode_frame(data, regs, cur, prev, stride, border, modes, previous_modes, mvs, has_mv, zeros, ones,
-                         counts, inter, np.zeros(N_COSTS), np.zeros((2, 1), np.int64), np.zeros(2, np.int64), 0)
+                         counts, inter, box, predict_box, np.zeros(N_COSTS), np.zeros((2, 1), np.int64),
+                         np.zeros(2, np.int64), 0)
 
 
 # ------------------------------------------------------------------------------------- accounting (statistics only)
@@ -650,11 +667,11 @@ def decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.n
 @njit(cache=True)
 def account_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
                   border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
-                  zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, costs: np.ndarray,
-                  pixel_hist: np.ndarray, mv_blocks: np.ndarray) -> int:
+                  zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, box: np.ndarray,
+                  predict_box: int, costs: np.ndarray, pixel_hist: np.ndarray, mv_blocks: np.ndarray) -> int:
     """decode_frame, and: costs (N_COSTS,) float64 gets each symbol's information in bits by category (the box's
     raw bits count 1 each); pixel_hist (2, N_CONTEXTS) int64 counts the decoded pixel values per context (for
     the cost of a model that had known the statistics: the learning cost); mv_blocks (2,) int64 counts the
     blocks with a motion vector and those whose vector differs from its prediction."""
     return _decode_frame(data, regs, cur, prev, stride, border, modes, previous_modes, mvs, has_mv, zeros, ones,
-                         counts, inter, costs, pixel_hist, mv_blocks, 1)
+                         counts, inter, box, predict_box, costs, pixel_hist, mv_blocks, 1)
