@@ -6,8 +6,10 @@ avatar stands upright), fitted in least squares from the avatar's shoulders and 
 signing-space camera projects them over the clip's motion, onto the person's same points (the pose's ANCHOR_POINTS:
 nose, eyes, ears, mouth corners, shoulders, in every frame that shows them), with a turn only where the person's
 picture is tilted by more than MIN_TURN_DEG (carphone: 16 degrees). It is applied as a camera change (a
-zoom and a lens shift, kernels.camera.zoomed), not as a warp of the rendered picture, so the avatar is rasterized at
-full resolution with the person's scale and position in the same frame size, and its hands cover the same pixels.
+zoom, roll and lens shift, kernels.camera.image_affine), not as a warp of the rendered picture, so the avatar is
+rasterized at full resolution with the person's scale and position in the same frame size, and its hands cover the
+same pixels. pipeline.studies.shared.source_framing then corrects the fit by reading a few framed frames back with
+the landmark extractor.
 
 The least-squares similarity itself (`fit_similarity`, `apply_similarity`) lives here and is shared with
 comparisons.judging.fidelity, which measures the message after the same kind of fit.
