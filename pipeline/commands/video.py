@@ -1,6 +1,6 @@
 """`signcast video --video carphone --out DIR` (a natural clip: NSV, NSV2O, NSV3O, NSV3O+C, segmented by
 landmarks or, with --segmentation colour, by the source's colour models) and `signcast video --ssv ase HELLO --out
-DIR` (the rendered synthetic signer: NSV and SSV, plus both segmentations' IoU against the renderer's label
+DIR` (the rendered synthetic signer: NSV, NSV2O, SSV, NSV3O+C, plus both segmentations' IoU against the renderer's label
 buffer): the study is pipeline.studies.video."""
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The video study (seed 000 §4.2.4.6, Tables 4.6-4.16): code a clip as NSV, NSV2O, NSV3O, NSV3O+C (natural
-video) or NSV and SSV (rendered signer) and measure rate and quality.
+video) or NSV, NSV2O, SSV and NSV3O+C (rendered signer, objects from its label buffer) and measure rate and quality.
 
 A clip is coded at its own timing: its own frame rate (or a lower one the user asks for), and every rate is
 measured over the clip's real duration. Sweeps, all with MPEG-4 Part 2 at fixed Q (I B B P B B P B B P B B):
@@ -421,7 +421,7 @@ def run(settings: VideoSettings, out: str | Path, *, progress: bool = True,
         solutions = VideoSweep.solutions
     else:
         frames, labels, clip, extra = _synthetic(settings, progress)
-        solutions = (Solution.NSV, Solution.SSV)
+        solutions = (Solution.NSV, Solution.NSV2O, Solution.SSV, Solution.NSV3O_C)   # SSV: NSV3O of the render
     sweep = replace(settings.sweep, source_fps=extra["fps"], solutions=solutions)
     records_path = write_records(out / "records.jsonl", extra["records"])
     records = code_clip(frames, labels, clip, sweep, timing=extra.get("timing"), records_path=records_path,
