@@ -113,7 +113,13 @@ def get_bits(data: np.ndarray, end_bit: int, state: np.ndarray, n_bits: int) -> 
 
 @njit(cache=True)
 def crc8(data: np.ndarray, start_bit: int, end_bit: int) -> int:
-    crc = 0
+    """CRC-8 (polynomial x^8 + x^2 + x + 1, initial 0) of data's bits start_bit..end_bit - 1, MSB first."""
+    return _crc8_bits(data, 0, start_bit, end_bit)
+
+
+@njit(cache=True, inline="always")
+def _crc8_bits(data: np.ndarray, crc: int, start_bit: int, end_bit: int) -> int:
+    """crc updated with data's bits start_bit..end_bit - 1, one at a time."""
     for position in range(start_bit, end_bit):
         bit = (data[position >> 3] >> (7 - (position & 7))) & 1
         feedback = ((crc >> 7) & 1) ^ bit
@@ -139,26 +145,12 @@ CRC8_TABLE = _crc8_table()
 @njit(cache=True)
 def crc8_bytes(data: np.ndarray, start_bit: int, end_bit: int) -> int:
     """crc8, whole bytes at a time through a 256-entry table (the same CRC: it is linear in the bits)."""
-    crc = 0
-    position = start_bit
-    while position < end_bit and position & 7:
-        bit = (data[position >> 3] >> (7 - (position & 7))) & 1
-        feedback = ((crc >> 7) & 1) ^ bit
-        crc = (crc << 1) & 0xFF
-        if feedback:
-            crc ^= 0x07
-        position += 1
+    position = min(end_bit, (start_bit + 7) & ~7)
+    crc = _crc8_bits(data, 0, start_bit, position)
     while position + 8 <= end_bit:
         crc = CRC8_TABLE[crc ^ data[position >> 3]]
         position += 8
-    while position < end_bit:
-        bit = (data[position >> 3] >> (7 - (position & 7))) & 1
-        feedback = ((crc >> 7) & 1) ^ bit
-        crc = (crc << 1) & 0xFF
-        if feedback:
-            crc ^= 0x07
-        position += 1
-    return crc
+    return _crc8_bits(data, crc, position, end_bit)
 
 
 @njit(cache=True)
@@ -222,12 +214,8 @@ def encode_symbol(buffer: np.ndarray, writer_state: np.ndarray, registers: np.nd
     sym_low = prefix(tree, symbol)
     sym_high = sym_low + counts[symbol]
     total = scalars[TOTAL]
-    low, high = registers[0], registers[1]
-    span = high - low + 1
-    high = low + span * sym_high // total - 1
-    low = low + span * sym_low // total
-    pos, run, low, high, pending = renormalise_encoder(buffer, writer_state[0], writer_state[1], low, high,
-                                                       registers[2])
+    pos, run, low, high, pending = encode_interval(buffer, writer_state[0], writer_state[1], registers[0],
+                                                   registers[1], registers[2], sym_low, sym_high, total)
     writer_state[0], writer_state[1] = pos, run
     registers[0], registers[1], registers[2] = low, high, pending
     update(counts, tree, scalars, symbol)
@@ -259,16 +247,12 @@ def decode_symbol(data: np.ndarray, end_bit: int, reader_state: np.ndarray, hist
                   scalars: np.ndarray) -> int:
     """One symbol (registers: low, high, value), or -1 when the data cannot be arithmetic-coded."""
     low, high, value = registers[0], registers[1], registers[2]
-    span = high - low + 1
     total = scalars[TOTAL]
-    target = ((value - low + 1) * total - 1) // span
-    if not 0 <= target < total:
+    target = _window_target(value, low, high - low + 1, total)
+    if target < 0:
         return -1
     symbol, sym_low = find(tree, scalars, target)
-    sym_high = sym_low + counts[symbol]
-    high = low + span * sym_high // total - 1
-    low = low + span * sym_low // total
-    low, high, n_bits, subtract = renormalise_decoder(low, high)
+    low, high, n_bits, subtract = narrow(low, high, sym_low, sym_low + counts[symbol], total)
     for _ in range(n_bits):
         value = (value << 1) | next_bit(data, end_bit, reader_state, history, history_at)
     value -= subtract
@@ -604,6 +588,16 @@ def look_local(data, end_bit: int, pos: int, run: int, over: int) -> tuple[int, 
     return bit, pos, run, over
 
 
+@njit(cache=True, inline="always")
+def read_bits_local(data, end_bit: int, pos: int, run: int, over: int, value: int, n_bits: int
+                    ) -> tuple[int, int, int, int]:
+    """n_bits look-ahead bits (look_local) shifted into value below them: (value, pos, run, over)."""
+    for _ in range(n_bits):
+        bit, pos, run, over = look_local(data, end_bit, pos, run, over)
+        value = (value << 1) | bit
+    return value, pos, run, over
+
+
 @njit(cache=True)
 def update_member(counts, tree, scalars, offsets, m: int, symbol: int) -> None:
     """update() of model m of a bank (counts at offsets[m], tree at offsets[m] + m)."""
@@ -616,6 +610,14 @@ def _scale(span: int, cumulative: int, total: int) -> int:
     return np.int64(np.uint64(span * cumulative) // np.uint64(total))
 
 
+@njit(cache=True, inline="always")
+def narrow(low: int, high: int, sym_low: int, sym_high: int, total: int) -> tuple[int, int, int, int]:
+    """The decoder's interval [low, high] narrowed to the cumulative counts [sym_low, sym_high) of total and
+    renormalised: (low, high, bits to shift into the value, what to subtract from it), as renormalise_decoder."""
+    span = high - low + 1
+    return renormalise_decoder(low + _scale(span, sym_low, total), low + _scale(span, sym_high, total) - 1)
+
+
 @njit(cache=True)
 def decode_frame_local(data, end_bit: int, pos: int, run: int, over: int, counts, tree, scalars, offsets, members,
                        out, out_start: int, fresh: bool) -> tuple[int, int, int, int]:
@@ -625,31 +627,21 @@ def decode_frame_local(data, end_bit: int, pos: int, run: int, over: int, counts
     Returns (status, pos, run, over): status 0, -1 (data that cannot be arithmetic-coded) or -2 (the
     coded bits run past end_bit)."""
     pos0, run0, over0 = pos, run, over
-    value = 0
-    for _ in range(PRECISION):
-        bit, pos, run, over = look_local(data, end_bit, pos, run, over)
-        value = (value << 1) | bit
+    value, pos, run, over = read_bits_local(data, end_bit, pos, run, over, 0, PRECISION)
     n_read = PRECISION
     low, high = 0, TOP
     for k in range(len(members)):
         m = members[k]
-        span = high - low + 1
         total = scalars[m, TOTAL]
-        if value < low:                        # a negative target
-            return -1, pos, run, over
-        target = np.int64((np.uint64(value - low + 1) * np.uint64(total) - np.uint64(1)) // np.uint64(span))
-        if target >= total:
+        target = _window_target(value, low, high - low + 1, total)
+        if target < 0:
             return -1, pos, run, over
         if fresh:
             symbol, sym_low, sym_high = target, target, target + 1
         else:
             symbol, sym_low, sym_high = _bank_find(counts, tree, scalars, offsets, m, target)
-        high = low + _scale(span, sym_high, total) - 1
-        low = low + _scale(span, sym_low, total)
-        low, high, n_bits, subtract = renormalise_decoder(low, high)
-        for _ in range(n_bits):
-            bit, pos, run, over = look_local(data, end_bit, pos, run, over)
-            value = (value << 1) | bit
+        low, high, n_bits, subtract = narrow(low, high, sym_low, sym_high, total)
+        value, pos, run, over = read_bits_local(data, end_bit, pos, run, over, value, n_bits)
         value -= subtract
         n_read += n_bits
         if not fresh:
@@ -735,30 +727,31 @@ def _clz32(x: int) -> int:
 def _has_stuffing(data, end_bit: int, pos: int, run: int) -> bool:
     """Whether look_local from (pos, run) meets MAX_ZERO_RUN zeros before end_bit (where a stuffing bit
     may be dropped or a start code left unread)."""
-    zeros = run
-    while pos < end_bit and pos & 7:
-        if (data[pos >> 3] >> (7 - (pos & 7))) & 1:
-            zeros = 0
-        else:
-            zeros += 1
-            if zeros >= MAX_ZERO_RUN:
-                return True
-        pos += 1
+    zeros, pos, found = _zero_run_bits(data, pos, min(end_bit, (pos + 7) & ~7), run)
+    if found:
+        return True
     while pos + 8 <= end_bit:
         byte = data[pos >> 3]
         if zeros + LEADING_ZEROS8[byte] >= MAX_ZERO_RUN:
             return True
         zeros = zeros + 8 if byte == 0 else TRAILING_ZEROS8[byte]
         pos += 8
-    while pos < end_bit:
+    return _zero_run_bits(data, pos, end_bit, zeros)[2]
+
+
+@njit(cache=True, inline="always")
+def _zero_run_bits(data, pos: int, stop: int, zeros: int) -> tuple[int, int, bool]:
+    """The zero run after bits pos..stop - 1 read one at a time from a run of `zeros`: (zeros, where the scan
+    stopped, whether the run reached MAX_ZERO_RUN)."""
+    while pos < stop:
         if (data[pos >> 3] >> (7 - (pos & 7))) & 1:
             zeros = 0
         else:
             zeros += 1
             if zeros >= MAX_ZERO_RUN:
-                return True
+                return zeros, pos, True
         pos += 1
-    return False
+    return zeros, pos, False
 
 
 @njit(cache=True)
@@ -863,8 +856,8 @@ def _update_inline(counts, tree, scalars, offsets, m: int, symbol: int) -> None:
 def _open_window(data, end_bit: int, pos: int, run: int):
     """The bit window of a decoder reading data from bit pos (zero run `run`) up to end_bit: the emulation-
     prevention bits stripped once when there are any (_strip), the window filled and the first PRECISION bits
-    read. Returns (source, source_start, source_end, n_clean, stuffed, n_stuffed, buf, n_buf, byte_at, value);
-    _state_at maps bits consumed from source back to a position in data."""
+    read. Returns (window, buf, n_buf, byte_at, value), window = (source, source_start, source_end, n_clean,
+    stuffed, n_stuffed): _state_at maps bits consumed from source back to a position in data."""
     n_clean = max(end_bit - pos, 0)
     stuffed = np.zeros(1, dtype=np.int64)
     n_stuffed = 0
@@ -880,7 +873,7 @@ def _open_window(data, end_bit: int, pos: int, run: int):
     n_buf -= source_start & 7
     value = (buf >> (n_buf - PRECISION)) & TOP
     n_buf -= PRECISION
-    return source, source_start, source_end, n_clean, stuffed, n_stuffed, buf, n_buf, byte_at, value
+    return (source, source_start, source_end, n_clean, stuffed, n_stuffed), buf, n_buf, byte_at, value
 
 
 @njit(cache=True, inline="always")
@@ -912,11 +905,12 @@ def _window_target(value: int, low: int, span: int, total: int) -> int:
 
 
 @njit(cache=True, inline="always")
-def _renormalise_window(low: int, high: int, value: int, buf: int, n_buf: int, byte_at: int, source,
-                        source_end: int):
-    """renormalise_decoder with its bits taken from the bit window at once. Returns (low, high, value, buf,
+def _narrow_window(low: int, high: int, sym_low: int, sym_high: int, total: int, value: int, buf: int, n_buf: int,
+                   byte_at: int, window):
+    """narrow with its bits taken from the bit window (_open_window's) at once. Returns (low, high, value, buf,
     n_buf, byte_at, bits consumed)."""
-    low, high, n_bits, subtract = renormalise_decoder(low, high)
+    source, source_end = window[0], window[2]
+    low, high, n_bits, subtract = narrow(low, high, sym_low, sym_high, total)
     if n_buf < n_bits:
         buf, n_buf, byte_at = _refill(source, source_end, buf, n_buf, byte_at)
     n_buf -= n_bits
@@ -938,16 +932,12 @@ def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, count
             return decode_frame_local(data, end_bit, pos, run, over, counts, tree, scalars, offsets, members, out,
                                       out_start, fresh)
     pos0, run0, over0 = pos, run, over
-    source, source_start, source_end, n_clean, stuffed, n_stuffed, buf, n_buf, byte_at, value = _open_window(
-        data, end_bit, pos, run)
-    n_read = PRECISION
-    low, high = 0, TOP
-    status = 0
+    window, buf, n_buf, byte_at, value = _open_window(data, end_bit, pos, run)
+    n_read, low, high, status = PRECISION, 0, TOP, 0
     for k in range(len(members)):
         m = members[k]
-        span = high - low + 1
         total = scalars[m, TOTAL]
-        target = _window_target(value, low, span, total)
+        target = _window_target(value, low, high - low + 1, total)
         if target < 0:
             status = -1
             break
@@ -955,14 +945,22 @@ def decode_frame_window(data, end_bit: int, pos: int, run: int, over: int, count
             symbol, sym_low, sym_high = target, target, target + 1
         else:
             symbol, sym_low, sym_high = _bank_find(counts, tree, scalars, offsets, m, target)
-        high = low + _scale(span, sym_high, total) - 1
-        low = low + _scale(span, sym_low, total)
-        low, high, value, buf, n_buf, byte_at, n_bits = _renormalise_window(low, high, value, buf, n_buf, byte_at,
-                                                                             source, source_end)
+        low, high, value, buf, n_buf, byte_at, n_bits = _narrow_window(low, high, sym_low, sym_high, total, value,
+                                                                       buf, n_buf, byte_at, window)
         n_read += n_bits
         if not fresh:
             _update_inline(counts, tree, scalars, offsets, m, symbol)
         out[out_start + k] = symbol
+    return _close_window(window, pos0, run0, over0, end_bit, n_read, status)
+
+
+@njit(cache=True, inline="always")
+def _close_window(window, pos0: int, run0: int, over0: int, end_bit: int, n_read: int, status: int
+                  ) -> tuple[int, int, int, int]:
+    """A window decoder's (status, pos, run, over) after n_read clean bits of window (_open_window's, from
+    (pos0, run0, over0)): the reader given back HISTORY bits when status is 0 (and status -2 when that lies past
+    end_bit), else left after every bit read."""
+    source, source_start, source_end, n_clean, stuffed, n_stuffed = window
     j = n_read - HISTORY if status == 0 else n_read
     pos, run, over = _state_at(source, source_start, source_end, n_clean, stuffed, n_stuffed, pos0, run0, over0, j)
     if status == 0 and pos > end_bit:
@@ -1056,6 +1054,16 @@ def renormalise_encoder(buffer, pos: int, run: int, low: int, high: int,
                         pending: int) -> tuple[int, int, int, int, int]:
     """renormalise_coder with emulation prevention."""
     return renormalise_coder(buffer, pos, run, low, high, pending, MAX_ZERO_RUN)
+
+
+@njit(cache=True, inline="always")
+def encode_interval(buffer, pos: int, run: int, low: int, high: int, pending: int, sym_low: int, sym_high: int,
+                    total: int) -> tuple[int, int, int, int, int]:
+    """The encoder's interval [low, high] narrowed to the cumulative counts [sym_low, sym_high) of total and
+    renormalised, its bits into buffer with emulation prevention: (pos, run, low, high, pending)."""
+    span = high - low + 1
+    return renormalise_encoder(buffer, pos, run, low + _scale(span, sym_low, total),
+                               low + _scale(span, sym_high, total) - 1, pending)
 
 
 @njit(cache=True, inline="always")

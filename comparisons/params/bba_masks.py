@@ -18,6 +18,20 @@ from comparisons.params.arithmetic import _bits_local, get_local
 OK, TRUNCATED, EMPTY_TYPE, UNKNOWN_BONE = 0, -1, -2, -3
 
 
+@njit(cache=True, inline="always")
+def _read_motion_bits(data, end_bit: int, pos: int, run: int, first: int, stop: int, allowed_mask: int, mask: int
+                      ) -> tuple[int, int, int]:
+    """One bit per elementary motion b in first..stop - 1 that allowed_mask has (-1: every one), set at bit b of
+    mask: (mask, pos, run), mask -1 when the data ends first."""
+    for b in range(first, stop):
+        if (allowed_mask >> b) & 1:
+            bit, pos, run = get_local(data, end_bit, pos, run)
+            if bit < 0:
+                return -1, pos, run
+            mask |= bit << b
+    return mask, pos, run
+
+
 @njit(cache=True)
 def read_bone_table(data: np.ndarray, end_bit: int, registers: np.ndarray, group_start: np.ndarray,
                     ids: np.ndarray, masks: np.ndarray, exponents: np.ndarray) -> int:
@@ -44,14 +58,11 @@ def read_bone_table(data: np.ndarray, end_bit: int, registers: np.ndarray, group
         mask = 0
         for g in range(n_types):
             if present[g]:
-                for b in range(group_start[g], group_start[g + 1]):
-                    bit, pos, run = get_local(data, end_bit, pos, run)
-                    if bit < 0:
-                        status = TRUNCATED
-                        break
-                    mask |= bit << b
-            if status:
-                break
+                mask, pos, run = _read_motion_bits(data, end_bit, pos, run, group_start[g], group_start[g + 1], -1,
+                                                   mask)
+                if mask < 0:
+                    status = TRUNCATED
+                    break
         if status:
             break
         if any_present and mask == 0:
@@ -104,15 +115,11 @@ def read_unit_bones(data: np.ndarray, end_bit: int, registers: np.ndarray, group
                 status = TRUNCATED
                 break
             if used:
-                for b in range(group_start[g], group_start[g + 1]):
-                    if (allowed_mask >> b) & 1:
-                        bit, pos, run = get_local(data, end_bit, pos, run)
-                        if bit < 0:
-                            status = TRUNCATED
-                            break
-                        mask |= bit << b
-            if status:
-                break
+                mask, pos, run = _read_motion_bits(data, end_bit, pos, run, group_start[g], group_start[g + 1],
+                                                   allowed_mask, mask)
+                if mask < 0:
+                    status = TRUNCATED
+                    break
         if status:
             break
         ids[k], masks[k] = bone, mask

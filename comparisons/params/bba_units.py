@@ -25,28 +25,26 @@ Imports nothing of signcast's Python modules.
 import numpy as np
 from numba import njit
 
-from comparisons.params.bba_levels import _fold
-from comparisons.params.bba_masks import read_unit_bones
 from comparisons.params.arithmetic import (
-    HISTORY,
     MAX_ZERO_RUN,
     PRECISION,
     TOP,
     TOTAL,
     WINDOW_MAX_TOTAL,
     _bits_local,
+    _close_window,
     _get_code_local,
+    _narrow_window,
     _open_window,
-    _renormalise_window,
     _run_after,
-    _scale,
-    _state_at,
     _window_target,
     crc8_bytes,
     decode_frame_window,
     get_local,
     init_bank,
 )
+from comparisons.params.bba_levels import _fold
+from comparisons.params.bba_masks import read_unit_bones
 from comparisons.params.frames import _sparse_add, _sparse_find, new_sparse
 
 OK, FALLBACK = 0, 1
@@ -69,9 +67,20 @@ def _ends_at_start_code(data, pos: int, end_bit: int) -> bool:
 
 
 @njit(cache=True)
-def _read_head(data, end_bit: int, pos: int, run: int, u: int, dct: bool, group_start, animatable, bone_ids,
-               bone_masks, registers, ids, masks, result) -> tuple[int, int, int, int, int, int, int]:
-    """A unit's fields before its values: (status, intra, frame-number field, KeyFrameIndex, frames, pos, run)."""
+def _head_scratch():
+    """_read_head's work arrays, made once per stream: (registers (3,), bone ids (1023,), masks (1023,),
+    result (2,)) int64."""
+    return (np.zeros(3, dtype=np.int64), np.empty(1023, dtype=np.int64), np.empty(1023, dtype=np.int64),
+            np.zeros(2, dtype=np.int64))
+
+
+@njit(cache=True)
+def _read_head(data, starts, ends, u: int, dct: bool, group_start, animatable, bone_ids, bone_masks, scratch
+               ) -> tuple[int, int, int, int, int, int, int]:
+    """Unit u's fields (bits starts[u]:ends[u]) before its values: (status, intra, frame-number field,
+    KeyFrameIndex, frames, pos, run). scratch: _head_scratch()."""
+    registers, ids, masks, result = scratch
+    end_bit, pos, run = ends[u], starts[u], 0
     intra, pos, run = get_local(data, end_bit, pos, run)
     if intra < 0:
         return FALLBACK, 0, 0, 0, 0, pos, run
@@ -106,10 +115,10 @@ def _read_head(data, end_bit: int, pos: int, run: int, u: int, dct: bool, group_
 
 
 @njit(cache=True)
-def _read_tail(data, end_bit: int, start: int, pos: int, run: int, intra: int, number_field: int, kfi: int,
+def _read_tail(data, starts, ends, u: int, pos: int, run: int, intra: int, number_field: int, kfi: int,
                n: int, display_end: int, n_total: int) -> int:
-    """NSBM, the CRC-8, the unit's place (strict _unit_number) and its end: the display frame after the
-    unit, or -1."""
+    """Unit u's NSBM, CRC-8, place (strict _unit_number) and end: the display frame after the unit, or -1."""
+    start, end_bit = starts[u], ends[u]
     _, pos, run = _bits_local(data, end_bit, pos, run, MUSCLE_COUNT_BITS)   # no muscle start code: ignored
     expected_crc = crc8_bytes(data, start, pos)
     crc, pos, run = _bits_local(data, end_bit, pos, run, CRC_BITS)
@@ -156,30 +165,21 @@ def _sparse_window(data, end_bit: int, pos: int, run: int, sizes, totals, keys, 
     if not 0 <= run < MAX_ZERO_RUN:
         return -4, pos, run
     pos0, run0 = pos, run
-    source, source_start, source_end, n_clean, stuffed, n_stuffed, buf, n_buf, byte_at, value = _open_window(
-        data, end_bit, pos, run)
-    n_read = PRECISION
-    low, high = 0, TOP
-    status = 0
+    window, buf, n_buf, byte_at, value = _open_window(data, end_bit, pos, run)
+    n_read, low, high, status = PRECISION, 0, TOP, 0
     for m in range(len(sizes)):
-        span = high - low + 1
         total = totals[m]
-        target = _window_target(value, low, span, total)
+        target = _window_target(value, low, high - low + 1, total)
         if target < 0:
             status = -1
             break
         slot, symbol, sym_low, excess = _sparse_find(keys, extra, used, m, target)
-        high = low + _scale(span, sym_low + 1 + excess, total) - 1
-        low = low + _scale(span, sym_low, total)
-        low, high, value, buf, n_buf, byte_at, n_bits = _renormalise_window(low, high, value, buf, n_buf, byte_at,
-                                                                             source, source_end)
+        low, high, value, buf, n_buf, byte_at, n_bits = _narrow_window(low, high, sym_low, sym_low + 1 + excess,
+                                                                       total, value, buf, n_buf, byte_at, window)
         n_read += n_bits
         _sparse_add(keys, extra, used, totals, limit, sizes[m], m, slot, symbol)
         out[m] = symbol
-    j = n_read - HISTORY if status == 0 else n_read
-    pos, run, _ = _state_at(source, source_start, source_end, n_clean, stuffed, n_stuffed, pos0, run0, 0, j)
-    if status == 0 and pos > end_bit:
-        status = -2
+    status, pos, run, _ = _close_window(window, pos0, run0, 0, end_bit, n_read, status)
     return status, pos, run
 
 
@@ -212,14 +212,12 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
     members = np.arange(n_values)
     held = np.zeros(n_values, dtype=np.int64)
     levels = np.empty(n_values, dtype=np.int64)
-    registers = np.zeros(3, dtype=np.int64)
-    ids, masks, result = np.empty(1023, dtype=np.int64), np.empty(1023, dtype=np.int64), np.zeros(2, dtype=np.int64)
+    scratch = _head_scratch()
     display_end = 0
     for u in range(len(starts)):
-        start, end_bit = starts[u], ends[u]
-        status, intra, number_field, kfi, n, pos, run = _read_head(data, end_bit, start, 0, u, False, group_start,
-                                                                   animatable, bone_ids, bone_masks, registers,
-                                                                   ids, masks, result)
+        end_bit = ends[u]
+        status, intra, number_field, kfi, n, pos, run = _read_head(data, starts, ends, u, False, group_start,
+                                                                   animatable, bone_ids, bone_masks, scratch)
         if status:
             return FALLBACK
         if intra:
@@ -262,7 +260,7 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
                 return FALLBACK
             rows[u, p] = value
             held[p] = value
-        display_end = _read_tail(data, end_bit, start, pos, run, intra, number_field, kfi, n, display_end, n_total)
+        display_end = _read_tail(data, starts, ends, u, pos, run, intra, number_field, kfi, n, display_end, n_total)
         if display_end < 0:
             return FALLBACK
         kfi_out[u] = kfi
@@ -369,14 +367,12 @@ def read_dct_units(data, starts, ends, group_start, animatable, bone_ids, bone_m
     dc_intra, dc_inter, ac_table: the canonical Huffman tables as tuples (first code, count, start, symbols)
     of int64 arrays (comparisons/entropy.CanonicalHuffman.arrays()[2:]); luts: their huffman_lut, in that
     order. Returns OK or FALLBACK."""
-    registers = np.zeros(3, dtype=np.int64)
-    ids, masks, result = np.empty(1023, dtype=np.int64), np.empty(1023, dtype=np.int64), np.zeros(2, dtype=np.int64)
+    scratch = _head_scratch()
     display_end = 0
     for u in range(len(starts)):
-        start, end_bit = starts[u], ends[u]
-        status, intra, number_field, kfi, n, pos, run = _read_head(data, end_bit, start, 0, u, True, group_start,
-                                                                   animatable, bone_ids, bone_masks, registers,
-                                                                   ids, masks, result)
+        end_bit = ends[u]
+        status, intra, number_field, kfi, n, pos, run = _read_head(data, starts, ends, u, True, group_start,
+                                                                   animatable, bone_ids, bone_masks, scratch)
         if status:
             return FALLBACK
         if intra:
@@ -390,7 +386,7 @@ def read_dct_units(data, starts, ends, group_start, animatable, bone_ids, bone_m
         if not intra:
             for p in range(dc_out.shape[1]):
                 dc_out[u, p] += dc_out[u - 1, p]
-        display_end = _read_tail(data, end_bit, start, pos, run, intra, number_field, kfi, n, display_end, n_total)
+        display_end = _read_tail(data, starts, ends, u, pos, run, intra, number_field, kfi, n, display_end, n_total)
         if display_end < 0:
             return FALLBACK
         sizes[u], kfi_out[u] = n, kfi

@@ -30,9 +30,9 @@ from comparisons.params.arithmetic import (
     PRECISION,
     TOP,
     crc8_bytes,
+    encode_interval,
     finish_encoder,
     put_bit_local,
-    renormalise_encoder,
     write_dct_blocks,
 )
 
@@ -148,10 +148,8 @@ def _encode_levels(buffer, pos: int, run: int, levels, u: int, low, sizes, fresh
             total += k
             coded[p, k] = symbol
             n_coded[p] = k + 1
-        span = np.uint64(high - low_ + 1)         # unsigned division: the operands are non-negative
-        high = low_ + np.int64(span * np.uint64(cumulative + count) // np.uint64(total)) - 1
-        low_ = low_ + np.int64(span * np.uint64(cumulative) // np.uint64(total))
-        pos, run, low_, high, pending = renormalise_encoder(buffer, pos, run, low_, high, pending)
+        pos, run, low_, high, pending = encode_interval(buffer, pos, run, low_, high, pending, cumulative,
+                                                        cumulative + count, total)
     return finish_encoder(buffer, pos, run, low_, pending)
 
 

@@ -31,16 +31,18 @@ from comparisons.params.arithmetic import (
     TOTAL,
     N,
     _bits_local,
+    _window_target,
+    encode_interval,
     finish_encoder,
     get_bit,
     get_bits,
     get_local,
-    look_local,
+    give_back,
+    narrow,
     put_bit,
     put_bit_local,
     put_bits,
-    renormalise_decoder,
-    renormalise_encoder,
+    read_bits_local,
     set_uniform_scalars,
 )
 
@@ -365,14 +367,23 @@ def _encode_track(buffer, pos: int, run: int, symbols, a: int, b: int, offsets, 
                 cumulative += tree[tbase + i]
                 i -= i & -i
             excess = counts[base + symbol]
-        total = scalars[m, TOTAL]
-        span = high - low + 1
-        high = low + span * (cumulative + 1 + excess) // total - 1
-        low = low + span * cumulative // total
-        pos, run, low, high, pending = renormalise_encoder(buffer, pos, run, low, high, pending)
+        pos, run, low, high, pending = encode_interval(buffer, pos, run, low, high, pending, cumulative,
+                                                       cumulative + 1 + excess, scalars[m, TOTAL])
         if not fresh:
             _update(counts, tree, scalars, m, base, symbol)
     return finish_encoder(buffer, pos, run, low, pending)
+
+
+@njit(cache=True, inline="always")
+def _start_frame(buffer, pos: int, run: int, header: int, header_bits: int, levels, f: int, low, symbols
+                 ) -> tuple[int, int]:
+    """Frame f's plane header (header_bits bits of header, none when 0) into buffer, and its symbols
+    levels[f] - low (P,) into symbols: (pos, run)."""
+    for shift in range(header_bits - 1, -1, -1):
+        pos, run = put_bit_local(buffer, pos, run, (header >> shift) & 1)
+    for p in range(levels.shape[1]):
+        symbols[p] = levels[f, p] - low[p]
+    return pos, run
 
 
 @njit(cache=True)
@@ -386,10 +397,7 @@ def write_level_frames(buffer, state, header: int, header_bits: int, levels, low
     symbols = np.empty(levels.shape[1], dtype=np.int64)
     pos, run = state[0], state[1]
     for f in range(levels.shape[0]):
-        for shift in range(header_bits - 1, -1, -1):
-            pos, run = put_bit_local(buffer, pos, run, (header >> shift) & 1)
-        for p in range(levels.shape[1]):
-            symbols[p] = levels[f, p] - low[p]
+        pos, run = _start_frame(buffer, pos, run, header, header_bits, levels, f, low, symbols)
         for k in range(len(track_starts) - 1):
             a, b = track_starts[k], track_starts[k + 1]
             if _coded(sizes, members, a, b):
@@ -437,10 +445,9 @@ def _decode_track(data, end_bit: int, state, ring, a: int, b: int, offsets, coun
         m = members[p]
         base = offsets[m]
         tbase = base + m
-        span = high - low + 1
         total = scalars[m, TOTAL]
-        target = ((value - low + 1) * total - 1) // span
-        if not 0 <= target < total:
+        target = _window_target(value, low, high - low + 1, total)
+        if target < 0:
             return CORRUPT_CODE
         if fresh:
             symbol, cumulative, excess = target, target, 0
@@ -455,9 +462,7 @@ def _decode_track(data, end_bit: int, state, ring, a: int, b: int, offsets, coun
             symbol = position
             cumulative = target - remaining
             excess = counts[base + symbol]
-        high = low + span * (cumulative + 1 + excess) // total - 1
-        low = low + span * cumulative // total
-        low, high, n_bits, subtract = renormalise_decoder(low, high)
+        low, high, n_bits, subtract = narrow(low, high, cumulative, cumulative + 1 + excess, total)
         for _ in range(n_bits):
             bit, at, pos, run, over = _look(data, end_bit, ring, at, pos, run, over)
             value = (value << 1) | bit
@@ -653,11 +658,8 @@ def _sparse_encode_track(buffer, pos: int, run: int, symbols, a: int, b: int, si
                     excess = extra[p, s]
                 break
             cumulative += extra[p, s]
-        total = totals[p]
-        span = high - low + 1
-        high = low + span * (cumulative + 1 + excess) // total - 1
-        low = low + span * cumulative // total
-        pos, run, low, high, pending = renormalise_encoder(buffer, pos, run, low, high, pending)
+        pos, run, low, high, pending = encode_interval(buffer, pos, run, low, high, pending, cumulative,
+                                                       cumulative + 1 + excess, totals[p])
         _sparse_add(keys, extra, used, totals, limit, sizes[p], p, slot, symbol)
     return finish_encoder(buffer, pos, run, low, pending)
 
@@ -667,20 +669,13 @@ def write_sparse_frames(buffer, state, header: int, header_bits: int, levels, lo
                         keys, extra, used, limit: int) -> None:
     """write_level_frames (not fresh; model p codes column p) with sparse models of capacity >= len(levels)."""
     symbols = np.empty(levels.shape[1], dtype=np.int64)
+    columns = np.arange(levels.shape[1])             # model p for column p
     pos, run = state[0], state[1]
     for f in range(levels.shape[0]):
-        for shift in range(header_bits - 1, -1, -1):
-            pos, run = put_bit_local(buffer, pos, run, (header >> shift) & 1)
-        for p in range(levels.shape[1]):
-            symbols[p] = levels[f, p] - low[p]
+        pos, run = _start_frame(buffer, pos, run, header, header_bits, levels, f, low, symbols)
         for k in range(len(track_starts) - 1):
             a, b = track_starts[k], track_starts[k + 1]
-            coded = False
-            for p in range(a, b):
-                if sizes[p] > 1:
-                    coded = True
-                    break
-            if coded:
+            if _coded(sizes, columns, a, b):
                 pos, run = _sparse_encode_track(buffer, pos, run, symbols, a, b, sizes, totals, keys, extra, used,
                                                 limit)
     state[0], state[1] = pos, run
@@ -693,33 +688,22 @@ def _sparse_decode_track(data, end_bit: int, state, a: int, b: int, sizes, total
     (the state HISTORY bits before the last read) is found by reading again from the start instead of keeping
     a ring of states."""
     pos0, run0, over0 = state[0], state[1], state[2]
-    pos, run, over = pos0, run0, over0
-    value = 0
-    for _ in range(PRECISION):
-        bit, pos, run, over = look_local(data, end_bit, pos, run, over)
-        value = (value << 1) | bit
+    value, pos, run, over = read_bits_local(data, end_bit, pos0, run0, over0, 0, PRECISION)
     at = PRECISION
     low, high = 0, TOP
     for p in range(a, b):
-        span = high - low + 1
         total = totals[p]
-        target = ((value - low + 1) * total - 1) // span
-        if not 0 <= target < total:
+        target = _window_target(value, low, high - low + 1, total)
+        if target < 0:
             return CORRUPT_CODE
         slot, symbol, cumulative, excess = _sparse_find(keys, extra, used, p, target)
-        high = low + span * (cumulative + 1 + excess) // total - 1
-        low = low + span * cumulative // total
-        low, high, n_bits, subtract = renormalise_decoder(low, high)
-        for _ in range(n_bits):
-            bit, pos, run, over = look_local(data, end_bit, pos, run, over)
-            value = (value << 1) | bit
+        low, high, n_bits, subtract = narrow(low, high, cumulative, cumulative + 1 + excess, total)
+        value, pos, run, over = read_bits_local(data, end_bit, pos, run, over, value, n_bits)
         value -= subtract
         at += n_bits
         _sparse_add(keys, extra, used, totals, limit, sizes[p], p, slot, symbol)
         out[p] = symbol
-    pos, run, over = pos0, run0, over0
-    for _ in range(at - HISTORY):
-        _, pos, run, over = look_local(data, end_bit, pos, run, over)
+    pos, run, over = give_back(data, end_bit, pos0, run0, over0, pos, over, at)
     state[0], state[1], state[2] = pos, run, over
     return CODE_ENDS_EARLY if pos > end_bit else 0
 
