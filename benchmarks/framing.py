@@ -15,10 +15,11 @@ For each source clip (a person's video), as `compare --video` does it:
    map the render's anchors onto the source's (1 and 0 when they line up).
 
 Sources: carphone (the clip compare --video uses by default: head and shoulders, no hands in view), and the
-avatar itself used as the "person": Czech fingerspelling (two-handed) rendered at 352x288 as the full figure, and
+avatar itself used as the "person": Czech fingerspelling (two-handed) rendered at --size as the full figure, and
 the same clip shot closer (a head-and-torso picture, zoom 1.7), each then treated as any person's video.
 
-    .venv/bin/python benchmarks/framing.py [--word HRAD] [--language cse] [--frames 60] [--out results.json]
+    .venv/bin/python benchmarks/framing.py [--word HRAD] [--language cse] [--frames 60] [--size 352x288]
+        [--no-carphone] [--out results.json]
 """
 from __future__ import annotations
 
@@ -119,15 +120,21 @@ def main() -> int:
     parser.add_argument("--language", default="cse")
     parser.add_argument("--word", default="HRAD")
     parser.add_argument("--frames", type=int, default=60, help="frames of the avatar-as-person clip")
+    parser.add_argument("--size", default="352x288", help="frame size of the avatar-as-person clips (WxH)")
+    parser.add_argument("--no-carphone", action="store_true", help="only the avatar-as-person clips")
     parser.add_argument("--out", type=Path, help="also write the rows as JSON")
     args = parser.parse_args()
     from pipeline.studies.shared import read_natural_clip
     started = time.perf_counter()
-    clip, _ = read_natural_clip("carphone", None, (352, 288), progress=False)
-    rows = [measure("carphone", clip.frames, clip.fps)]
+    from media.domain import parse_size
+    size = parse_size(args.size)
+    rows = []
+    if not args.no_carphone:
+        clip, _ = read_natural_clip("carphone", None, (352, 288), progress=False)
+        rows.append(measure("carphone", clip.frames, clip.fps))
     for label, zoom in (("avatar full figure", None), (f"avatar head-and-torso (zoom {CLOSE_ZOOM})", CLOSE_ZOOM)):
-        frames, fps = avatar_person(args.language, args.word, args.frames, (352, 288), zoom)
-        rows.append(measure(f"{label}, {args.language} {args.word}", frames, fps))
+        frames, fps = avatar_person(args.language, args.word, args.frames, size, zoom)
+        rows.append(measure(f"{label}, {args.language} {args.word}, {size[0]}x{size[1]}", frames, fps))
     for row in rows:
         print(json.dumps(row))
     print(f"wall {time.perf_counter() - started:.0f} s", file=sys.stderr)
