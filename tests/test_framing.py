@@ -124,3 +124,14 @@ def test_source_framing_needs_a_person():
         render.check(render.RenderWordSettings("ase", "A", Path("a.mkv"), framing="portrait"))
     with pytest.raises(SigncastError, match="give --video"):
         check_scenario(ScenarioSettings(framing="source"))
+
+
+def test_compare_passes_its_framing_option_to_the_scenario():
+    from pipeline.cli import build_parser
+    from pipeline.commands.compare import scenario_fields
+    from pipeline.studies.compare import CompareSettings
+    parser = build_parser()
+    for given, expected in ((["--framing", "full-figure"], "full-figure"), (["--framing", "source"], "source"),
+                            ([], None)):
+        args = parser.parse_args(["compare", "--video", "carphone", *given])
+        assert CompareSettings(**scenario_fields(args)).signing.framing == expected
