@@ -74,8 +74,9 @@ def _mean(values) -> float | None:
 def measure_clip(job: tuple[str, str, tuple[int, int], str]) -> dict:
     """One clip (language, unit, (width, height), framing 'source' or 'full-figure') -> its row: the hands' metrics
     averaged over the hands the source shows in at least MIN_HAND_SHARE of its frames (units as in the module
-    docstring), per-hand values under 'left_'/'right_', face, held span, and the extracted landmarks of both hands for letter scoring ('observed':
-    component -> (points (T, 21, 3) pixels, confidence (T, 21)); removed before the row is written)."""
+    docstring), per-hand values under 'left_'/'right_', face, held span, and the extracted landmarks of both hands
+    for letter scoring ('observed': component -> (points (T, 21, 3) pixels, confidence (T, 21)); removed before the
+    row is written)."""
     from comparisons.judging import fidelity
     from media import lexicon
     from media.fingerspelling import held_span
