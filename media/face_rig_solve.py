@@ -43,30 +43,31 @@ FEW_FRAMES = 40
 
 
 @njit(cache=True)
+def _rows_of(mask):
+    """The True columns of each row of a (R, C) bool array in CSR form: (start (R + 1,), index (R * C,)) int64,
+    row r's columns ascending in index[start[r]:start[r + 1]]."""
+    n_rows, n_columns = mask.shape
+    start = np.zeros(n_rows + 1, np.int64)
+    index = np.empty(n_rows * n_columns, np.int64)
+    n = 0
+    for r in range(n_rows):
+        for c in range(n_columns):
+            if mask[r, c]:
+                index[n] = c
+                n += 1
+        start[r + 1] = n
+    return start, index
+
+
+@njit(cache=True)
 def _layout(on_chain, group_members, group_start):
     """Index lists of the sparse J, made once per call: per skinned bone its carriers (chain_start /
     chain_index, carriers ascending), per carrier its skinned bones (carried_start / carried_index, skinned
     ascending), and per pair (a <= b) of bones in a group the carriers both share (pair_start / pair_index,
     ascending; pairs in the order the solve visits them)."""
-    n_skinned, n_carriers = on_chain.shape
-    chain_start = np.zeros(n_skinned + 1, np.int64)
-    chain_index = np.empty(n_skinned * n_carriers, np.int64)
-    n = 0
-    for i in range(n_skinned):
-        for j in range(n_carriers):
-            if on_chain[i, j]:
-                chain_index[n] = j
-                n += 1
-        chain_start[i + 1] = n
-    carried_start = np.zeros(n_carriers + 1, np.int64)
-    carried_index = np.empty(n_skinned * n_carriers, np.int64)
-    n = 0
-    for j in range(n_carriers):
-        for i in range(n_skinned):
-            if on_chain[i, j]:
-                carried_index[n] = i
-                n += 1
-        carried_start[j + 1] = n
+    n_carriers = on_chain.shape[1]
+    chain_start, chain_index = _rows_of(on_chain)
+    carried_start, carried_index = _rows_of(on_chain.T)
     n_pairs = 0
     for g in range(len(group_start) - 1):
         m = group_start[g + 1] - group_start[g]
