@@ -187,7 +187,7 @@ def write(text: str, path: Path = DOC) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0].replace("\n", " "))
     parser.add_argument("--no-write", action="store_true", help="print only; leave docs/parameters.md alone")
     args = parser.parse_args()
     text = measure()
