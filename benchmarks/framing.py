@@ -19,7 +19,7 @@ avatar itself used as the "person": Czech fingerspelling (two-handed) rendered a
 the same clip shot closer (a head-and-torso picture, zoom 1.7), each then treated as any person's video.
 
     .venv/bin/python benchmarks/framing.py [--word HRAD] [--language cse] [--frames 60] [--size 352x288]
-        [--no-carphone] [--out results.json]
+        [--no-carphone] [--out results.json] [--picture docs/framing-carphone.png]
 """
 from __future__ import annotations
 
@@ -84,12 +84,14 @@ def hand_size_ratio(source, render, component: str) -> float | None:
     return float(np.median(hand_sizes(render.points[component][both]) / hand_sizes(source.points[component][both])))
 
 
-def measure(name: str, frames: np.ndarray, fps: float) -> dict:
+def measure(name: str, frames: np.ndarray, fps: float, picture: Path | None = None, picture_frame: int = 20) -> dict:
+    """One source's row (see the module docstring); picture: also write frame picture_frame of the source, the full
+    figure and the framed render side by side, each with the landmarks found on it, as a PNG."""
     from comparisons.judging.fidelity import message_fidelity
     from media.avatar import load_avatar
     from media.render import AvatarRenderer, RenderSettings
     from media.retarget import retarget
-    from pipeline.studies.shared import extract_landmarks, fit_length, render_frames, source_framing
+    from pipeline.studies.shared import draw_landmarks, extract_landmarks, fit_length, render_frames, source_framing
     height, width = frames.shape[1:3]
     source = extract_landmarks(frames, fps, f"{name}: source", progress=False)
     avatar = load_avatar()
@@ -100,11 +102,15 @@ def measure(name: str, frames: np.ndarray, fps: float) -> dict:
     described = lambda f: None if f is None else {"scale": f.scale, "shift": list(f.shift), "turn_deg": f.turn}
     row = {"source": name, "frames": len(frames), "size": [width, height], "fps": fps,
            "framing": described(framing), "geometric_framing": described(geometric)}
+    tiles = [(draw_landmarks(frames[picture_frame:picture_frame + 1], _frame(source, picture_frame)), name)]
     for label, chosen in (("full-figure", None), ("geometric fit", geometric), ("source", framing)):
         renderer = AvatarRenderer(avatar, RenderSettings(width, height, look="shaded", framing=chosen))
         render, _ = render_frames(renderer, motion, f"{name}: {label}", progress=False)
         observed = extract_landmarks(render, fps, f"{name}: {label} landmarks", progress=False)
         fidelity = message_fidelity(source, observed)
+        if label != "geometric fit":
+            tiles.append((draw_landmarks(render[picture_frame:picture_frame + 1], _frame(observed, picture_frame)),
+                          "avatar, full figure" if chosen is None else "avatar, framed like the person"))
         row[label] = {"left_found": fidelity["left_found"], "right_found": fidelity["right_found"],
                       "left_location": fidelity["left_location"], "right_location": fidelity["right_location"],
                       "source_left_frames": int(np.all(source.confidence["LEFT_HAND_LANDMARKS"] > 0, axis=1).sum()),
@@ -112,7 +118,17 @@ def measure(name: str, frames: np.ndarray, fps: float) -> dict:
                       "left_size_ratio": hand_size_ratio(source, observed, "LEFT_HAND_LANDMARKS"),
                       "right_size_ratio": hand_size_ratio(source, observed, "RIGHT_HAND_LANDMARKS"),
                       **lined_up(source, observed)}
+    if picture is not None:
+        import cv2
+        from media.tiling import tile_videos
+        cv2.imwrite(str(picture), tile_videos(tiles, (352, 288), 3)[0][..., ::-1])
     return row
+
+
+def _frame(clip, t: int):
+    from media.lexicon import SignClip
+    return SignClip(clip.fps, {k: v[t:t + 1] for k, v in clip.points.items()},
+                    {k: v[t:t + 1] for k, v in clip.confidence.items()})
 
 
 def main() -> int:
@@ -123,6 +139,7 @@ def main() -> int:
     parser.add_argument("--size", default="352x288", help="frame size of the avatar-as-person clips (WxH)")
     parser.add_argument("--no-carphone", action="store_true", help="only the avatar-as-person clips")
     parser.add_argument("--out", type=Path, help="also write the rows as JSON")
+    parser.add_argument("--picture", type=Path, help="also write carphone's frame 20 beside the avatar's renders (PNG)")
     args = parser.parse_args()
     from pipeline.studies.shared import read_natural_clip
     started = time.perf_counter()
@@ -131,7 +148,7 @@ def main() -> int:
     rows = []
     if not args.no_carphone:
         clip, _ = read_natural_clip("carphone", None, (352, 288), progress=False)
-        rows.append(measure("carphone", clip.frames, clip.fps))
+        rows.append(measure("carphone", clip.frames, clip.fps, args.picture))
     for label, zoom in (("avatar full figure", None), (f"avatar head-and-torso (zoom {CLOSE_ZOOM})", CLOSE_ZOOM)):
         frames, fps = avatar_person(args.language, args.word, args.frames, size, zoom)
         rows.append(measure(f"{label}, {args.language} {args.word}, {size[0]}x{size[1]}", frames, fps))
