@@ -25,9 +25,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from benchmarks.shape_coding import BIT_OBJECTS, avatar_labels, clip_labels  # noqa: E402
+from benchmarks.shape_coding import BIT_OBJECTS, avatar_labels, clip_labels
 
 MB = 16
 
