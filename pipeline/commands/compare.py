@@ -68,9 +68,10 @@ def add_natural_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", type=int, default=None, help="only the first N frames (default: all)")
     parser.add_argument("--framing", default=None, choices=("source", "full-figure"),
                         help="with --video, where the avatar stands in the frame: 'source' frames it like the person "
-                             "(one zoom and shift of the render camera per clip, fitted from the avatar's shoulders "
-                             "and face to the person's; the default), 'full-figure' the signing space from the hips "
-                             "to above the head; the avatar-only scenarios render the full figure")
+                             "(one zoom and shift, and a roll for a tilted picture, of the render camera per clip, "
+                             "fitted from the avatar's shoulders and face to the person's; the default), "
+                             "'full-figure' the signing space from the hips to above the head; the avatar-only "
+                             "scenarios render the full figure")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -35,7 +35,8 @@ def add_parser(subparsers) -> None:
                         help="animate a segmented FBA-style body (each vertex follows one bone) instead of the seamless skin")
     parser.add_argument("--framing", default=None, choices=("source", "full-figure"),
                         help="where the avatar stands in the frame: 'source' frames it like the person of the "
-                             "--pose (one zoom and shift of the render camera per clip, fitted from the avatar's "
+                             "--pose (one zoom and shift, and a roll for a tilted picture, of the render camera per "
+                             "clip, fitted from the avatar's "
                              "shoulders and face to the person's, so its hands cover the same pixels; the default "
                              "with --pose), 'full-figure' the signing space from the hips to above the head (the "
                              "default, and the only framing, for LANGUAGE WORD)")
