@@ -29,8 +29,9 @@ no update = "copy"), the bits by category (box, modes, shape motion vectors, int
 information -log2 p of each decoded symbol, comparisons.video.shape.shape_bit_account), the blocks with a
 vector and those whose vector differs from its prediction, the learning cost (pixel bits beyond a model that
 knew each GOP's statistics) and the bits per shape per frame; then the bits per frame of the version 2 stream
-(the coder before issue 39, lossless), and against them the lossless version 3 stream (a predicted frame may
-reuse the previous box) and the lossy ones (the alpha threshold, comparisons.video.shape.encode_shape's
+(the coder before issue 39, lossless), and against them the lossless stream of today's encode_shape (the
+shorter of version 3, where a predicted frame may reuse the previous box, and 4, which adds trained pixel
+priors) and the lossy ones (the alpha threshold, comparisons.video.shape.encode_shape's
 shape_error) at each --shape-error: bits per frame, their ratio to version 2's, and the shape error (wrong pixels
 over the object's pixels) that the decoder's masks really have.
 
@@ -140,8 +141,8 @@ def print_bits(source: str, labels, shape_errors: tuple[float, ...]) -> None:
               f" {account['total_bits'] / account['frames']:10.1f}", flush=True)
     if not shape_errors:
         return
-    print("bits/frame, x the version 2 stream (the coder before issue 39), measured shape error %: lossless in "
-          "version 3 (same-box flag), then lossy (alpha threshold)")
+    print("bits/frame, x the version 2 stream (the coder before issue 39), measured shape error %: lossless "
+          "(the shorter of version 3, same-box flag, and 4, also trained priors), then lossy (alpha threshold)")
     print(f"{'object':11} {'version 2':>9} {'lossless':>24} "
           + " ".join(f"{'<= ' + format(e, 'g') + ' %':>24}" for e in shape_errors))
     for name, parts in BIT_OBJECTS.items():

@@ -183,3 +183,14 @@ def test_damaged_lossy_shape_stream_is_rejected():
     damaged[len(stream) // 2] ^= 0x10
     with pytest.raises(SigncastError, match="CRC"):
         decode_shape(bytes(damaged))
+
+
+def test_default_version_keeps_the_shorter_of_versions_3_and_4():
+    masks = moving_ellipses(frames=6)
+    boxed, trained = encode_shape(masks, version=3)[0], encode_shape(masks, version=4)[0]
+    chosen = encode_shape(masks)[0]
+    assert len(chosen) == min(len(boxed), len(trained)) and chosen in (boxed, trained)
+    for stream in (boxed, trained, encode_shape(masks, version=2)[0]):
+        assert np.array_equal(decode_shape(stream), masks)
+    with pytest.raises(SigncastError, match="version"):
+        encode_shape(masks, version=5)

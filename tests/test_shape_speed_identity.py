@@ -2,9 +2,10 @@
 
 The SHA-256 of every stream below was recorded from comparisons/video/shape.py before its per-pixel loops
 moved into comparisons/video/shape_cae.py (version 2 streams, which encode_shape still writes on request); a
-changed hash means the stream format or the encoder's decisions changed. Version 3 (the default since issue 39:
-a predicted frame may reuse the previous box) makes the same decisions, its synthetic streams are pinned too,
-and on the rendered masks it is never larger than version 2 in predicted frames.
+changed hash means the stream format or the encoder's decisions changed. Version 3 (issue 39: a predicted frame
+may reuse the previous box) makes version 2's decisions, version 4 (the default: also trained pixel priors) its
+own (the intra / inter choice reads the models); their synthetic streams are pinned too; on the rendered masks
+version 3 is never larger than version 2 in predicted frames, and version 4 is smaller.
 Inputs: real masks (20 frames of ASL "AB" rendered at 176x144 by the NumPy backend: head, right hand, signer,
 clothes) and synthetic ones (empty, full, noise, a moving disc, a shape that jumps beyond the search range),
 each coded at GOP 1, 4 and 12 and decoded back exactly. The synthetic inputs pin the coder's bytes. The rendered
@@ -36,6 +37,26 @@ RENDERED_BYTES = {
     "clothes": (1935, 870, 584),
 }
 RATE_TOLERANCE = 0.02
+STREAM_SHA256_V4 = {    # (input, gop) -> SHA-256 of the version 4 stream (trained pixel priors), recorded at issue 39
+    ('disc', 1): "9c858b152a66a29f17d050830ebf1cade6faaba071c9039bcc8f858986932d19",
+    ('disc', 4): "0c97bf270f6e4e8687d53c1a3252cc8510ab91f341bf7a7b43b7deaf50a20883",
+    ('disc', 12): "6bb634c4a028f5acdc0bae8b7bcf7ad92c8fbb2e99afe79c633aa7a9cf9b2cd8",
+    ('empty', 1): "5a6f5e4e9f36423ef9f17a1f5bc596992e80f506522a7875869705a07cac3b2d",
+    ('empty', 4): "b5bea8bb4bcae6f817ac791eb567bcd0cb91063b53ea546c819cf368b9f5a07c",
+    ('empty', 12): "bdebf541789a530fbdfc8b4b602442b764111b6c1a2b2fbd6b7ff334a8186e07",
+    ('full', 1): "4bc522ff6dcf8d5bcf829168cd7ba2d24f9d9ba66ceb9191071723d62e5884d5",
+    ('full', 4): "94682f8db25e80b73e09b57b9a77134730f8df159933c35b340621e25451f7f3",
+    ('full', 12): "498efdc43c175ccfd1a2f7a223e07626c8fcaf045423d75f02b10445f089d39a",
+    ('jump', 1): "2a596c9ff6cfe0591e3ee96325687bec0ddd342d02882445bfcb3266738920ef",
+    ('jump', 4): "e02377de571fef28320abce695d66d469f89bdc6803a1e5e043a80d572a813e2",
+    ('jump', 12): "d60cf0200ddef761f026b498db3a69b11887090744f909b141c9d76a05c165f8",
+    ('noise', 1): "e151900810a8d927ece7e42caae523a5e0778ceb8f137319a6dc1264fe83c527",
+    ('noise', 4): "284e4ef8112b52e46716a9a7934b1568ca69f4ffe98bb4e5b992b6a3d45a87cd",
+    ('noise', 12): "0885382633d450e5b7ea0b99442a278a06c67af2f146c56712978330b4d6b43b",
+    ('noise_odd', 1): "83297024e3f7fad0f7a3e912457d5921cacc25e4f7ce5e25d84e40e30a17527d",
+    ('noise_odd', 4): "eae188390fbccfc6a0e70a9416d9601d26952107a14fd2fe8af0a1450815982b",
+    ('noise_odd', 12): "b0fe1e1bf167f26acaa663031021995e3e82815b17135bdd7fd81fa2740d971f",
+}
 STREAM_SHA256_V3 = {    # (input, gop) -> SHA-256 of the version 3 stream (same-box flag), recorded at issue 39
     ('disc', 1): "b2d2f7ee9b4f23c79b93e56f4b8583388c76868aad531105497686d80e35261c",
     ('disc', 4): "a71fa3664cc7b186c51a3f4167fa0ca79aa79851b493626021f301b35753532a",
@@ -139,10 +160,13 @@ def test_rendered_object_streams_decode_exactly_at_the_stored_rate(rendered_mask
         assert stats.n_bytes == len(stream)
         assert np.array_equal(decode_shape(stream), masks), f"{name} at GOP {gop} does not decode to itself"
         assert abs(len(stream) - expected) <= RATE_TOLERANCE * expected, (name, gop, len(stream), expected)
-        # version 3 (the default) codes the same decisions and reuses the box: fewer bytes when it stays put
+        # version 3 codes the same decisions and reuses the box: fewer bytes when it stays put; version 4 (the
+        # default) adds the trained pixel priors
+        boxed = encode_shape(masks, gop=gop, version=3)[0]
+        assert np.array_equal(decode_shape(boxed), masks)
+        assert len(boxed) <= len(stream) if gop > 1 else len(boxed) == len(stream)
         current = encode_shape(masks, gop=gop)[0]
-        assert np.array_equal(decode_shape(current), masks)
-        assert len(current) <= len(stream) if gop > 1 else len(current) == len(stream)
+        assert np.array_equal(decode_shape(current), masks) and len(current) < len(stream)
 
 
 @pytest.mark.parametrize("name", sorted(synthetic_masks()))
@@ -150,9 +174,10 @@ def test_synthetic_streams_are_unchanged(name):
     masks = synthetic_masks()[name]
     for gop in GOPS:
         _check(name, masks, gop)
-        stream = encode_shape(masks, gop=gop)[0]
-        assert np.array_equal(decode_shape(stream), masks), f"{name} at GOP {gop}, version 3"
-        assert _sha(stream) == STREAM_SHA256_V3[(name, gop)], f"{name} at GOP {gop}: the version 3 stream changed"
+        for version, hashes in ((3, STREAM_SHA256_V3), (4, STREAM_SHA256_V4)):
+            stream = encode_shape(masks, gop=gop, version=version)[0]
+            assert np.array_equal(decode_shape(stream), masks), f"{name} at GOP {gop}, version {version}"
+            assert _sha(stream) == hashes[(name, gop)], f"{name} at GOP {gop}: the version {version} stream changed"
 
 
 def test_the_kernels_sum_rounds_as_numpy_does():

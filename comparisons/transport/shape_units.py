@@ -9,7 +9,7 @@ starts with an intra frame, behind a small unit header (format chosen here):
     n_frames        u16      frames in the unit (1..65535)
     length          u24      bytes of the shape stream that follows
     crc8            u8       CRC-8 (x^8 + x^2 + x + 1, comparisons.params.bits.crc8_bits) of the 9 bytes before it
-    shape stream    `length` bytes: an encode_shape stream (version 3; 2 is read too), whose own header carries
+    shape stream    `length` bytes: an encode_shape stream (version 4; 2 and 3 are read too), whose own header carries
                     a CRC-32 of its header and payload, so no further checksum is added here
 
 Multi-byte fields are big-endian. A receiver (`find_shape_units`) scans for the start code, checks the header

@@ -10,18 +10,20 @@ BABs and coded as differences. Pixels to the right of the current BAB that are n
 the BAB's last decoded column (border replication).
 
 Departures from the standard, stated: (1) probabilities are adaptive counts per context, reset at every
-intra frame (every `gop` frames) to a prior skewed towards "the pixel repeats its neighbours / its
-motion-compensated pixel", instead of the standard's fixed tables, which are not reproduced here;
+intra frame (every `gop` frames) to a prior: in version 4 the pixel contexts' P(0) trained on rendered masks
+(comparisons/video/shape_priors.py, tools/make_shape_priors.py) at TRAINED_WEIGHT counts, elsewhere (and in
+versions 2-3) a hand-made prior skewed towards "the pixel repeats its neighbours / its motion-compensated
+pixel"; the standard's fixed tables are not reproduced here;
 (2) modes and motion-vector differences are binarised and coded by the same arithmetic coder instead of
 VLCs; (3) one arithmetic codeword covers the whole sequence; (4) no size conversion (CR 1/2, 1/4) and no
 transposed scan; lossy shape is the alpha threshold alone, an encoder's choice under a per-frame budget of
 wrong pixels (encode_shape's shape_error) that the decoder needs no word of; (5) every predicted frame refers to the previous frame in display order.
 
-Stream layout (version 3): a 22-byte header (magic, version, width, height, frames, gop, payload length, then a
+Stream layout (version 4): a 22-byte header (magic, version, width, height, frames, gop, payload length, then a
 CRC-32 of the 18 header bytes before it and of the payload) and the arithmetic-coded payload. Each frame codes a
 presence flag, then its box: in version 3 a predicted frame after a present one first codes whether its box is
 the previous frame's (adaptive context), and only otherwise the four raw fields; version 2 (still read and, on
-request, written) always codes them raw. Version 1 streams (CRC of the payload alone) are rejected. Masks are at most MAX_SIDE pixels wide and high and
+request, written, as is 3) always codes them raw. Version 4 is version 3 with the trained pixel priors. Version 1 streams (CRC of the payload alone) are rejected. Masks are at most MAX_SIDE pixels wide and high and
 frames x height x width <= MAX_PIXELS (decoded masks <= 256 MiB); both ends check this before coding or
 allocating. The decoder rejects bad magic, truncation and corruption (length / CRC / impossible values,
 a payload that ends before the last frame) with SigncastError.
@@ -58,13 +60,14 @@ __all__ = ["BAB", "COUNT_LIMIT", "MAX_PIXELS", "MAX_SIDE", "MODE_NAMES", "N_CONT
            "BinaryArithmeticDecoder", "BinaryArithmeticEncoder", "ShapeStats", "decode_shape", "encode_shape"]
 
 MAGIC = b"SCSH"
-VERSION = 3                            # 2: the CRC covers the header too; 3: predicted frames may reuse the box
-VERSIONS = (2, 3)                      # read and written
+VERSION = 4                            # 2: the CRC covers the header too; 3: predicted frames may reuse the box;
+VERSIONS = (2, 3, 4)                   # 4: trained pixel priors (comparisons/video/shape_priors.py). Read and written
 _HEADER = struct.Struct(">4sBHHIBII")
 _CRC_OFFSET = _HEADER.size - 4         # the CRC is the header's last field
 MAX_SIDE = 4096                        # pixels, width and height
 MAX_PIXELS = 1 << 28                   # frames x height x width: decoded (T, H, W) bool masks take <= 256 MiB
 PRIOR_WEIGHT = 8                       # initial count of the likely symbol in a pixel context
+TRAINED_WEIGHT = 128                   # version 4: initial zeros + ones of a trained pixel context
 MAX_SHAPE_ERROR = 10.0                 # percent of the object's pixels, the most lossy shape may cost
 ALPHA_TH = 3                           # lossy shape: wrong pixels allowed per 4x4 sub-block of a uniform / copied BAB
 
@@ -80,10 +83,13 @@ _DECODER_ERRORS = {
 # ----------------------------------------------------------------------------------------------------
 # binary arithmetic coder (32-bit registers, bits-plus-follow renormalisation) with adaptive contexts
 
-@lru_cache(maxsize=4)
-def _prior_counts(n_contexts: int) -> tuple[np.ndarray, np.ndarray]:
+@lru_cache(maxsize=8)
+def _prior_counts(n_contexts: int, trained: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Initial (zeros, ones) counts (n_contexts,) int64 per context (cached, read-only: an intra frame resets
     the model to copies of them).
+
+    trained (stream version 4): a pixel context that tools/make_shape_priors.py saw starts at TRAINED_WEIGHT
+    counts split by its trained P(0) (each side at least 1); the others as below.
 
     A prior for the pixel contexts, skewed like the standard's fixed tables: a pixel tends to repeat its
     causal neighbours (intra) or its motion-compensated co-located pixel (inter), the more strongly the
@@ -115,6 +121,14 @@ def _prior_counts(n_contexts: int) -> tuple[np.ndarray, np.ndarray]:
         else:
             weight = 2
         prior(kc.CTX_INTER + ctx, likely, weight)
+    if trained:
+        from comparisons.video.shape_priors import PIXEL_P0
+
+        p0 = np.asarray(PIXEL_P0, np.int64)
+        seen = np.flatnonzero(p0 >= 0)
+        zeros = np.clip((p0[seen] * TRAINED_WEIGHT + 32768) >> 16, 1, TRAINED_WEIGHT - 1)
+        counts[0, kc.CTX_INTRA + seen] = zeros
+        counts[1, kc.CTX_INTRA + seen] = TRAINED_WEIGHT - zeros
     counts.flags.writeable = False
     return counts[0], counts[1]
 
@@ -128,10 +142,10 @@ def _cost_table() -> np.ndarray:
 class _AdaptiveModel:
     """Counts of zeros and ones per context (n_contexts,) int64, updated by the kernels; P(0) in 1/65536 units."""
 
-    def __init__(self, n_contexts: int):
+    def __init__(self, n_contexts: int, trained: bool = False):
         if n_contexts < 1:
             raise SigncastError(f"an adaptive model needs at least 1 context, not {n_contexts}")
-        zeros, ones = _prior_counts(n_contexts)
+        zeros, ones = _prior_counts(n_contexts, trained and n_contexts == N_CONTEXTS)
         self.zeros, self.ones = zeros.copy(), ones.copy()
 
 
@@ -144,8 +158,9 @@ class BinaryArithmeticEncoder:
         self.registers = np.array([0, kc.TOP, 0, 0], np.int64)   # low, high, pending, bits written
         self.buffer = np.zeros(4096, np.uint8)                    # the bits, packed
 
-    def reset_model(self) -> None:
-        self.model = _AdaptiveModel(self.n_contexts)
+    def reset_model(self, trained: bool = False) -> None:
+        """The model back to its prior (trained: version 4's trained pixel prior)."""
+        self.model = _AdaptiveModel(self.n_contexts, trained)
 
     def reserve(self, n_bits: int) -> None:
         """Room for n_bits more output bits past the pending ones (the kernels do not check)."""
@@ -184,8 +199,9 @@ class BinaryArithmeticDecoder:
         value = int.from_bytes(bytes(payload[:4]).ljust(4, b"\0"), "big")
         self.registers = np.array([0, kc.TOP, value, 32, kc.OK], np.int64)   # low, high, value, position, status
 
-    def reset_model(self) -> None:
-        self.model = _AdaptiveModel(self.n_contexts)
+    def reset_model(self, trained: bool = False) -> None:
+        """The model back to its prior (trained: version 4's trained pixel prior)."""
+        self.model = _AdaptiveModel(self.n_contexts, trained)
 
     def check(self, status: int) -> None:
         """SigncastError for a kernel's error status."""
@@ -282,20 +298,20 @@ def _check_masks(masks: np.ndarray) -> np.ndarray:
     return np.asarray(masks, dtype=bool)  # no copy of boolean masks
 
 
-def _frames(frames: int, gop: int, canvas: _Canvas, coder):
+def _frames(frames: int, gop: int, canvas: _Canvas, coder, version: int):
     """Frame indices t with inter (0 for intra), after moving the canvas on and, at intra frames, resetting
-    the coder's model."""
+    the coder's model to the prior of the stream version."""
     for t in range(frames):
         if t:
             canvas.next_frame()
         inter = t % gop != 0
         if not inter:
-            coder.reset_model()
+            coder.reset_model(version >= 4)
         yield t, int(inter)
 
 
 def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
-                 version: int = VERSION) -> tuple[bytes, ShapeStats]:
+                 version: int | None = None) -> tuple[bytes, ShapeStats]:
     """Code a binary mask sequence (T, H, W) bool; returns the stream and its statistics.
 
     Frames 0, gop, 2*gop, ... are intra (probabilities reset); the others are predicted from the previous frame.
@@ -305,9 +321,13 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
     ALPHA_TH wrong pixels in every 4x4 sub-block is coded transparent, opaque or copied from the
     motion-compensated previous shape (at the predicted vector first, then at the searched one), first come
     first served in scan order. The stream format and the decoder are the lossless ones: lossy shape is an
-    encoder's choice, and stats.shape_error reports what it cost. version 2 writes the format without the
-    same-box flag (the bytes of the coder before issue 39).
+    encoder's choice, and stats.shape_error reports what it cost. version None codes versions 3 and 4 and keeps
+    the shorter stream (the trained priors fit rendered masks and can cost a ragged natural outline a few %);
+    2 writes the format without the same-box flag (the bytes of the coder before issue 39), 3 without the
+    trained priors, 4 with them.
     """
+    if version is None:
+        return min((encode_shape(masks, gop, shape_error, v) for v in (3, 4)), key=lambda coded: len(coded[0]))
     masks = _check_masks(masks)
     if not 1 <= gop <= 255:
         raise SigncastError(f"shape GOP must be 1..255 frames, got {gop}")
@@ -329,7 +349,7 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
     costs = _cost_table()
     frame_bits = kc.BITS_PER_SYMBOL * (kc.SYMBOLS_PER_FRAME + kc.SYMBOLS_PER_BLOCK * blocks_y * blocks_x)
     wrong = 0
-    for t, inter in _frames(frames, gop, canvas, coder):
+    for t, inter in _frames(frames, gop, canvas, coder, version):
         coder.reserve(frame_bits)
         kc.encode_frame(padded[t].view(np.uint8), canvas.current, canvas.previous, canvas.stride, canvas.border,
                         canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv, coder.model.zeros,
@@ -367,7 +387,7 @@ def decode_shape(stream: bytes) -> np.ndarray:
     coder = BinaryArithmeticDecoder(payload)
     canvas = _Canvas(blocks_y, blocks_x)
     masks = np.zeros((frames, height, width), bool)
-    for t, inter in _frames(frames, gop, canvas, coder):
+    for t, inter in _frames(frames, gop, canvas, coder, version):
         coder.check(kc.decode_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
                                     canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
                                     coder.model.zeros, coder.model.ones, canvas.counts, inter, canvas.box,
@@ -384,7 +404,8 @@ def shape_bit_account(stream: bytes) -> dict:
     termination), mv_blocks and mv_nonzero (blocks with a shape motion vector, and those whose vector differs
     from its prediction), and learning_bits: the pixel bits beyond what a model that already knew each GOP's
     context statistics would spend (sum over GOPs and contexts of n x the empirical entropy), the price of
-    adaptive models that start from the prior at every intra frame."""
+    adaptive models that start from the prior at every intra frame; pixel_counts (2, N_CONTEXTS) int64, the
+    decoded zeros and ones per context (tools/make_shape_priors.py trains the version 4 prior from them)."""
     masks = decode_shape(stream)
     stream = bytes(stream)
     _, version, width, height, frames, gop, _, _ = _HEADER.unpack_from(stream)
@@ -405,19 +426,23 @@ def shape_bit_account(stream: bytes) -> dict:
         return float((terms.sum(axis=0) * n[used]).sum())
 
     entropy = 0.0
-    for t, inter in _frames(frames, gop, canvas, coder):
+    pixel_counts = np.zeros_like(hist)
+    for t, inter in _frames(frames, gop, canvas, coder, version):
         if not inter:
             entropy += gop_entropy()
+            pixel_counts += hist
             hist[:] = 0
         coder.check(kc.account_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
                                      canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
                                      coder.model.zeros, coder.model.ones, canvas.counts, inter, canvas.box,
                                      int(version >= 3), costs, hist, mv_blocks))
     entropy += gop_entropy()
+    pixel_counts += hist
     pixel_bits = costs[kc.COST_INTRA] + costs[kc.COST_INTER]
     learning = pixel_bits - entropy
     names = ("header", "mode", "mv", "intra_cae", "inter_cae")
     assert masks.shape[0] == frames
     return {"frames": frames, "total_bits": 8 * len(stream), "modes": canvas.mode_counts(),
             "bits": {name: float(costs[k]) for k, name in enumerate(names)},
-            "mv_blocks": int(mv_blocks[0]), "mv_nonzero": int(mv_blocks[1]), "learning_bits": learning}
+            "mv_blocks": int(mv_blocks[0]), "mv_nonzero": int(mv_blocks[1]), "learning_bits": learning,
+            "pixel_counts": pixel_counts}
