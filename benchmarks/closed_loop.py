@@ -11,9 +11,18 @@ Compared with the original:
   phalanx, a fingertip the last phalanx's tail), over the frames the hand was found;
 - joint-angle error per bone group, degrees: the geodesic angle between the two motions' local rotations of the
   torso (spine, neck, head), arm (upperarm01, lowerarm01, lowerarm02, wrist) and finger bones of the signing
-  side, mean and 90th percentile over bones and frames.
+  side, mean and 90th percentile over bones and frames;
+- the extractor's own direction error per phalanx, degrees (the floor a retargeting that follows the landmarks
+  inherits): the 15 finger phalanges' directions from the hand model's world landmarks (3D, in the avatar's axes)
+  and from the image landmarks (2D, in the image plane) against the original's (`landmark_errors`).
 
-    python benchmarks/closed_loop.py [--language ase] [--word HI] [--size 352x288] [--filters one-euro,binomial,off]
+The render is the full figure (the signing-space camera), or with --zoom a head-and-torso shot as a person's
+clip is framed (media.framing.Framing: the full-figure camera zoomed about the shoulders' midpoint, placed at
+55 % of the frame's height, as benchmarks/framing.py makes its close shot), which makes the hands bigger in the
+same frame; --size renders larger frames.
+
+    python benchmarks/closed_loop.py [--language ase] [--word HI] [--size 352x288] [--zoom 1.7]
+        [--filters one-euro,binomial,off] [--methods fit,fit-2d,lifting]
 """
 from __future__ import annotations
 
@@ -48,9 +57,24 @@ class Loop:
     seconds: dict[str, float] = field(default_factory=dict)
 
 
+def close_framing(avatar, motion, size: tuple[int, int], zoom: float):
+    """media.framing.Framing of a head-and-torso shot: the full-figure picture zoomed by `zoom` (e.g. 1.7) about the
+    shoulders' midpoint of the motion's first frame, which it places at the frame's horizontal centre and 55 % of
+    its height (benchmarks/framing.py's close shot)."""
+    from media.framing import Framing, anchor_track
+    from media.render import signing_space_camera
+
+    width, height = size
+    shoulders = anchor_track(avatar, motion.frames(0, 1), signing_space_camera(avatar, width, height),
+                             width, height)[0, 7:].mean(axis=0)
+    return Framing(zoom, ((width / 2 - zoom * shoulders[0]) / width,
+                          (0.55 * height - zoom * shoulders[1]) / height))
+
+
 def run_loop(language: str = "ase", word: str = "HI", size: tuple[int, int] = (352, 288), fps: float = 25.0,
-             backend: str = "auto") -> Loop:
-    """Render the fingerspelled word shaded and extract its landmarks."""
+             backend: str = "auto", zoom: float | None = None) -> Loop:
+    """Render the fingerspelled word shaded (full figure, or a head-and-torso shot zoomed by `zoom`:
+    close_framing) at size (width, height) pixels and extract its landmarks."""
     from media.avatar import load_avatar
     from media.fingerspelling import fingerspell
     from media.landmarks.holistic import extract_landmarks
@@ -60,12 +84,17 @@ def run_loop(language: str = "ase", word: str = "HI", size: tuple[int, int] = (3
     seconds = {}
     started = time.perf_counter()
     original = fingerspell(language, word, fps=fps)
-    frames, _ = render_motion(avatar, original, RenderSettings(size[0], size[1], look="shaded", backend=backend))
+    framing = close_framing(avatar, original, size, zoom) if zoom else None
+    frames, _ = render_motion(avatar, original, RenderSettings(size[0], size[1], look="shaded", backend=backend,
+                                                               framing=framing))
     seconds["render"] = time.perf_counter() - started
     started = time.perf_counter()
     clip = extract_landmarks(iter(frames), fps, n_frames=len(frames))
     seconds["extract"] = time.perf_counter() - started
-    return Loop(original, frames, clip, np.asarray(signing_space_camera(avatar, *size), np.float64), size, seconds)
+    camera = signing_space_camera(avatar, *size)
+    if framing is not None:
+        camera = framing.camera(camera, *size)
+    return Loop(original, frames, clip, np.asarray(camera, np.float64), size, seconds)
 
 
 def project(camera: np.ndarray, points: np.ndarray, size: tuple[int, int]) -> np.ndarray:
@@ -111,6 +140,42 @@ def angle_errors(original, retargeted, side: str = "R") -> dict[str, dict[str, f
                                                      retargeted.rotations[:, retargeted.bone(bone)]))
                   for bone in bones]
         result[group] = _summary(np.concatenate(angles))
+    return result
+
+
+def _angles_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angle in degrees between vectors a and b (..., D), per leading index."""
+    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    return np.degrees(np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0)))
+
+
+PHALANGES = tuple((head, tail) for chain in FINGER_CHAINS.values() for _, head, tail in chain)
+
+
+def landmark_errors(loop: Loop, side: str = "R") -> dict[str, dict[str, float]]:
+    """The extractor's own error, the floor of a retargeting that follows the landmarks: per finger phalanx (15,
+    MediaPipe landmark head -> tail) the angle in degrees between the original's direction and the extracted
+    landmarks', over the frames the hand was found. "world": the hand model's world landmarks (turned into the
+    avatar's axes, media.hand_fit.from_mediapipe_world) against the original's 3D joints (the camera looks along
+    -Z, so the two share axes up to the view ray's few degrees); "image": the image landmarks' x, y against the
+    original's projected joints (2D). Mean, p90, n."""
+    from media.avatar import load_avatar
+    from media.hand_fit import from_mediapipe_world
+
+    skeleton = load_avatar().skeleton
+    component = f"{HAND_PREFIX[side]}_HAND_LANDMARKS"
+    found = np.all(loop.clip.confidence[component] > 0, axis=1)
+    truth = hand_joints(skeleton, loop.original, side)[found]                       # (F, 21, 3)
+    truth_px = project(loop.camera, truth, loop.size)
+    heads, tails = (np.array(ends) for ends in zip(*PHALANGES))
+    result = {"image": _summary(_angles_deg(loop.clip.points[component][found][:, tails, :2]
+                                            - loop.clip.points[component][found][:, heads, :2],
+                                            truth_px[:, tails] - truth_px[:, heads]))}
+    world_name = f"{HAND_PREFIX[side]}_HAND_WORLD_LANDMARKS"
+    if world_name in loop.clip.points:
+        world = from_mediapipe_world(loop.clip.points[world_name][found][..., :3])
+        result["world"] = _summary(_angles_deg(world[:, tails] - world[:, heads], truth[:, tails] - truth[:, heads]))
     return result
 
 
@@ -181,15 +246,21 @@ def main() -> int:
     parser.add_argument("--language", default="ase")
     parser.add_argument("--word", default="HI")
     parser.add_argument("--size", default="352x288", help="WxH")
+    parser.add_argument("--zoom", type=float, default=None,
+                        help="frame a head-and-torso shot, the full figure zoomed by this (e.g. 1.7); default: full figure")
     parser.add_argument("--filters", default="one-euro,binomial,off")
     parser.add_argument("--methods", default="fit,fit-2d,lifting",
                         help="fit (world landmarks), fit-2d (image landmarks only), lifting (the former method)")
     parser.add_argument("--save-pose", type=Path, help="also write the extracted clip's arrays to this .npz")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
-    loop = run_loop(args.language, args.word, (width, height))
-    print(f"{args.language} {args.word!r} {width}x{height}: {loop.original.n_frames} frames, render "
-          f"{loop.seconds['render']:.1f} s, extract {loop.seconds['extract']:.1f} s")
+    loop = run_loop(args.language, args.word, (width, height), zoom=args.zoom)
+    print(f"{args.language} {args.word!r} {width}x{height} {f'zoom {args.zoom}' if args.zoom else 'full figure'}: "
+          f"{loop.original.n_frames} frames, render {loop.seconds['render']:.1f} s, "
+          f"extract {loop.seconds['extract']:.1f} s")
+    floor = landmark_errors(loop)
+    print("extractor's phalanx direction error (deg mean/p90): "
+          + ", ".join(f"{name} {d['mean']:.1f}/{d['p90']:.1f}" for name, d in floor.items()), flush=True)
     if args.save_pose:
         np.savez_compressed(args.save_pose, fps=loop.clip.fps,
                             **{f"points_{k}": v for k, v in loop.clip.points.items()},
