@@ -17,7 +17,7 @@ from comparisons.transport import fba_units
 from comparisons.reports import live as live_report
 from comparisons.transport import loss as loss_models
 from comparisons.transport import rtp
-from comparisons.reports.records import read_records
+from comparisons.reports.records import as_records, read_records
 from media.avatar import load_avatar
 from media.fingerspelling import fingerspell
 from media.render import AvatarRenderer, RenderSettings
@@ -243,5 +243,5 @@ def test_live_report_charts_and_prints_face_error_for_a_clip_without_hands():
     axes = figure.get_axes()
     assert len(axes) == 2 and "face error" in axes[0].get_ylabel()
     assert sorted(tuple(line.get_ydata()) for line in axes[0].get_lines()) == [(0.052, 0.074), (0.052, 0.074)]
-    text = live_report.summary_text(records)
+    text = live_report.summary_text(as_records(records))
     assert "face" in text.splitlines()[0] and "0.052" in text and "0.074" in text

@@ -11,6 +11,7 @@ import pytest
 
 from comparisons.judging.criteria import bandwidth_scores, criteria_table
 from comparisons.reports.comparison import chart_kbps_vs_q, chart_rate_quality, linear_fits, quantiser
+from comparisons.reports.records import as_records
 from pipeline.outputs import build_report
 from report_page import ReportPage
 
@@ -58,7 +59,7 @@ def _assert_nothing_empty_or_broken(page: ReportPage) -> None:
 
 
 def test_report_is_self_contained(tmp_path):
-    page = build_report(_records(), tmp_path / "report.html").read_text()
+    page = build_report(as_records(_records()), tmp_path / "report.html").read_text()
     assert "http://" not in page and "https://" not in page
     parsed = ReportPage(page)
     assert set(parsed.charts) == {"kbps_vs_q", "kbps_vs_fps", "psnr_vs_kbps", "ssim_vs_kbps"}
@@ -67,7 +68,7 @@ def test_report_is_self_contained(tmp_path):
 
 
 def test_summary_names_each_rows_reference_and_marks_whole_frame_figures_of_object_solutions(tmp_path):
-    text = build_report(_records(), tmp_path / "report.html").read_text()
+    text = build_report(as_records(_records()), tmp_path / "report.html").read_text()
     page = ReportPage(text)
     summary = page.tables["summary"]
     assert [row[0] for row in summary] == ["NSV", "NSV3O", "SSV", "FBA"]
@@ -98,7 +99,7 @@ def test_every_codec_gets_its_own_colour_in_the_charts():
     figure = chart_kbps_vs_q(records)
     lines = figure.axes[0].lines
     assert len(lines) == 8 and len({line.get_color() for line in lines}) == 8
-    figure = chart_rate_quality(records, "psnr")
+    figure = chart_rate_quality(as_records(records), "psnr")
     legend = figure.legends[0]
     colours = {text.get_text(): line.get_color() for line, text in zip(legend.legend_handles, legend.get_texts())}
     assert len(colours) == 9 and len(set(colours.values())) == 9        # 8 swept series and NSV's H.264 point
@@ -198,7 +199,7 @@ def _footer(flags: list[str], report: Path) -> str:
 @pytest.mark.slow
 def test_report_renders_in_headless_chromium(tmp_path):
     flags = _chromium()
-    report = build_report(_records(), tmp_path / "report.html")
+    report = build_report(as_records(_records()), tmp_path / "report.html")
     assert _footer(flags, report) == "rendered 4/4 charts, 6/6 tables; all ok"
     screenshot = tmp_path / "report.png"
     subprocess.run([*flags, "--window-size=1280,2400", f"--screenshot={screenshot}", report.as_uri()],
@@ -214,7 +215,7 @@ def test_the_render_check_flags_a_table_wider_than_the_page(tmp_path):
     without a space makes the table of every point too wide, and the footer says which."""
     flags = _chromium()
     records = [dict(r, clip="x" * 300) if r.get("kind", "point") == "point" else r for r in _records()]
-    footer = _footer(flags, build_report(records, tmp_path / "report.html"))
+    footer = _footer(flags, build_report(as_records(records), tmp_path / "report.html"))
     assert footer.startswith("rendered 4/4 charts, 6/6 tables; broken: ") and "points (too wide)" in footer, footer
 
 

@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from comparisons.reports.records import read_records
+from comparisons.reports.records import as_records, read_records, read_typed_records
 
 from pipeline.outputs import write_records
 from pipeline.outputs import build_report
@@ -73,7 +73,7 @@ def _records() -> list[dict]:
 @pytest.fixture(scope="module")
 def page(tmp_path_factory) -> ReportPage:
     out = tmp_path_factory.mktemp("report") / "report.html"
-    return ReportPage(build_report(_records(), out).read_text())
+    return ReportPage(build_report(as_records(_records()), out).read_text())
 
 
 def test_the_top_table_gives_every_solutions_kbps_at_matched_intelligibility_with_its_q_bracket(page):
@@ -119,7 +119,7 @@ def test_a_channel_fits_below_its_payload_rate_and_mobileasl_up_to_its_top_rate(
 def test_the_rate_against_intelligibility_chart_is_embedded_with_its_reference_threshold_and_operating_points(page):
     assert page.charts["rate_vs_intelligibility"] is not None and page.charts["rate_vs_intelligibility"].std() > 10
     assert page.charts["intelligibility_vs_fps"] is not None and page.charts["intelligibility_vs_fps"].std() > 10
-    figure = chart_rate_intelligibility(_records())
+    figure = chart_rate_intelligibility(as_records(_records()))
     hand, face = figure.axes                               # hand PCK@0.2, then face error (the points carry it)
     assert hand.get_xscale() == "log" and "PCK@0.2" in hand.get_ylabel() and "interocular" in face.get_ylabel()
     assert "source video" in figure._suptitle.get_text()
@@ -152,7 +152,7 @@ def test_the_requirement_lines_of_en_301_549_tran_et_al_and_the_source_per_solut
 
 def test_a_solution_without_a_matched_record_is_listed_as_such(tmp_path):
     records = [r for r in _records() if not (r["kind"] == "matched" and r["solution"] == "NSV2O")]
-    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(as_records(records), tmp_path / "report.html").read_text())
     row = next(row for row in page.tables["matched"] if row[0] == "NSV2O")
     assert row[3] == "no matched record" and len(row) == len(page.tables["matched"][0])
     assert "NSV2O" not in [row[0] for row in page.tables["guidance"]]
@@ -163,10 +163,10 @@ def test_rows_against_different_references_are_flagged_and_drawn_apart(tmp_path)
     for r in records:
         if r.get("solution") in ("FBA", "BBA") and r["kind"] in ("point", "matched"):
             r["reference"] = "lossless render"
-    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(as_records(records), tmp_path / "report.html").read_text())
     assert [row[2] for row in page.tables["matched"]][-2:] == ["lossless render"] * 2
     assert "compare the rates of rows with the same reference only" in page.text
-    figure = chart_rate_intelligibility(records)
+    figure = chart_rate_intelligibility(as_records(records))
     assert "source video / lossless render" in figure._suptitle.get_text()
     assert sum(line.get_linestyle() == "--" and line.get_marker() != "*" for line in figure.axes[0].lines
                if len(line.get_xdata()) == len(SWEPT_Q)) == 2
@@ -180,10 +180,10 @@ def test_letter_top1_gets_a_panel_and_joint_errors_of_hands_and_arms_stay_apart(
             r["letter_top1"] = 80.0
         if r["kind"] == "matched" and r["solution"] in ("FBA", "BBA"):
             r.update(hand_joint_error_mm=4.5, arm_joint_error_mm=2.0)
-    figure = chart_rate_intelligibility(records)
+    figure = chart_rate_intelligibility(as_records(records))
     assert len(figure.axes) == 3 and "top-1" in figure.axes[2].get_ylabel()
     plt.close("all")
-    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(as_records(records), tmp_path / "report.html").read_text())
     fba = next(row for row in page.tables["matched"] if row[0] == "FBA")
     # ..., face error, mouth / eyes error, letter top-1, hand joint error mm, arm joint error mm, holds down to, channels
     assert fba[10:14] == ["80", "4.5", "2.0", "10 fps"]
@@ -194,7 +194,7 @@ def test_parameter_points_report_hand_and_arm_joint_errors_in_their_own_columns(
                 "width": 0, "height": 0, "bits": 1000 * q, "duration_s": 1.0, "kbps": float(q), "param_psnr": 40.0 - q,
                 "joint_error_mm_mean": 3.0, "hand_joint_error_mm": 4.0 + q, "arm_joint_error_mm": 1.0 + q}
                for q in (4, 16) for letter in "AB"]
-    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(as_records(records), tmp_path / "report.html").read_text())
     summary = page.tables["parameter_summary"]
     assert [row[-2:] for row in summary] == [["8.00", "5.00"], ["20.00", "17.00"]]
     assert "matched" not in page.tables and "guidance" not in page.tables
@@ -215,7 +215,7 @@ def test_records_without_matched_or_intelligibility_fields_still_make_the_old_re
                        "right_hand_found", "face_error", "face_error_p90")
     old = [{k: v for k, v in r.items() if k not in intelligibility} for r in _records() if r["kind"] != "matched"]
     path = write_records(tmp_path / "records.jsonl", old)
-    page = ReportPage(build_report(read_records(path), tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(read_typed_records(path), tmp_path / "report.html").read_text())
     assert "matched" not in page.tables and "guidance" not in page.tables
     assert "rate_vs_intelligibility" not in page.charts and "intelligibility_vs_fps" not in page.charts
     assert "kbps at matched intelligibility" not in page.text
@@ -237,7 +237,7 @@ def test_the_intelligibility_report_renders_in_headless_chromium(tmp_path):
     browser = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
     if browser is None:
         pytest.skip("Chromium is not installed (Debian: apt-get install chromium); .ci/run installs it")
-    report = build_report(_records(), tmp_path / "report.html")
+    report = build_report(as_records(_records()), tmp_path / "report.html")
     page = ReportPage(report.read_text())
     dom = subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=5000",
                           "--dump-dom", report.as_uri()], capture_output=True, text=True, timeout=120).stdout
@@ -255,14 +255,14 @@ def test_points_averaged_over_several_extractions_carry_t_interval_bars():
     for record in records:
         if record.get("kind") == "point" and record["solution"] == "FBA":
             record.update(extractions=4, draw_sd={"hand_pck_20": 2.0})
-    figure = chart_rate_intelligibility(records)
+    figure = chart_rate_intelligibility(as_records(records))
     bars = [c for c in figure.axes[0].containers if isinstance(c, ErrorbarContainer)]
     assert len(bars) == 1                                   # FBA's sweep only
     segments = bars[0].lines[2][0].get_segments()
     half = t.ppf(0.975, 3) * 2.0 / 2
     assert len(segments) == len(SWEPT_Q) and all(abs(s[1][1] - s[0][1] - 2 * half) < 1e-9 for s in segments)
     assert "t-interval" in figure._suptitle.get_text()
-    plain = chart_rate_intelligibility(_records())
+    plain = chart_rate_intelligibility(as_records(_records()))
     assert not [c for c in plain.axes[0].containers if isinstance(c, ErrorbarContainer)]
     assert "t-interval" not in plain._suptitle.get_text()
 
@@ -276,7 +276,7 @@ def test_the_reached_column_says_whether_the_extractions_agree(tmp_path):
             count, reached, clear = verdicts[record["solution"]]
             record.update(extractions=count, reached_extractions=reached, verdict_clear=clear, kbps_min=170.0,
                           kbps_max=190.0)
-    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(as_records(records), tmp_path / "report.html").read_text())
     assert page.tables["matched"][0][3] == "180.0 (170.0–190.0) (Q 8–16)"     # the median and the range
     reached = {row[0]: row[4] for row in page.tables["matched"]}
     assert reached["NSV"] == "✔ yes (all 4 extractions agree)"
@@ -294,20 +294,20 @@ def test_a_matched_rate_gets_a_horizontal_bar_over_its_extractions_range():
     for record in records:
         if record["kind"] == "matched" and record["solution"] == "NSV":
             record.update(kbps_min=160.0, kbps_max=200.0)
-    figure = chart_rate_intelligibility(records)
+    figure = chart_rate_intelligibility(as_records(records))
     bars = [c for c in figure.axes[0].containers if isinstance(c, ErrorbarContainer) and c.has_xerr]
     assert len(bars) == 1
     (segment,) = bars[0].lines[2][0].get_segments()
     assert segment[0][0] == pytest.approx(160.0) and segment[1][0] == pytest.approx(200.0)
     assert "range of the rates matched" in figure._suptitle.get_text()
-    assert "range of the rates matched" not in chart_rate_intelligibility(_records())._suptitle.get_text()
+    assert "range of the rates matched" not in chart_rate_intelligibility(as_records(_records()))._suptitle.get_text()
 
 
 def test_every_section_gives_the_matched_rate_or_marks_it_below_threshold(tmp_path):
     """One cost per solution on the whole page: the summary, the source's requirement lines and Table 4.17 use the
     matched rate; a rate not reaching the threshold is marked, not judged, and ranks last in Table 4.17."""
     records = _records()
-    page = ReportPage(build_report(records, tmp_path / "report.html").read_text())
+    page = ReportPage(build_report(as_records(records), tmp_path / "report.html").read_text())
     matched = {(m["solution"], m["codec"]): m for m in records if m.get("kind") == "matched"}
     for row in page.tables["summary"]:
         m = matched[(row[0], row[1])]

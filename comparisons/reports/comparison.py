@@ -1,8 +1,8 @@
 """The comparison report: one self-contained HTML page (plots embedded as PNG) made from records only.
 
-Records are dicts as read_records returns them (comparisons.reports.records.Record.to_json; records given in
-memory are brought to that form first, legacy names renamed). Measured points carry at least solution,
-codec, q, fps, kbps, width and height. Points with a picture (width and height > 0: `signcast compare`,
+The page and its charts take Records (comparisons.reports.records.Record: read_typed_records from records.jsonl,
+as_records in a study) and read each as its schema dict (Record.to_json); the helpers below work on those dicts.
+Measured points carry at least solution, codec, q, fps, kbps, width and height. Points with a picture (width and height > 0: `signcast compare`,
 `demo`, `video`) carry image quality where measured: image_psnr / ssim (whole frame), skin_psnr / skin_ssim
 (face and hands) and object_psnr (inside the sent objects), each against that point's reference frames (see
 `reference`). Points without a picture (width = height = 0: `signcast params`, `lab`) measure the animation
@@ -41,7 +41,7 @@ from comparisons.judging.criteria import SOLUTIONS, criteria_table  # noqa: E402
 from comparisons.reports.figures import figure_png, suptitle  # noqa: E402,F401
 from comparisons.judging.landmark_draws import interval  # noqa: E402
 from comparisons.reports import page  # noqa: E402
-from comparisons.reports.records import normalize_records  # noqa: E402
+from comparisons.reports.records import Record, report_rows  # noqa: E402
 from comparisons.video.codecs import CODECS as VIDEO_CODECS  # noqa: E402
 from media.domain import BBA, FBA, PARAMETER_SOLUTIONS, SOLUTION_ORDER, VIDEO_SOLUTIONS, Solution  # noqa: E402
 from media.errors import SigncastError  # noqa: E402
@@ -289,11 +289,14 @@ def measured_against(records: list[dict]) -> str:
                      for name, group in groups.items())
 
 
-def chart_rate_quality(records: list[dict], metric: str, styles: dict | None = None):
+def chart_rate_quality(records: list[Record], metric: str, styles: dict | None = None):
     """Image quality (metric: "psnr" or "ssim"; whole frame and face-and-hands region) against kbps, each against
     the point's reference frames: each series' quantizer sweep at its top frame rate as a line, today's codecs at
     matched quality as single open markers. Points without a picture are left out."""
-    records = normalize_records(records)
+    return _chart_rate_quality(report_rows(records), metric, styles)
+
+
+def _chart_rate_quality(records: list[dict], metric: str, styles: dict | None = None):
     styles = styles or series_styles(records)
     figure, panels = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
     measured = _picture_points(records, metric)
@@ -335,10 +338,13 @@ def _parameter_points(records: list[dict]) -> list[dict]:
     return [r for r in points(records) if not has_picture(r)]
 
 
-def chart_parameter_quality(records: list[dict], styles: dict | None = None):
+def chart_parameter_quality(records: list[Record], styles: dict | None = None):
     """Parameter-domain PSNR (seed 000 eq. 2.6) and VPSNR against kbps, against the motion before coding, for
     points without a picture; each series at its top frame rate, averaged over clips per quantiser."""
-    records = normalize_records(records)
+    return _chart_parameter_quality(report_rows(records), styles)
+
+
+def _chart_parameter_quality(records: list[dict], styles: dict | None = None):
     styles = styles or series_styles(records)
     figure, panels = plt.subplots(1, 2, figsize=(12, 4.8))
     measured = _parameter_points(records)
@@ -748,12 +754,15 @@ def _finish_intelligibility_panel(panel, field: str) -> None:
     panel.grid(True, which="both", alpha=0.3)
 
 
-def chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
+def chart_rate_intelligibility(records: list[Record], styles: dict | None = None):
     """Rate against intelligibility: hand PCK@0.2 (percent) against kbps (log) for every solution's quantizer
     sweep at its top frame rate, the threshold on it, the matched operating points marked; further panels with
     face error (interocular distances) and letter top-1 (percent) where the points carry them. Points measured as
     the mean of several landmark extractions carry bars of their 95 % t-interval (K - 1 degrees of freedom)."""
-    records = normalize_records(records)
+    return _chart_rate_intelligibility(report_rows(records), styles)
+
+
+def _chart_rate_intelligibility(records: list[dict], styles: dict | None = None):
     styles = styles or series_styles(records)
     fields = [f for f in INTELLIGIBILITY_PANELS if f == "hand_pck_20" or _swept_for_intelligibility(records, f)]
     figure, panels = plt.subplots(len(fields), 1, figsize=(8.5, 3.6 * len(fields)), squeeze=False)
@@ -795,10 +804,13 @@ def _fps_sweeps_for_intelligibility(records: list[dict]) -> dict[str, list[dict]
     return sweeps
 
 
-def chart_intelligibility_vs_fps(records: list[dict], styles: dict | None = None):
+def chart_intelligibility_vs_fps(records: list[Record], styles: dict | None = None):
     """Hand PCK@0.2 (percent) against frame rate (frames/s) over each series' frame-rate sweep, with the guidance's
     frame-rate lines (EN 301 549: 12, preferably 20; Tran et al.: 10) and the threshold."""
-    records = normalize_records(records)
+    return _chart_intelligibility_vs_fps(report_rows(records), styles)
+
+
+def _chart_intelligibility_vs_fps(records: list[dict], styles: dict | None = None):
     styles = styles or series_styles(records)
     figure, axes = plt.subplots(figsize=(7.5, 4.5))
     for name, rows in _fps_sweeps_for_intelligibility(records).items():
@@ -956,10 +968,10 @@ def _matched_section(records: list[dict], styles: dict) -> str:
                if shared_threshold(matched_records(records)) else "")
             + _matched_table(records))
     if _swept_for_intelligibility(records, "hand_pck_20"):
-        parts.append(page.image("rate_vs_intelligibility", _png(chart_rate_intelligibility(records, styles)),
+        parts.append(page.image("rate_vs_intelligibility", _png(_chart_rate_intelligibility(records, styles)),
                             "rate against intelligibility"))
     if _fps_sweeps_for_intelligibility(records):
-        parts.append(page.image("intelligibility_vs_fps", _png(chart_intelligibility_vs_fps(records, styles)),
+        parts.append(page.image("intelligibility_vs_fps", _png(_chart_intelligibility_vs_fps(records, styles)),
                             "intelligibility against frame rate"))
     return "".join(parts) if len(parts) > 1 else ""
 
@@ -1033,14 +1045,14 @@ def _guidance_section(records: list[dict]) -> str:
                                   "Tran et al. 2013", "source's lines"], rows))
 
 
-def report_html(records: list, *, poster_png: bytes | None = None,
+def report_html(records: list[Record], *, poster_png: bytes | None = None,
                 title: str = "signcast: cost and quality of transmitting sign language") -> str:
-    """The HTML report (one page) of records (Records or dicts): the sections the records have data for;
+    """The HTML report (one page) of Records: the sections the records have data for;
     poster_png: the side by side's poster frame. The study layer writes it (pipeline.outputs.build_report).
 
     Raises SigncastError when the records hold no measured point.
     """
-    records = normalize_records(records)
+    records = report_rows(records)
     measured = points(records)
     if not measured:
         kinds = _list(sorted({str(r.get("kind", "point")) for r in records})) or "none"
@@ -1075,12 +1087,12 @@ def report_html(records: list, *, poster_png: bytes | None = None,
         sections.append("<h2>Rate and image quality</h2><p>" + html.escape(measured_against(records))
                         + ". Object solutions send no background, so their whole-frame figures count the dropped pixels as "
                         "error; the face-and-hands region carries the message.</p>"
-                        + "".join(page.image(f"{metric}_vs_kbps", _png(chart_rate_quality(records, metric, styles)), alt)
+                        + "".join(page.image(f"{metric}_vs_kbps", _png(_chart_rate_quality(records, metric, styles)), alt)
                                   for metric, alt in charts))
     if any(r.get("param_psnr") is not None or r.get("vpsnr") is not None for r in parameters):
         sections.append("<h2>Rate and parameter quality</h2><p>Each clip's decoded parameters against the same motion before "
                         "coding (full-precision BAPs); parameter PSNR and VPSNR are not image figures.</p>"
-                        + page.image("parameter_quality", _png(chart_parameter_quality(records, styles)),
+                        + page.image("parameter_quality", _png(_chart_parameter_quality(records, styles)),
                                  "parameter PSNR and VPSNR vs kbps"))
     sections.append(_requirements(records))
     if operating_points(records) or matched_records(records):

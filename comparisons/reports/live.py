@@ -15,6 +15,7 @@ import numpy as np
 
 from comparisons.reports import page
 from comparisons.reports.figures import figure_png
+from comparisons.reports.records import Record, report_rows
 from media.domain import SOLUTION_ORDER
 
 REFERENCE = "source video"
@@ -260,10 +261,11 @@ RECEIVED_COLUMNS = (("frames_lost", "frames lost", 1.0, 0), ("frames_concealed",
                     ("latency_ms_p95", "latency p95 ms", 1.0, 0))
 
 
-def receive_report_html(records: list[dict]) -> str:
+def receive_report_html(records: list[Record]) -> str:
     """The page of what `signcast receive` measured: per received session, what arrived, what was lost and
     concealed, and the latency (whole and per stage) against EN 301 549. A receiver has no reference to read the
     signing against, so the page has no intelligibility; `signcast live` measures that."""
+    records = report_rows(records)
     sessions = received_sessions(records)
     head = ("<p>What the receiver measured of each session it received over RTP/UDP (the sender's side, and what "
             "a viewer could read of it, are measured by <code>signcast live</code>, which holds the reference): "
@@ -279,16 +281,18 @@ def receive_report_html(records: list[dict]) -> str:
     return page.page("signcast receive: what arrived", body, max_width_px=1300, extra_style="td { text-align: right; }")
 
 
-def report_outputs(records: list[dict]) -> dict:
+def report_outputs(records: list[Record]) -> dict:
     """live_table.csv (rows), live_loss.png (bytes) and report.html (text) from the records, by file name; the study
     layer writes them (pipeline.outputs.write_outputs)."""
+    records = report_rows(records)
     points = aggregate(loss_points(records))
     png = figure_png(chart(points) if points else None, empty="no measured point")
     return {"live_table.csv": table_rows(points), "live_loss.png": png, "report.html": report_html(records, png)}
 
 
-def summary_text(records: list[dict]) -> str:
+def summary_text(records: list[Record]) -> str:
     """The loss sweep's table as text for the terminal (means over repeated sessions)."""
+    records = report_rows(records)
     points = aggregate(loss_points(records))
     header = f"{'solution':9}{'codec':10}{'loss %':>7}{'kbps':>8}{'wire kbps':>10}{'lost fr':>8}{'PCK@0.2':>8}" \
              f"{'face':>7}{'letters':>8}{'p50 ms':>8}{'p95 ms':>8}  EN 301 549"

@@ -28,7 +28,7 @@ Reading checks each line before anything uses it, and names the line when it rej
 - a line is a JSON object of at most media/text_files.MAX_LINE_CHARS characters, in UTF-8;
 - "schema", where present, is SCHEMA_VERSION, and a schema line carries none of the legacy names;
 - numbers anywhere are finite (NaN is read as null, as records_text writes it);
-- the fields the report reads have their types: STRING_FIELDS strings, NUMBER_FIELDS numbers or null,
+- the fields the report reads have their types: STRING_FIELDS strings or null, NUMBER_FIELDS numbers or null,
   CONTAINER_FIELDS objects or lists; point and stage records carry the fields in NEEDED;
 - a file holds at most MAX_RECORD_VALUES JSON values (a record holds 10 to 140), checked as it is read,
   which keeps the decoded records within a few hundred MB.
@@ -276,6 +276,30 @@ def as_record(record: Record | dict) -> Record:
     return Record.from_json(_plain(record))
 
 
+def as_records(records: list[Record | dict]) -> list[Record]:
+    """as_record of each: what a study hands to a report. SigncastError names the record that is rejected."""
+    typed = []
+    for number, record in enumerate(records, 1):
+        try:
+            typed.append(as_record(record))
+        except SigncastError as error:
+            raise SigncastError(f"record {number} of {len(records)}: {error}") from None
+    return typed
+
+
+def report_rows(records: list[Record]) -> list[dict]:
+    """What a report reads of Records: each one's schema dict (Record.to_json). The reports take Records only;
+    a study turns its dict rows into Records (as_record) where it hands them over, and read_typed_records gives
+    them from records.jsonl. TypeError names the first item that is not a Record (a caller's bug)."""
+    rows = []
+    for number, record in enumerate(records, 1):
+        if not isinstance(record, Record):
+            raise TypeError(f"a report takes Records, got {type(record).__name__} as item {number} of "
+                            f"{len(records)} (convert it with comparisons.reports.records.as_record)")
+        rows.append(record.to_json())
+    return rows
+
+
 def normalize_records(records: list[Record | dict]) -> list[dict]:
     """Records as schema dicts (what read_records returns): legacy names renamed, null optional fields left out."""
     return [as_record(r).to_json() for r in records]
@@ -358,8 +382,8 @@ def _problem(record: dict, values: list[tuple[str, object]]) -> str | None:
     problem = _check_schema(record)
     if problem:
         return problem
-    for name in STRING_FIELDS:
-        if name in record and not isinstance(record[name], str):
+    for name in STRING_FIELDS:             # null: not given (Record.to_json writes a point's own fields as null)
+        if record.get(name) is not None and not isinstance(record[name], str):
             return f"field {name!r} must be a string, got {reprlib.repr(record[name])}"
     for name in NEEDED.get(record.get("kind", "point"), ()):
         if record.get(name) is None:

@@ -31,6 +31,7 @@ import numpy as np
 from comparisons.judging import matching
 from comparisons.reports import page
 from comparisons.reports.figures import figure_png, suptitle
+from comparisons.reports.records import Record, report_rows
 from media.domain import SOLUTION_ORDER
 
 JOINT_ERROR_MM = 2.0        # the FBA root-translation step, and the key-frame analyser's translation bound
@@ -260,9 +261,10 @@ def report_html(records: list[dict], table: list[dict], figure_png: bytes) -> st
     return page.page("signcast sweep", "".join(sections), max_width_px=1200, extra_style="td { text-align: right; }")
 
 
-def report_outputs(records: list[dict]) -> dict:
+def report_outputs(records: list[Record]) -> dict:
     """sweep_table.csv (rows), sweep_kbps.png (bytes) and report.html (text) from the records, by file name; the
     study layer writes them (pipeline.outputs.write_outputs)."""
+    records = report_rows(records)
     table = cells(matched_points(records))
     png = figure_png(chart(table) if table else None, empty="no measured point yet")
     return {"sweep_table.csv": table_rows(table), "sweep_kbps.png": png, "report.html": report_html(records, table, png)}

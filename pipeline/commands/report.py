@@ -18,16 +18,17 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from comparisons.reports.records import read_records
+    from comparisons.reports.records import read_typed_records, report_rows
     from comparisons.reports import live
     from pipeline.outputs import build_report, output_files, write_text
-    records = read_records(args.records)
+    records = read_typed_records(args.records)
+    rows = report_rows(records)
     output = args.output or args.records.with_name("report.html")
     poster = args.records.with_name("side_by_side_poster.png")
     with output_files((output, "report"), force=args.force or args.output is None):
-        if live.loss_points(records):
+        if live.loss_points(rows):
             path = write_text(output, live.report_outputs(records)["report.html"])
-        elif live.received_sessions(records):
+        elif live.received_sessions(rows):
             path = write_text(output, live.receive_report_html(records))
         else:
             path = build_report(records, output, poster_png=poster.read_bytes() if poster.is_file() else None)

@@ -88,7 +88,7 @@ from comparisons.params import codecs as param_codecs
 from comparisons.params import refresh as param_refresh
 from comparisons.params.study import face_joint_fields
 from comparisons.reports.comparison import operating_points, verdict_note
-from comparisons.reports.records import make_record, versions
+from comparisons.reports.records import as_records, make_record, versions
 from pipeline.outputs import build_report, write_bytes, write_dicts, write_records
 from comparisons.video import objects as video_objects
 from media.domain import SKIN_PARTS, Solution, check_q, kbps, solution_of
@@ -956,7 +956,7 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
     all_records = [run_record] + study.records + clock.records()
     write_records(out_dir / "records.jsonl", all_records)
     write_bytes(out_dir / "side_by_side_poster.png", poster)
-    report = build_report(all_records, out_dir / "report.html", poster_png=poster)
+    report = build_report(as_records(all_records), out_dir / "report.html", poster_png=poster)
     write_summary_csv(all_records, out_dir / "summary.csv")
     return CompareResult(all_records, report, side_by_side, out_dir, operating_points(all_records), matched)
 

@@ -31,7 +31,7 @@ import numpy as np
 from tqdm import tqdm
 
 from comparisons.judging.judge import Judge, Viewed
-from comparisons.reports.records import make_record, versions
+from comparisons.reports.records import Record, as_records, make_record, versions
 from pipeline.outputs import write_outputs, write_records
 from comparisons.transport import loss as loss_models
 from media.avatar import load_avatar
@@ -314,7 +314,7 @@ class LiveStudy:
         return self.judge.records(description.solution, viewed, draws), delivery
 
 
-def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -> list[dict]:
+def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -> list[Record]:
     """The loss sweep: records.jsonl (streamed as points finish), live_table.csv, live_loss.png, report.html."""
     from comparisons.reports import live as live_report
     check(settings)
@@ -349,7 +349,7 @@ def run(settings: LiveSettings, out_dir: str | Path, *, progress: bool = True) -
                   "jitter_ms": settings.jitter_ms, "reorder": settings.reorder, "refresh": settings.refresh,
                   "units": settings.units,
                   "seed": settings.seed, "repeats": settings.repeats, "latency_guidance_ms": [EN_301_549_PREFERRED_MS, EN_301_549_HINDERS_MS]}
-    all_records = [run_record] + records + clock.records()
+    all_records = as_records([run_record] + records + clock.records())
     write_records(out_dir / "records.jsonl", all_records)
     write_outputs(out_dir, live_report.report_outputs(all_records))
     return all_records

@@ -40,7 +40,7 @@ from pathlib import Path
 
 from comparisons.params.codecs import codec_names, get_codec
 from comparisons.params.study import measure_point
-from comparisons.reports.records import MAX_RECORD_VALUES, make_record, read_records, versions
+from comparisons.reports.records import MAX_RECORD_VALUES, make_record, read_records, read_typed_records, versions
 from pipeline.outputs import write_outputs, write_records
 from comparisons.reports.sweep import language_item
 from media import lexicon
@@ -560,10 +560,11 @@ def run(settings: SweepSettings, out: str | Path, *, force: bool = False,
         write_records(path, [{"kind": "stage", "stage": f"sweep ({settings.executor})", "wall_s": round(wall_s, 3),
                               "points_done": state.done, "points_failed": state.failed,
                               "points_skipped": state.skipped}], append=True)
-    records = read_records(path) if path.exists() else []
+    typed = read_typed_records(path) if path.exists() else []
+    records = [record.to_json() for record in typed]
     if report:
         from comparisons.reports.sweep import report_outputs
-        write_outputs(out, report_outputs(records))
+        write_outputs(out, report_outputs(typed))
     if interrupted:
         raise KeyboardInterrupt
     return SweepResult(state, records, wall_s=wall_s)

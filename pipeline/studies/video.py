@@ -39,7 +39,7 @@ from comparisons.video import codecs as video_codecs
 from comparisons.video import objects as video_objects
 from comparisons.video import roi as video_roi
 from comparisons.video.shape import MAX_SHAPE_ERROR
-from comparisons.reports.records import make_record, versions
+from comparisons.reports.records import as_records, make_record, versions
 from pipeline.outputs import write_records
 from media import segmentation
 from media.errors import SigncastError
@@ -291,8 +291,8 @@ def write_plots(records: list[dict], out_dir: Path) -> list[Path]:
         warnings.filterwarnings("ignore", message="No artists with labels found")  # a sweep of one point
         figures = {"kbps_vs_q.png": report.chart_kbps_vs_q(mpeg4),
                    "kbps_vs_fps.png": report.chart_kbps_vs_fps(mpeg4),
-                   "psnr_vs_kbps.png": report.chart_rate_quality(records, "psnr"),
-                   "ssim_vs_kbps.png": report.chart_rate_quality(records, "ssim")}
+                   "psnr_vs_kbps.png": report.chart_rate_quality(as_records(records), "psnr"),
+                   "ssim_vs_kbps.png": report.chart_rate_quality(as_records(records), "ssim")}
     written = []
     for name, figure in figures.items():
         path = out_dir / name
