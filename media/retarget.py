@@ -150,9 +150,11 @@ LEXICON_UNSEEN_ARM = "natural"
 POSE_UNSEEN_ARM = "natural"
 UNSEEN_ARMS = ("natural", "a-pose")
 # How arms and hands are posed (see `retarget`). "fit" (media.hand_fit) is exact on exact landmarks (1 deg from 3D,
-# 2 deg per finger joint from 2D) but on the landmarks MediaPipe extracts from the avatar's 352x288 render it
-# measured worse than "lifting" in the closed loop (fingers 32 deg against 22: docs/retargeting.md), so both
-# defaults stay "lifting" until it does better; pass method="fit" to use it.
+# 2 deg per finger joint from 2D) but on the landmarks MediaPipe extracts from the avatar's render it measured
+# worse than "lifting" in the closed loop in every setting tried: full figure or head-and-torso shot, 352x288 or
+# 704x576 (ASL HI: fingers 28-29 deg against 19-20, arms 16-18 against 11-16; the extractor's own world landmarks
+# are 31-33 deg off per phalanx: docs/retargeting.md, "Closed loop with depth"), so both defaults stay "lifting"
+# until it does better; pass method="fit" to use it.
 METHODS = ("fit", "lifting")
 LEXICON_METHOD = "lifting"
 POSE_METHOD = "lifting"
