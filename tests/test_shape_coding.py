@@ -159,6 +159,7 @@ def test_lossy_shape_decodes_to_the_encoders_masks_within_the_stated_error(shape
     lossless, _ = encode_shape(masks, gop=6)
     stream, stats = encode_shape(masks, gop=6, shape_error=shape_error)
     decoded = decode_shape(stream)
+    assert np.array_equal(decoded, stats.reconstruction)    # the decoder reproduces the encoder bit for bit
     wrong = (decoded != masks).sum(axis=(1, 2))
     # the decoder's masks are the encoder's: the wrong pixels it reports are those the decoder gives
     assert int(wrong.sum()) == stats.error_pixels and stats.object_pixels == int(masks.sum())

@@ -233,6 +233,7 @@ class ShapeStats:
     mode_counts: dict[str, int]
     error_pixels: int = 0       # decoded pixels unlike the input masks (0: lossless)
     object_pixels: int = 0      # opaque pixels of the input masks, all frames
+    reconstruction: np.ndarray | None = None   # (T, H, W) bool: the encoder's decoded masks (lossy coding only)
 
     @property
     def bits_per_frame(self) -> float:
@@ -349,6 +350,7 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
     costs = _cost_table()
     frame_bits = kc.BITS_PER_SYMBOL * (kc.SYMBOLS_PER_FRAME + kc.SYMBOLS_PER_BLOCK * blocks_y * blocks_x)
     wrong = 0
+    reconstruction = np.zeros_like(masks) if alpha_th else None
     for t, inter in _frames(frames, gop, canvas, coder, version):
         coder.reserve(frame_bits)
         kc.encode_frame(padded[t].view(np.uint8), canvas.current, canvas.previous, canvas.stride, canvas.border,
@@ -356,11 +358,13 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
                         coder.model.ones, coder.buffer, coder.registers, canvas.counts, inter, costs, words, alpha_th,
                         int(budgets[t]), canvas.box, int(version >= 3))
         if alpha_th:    # the kernel's budget also counts the padding past the frame's edge; report what is seen
-            wrong += int(np.count_nonzero(canvas.to_array(height, width) != masks[t]))
+            reconstruction[t] = canvas.to_array(height, width)
+            wrong += int(np.count_nonzero(reconstruction[t] != masks[t]))
     payload = coder.finish()
     fields = _HEADER.pack(MAGIC, version, width, height, frames, gop, len(payload), 0)[:_CRC_OFFSET]
     stream = fields + struct.pack(">I", zlib.crc32(payload, zlib.crc32(fields))) + payload
-    return stream, ShapeStats(len(stream), frames, canvas.mode_counts(), int(wrong), int(object_pixels.sum()))
+    return stream, ShapeStats(len(stream), frames, canvas.mode_counts(), int(wrong), int(object_pixels.sum()),
+                              reconstruction)
 
 
 def decode_shape(stream: bytes) -> np.ndarray:
