@@ -176,7 +176,34 @@ def landmark_errors(loop: Loop, side: str = "R") -> dict[str, dict[str, float]]:
     if world_name in loop.clip.points:
         world = from_mediapipe_world(loop.clip.points[world_name][found][..., :3])
         result["world"] = _summary(_angles_deg(world[:, tails] - world[:, heads], truth[:, tails] - truth[:, heads]))
+        result["world aligned"] = _summary(_angles_deg(*(p[:, tails] - p[:, heads]
+                                                         for p in (_rotated_onto(world, truth), truth))))
+        result["world depth sign"] = {"share": depth_sign_share(world, truth)}
     return result
+
+
+def _rotated_onto(points: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """points (T, N, 3) centred and turned per frame by the rotation that best maps them onto target (T, N, 3)
+    (Kabsch, no reflection, no scale)."""
+    a = points - points.mean(axis=1, keepdims=True)
+    b = target - target.mean(axis=1, keepdims=True)
+    u, _, vt = np.linalg.svd(np.einsum("tni,tnj->tij", b, a))
+    d = np.sign(np.linalg.det(u @ vt))
+    u[..., :, 2] *= d[:, None]
+    return np.einsum("tij,tnj->tni", u @ vt, a)
+
+
+OUT_OF_PLANE = 0.3     # a phalanx whose unit direction has |z| above this points > 17 deg out of the image plane
+
+
+def depth_sign_share(points: np.ndarray, truth: np.ndarray) -> float:
+    """Share of the finger phalanges pointing more than 17 deg out of the image plane in truth (T, 21, 3) whose
+    depth sign (towards or away from the camera, z) points (T, 21, 3) get right; hand landmark order, metres."""
+    heads, tails = (np.array(ends) for ends in zip(*PHALANGES))
+    dz = [(p[:, tails, 2] - p[:, heads, 2]) / np.linalg.norm(p[:, tails] - p[:, heads], axis=-1)
+          for p in (points, truth)]
+    out = np.abs(dz[1]) > OUT_OF_PLANE
+    return float(np.mean(np.sign(dz[0][out]) == np.sign(dz[1][out]))) if out.any() else float("nan")
 
 
 def image_only(clip):
@@ -207,8 +234,9 @@ def measure(loop: Loop, jitter_filter: str | None = None, side: str = "R", metho
         raise ValueError(f"{motion.n_frames} retargeted frames for {original.n_frames} rendered")
     component = f"{HAND_PREFIX[side]}_HAND_LANDMARKS"
     found = np.all(clip.confidence[component] > 0, axis=1)
-    truth_px = project(loop.camera, hand_joints(skeleton, original, side), loop.size)
-    retargeted_px = project(loop.camera, hand_joints(skeleton, motion, side), loop.size)
+    truth_3d, retargeted_3d = hand_joints(skeleton, original, side), hand_joints(skeleton, motion, side)
+    truth_px = project(loop.camera, truth_3d, loop.size)
+    retargeted_px = project(loop.camera, retargeted_3d, loop.size)
     extracted_px = clip.points[component][..., :2]
     retargeted_error = np.linalg.norm(retargeted_px - truth_px, axis=-1)            # (T, 21)
     extracted_error = np.linalg.norm(extracted_px - truth_px, axis=-1)[found]       # (F, 21)
@@ -224,6 +252,7 @@ def measure(loop: Loop, jitter_filter: str | None = None, side: str = "R", metho
         "wrist_px": {"retargeted": _summary(retargeted_error[:, 0]), "extracted": _summary(extracted_error[:, 0])},
         "hand_px": {"retargeted": _summary(retargeted_error), "extracted": _summary(extracted_error)},
         "angles_deg": angle_errors(original, motion, side),
+        "depth_sign": depth_sign_share(retargeted_3d[found], truth_3d[found]),
     }
 
 
@@ -260,7 +289,9 @@ def main() -> int:
           f"extract {loop.seconds['extract']:.1f} s")
     floor = landmark_errors(loop)
     print("extractor's phalanx direction error (deg mean/p90): "
-          + ", ".join(f"{name} {d['mean']:.1f}/{d['p90']:.1f}" for name, d in floor.items()), flush=True)
+          + ", ".join(f"{name} {d['mean']:.1f}/{d['p90']:.1f}" for name, d in floor.items() if "mean" in d)
+          + "".join(f"; world landmarks' depth sign right on {d['share']:.0%} of the out-of-plane phalanges"
+                    for name, d in floor.items() if "share" in d), flush=True)
     if args.save_pose:
         np.savez_compressed(args.save_pose, fps=loop.clip.fps,
                             **{f"points_{k}": v for k, v in loop.clip.points.items()},
@@ -271,7 +302,8 @@ def main() -> int:
             rows.append(measure(loop, name, method="fit" if method.startswith("fit") else method,
                                 world=method != "fit-2d"))
             print(f"{rows[-1]['method']} {name}: retargeting {rows[-1]['seconds']:.2f} s "
-                  f"({1000 * rows[-1]['seconds'] / rows[-1]['frames']:.1f} ms a frame)", flush=True)
+                  f"({1000 * rows[-1]['seconds'] / rows[-1]['frames']:.1f} ms a frame), depth sign right on "
+                  f"{rows[-1]['depth_sign']:.0%} of the out-of-plane phalanges", flush=True)
     print(format_table(rows))
     return 0
 

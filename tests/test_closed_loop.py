@@ -103,3 +103,26 @@ def test_extraction_keeps_the_hand_models_world_landmarks(loop):
     assert np.array_equal(loop.clip.confidence["RIGHT_HAND_WORLD_LANDMARKS"][:, 0] > 0, found)
     palm = np.linalg.norm(world[found, 9] - world[found, 0], axis=-1)
     assert np.all((palm > 0.05) & (palm < 0.15))
+
+
+def test_floor_helpers_on_hand_made_hands():
+    """landmark_errors' helpers on hand-made cases: a hand turned as a whole and shifted comes back onto the
+    original (0 deg per phalanx after the per-frame rotation); the same hand mirrored in depth gets every
+    out-of-plane phalanx's depth sign wrong, and itself gets them all right."""
+    import numpy as np
+
+    from benchmarks import closed_loop
+    from media import rotations
+
+    rng = np.random.default_rng(3)
+    hand = rng.normal(scale=0.05, size=(4, 21, 3))
+    turn = rotations.from_axis_angle(np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8]), 1.1)
+    turned = rotations.rotate(np.broadcast_to(turn, (4, 21, 4)), hand) + np.array([0.2, -0.1, 0.4])
+    back = closed_loop._rotated_onto(turned, hand)
+    heads, tails = (np.array(ends) for ends in zip(*closed_loop.PHALANGES))
+    error = closed_loop._angles_deg(back[:, tails] - back[:, heads], hand[:, tails] - hand[:, heads])
+    assert error.max() < 1e-4          # degrees: arccos near 1 resolves ~1e-6
+    unaligned = closed_loop._angles_deg(turned[:, tails] - turned[:, heads], hand[:, tails] - hand[:, heads])
+    assert unaligned.mean() > 20.0
+    assert closed_loop.depth_sign_share(hand, hand) == 1.0
+    assert closed_loop.depth_sign_share(hand * np.array([1.0, 1.0, -1.0]), hand) == 0.0
