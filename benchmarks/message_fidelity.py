@@ -333,8 +333,12 @@ def run(out: Path, clips: list[tuple[str, str]], size: tuple[int, int], jobs: in
     store = out / "clips.jsonl"
     done: dict[tuple[str, str], dict] = {}
     if store.exists():
-        for line in store.read_text().splitlines():
-            row = json.loads(line)
+        for number, line in enumerate(store.read_text().splitlines(), 1):
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                raise SigncastError(f"{store} line {number} is not a row of this benchmark (a run cut mid-line?): "
+                                    "remove that line to resume") from None
             if (row["width"], row["height"]) == size and row.get("requested", row["framing"]) == framing:
                 done[(row["language"], row["unit"])] = row
     by_file: dict[str, dict] = {row["file"]: row for row in done.values()}
@@ -398,6 +402,10 @@ def main(argv: list[str] | None = None) -> int:
     except SigncastError as error:
         print(f"message_fidelity: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"message_fidelity: interrupted; the clips measured so far are in {args.out / 'clips.jsonl'}: the same "
+              "command resumes, --report tables them", file=sys.stderr)
+        return 130
     return 0
 
 
