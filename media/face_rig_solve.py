@@ -751,24 +751,28 @@ def _pose_child(local, j, p, h0, h1, h2, rotation, offset):
         offset[j, 2, t] = offset[p, 2, t] + (a20 * h0 + a21 * h1 + a22 * h2) - (r20 * h0 + r21 * h1 + r22 * h2)
 
 
+@njit(cache=True, inline="always")
+def _cholesky_remainder(matrix, i: int, j: int, total) -> None:
+    """total[t] = matrix[i, j, t] - sum over k < j of matrix[i, k, t] matrix[j, k, t] for every frame t: the
+    Cholesky factor's entry (i, j) before its division by the diagonal (its square on the diagonal)."""
+    n_frames = matrix.shape[2]
+    for t in range(n_frames):
+        total[t] = matrix[i, j, t]
+    for k in range(j):
+        for t in range(n_frames):
+            total[t] -= matrix[i, k, t] * matrix[j, k, t]
+
+
 @njit(cache=True, error_model="numpy")
 def _solve_spd_frames(matrix, rhs, n, total):
     """_solve_spd for all frames: matrix (>= n, >= n, T), rhs (>= n, T); total (T,) scratch."""
     n_frames = matrix.shape[2]
     for j in range(n):
-        for t in range(n_frames):
-            total[t] = matrix[j, j, t]
-        for k in range(j):
-            for t in range(n_frames):
-                total[t] -= matrix[j, k, t] * matrix[j, k, t]
+        _cholesky_remainder(matrix, j, j, total)
         for t in range(n_frames):
             matrix[j, j, t] = np.sqrt(total[t])
         for i in range(j + 1, n):
-            for t in range(n_frames):
-                total[t] = matrix[i, j, t]
-            for k in range(j):
-                for t in range(n_frames):
-                    total[t] -= matrix[i, k, t] * matrix[j, k, t]
+            _cholesky_remainder(matrix, i, j, total)
             for t in range(n_frames):
                 matrix[i, j, t] = total[t] / matrix[j, j, t]
     for i in range(n):
