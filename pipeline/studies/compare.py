@@ -34,7 +34,10 @@ reference's mask alone).
 
 Landmarks are extracted from every subject (the uncoded reference and each point) `extractions` times, each
 under one sub-pixel shift, and every measure is the mean over those draws (comparisons.judging.landmark_draws: one
-extraction's PCK moves by 1-1.6 points with the shift).
+extraction's PCK moves by 1-1.6 points with the shift). A hand is looked for only in the measured frames where a
+reference the point is judged against shows it signing, or a letter span needs the signing hand
+(comparisons.judging.judge.Judge.hands_to_extract): rests are scored for the face and body only
+(CompareSettings.all_hands looks everywhere).
 
 Matching (comparisons.judging.matching): each solution's (and parameter codec's) operating point is the cheapest rate
 whose intelligibility reaches a threshold tied to the uncoded reference: hand PCK@0.2 within PCK_MARGIN points
