@@ -233,7 +233,8 @@ def test_bad_input_is_one_line(tmp_path, capsys, argv, fragment):
 
 def test_live_report_charts_and_prints_face_error_for_a_clip_without_hands():
     """A head-and-shoulders clip (carphone) has no hand keypoints: the report charts and prints its face error."""
-    records = [{"kind": "point", "sweep": "loss", "solution": solution, "codec": codec, "q": 8, "loss_rate": loss,
+    records = [{"kind": "point", "sweep": "loss", "solution": solution, "codec": codec, "q": 8, "fps": 25.0,
+                "loss_rate": loss,
                 "kbps": kbps, "delivered_kbps": kbps * 1.1, "frames_lost": lost, "hand_pck_20": None,
                 "face_error": error, "latency_ms_p50": 10.0, "latency_ms_p95": 20.0}
                for solution, codec, kbps in (("NSV", "mpeg4", 141.6), ("FBA", "fba-pred", 15.9))
