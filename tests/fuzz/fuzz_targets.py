@@ -589,14 +589,15 @@ def live_report(data: bytes) -> None:
     """Records (JSON lines) that pass validation, made into the live report: table rows, the terminal summary,
     the HTML page; the chart on one input in ENCODER_ORACLE_EVERY (matplotlib is slow)."""
     from comparisons.reports import live as report
-    from comparisons.reports.records import read_records
-    found = read_records(_as_file(data, ".jsonl"))
+    from comparisons.reports.records import read_typed_records, report_rows
+    typed = read_typed_records(_as_file(data, ".jsonl"))
+    found = report_rows(typed)
     points = report.aggregate(report.loss_points(found))
     rows = report.table_rows(points)
     _expect(len(rows) == len(points) + 1, "live table rows do not match the points")
-    _expect(isinstance(report.summary_text(found), str), "summary is not text")
+    _expect(isinstance(report.summary_text(typed), str), "summary is not text")
     if _encoder_oracle_due(data):
-        outputs = report.report_outputs(found)
+        outputs = report.report_outputs(typed)
         _expect(outputs["live_loss.png"][:4] == b"\x89PNG", "the live chart is not a PNG")
     else:
         _expect("<html" in report.report_html(found, b"\x89PNG\r\n\x1a\n").lower(), "the live report is not HTML")
