@@ -4,7 +4,8 @@ import json
 
 import pytest
 
-from comparisons.reports.records import (SCHEMA_VERSION, Record, make_record, normalize_records, read_records, read_typed_records)
+from comparisons.reports.records import (SCHEMA_VERSION, Record, as_records, make_record, normalize_records, read_records,
+                                         read_typed_records, report_rows)
 
 from pipeline.outputs import write_records
 from media.errors import SigncastError
@@ -116,3 +117,24 @@ def test_image_quality_on_a_point_without_a_picture_is_rejected(tmp_path):
     with pytest.raises(SigncastError, match="record 1 of 1 .*without a picture .*'image_psnr'"):
         write_records(tmp_path / "records.jsonl", [record])
     assert not (tmp_path / "records.jsonl").exists()
+
+
+def test_a_report_takes_records_and_names_a_dict_handed_in():
+    records = as_records([make_record("FBA", "ase:A", "fba-pred", 8, 25.0, 0, 0, 7304, 0.9)])
+    assert isinstance(records[0], Record) and report_rows(records)[0]["kbps"] == pytest.approx(7304 / 0.9 / 1000)
+    with pytest.raises(TypeError, match="got dict as item 2 of 2"):
+        report_rows([records[0], records[0].to_json()])
+
+
+def test_a_point_read_without_its_codec_is_written_back_the_same(tmp_path):
+    """Record.to_json writes a point's own fields as null where they are missing; reading accepts that null."""
+    path = tmp_path / "records.jsonl"
+    point = make_record("NSV", "carphone", "mpeg4", 8, 25.0, 176, 144, 8000, 1.0)
+    del point["codec"]
+    path.write_text(json.dumps(point) + "\n")
+    once = read_typed_records(path)
+    assert once[0].codec is None
+    again = read_typed_records(write_records(tmp_path / "again.jsonl", once))
+    assert again == once
+    with pytest.raises(SigncastError, match="'codec' must be a string"):
+        Record.from_json({**point, "codec": 8})
