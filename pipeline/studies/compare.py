@@ -1,70 +1,25 @@
 """The comparison (seed 000 §4.2.4): one signing through all six solutions, judged by what a viewer can read.
 
-Scenarios (one pipeline):
-- "video" (`compare --video FILE [--pose clip.pose]`): the reference is the natural clip (scaled down to fit
-  max_clip_size). Its landmarks come from the .pose (which must hold at least the clip's frames, extracted at
-  the same size, e.g. by `signcast pose` with the same --max-size) or are extracted here. NSV, NSV2O, NSV3O and
-  NSV3O+C code the clip itself (segmented by landmarks). The avatar's motion is those landmarks retargeted
-  (media.retarget), at the clip's frame rate, over the same frames; it is rendered losslessly at the clip's
-  size (width x height): the "lossless render". The avatar is framed like the person (framing "source",
-  media.framing: one scale and shift per clip from its shoulders and face to the person's, as a camera zoom and
-  shift), so that its hands cover the person's pixels and the side-by-side tiles line up; framing "full-figure"
-  keeps the signing-space camera (hips to above the head, both arms' reach). The terminal's re-renders use the
-  same camera.
-- "word" (`compare LANGUAGE WORD`, the demo): the avatar fingerspells the word at DISPLAY_FPS, rendered
-  losslessly at `size`; that render is the reference of every solution: the NSV family codes it as if it were
-  a natural video (segmented by landmarks), SSV with the renderer's label buffer; letters are recognised.
-- "pose" (`compare --pose clip.pose` without --video): the avatar-only scenario of a .pose: its landmarks
-  retargeted, rendered losslessly at `size` and the file's frame rate; that render is the reference (as "word",
-  without letters).
+Contract (`run`):
+- in: CompareSettings. The signing is a natural clip (`--video FILE`, optional `.pose`), a fingerspelled word
+  (`LANGUAGE WORD`, the demo) or a `.pose` alone; the Q sweeps per solution and video codec (MPEG-4 Part 2 Q 1-31,
+  H.264 QP 0-51, SVT-AV1 QP 1-63), frame rates (frames/s), extractions per subject (1-MAX_EXTRACTIONS), backend.
+  `check` / `check_settings` refuse what can be refused before work starts (SigncastError, one line).
+- out, in out_dir: records.jsonl (one Record per measured point and reference, plus the run, uncoded, anchor,
+  matched and stage records; comparisons.reports.records; kbps = kilobits per second of measured stream bytes over
+  the clip's duration at its own frame rate), report.html, summary.csv, side_by_side.mp4 and its poster PNG.
+  records.jsonl grows as points finish, so an interrupted run keeps them. Returns CompareResult.
+- Every solution carries the same frames over the same duration. The NSV family codes the reference picture;
+  SSV codes the avatar's lossless render (framed like the person in the video scenario: media.framing); FBA and
+  BBA code the motion, and the terminal re-renders it at the display size.
 
-SSV codes the lossless render as video objects; FBA and BBA code the motion, and the terminal decodes and
-re-renders it at the display size (parameters sent at a reduced frame rate are interpolated back by slerp).
-All solutions carry the same frames over the same duration.
-
-Intelligibility (comparisons.judging.intelligibility): landmarks are extracted from what the viewer sees at every point
-(the decoded video, or the re-render) and measured against the reference's landmarks ("source video": message
-fidelity; for SSV, FBA, BBA this includes the retargeting loss in the video scenario) and, for SSV, FBA and BBA,
-against the lossless render's ("lossless render": codec loss). One point record per (point, reference). In the
-avatar scenarios the two references are the same landmarks. Image quality: luma PSNR / SSIM against the frames
-the solution codes (the reference video for the NSV family, the lossless render for the avatar solutions), the
-skin figures over the union of the reference's and the decoded skin masks (the decoded skin objects' shapes for
-NSV3O, NSV3O+C and SSV, the re-render's label buffer for FBA and BBA; NSV and NSV2O send no skin shape: the
-reference's mask alone).
-
-Landmarks are extracted from every subject (the uncoded reference and each point) `extractions` times, each
-under one sub-pixel shift, and every measure is the mean over those draws (comparisons.judging.landmark_draws: one
-extraction's PCK moves by 1-1.6 points with the shift). A hand is looked for only in the measured frames where a
-reference the point is judged against shows it signing, or a letter span needs the signing hand
-(comparisons.judging.judge.Judge.hands_to_extract): rests are scored for the face and body only
-(CompareSettings.all_hands looks everywhere).
-
-Matching (comparisons.judging.matching): each solution's (and parameter codec's) operating point is the cheapest rate
-whose intelligibility reaches a threshold tied to the uncoded reference: hand PCK@0.2 within PCK_MARGIN points
-of the uncoded reference's own, where "own" is the reference's frames resampled by sub-pixel shifts (invisible, but
-new pixels) and re-extracted, the landmark extractor's noise floor (against itself the reference scores 100 %,
-which no re-rendered or decoded picture can, however close), or, where the reference shows hands in fewer than MIN_HAND_SHARE of its
-frames (carphone), face error within FACE_MARGIN interocular distances of the uncoded's; on fingerspelling also
-letter top-1 no more than LETTER_MARGIN letters of the word below the uncoded reference's (half a letter: a
-letter the ceiling reads may be missed in fewer than half the extractions; none where the ceiling reads no letter of
-the word). The NSV family is matched against the source video, the avatar
-solutions against the lossless render (in the video scenario the retargeting loss alone keeps them from the
-source's threshold; their message fidelity is in the point records). Then up to `refinements` more Q are measured
-per series, one at a time (`q_to_refine`; those records say refined): inside the bracket where the match falls
-between two swept Q more than one step apart (its geometric middle), at finer Q where even the dearest point misses,
-at coarser Q where the cheapest already meets. The rate is interpolated in log-rate between the bracketing Q; the matched record's intelligibility and image-quality fields are interpolated
-the same way. At the upper bracket's Q the frame rates are swept and fps_holds is the lowest rate down to
-which the threshold holds. Both decisions are taken on each criterion's monotone fit over the swept Q (frame
-rates), not on the points one by one (JUDGED_ON): intelligibility does not fall when bits or frames are added, so
-where a dearer point reads lower the extractor's noise is pooled (a matched record's criterion fields are the fit's
-at the matched rate, the measured values under "measured"). Each extraction is also matched on its own: the matched
-record's kbps is the median of those K rates, kbps_min / kbps_max their range, and verdict_clear says whether all K
-agree (comparisons.judging.operating.extraction_summary).
-
-Equal terms (issue 35, item 7): FBA/BBA streams refresh (an intra plane) every video GOP (12 frames;
-comparisons.params.refresh), their size at the codec's default refresh kept as kbps_default_refresh (the matched
-record's default_refresh); the run record's session_costs hold what a session sends once (the avatar's download,
-each session description: pipeline.studies.session_cost).
+What is measured and how it is judged (intelligibility against the source video and against the lossless render,
+the extractions under sub-pixel shifts, the ceiling, the thresholds and margins, the monotone fit, the
+coarse-to-fine schedule and its early stop, the pool, the per-extraction matches, equal refresh terms) is
+documented, with its measurements, in docs/comparison.md; the measurement itself lives in comparisons.judging
+(judge, operating, schedule, matching, criteria) and comparisons.video / comparisons.params (the codecs). This
+module orders the work: the scenario, the uncoded references and the anchor, the rounds of points on the pool,
+the matches, the frame-rate sweeps, and the files.
 """
 from __future__ import annotations
 
