@@ -140,7 +140,9 @@ def test_each_solution_is_matched_between_its_bracketing_points(result):
     operating = {r["solution"] for r in result.operating}
     assert operating == SOLUTIONS
     stages = [r for r in result.records if r.get("kind") == "stage"]
-    # the stages are the run: their times add up to the fixture's wall time (measured 265 of 266 s), none empty
+    # the stages are the run: their times add up to the fixture's wall time, none empty (measured 21.7 of 23.1 s idle; what
+    # follows the last stage, records.jsonl and the report, took 1.4 s: the page cannot time itself, since `signcast
+    # report` remakes the same page from the records)
     total = sum(s["wall_s"] for s in stages)
     assert len(stages) >= 5 and all(s["wall_s"] > 0 for s in stages)
     assert 0.9 * RUN_WALL_S["compare"] <= total <= RUN_WALL_S["compare"]

@@ -853,8 +853,10 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
     renderer_for = renderers(settings.backend)
     with clock.stage("scenario: reference, landmarks, retargeting, lossless render"):
         scenario = shared.load_scenario(settings.signing, renderer_for, progress=progress, notify=notify)
-    study = Study(settings, scenario, renderer_for(*scenario.size, scenario.framing), records_path, progress, notify)
-    pool = study.start_pool()
+    with clock.stage("start: the terminal's renderer and the worker pool"):
+        study = Study(settings, scenario, renderer_for(*scenario.size, scenario.framing), records_path, progress,
+                      notify)
+        pool = study.start_pool()
     with pool:
         with clock.stage("uncoded references"):
             study.add(study.uncoded())
