@@ -40,7 +40,7 @@ def test_analysis_reports_ranges_laplacian_differences_and_finger_correlation():
     assert groups_by_name["right_hand"]["moving_dofs"] == 3
 
 
-def test_write_analysis_writes_tables_and_plots(tmp_path):
+def test_write_analysis_writes_tables_and_plots(tmp_path, check_png):
     rng = np.random.default_rng(1)
     dofs = np.cumsum(rng.normal(0, 0.02, size=(300, 3)), axis=0)
     result = analyze(dofs, FPS, ["r_index1_flexion", "r_ring1_flexion", "vt1roll"],
@@ -49,17 +49,19 @@ def test_write_analysis_writes_tables_and_plots(tmp_path):
     names = {p.name for p in paths}
     assert {"test_dofs.csv", "test_groups.csv", "test_finger_correlation.csv", "test_histograms.csv", "test_psd.png",
             "test_distributions.png", "test_finger_correlation.png"} <= names
-    assert all(p.stat().st_size > 0 for p in paths)
+    assert all(p.stat().st_size > 0 for p in paths if p.suffix == ".csv")
+    for png in (p for p in paths if p.suffix == ".png"):
+        check_png(png, ((300, 3000), (200, 2000)))            # a real, non-blank chart of a plausible size
 
 
 @pytest.mark.slow
-def test_analyze_command_on_the_asl_alphabet(tmp_path, capsys):
+def test_analyze_command_on_the_asl_alphabet(tmp_path, capsys, check_png):
     assert main(["analyze", "ase", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "right_hand" in out
     table = (tmp_path / "ase_groups.csv").read_text()
     assert "right_hand" in table and "share_below_3Hz" in table
-    assert (tmp_path / "ase_psd.png").stat().st_size > 0
+    check_png(tmp_path / "ase_psd.png", ((300, 3000), (200, 2000)))
 
 
 def test_analyze_command_rejects_an_unknown_language(tmp_path, capsys):
