@@ -12,7 +12,7 @@ import pytest
 
 from comparisons.judging import operating
 from comparisons.judging.matching import cheapest_rate
-from comparisons.reports.headline import best_rates, holds_at, recommendation
+from comparisons.reports.headline import best_rates, holds_at, recommendation, solution_lines
 from media.errors import SigncastError
 
 CAMERA_RATES = (Fraction(30000, 1001), Fraction(24000, 1001), Fraction(60000, 1001), Fraction(25), Fraction(15),
@@ -247,3 +247,21 @@ def test_the_recommendation_gives_one_cost_per_kind():
     text = recommendation(matched)
     assert "54.0 kbit/s as AV1 video" in text and "6.3 as parameters" in text and "NSV3O" in text
     assert "Too close to call" in text
+
+
+def test_the_answer_gives_one_plain_sentence_per_solution():
+    matched = [{"kind": "matched", "solution": "NSV", "codec": "libx264", "kbps": 45.1, "reached": True,
+                "verdict_clear": True},
+               {"kind": "matched", "solution": "NSV", "codec": "mpeg4", "kbps": 110.4, "reached": True,
+                "verdict_clear": True},
+               {"kind": "matched", "solution": "NSV2O", "codec": "mpeg4", "kbps": 269.4, "reached": True,
+                "verdict_clear": False, "reached_extractions": 3, "extractions": 4},
+               {"kind": "matched", "solution": "NSV3O+C", "codec": "mpeg4", "kbps": 415.0, "reached": False},
+               {"kind": "matched", "solution": "FBA", "codec": "fba-pred", "kbps": 9.6, "reached": True}]
+    items = solution_lines(matched).split("<li>")[1:]
+    assert [item.split("</strong>")[0].removeprefix("<strong>") for item in items] == ["NSV", "NSV2O", "NSV3O+C", "FBA"]
+    assert "readable from 45.1 kbit/s as H.264 (110.4 as MPEG-4 Part 2)." in items[0]
+    assert "too close to call with MPEG-4 Part 2 (3 of 4 extractions reach it)" in items[1]
+    assert "not readable at any swept point (best point 415.0 kbit/s as MPEG-4 Part 2, below the threshold)" in items[2]
+    assert "readable from 9.6 kbit/s as fba-pred." in items[3]
+    assert solution_lines([]) == ""

@@ -201,6 +201,34 @@ def recommendation(records: list[dict]) -> str:
     return sentence
 
 
+def solution_lines(records: list[dict]) -> str:
+    """One plain sentence per solution (report order), as a list: its cheapest readable rate and codec, the other
+    codecs' rates beside it, or that no swept point reached the threshold (with the best point's rate), and whether
+    the extractions agree."""
+    matched = [r for r in records if r.get("kind") == "matched" and _finite(r.get("kbps"))]
+    items = []
+    for solution in (s for s in Solution if any(r["solution"] == s for r in matched)):
+        rows = sorted((r for r in matched if r["solution"] == solution), key=lambda r: r["kbps"])
+        reached = [r for r in rows if r.get("reached")]
+        names = {r["codec"]: CODEC_NAMES.get(r["codec"], r["codec"]) for r in rows}
+        if reached:
+            best, others = reached[0], reached[1:]
+            text = f"readable from {_kbps(best['kbps'])} kbit/s as {names[best['codec']]}"
+            if others:
+                text += " (" + ", ".join(f"{_kbps(r['kbps'])} as {names[r['codec']]}" for r in others) + ")"
+            unclear = [r for r in reached if r.get("verdict_clear") is False]
+            if unclear:
+                text += "; too close to call with " + ", ".join(
+                    f"{names[r['codec']]} ({r.get('reached_extractions')} of {r.get('extractions')} extractions "
+                    "reach it)" for r in unclear)
+        else:
+            best = rows[0]
+            text = (f"not readable at any swept point (best point {_kbps(best['kbps'])} kbit/s as "
+                    f"{names[best['codec']]}, below the threshold)")
+        items.append(f"<li><strong>{html.escape(str(solution))}</strong>: {html.escape(text)}.</li>")
+    return f'<ul class="per-solution">{"".join(items)}</ul>' if items else ""
+
+
 def _thresholds(records: list[dict]) -> str:
     anchor = next((r for r in records if r.get("kind") == "anchor"), None)
     matched = [r for r in records if r.get("kind") == "matched"]
@@ -283,7 +311,8 @@ def headline_section(records: list[dict]) -> str:
     sentence = recommendation(records)
     if not sentence:
         return ""
-    parts = ["<h2>The answer</h2>", f"<p><strong>{sentence}</strong></p>", f"<p>{EXTRACTOR_LINE}</p>"]
+    parts = ["<h2>The answer</h2>", f"<p><strong>{sentence}</strong></p>", solution_lines(records),
+             f"<p>{EXTRACTOR_LINE}</p>"]
     if run.get("synthetic_reference") or run.get("scenario") in ("word", "pose"):
         parts.append(f"<p><strong>{SYNTHETIC_LINE}</strong></p>")
     elif run.get("scenario") == "video":
