@@ -223,8 +223,12 @@ def test_compare_video_runs_end_to_end_on_a_rendered_avatar_clip(avatar_video, t
     assert run["framing"]["framing"] == "source" and run["framing"]["scale"] == pytest.approx(1.0, abs=0.08)
     assert run["framing"]["turn_deg"] == 0.0 and np.abs(run["framing"]["shift"]).max() < 0.05
     points = [r for r in records if r["kind"] == "point"]
-    assert {r["solution"] for r in points} == SOLUTIONS
-    assert {r["solution"] for r in points if r["codec"] == "libx264"} == {"NSV", "NSV2O", "SSV"}
+    assert {r["solution"] for r in points} == SOLUTIONS | {"NSV-ROI"}
+    assert {r["solution"] for r in points if r["codec"] == "libx264"} == {"NSV", "NSV2O", "SSV", "NSV-ROI"}
+    # NSV-ROI is swept on x264's CRF (addroi reaches x264 only in CRF mode), one stream with no shape
+    roi = [r for r in points if r["solution"] == "NSV-ROI"]
+    assert roi and all(r["rate_control"] == "crf" and r["shape_bits"] == 0 for r in roi)
+    assert any(r["solution"] == "NSV-ROI" for r in records if r["kind"] == "matched")
     assert all(r["duration_s"] == pytest.approx(run["clip_duration_s"]) for r in points)
     source = next(r for r in records if r["kind"] == "uncoded" and r["subject"] == UNCODED_SUBJECTS[SOURCE])
     assert source["hand_pck_20"] > 60.0     # hands visible (about 11 px palms at 176x144): matched on the hands

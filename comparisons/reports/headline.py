@@ -49,7 +49,7 @@ def best_rates(rows: list[dict]) -> list[dict]:
     for label in dict.fromkeys(threshold_label(r) for r in rows):
         mine = [r for r in rows if threshold_label(r) == label and r.get("reached") and _finite(r.get("kbps"))]
         params = [r for r in mine if Solution(r["solution"]).mpeg4_parameters]
-        video = [r for r in mine if Solution(r["solution"]) in Solution.natural_family()]
+        video = [r for r in mine if Solution(r["solution"]).natural]
         per_codec: dict[str, tuple[float, str]] = {}
         for r in sorted(video, key=lambda r: r["kbps"]):
             per_codec.setdefault(r["codec"], (r["kbps"], r["solution"]))
@@ -134,7 +134,7 @@ def equal_terms(records: list[dict]) -> str:
                      "session description; every solution's session description (the JSON line <code>signcast "
                      "live</code> sends on its control connection) is charged once per session too.</p>")
     reached = [r for r in matched if r.get("reached") and _finite(r.get("kbps"))]
-    video = [r for r in reached if Solution(r["solution"]) in Solution.natural_family()]
+    video = [r for r in reached if Solution(r["solution"]).natural]
     best_params = min((r for r in params if r.get("reached") and _finite(r.get("kbps"))), key=lambda r: r["kbps"],
                       default=None)
     best_video = min(video, key=lambda r: r["kbps"], default=None)
@@ -175,7 +175,7 @@ def recommendation(records: list[dict]) -> str:
     reached = [r for r in matched if r.get("reached")]
     parts = []
     for codec in ("libsvtav1", "libx264", "mpeg4"):
-        video = [r for r in reached if r.get("codec") == codec and Solution(r["solution"]) in Solution.natural_family()]
+        video = [r for r in reached if r.get("codec") == codec and Solution(r["solution"]).natural]
         if video:
             best = min(video, key=lambda r: r["kbps"])
             parts.append(f"{_kbps(best['kbps'])} kbit/s as {CODEC_NAMES[codec]} video ({best['solution']})")

@@ -296,6 +296,19 @@ def code_solution(solution: str, frames: np.ndarray, labels: np.ndarray | None, 
     return CodedSolution(solution, coded, picture, region)
 
 
+def code_roi(frames: np.ndarray, labels: np.ndarray, fps: float, crf: int, codec: str = "libx264") -> CodedSolution:
+    """NSV-ROI at x264's CRF crf (comparisons/video/roi.py, its default quantiser offsets): frames (T, H, W, 3)
+    uint8 RGB and their part labels (T, H, W) as one stream with the face and hands at a lower quantiser, as one
+    whole-frame object (no shape is sent)."""
+    from comparisons.video import roi as video_roi
+
+    coded = video_roi.encode_roi(frames, labels, fps, video_roi.RoiSettings(crf=int(crf)), codec)
+    height, width = frames.shape[1:3]
+    whole = np.ones(frames.shape[:3], bool)
+    frame = CodedObject("frame", int(crf), (0, height, 0, width), len(coded.data), 0, coded.picture, whole, 100.0)
+    return CodedSolution(Solution.NSV_ROI, [frame], coded.picture, whole)
+
+
 def object_psnr(obj: CodedObject, frames: np.ndarray) -> float:
     """Luma PSNR (dB) of a decoded object inside its own shape, against the source frames (T, H, W, 3)."""
     y0, y1, x0, x1 = obj.box

@@ -49,6 +49,7 @@ from comparisons.reports.comparison import operating_points, verdict_note
 from comparisons.reports.records import as_records, make_record, versions
 from pipeline.outputs import build_report, write_bytes, write_dicts, write_records
 from comparisons.video import objects as video_objects
+from comparisons.video import roi as video_roi
 from media.domain import SKIN_PARTS, Solution, check_q, kbps, solution_of
 from media.errors import SigncastError
 from media.face_rig import with_face_bones
@@ -119,6 +120,9 @@ class CompareSettings:
     # hand signing (or a letter span needs the signing hand: Judge.hands_to_extract), rests scored for the face
     all_hands: bool = False
     framing: str | None = None    # media.framing.FRAMINGS; None: "source" with a clip (the avatar scenarios: full figure)
+    # NSV-ROI (comparisons/video/roi.py): one libx264 stream, CRF q with the face and hands at a lower quantiser,
+    # swept on libx264's quantisers as CRF, when libx264 is among video.other_codecs
+    roi: bool = True
 
     @property
     def every_hand(self) -> bool:
@@ -272,8 +276,13 @@ class VideoPoints:
         full = fps >= s.fps * (1 - 1e-3)
         kept = np.arange(s.n_frames) if full else frame_indices_at_rate(s.timing.times_s, s.timing.duration_s, fps)
         rate = s.fps if full else fps
-        coded = video_objects.code_solution(solution, frames[kept], labels[kept], rate, codec, q, self.shapes,
-                                            f"{key}@{rate:g}")
+        if solution == Solution.NSV_ROI:
+            coded = video_objects.code_roi(frames[kept], labels[kept], rate, q, codec)
+            extra = {"rate_control": "crf"}     # q is x264's CRF (addroi needs CRF mode), not a constant QP
+        else:
+            coded = video_objects.code_solution(solution, frames[kept], labels[kept], rate, codec, q, self.shapes,
+                                                f"{key}@{rate:g}")
+            extra = {}
         hold = np.arange(s.n_frames) if full else hold_indices(s.timing.times_s, fps, len(kept))
         skin_objects = [o.decoded_masks for o in coded.objects if o.name in ("head", "left_hand", "right_hand")]
         skin = np.logical_or.reduce(skin_objects)[hold] if skin_objects else None
@@ -283,8 +292,9 @@ class VideoPoints:
                              texture_bits=coded.bits - coded.shape_bits, shape_bits=coded.shape_bits,
                              objects=[{"name": o.name, "q": o.q, "texture_bytes": o.texture_bytes,
                                        "shape_bytes": o.shape_bytes, "area_percent": o.area_percent}
-                                      for o in coded.objects])
+                                      for o in coded.objects], **extra)
         return Viewed(coded.picture[hold], skin, fields), coded.picture, hold
+
 
 
 class ParamPoints:
@@ -516,6 +526,8 @@ class Study:
         return ([Series(s, "mpeg4", message) for s in (*Solution.natural_family(), Solution.SSV)]
                 + [Series(s, c, message) for c in self.settings.video.other_codecs
                    for s in self.settings.other_solutions]
+                + [Series(Solution.NSV_ROI, c, message) for c in self.settings.video.other_codecs
+                   if self.settings.roi and c in video_roi.ROI_CODECS]
                 + [Series(solution_of(c), c, message) for c in self.settings.param_codecs])
 
     def qs(self, series: Series) -> tuple[int, ...]:
@@ -934,7 +946,7 @@ def _tiles(study: Study, matched: list[dict]) -> list[Received]:
     if s.kind == "video":
         framed = "framed like the person" if s.framing else "full figure"
         tiles.append(Received(shared.draw_landmarks(s.render, s.render_landmarks), f"avatar: lossless render, {framed}"))
-    for solution in (*Solution.natural_family(), *Solution.avatars()):
+    for solution in (s for s in Solution if s.natural or s.avatar):
         candidates = [m for m in matched if m["solution"] == solution]
         if not candidates:
             continue
@@ -949,7 +961,9 @@ def _tiles(study: Study, matched: list[dict]) -> list[Received]:
         codec = f" {best['codec']}"
         rate = (f"matched {best['kbps']:.1f} kbps" if best["reached"]
                 else f"best point {best['kbps']:.1f} kbps, below threshold")
-        tiles.append(Received(shared.draw_landmarks(frames, observed), f"{solution}{codec} Q{q}, {rate}", solution))
+        scale = "CRF" if solution == Solution.NSV_ROI else "Q"
+        tiles.append(Received(shared.draw_landmarks(frames, observed), f"{solution}{codec} {scale}{q}, {rate}",
+                              solution))
     return tiles
 
 
@@ -1026,6 +1040,9 @@ def format_summary(records: list[dict]) -> str:
     if any(row["verdict_clear"] is False for row in rows):
         lines.append("too close to call: the extractions, each matched on its own, disagree (more --extractions "
                      "narrow it)")
+    if any(row["solution"] == Solution.NSV_ROI for row in rows):
+        lines.append("NSV-ROI: one H.264 stream, the face and hands at a lower quantiser (x264 region offsets); its Q "
+                     "is x264's CRF, the other libx264 rows' a constant QP")
     params = [row for row in rows if row["kbps_default_refresh"] is not None]
     if params:
         lines.append("FBA/BBA refresh every video GOP (12 frames); at their default refresh: "

@@ -19,7 +19,7 @@ from pathlib import Path
 # the RTP payload format each codec would travel in (libsvtav1 is not sent live: a payload name of the same length)
 _PAYLOADS = {"mpeg4": "mp4v", "libx264": "h264", "libsvtav1": "av1"}
 # the objects each video solution sends as streams (comparisons.video.objects)
-_STREAMS = {"NSV": 1, "NSV2O": 2, "NSV3O": 3, "NSV3O+C": 4, "SSV": 3}
+_STREAMS = {"NSV": 1, "NSV-ROI": 1, "NSV2O": 2, "NSV3O": 3, "NSV3O+C": 4, "SSV": 3}
 
 
 def avatar_cost(path: str | Path | None = None) -> dict:
@@ -36,7 +36,7 @@ def description_bytes(solution: str, codec: str, q: int, fps: float, n_frames: i
     from media.domain import Solution
     from pipeline.live.session import SessionDescription
     parameters = Solution(solution).mpeg4_parameters
-    payload = "units" if parameters else ("objects" if solution != "NSV" else _PAYLOADS.get(codec, "mp4v"))
+    payload = "units" if parameters else ("objects" if _STREAMS.get(solution, 1) > 1 else _PAYLOADS.get(codec, "mp4v"))
     streams = 1 if parameters else _STREAMS.get(solution, 1)
     description = SessionDescription(solution, codec, payload, int(q), float(fps), int(n_frames), int(width),
                                      int(height), clip=clip, t0_ns=10 ** 18, details=dict(details or {}))

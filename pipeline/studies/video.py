@@ -194,15 +194,11 @@ def code_roi_matched(reference: video_objects.CodedSolution, frames: np.ndarray,
     target = image_quality.psnr(frames, reference.picture, skin)
 
     def encode_at(crf: int):
-        coded = video_roi.encode_roi(frames, labels, fps, video_roi.RoiSettings(crf=crf))
+        coded = video_objects.code_roi(frames, labels, fps, crf)
         return coded, image_quality.psnr(frames, coded.picture, skin)
 
     crf, coded, _ = video_codecs.match_quality(encode_at, video_roi.CRF_RANGE, target)
-    height, width = frames.shape[1:3]
-    whole = np.ones(frames.shape[:3], bool)
-    frame = video_objects.CodedObject("frame", crf, (0, height, 0, width), len(coded.data), 0, coded.picture, whole,
-                                      100.0)
-    return video_objects.CodedSolution(Solution.NSV_ROI, [frame], coded.picture, whole), crf
+    return coded, crf
 
 
 def _shape_summary(shapes: video_objects.ShapeCache, duration_s: float) -> list[dict]:
