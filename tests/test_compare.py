@@ -280,13 +280,20 @@ def test_compare_rejects_bad_settings(tmp_path, capsys):
     assert "40" in capsys.readouterr().err
     assert main(["compare", "ase", "AB", "--codecs", "fba-zip", "--out", str(tmp_path)]) == 2
     assert "unknown parameter codec" in capsys.readouterr().err
+    assert main(["compare", "ase", "AB", "--solutions", "NSV-ROI", "--video-codecs", "libsvtav1",
+                 "--out", str(tmp_path)]) == 2
+    assert "NSV-ROI is not coded with these codecs" in capsys.readouterr().err
+    assert main(["compare", "ase", "AB", "--solutions", "NSV,BBA", "--codecs", "fba-pred", "--out", str(tmp_path)]) == 2
+    assert "BBA is not coded with these codecs" in capsys.readouterr().err
     assert main(["compare", "xyz", "AB", "--out", str(tmp_path)]) == 2
     assert np.char.find(capsys.readouterr().err, "xyz") >= 0
     for option, count, fragment in (("--extractions", "0", "bad extraction count"),
                                     ("--extractions", "17", "bad extraction count"),
                                     ("--refine", "-1", "bad refinement count"), ("--refine", "6", "bad refinement count"),
                                     ("--landmark-step", "0", "bad landmark step"),
-                                    ("--landmark-step", "26", "bad landmark step")):
+                                    ("--landmark-step", "26", "bad landmark step"),
+                                    ("--solutions", "NSV,XYZ", "unknown solution 'XYZ'"),
+                                    ("--solutions", ",", "give at least one solution")):
         assert main(["compare", "ase", "AB", option, count, "--out", str(tmp_path)]) == 2
         error = capsys.readouterr().err.strip()
         assert len(error.splitlines()) == 1 and fragment in error, error

@@ -296,13 +296,18 @@ def code_solution(solution: str, frames: np.ndarray, labels: np.ndarray | None, 
     return CodedSolution(solution, coded, picture, region)
 
 
-def code_roi(frames: np.ndarray, labels: np.ndarray, fps: float, crf: int, codec: str = "libx264") -> CodedSolution:
-    """NSV-ROI at x264's CRF crf (comparisons/video/roi.py, its default quantiser offsets): frames (T, H, W, 3)
-    uint8 RGB and their part labels (T, H, W) as one stream with the face and hands at a lower quantiser, as one
-    whole-frame object (no shape is sent)."""
+def code_roi(frames: np.ndarray, labels: np.ndarray, fps: float, crf: int, codec: str = "libx264",
+             offsets: tuple[float, float] | None = None) -> CodedSolution:
+    """NSV-ROI at x264's CRF crf (comparisons/video/roi.py): frames (T, H, W, 3) uint8 RGB and their part labels
+    (T, H, W) as one stream with the face and hands at a lower quantiser, as one whole-frame object (no shape is
+    sent). offsets: addroi's (face and hands, rest) qoffsets in -1..1 (None: RoiSettings' defaults; (0, 0) codes
+    plain CRF, the control)."""
     from comparisons.video import roi as video_roi
 
-    coded = video_roi.encode_roi(frames, labels, fps, video_roi.RoiSettings(crf=int(crf)), codec)
+    settings = video_roi.RoiSettings(crf=int(crf))
+    if offsets is not None:
+        settings = video_roi.RoiSettings(crf=int(crf), skin_offset=float(offsets[0]), rest_offset=float(offsets[1]))
+    coded = video_roi.encode_roi(frames, labels, fps, settings, codec)
     height, width = frames.shape[1:3]
     whole = np.ones(frames.shape[:3], bool)
     frame = CodedObject("frame", int(crf), (0, height, 0, width), len(coded.data), 0, coded.picture, whole, 100.0)

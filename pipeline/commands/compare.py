@@ -32,6 +32,9 @@ def add_parser(subparsers) -> None:
     options.add_param_q(parser)
     options.add_codecs(parser)
     options.add_video_codecs(parser, default="libx264,libsvtav1")
+    parser.add_argument("--solutions", default=None,
+                        help="only these solutions, comma-separated, from NSV, NSV2O, NSV3O, NSV3O+C, NSV-ROI, SSV, FBA, "
+                             "BBA (default: every one; NSV-ROI needs libx264 among --video-codecs)")
     parser.set_defaults(func=run)
 
 
@@ -80,8 +83,9 @@ def run(args: argparse.Namespace) -> int:
     sweep = VideoSweep(qs=options.parse_qs(args.video_q, "--video-q"),
                        frame_rates=options.parse_floats(args.frame_rates, "--frame-rates"),
                        other_codecs=options.parse_video_codecs(args.video_codecs))
+    solutions = None if args.solutions is None else tuple(options.names(args.solutions))
     return execute(CompareSettings(video=sweep, param_codecs=options.names(args.codecs),
-                                   param_qs=options.parse_qs(args.param_q, "--param-q")), args)
+                                   param_qs=options.parse_qs(args.param_q, "--param-q"), solutions=solutions), args)
 
 
 def scenario_fields(args: argparse.Namespace) -> dict:

@@ -123,6 +123,8 @@ class CompareSettings:
     # NSV-ROI (comparisons/video/roi.py): one libx264 stream, CRF q with the face and hands at a lower quantiser,
     # swept on libx264's quantisers as CRF, when libx264 is among video.other_codecs
     roi: bool = True
+    solutions: tuple[str, ...] | None = None      # only these solutions' series (None: every one)
+    roi_offsets: tuple[float, float] = (video_roi.RoiSettings.skin_offset, video_roi.RoiSettings.rest_offset)
 
     @property
     def every_hand(self) -> bool:
@@ -246,6 +248,18 @@ def check_settings(settings: CompareSettings) -> None:
         qs = settings.codec_qs(codec)
         if not qs or any(not max(low, 1) <= q <= high for q in qs):
             raise SigncastError(f"{codec}: give quantisers {max(low, 1)}..{high} to sweep, got {qs}")
+    if settings.solutions is not None:
+        if not settings.solutions:
+            raise SigncastError("give at least one solution")
+        coded = {*Solution.natural_family(), Solution.SSV, *(solution_of(c) for c in settings.param_codecs)}
+        if settings.roi and any(c in video_roi.ROI_CODECS for c in sweep.other_codecs):
+            coded.add(Solution.NSV_ROI)
+        for name in settings.solutions:
+            if Solution.of(name) not in coded:
+                raise SigncastError(f"{name} is not coded with these codecs (NSV-ROI needs libx264 among the video "
+                                    "codecs, FBA and BBA an fba-* or bba-* codec)")
+    if settings.roi:
+        video_roi.RoiSettings(skin_offset=settings.roi_offsets[0], rest_offset=settings.roi_offsets[1])
     if not 1 <= settings.extractions <= MAX_EXTRACTIONS:
         raise SigncastError(f"bad extraction count {settings.extractions}: choose 1 to {MAX_EXTRACTIONS}")
     shared.check_landmark_step(settings.landmark_step)
@@ -260,9 +274,10 @@ def check_settings(settings: CompareSettings) -> None:
 class VideoPoints:
     """NSV, NSV2O, NSV3O, NSV3O+C (coding the reference frames) and SSV (coding the lossless render)."""
 
-    def __init__(self, scenario: Scenario):
+    def __init__(self, scenario: Scenario, roi_offsets: tuple[float, float] = CompareSettings.roi_offsets):
         self.scenario = scenario
         self.shapes = video_objects.ShapeCache()
+        self.roi_offsets = roi_offsets        # NSV-ROI's addroi qoffsets (face and hands, the rest), -1..1
 
     def source(self, solution: str) -> tuple[np.ndarray, np.ndarray, str]:
         s = self.scenario
@@ -277,7 +292,7 @@ class VideoPoints:
         kept = np.arange(s.n_frames) if full else frame_indices_at_rate(s.timing.times_s, s.timing.duration_s, fps)
         rate = s.fps if full else fps
         if solution == Solution.NSV_ROI:
-            coded = video_objects.code_roi(frames[kept], labels[kept], rate, q, codec)
+            coded = video_objects.code_roi(frames[kept], labels[kept], rate, q, codec, self.roi_offsets)
             extra = {"rate_control": "crf"}     # q is x264's CRF (addroi needs CRF mode), not a constant QP
         else:
             coded = video_objects.code_solution(solution, frames[kept], labels[kept], rate, codec, q, self.shapes,
@@ -418,7 +433,7 @@ class Measurer:
     def __init__(self, settings: CompareSettings, scenario: Scenario, recogniser, progress: bool = False):
         self.settings, self.scenario, self.progress = settings, scenario, progress
         self.judge = Judge(scenario, settings.landmark_step, recogniser)
-        self.video = VideoPoints(scenario)
+        self.video = VideoPoints(scenario, settings.roi_offsets)
         self.params = ParamPoints(scenario, renderers(settings.backend)(*scenario.size, scenario.framing))
         self.cache = shared.ExtractionCache()
 
@@ -507,7 +522,7 @@ class Study:
                  records_path: Path, progress: bool, notify: Callable[[str], object] | None = None):
         self.settings, self.scenario, self.progress = settings, scenario, progress
         self.judge = Judge(scenario, settings.landmark_step, shared.letter_recogniser(scenario))
-        self.video = VideoPoints(scenario)
+        self.video = VideoPoints(scenario, settings.roi_offsets)
         self.params = ParamPoints(scenario, renderer)
         self.records_path = records_path
         self.records: list[dict] = []
@@ -523,12 +538,14 @@ class Study:
         """Every solution and codec swept. In the video scenario each is matched on the person's message against the
         source video (Series.message)."""
         message = self.scenario.kind == "video"
-        return ([Series(s, "mpeg4", message) for s in (*Solution.natural_family(), Solution.SSV)]
-                + [Series(s, c, message) for c in self.settings.video.other_codecs
-                   for s in self.settings.other_solutions]
-                + [Series(Solution.NSV_ROI, c, message) for c in self.settings.video.other_codecs
-                   if self.settings.roi and c in video_roi.ROI_CODECS]
-                + [Series(solution_of(c), c, message) for c in self.settings.param_codecs])
+        every = ([Series(s, "mpeg4", message) for s in (*Solution.natural_family(), Solution.SSV)]
+                 + [Series(s, c, message) for c in self.settings.video.other_codecs
+                    for s in self.settings.other_solutions]
+                 + [Series(Solution.NSV_ROI, c, message) for c in self.settings.video.other_codecs
+                    if self.settings.roi and c in video_roi.ROI_CODECS]
+                 + [Series(solution_of(c), c, message) for c in self.settings.param_codecs])
+        wanted = self.settings.solutions
+        return every if wanted is None else [s for s in every if s.solution in wanted]
 
     def qs(self, series: Series) -> tuple[int, ...]:
         """The quantisers swept for a series: parameter Q, MPEG-4 Part 2 Q, or the codec's own QP."""
@@ -907,6 +924,8 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
                   "sensitivity_margins": list(SENSITIVITY_MARGINS), "video_codecs": ["mpeg4", *settings.video.other_codecs],
                   "codec_qs": {codec: list(settings.codec_qs(codec)) for codec in ("mpeg4", *settings.video.other_codecs)},
                   "other_solutions": list(settings.other_solutions),
+                  "roi": ({"codecs": [c for c in settings.video.other_codecs if c in video_roi.ROI_CODECS],
+                           "qoffsets": list(settings.roi_offsets), "rate_control": "crf"} if settings.roi else None),
                   "anchor": ({"codec": ANCHOR_CODEC, "size": list(ANCHOR_SIZE), "fps": ANCHOR_FPS,
                               "kbps": ANCHOR_KBPS, "study": "Tran et al., ASSETS 2013; TACCESS 2015"}
                              if settings.anchor else None),
