@@ -124,3 +124,28 @@ def test_window_decoder_leaves_totals_beyond_its_bound_to_the_bit_at_a_time_deco
                                np.zeros(18, dtype=np.int64), scalars, np.array([0, 7]), np.array([0, 1]), out, 0,
                                True), out.tolist()))
     assert results[0] == results[1]
+
+
+def test_chunked_encoder_renormalisation_is_the_bit_at_a_time_one():
+    """renormalise_encoder (the E1/E2 bits and their follow bits as one chunk, the E3 steps counted) writes the bits
+    and leaves the registers of renormalise_coder's loop with emulation prevention: wide, narrow and middle-straddling
+    intervals, long follow runs (beyond a chunk), zero runs near MAX_ZERO_RUN, any bit position in a byte."""
+    rng = np.random.default_rng(11)
+    top = (1 << kc.PRECISION) - 1
+    for case in range(6000):
+        kind = case % 3
+        if kind == 0:
+            low, high = sorted(int(v) for v in rng.integers(0, top + 1, 2))
+        elif kind == 1:
+            low = int(rng.integers(0, top + 1))
+            high = min(low + int(rng.integers(0, 1 << int(rng.integers(1, 31)))), top)
+        else:
+            low = kc.HALF - int(rng.integers(1, 1 << int(rng.integers(1, 30))))
+            high = kc.HALF + int(rng.integers(0, 1 << int(rng.integers(1, 30))))
+        pending = int(rng.integers(0, 70)) if case % 5 == 0 else int(rng.integers(0, 4))
+        run = int(rng.integers(0, kc.MAX_ZERO_RUN))
+        pos = int(rng.integers(0, 16))
+        got, expected = np.zeros(24, dtype=np.uint8), np.zeros(24, dtype=np.uint8)
+        assert (kc.renormalise_encoder(got, pos, run, low, high, pending)
+                == kc.renormalise_coder(expected, pos, run, low, high, pending, kc.MAX_ZERO_RUN)), (low, high, pending)
+        assert got.tobytes() == expected.tobytes(), (low, high, pending, run, pos)

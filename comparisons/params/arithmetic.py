@@ -1049,11 +1049,63 @@ def renormalise_coder(buffer, pos: int, run: int, low: int, high: int, pending: 
     return pos, run, low, high, pending
 
 
+# The longest chunk `put_chunk` writes in one go: its bits, shifted to the chunk's place in a byte, fit 64 bits.
+CHUNK_BITS = 56
+
+
+@njit(cache=True, inline="always")
+def put_chunk(buffer, pos: int, run: int, chunk: int, n_bits: int) -> tuple[int, int]:
+    """n_bits (1..CHUNK_BITS) bits of chunk, MSB first, into a zero-filled buffer at bit pos with emulation prevention
+    (a 1 after MAX_ZERO_RUN zeros in a row): (pos, zero run), what n_bits put_bit_run calls give. A chunk that no
+    inserted bit can fall in (its leading zeros after the run, and any run inside it, shorter than MAX_ZERO_RUN) is
+    ORed into its (at most 8) bytes at once; any other goes bit by bit."""
+    lead = n_bits - (64 - _ctlz64(chunk))                # the chunk's leading zeros (n_bits for 0)
+    if run + lead >= MAX_ZERO_RUN or (n_bits >= MAX_ZERO_RUN and chunk != 0):
+        for shift in range(n_bits - 1, -1, -1):
+            pos, run = put_bit_run(buffer, pos, run, (chunk >> shift) & 1, MAX_ZERO_RUN)
+        return pos, run
+    if chunk == 0:
+        return pos + n_bits, run + n_bits
+    end = (pos & 7) + n_bits                             # <= 63: the chunk's end from its first byte's start
+    aligned = chunk << (64 - end)                        # its first bit at the word's top (int64: wraps, & 0xFF below)
+    byte = pos >> 3
+    for k in range((end + 7) >> 3):
+        buffer[byte + k] |= np.uint8((aligned >> (56 - 8 * k)) & 0xFF)
+    return pos + n_bits, _ctlz64(chunk & -chunk) ^ 63     # the zeros after its last 1
+
+
 @njit(cache=True, inline="always")
 def renormalise_encoder(buffer, pos: int, run: int, low: int, high: int,
                         pending: int) -> tuple[int, int, int, int, int]:
-    """renormalise_coder with emulation prevention."""
-    return renormalise_coder(buffer, pos, run, low, high, pending, MAX_ZERO_RUN)
+    """renormalise_coder with emulation prevention, its bits a chunk at a time: the same bits and registers
+    (tests/test_bba_units.py compares the two). The E1/E2 steps are the leading bits low and high share
+    (renormalise_decoder's count); the first of them is followed by the pending follow bits, the others by none,
+    so all of them go as one chunk (`put_chunk`). No E1/E2 step can follow an E3 step (after one, low < HALF <=
+    high still), so the E3 steps come after them all: the positions after the top bit where low has a 1 and high a 0."""
+    shifts = _clz32(low ^ high)
+    if shifts:
+        top = low >> (PRECISION - shifts)                # the settled bits
+        first = top >> (shifts - 1)
+        n_bits = shifts + pending
+        if n_bits <= CHUNK_BITS:
+            chunk = ((((first << pending) | ((1 - first) * ((1 << pending) - 1))) << (shifts - 1))
+                     | (top & ((1 << (shifts - 1)) - 1)))
+            pos, run = put_chunk(buffer, pos, run, chunk, n_bits)
+        else:
+            pos, run = put_bit_run(buffer, pos, run, first, MAX_ZERO_RUN)
+            for _ in range(pending):
+                pos, run = put_bit_run(buffer, pos, run, 1 - first, MAX_ZERO_RUN)
+            for shift in range(shifts - 2, -1, -1):
+                pos, run = put_bit_run(buffer, pos, run, (top >> shift) & 1, MAX_ZERO_RUN)
+        pending = 0
+        low = (low << shifts) & TOP
+        high = ((high << shifts) | ((1 << shifts) - 1)) & TOP
+    follow = _clz32(~(low & ~high) & (HALF - 1)) - 1
+    if follow > 0:
+        pending += follow
+        low = (low << follow) & (HALF - 1)
+        high = (((high << follow) | ((1 << follow) - 1)) & TOP) | HALF
+    return pos, run, low, high, pending
 
 
 @njit(cache=True, inline="always")

@@ -11,7 +11,9 @@ boundary); data bits get a 1 after 22 consecutive 0s (comparisons/params/bits.py
 Predictive values: per unit, the symbols level - low coded from a fresh arithmetic coder and flushed
 (kernels/entropy_coding.encode_frame's integer arithmetic and bits); an intra unit codes each value with a
 fresh all-ones model of its intra alphabet (used once), a predicted unit with the adaptive model of its
-predicted alphabet, all reset at every intra unit. The adaptive models are kept in excess form (counts - 1,
+predicted alphabet, all reset at every intra unit. The coder's settled bits go a chunk at a time (arithmetic.renormalise_encoder,
+inlined: the bit-at-a-time loop's bits; Numba's cache keys a kernel on its own file, so a change to the inlined
+primitives is a change here too). The adaptive models are kept in excess form (counts - 1,
 Fenwick tree - (i & -i), as comparisons/params/frames.py), so a fresh bank is all zeros. A unit whose alphabets
 all have one symbol writes no coded bits. DCT values: kernels/entropy_coding.write_dct_blocks per segment,
 an inter segment's DC levels as differences from the previous segment's.

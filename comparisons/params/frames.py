@@ -4,7 +4,9 @@ and range fields, and every frame of levels of an intra period in one call each 
 
 They build on comparisons/params/arithmetic.py (bit writer with start-code emulation prevention, the
 Witten-Neal-Cleary arithmetic coder over Fenwick-tree model banks) and write exactly the bits the
-per-field calls wrote, so streams stay byte-identical. Like entropy_coding they import nothing of
+per-field calls wrote, so streams stay byte-identical (the encoder's renormalisation, inlined from arithmetic.py,
+writes its settled bits a chunk at a time since issue 33: the same bits; Numba's cache keys a kernel on its own
+file, so a change to the inlined primitives is a change here too). Like entropy_coding they import nothing of
 the package's Python modules and return status codes; comparisons/ raises SigncastError from them.
 
 The P frames of the FBA stream use sparse models (write_sparse_frames, read_sparse_planes: see that
