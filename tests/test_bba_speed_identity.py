@@ -398,3 +398,24 @@ def test_key_frames_leave_out_still_bones_without_changing_a_decision(monkeypatc
     monkeypatch.setattr(keyframes, "_moving", lambda quaternions: np.ones(quaternions.shape[1], dtype=bool))
     assert fast == [keyframes.key_frames(m, r, t).tolist() for m in [*motions, still] for r, t in thresholds]
     assert fast[-len(thresholds):] == [[0, 11]] * len(thresholds)        # nothing moves: first and last frame
+
+
+def test_compiled_moving_bones_are_the_numpy_ones():
+    """keyframes._moving (compiled, bba_keyframes.moving) against _moving_numpy: still and moving bones, quaternions
+    off unit length by about the 1e-9 bound, NaN in the first or a later frame, one frame, real letters."""
+    from comparisons.params import keyframes
+
+    rng = np.random.default_rng(3)
+    cases = [letter_motion("ase", letter, 25.0).rotations for letter in "AJ"]
+    for n_frames in (1, 2, 9):
+        q = np.repeat(rng.normal(size=(1, 12, 4)), n_frames, axis=0)
+        q[:, :6] /= np.linalg.norm(q[:, :6], axis=-1, keepdims=True)
+        q[:, 1] *= 1 + 2e-9
+        q[:, 2] *= 1 + 5e-10
+        if n_frames > 1:
+            q[-1, 3, 2] += 1e-12
+            q[1, 7, 0] = np.nan
+        q[:, 4, 1] = np.nan
+        cases.append(q)
+    for q in cases:
+        np.testing.assert_array_equal(keyframes._moving(q), keyframes._moving_numpy(q))

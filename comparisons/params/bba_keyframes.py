@@ -109,3 +109,25 @@ def search(q, translation, threshold_rad, threshold_m, margin_rad, margin_m, max
         count += 1
         current = nxt
     return count, 0, 0
+
+
+@njit(cache=True)
+def moving(q):
+    """(B,) bool of q (T, B, 4), T >= 1: keyframes._moving compiled, the same values. A bone is still when every
+    frame's quaternion equals the first's (==: a NaN is never equal) and unit when its first quaternion's squared
+    norm, summed in order as NumPy sums four values, is within 1e-9 of 1; it moves unless both."""
+    n_frames, n_bones = q.shape[0], q.shape[1]
+    out = np.empty(n_bones, np.bool_)
+    for b in range(n_bones):
+        still = True
+        for t in range(1, n_frames):
+            if not (q[t, b, 0] == q[0, b, 0] and q[t, b, 1] == q[0, b, 1] and q[t, b, 2] == q[0, b, 2]
+                    and q[t, b, 3] == q[0, b, 3]):
+                still = False
+                break
+        if still:      # a NaN in the first frame is not equal to itself
+            still = q[0, b, 0] == q[0, b, 0] and q[0, b, 1] == q[0, b, 1] and q[0, b, 2] == q[0, b, 2] and q[0, b, 3] == q[0, b, 3]
+        norm = ((q[0, b, 0] * q[0, b, 0] + q[0, b, 1] * q[0, b, 1]) + q[0, b, 2] * q[0, b, 2]) + q[0, b, 3] * q[0, b, 3]
+        out[b] = not (still and abs(norm - 1.0) < 1e-9)
+    return out
+

@@ -55,6 +55,11 @@ def _moving(quaternions: np.ndarray) -> np.ndarray:
     1e-4 rad (rounding), below the thresholds it is left out for (>= 1e-3 rad): no decision changes."""
     if not len(quaternions):
         return np.zeros(quaternions.shape[1], dtype=bool)
+    return key_kernel.moving(np.ascontiguousarray(quaternions, dtype=np.float64))     # `_moving_numpy`, compiled
+
+
+def _moving_numpy(quaternions: np.ndarray) -> np.ndarray:
+    """`_moving` in NumPy (its reference; tests compare the two), T >= 1."""
     still = np.all(quaternions == quaternions[:1], axis=(0, 2))
     unit = np.abs(np.sum(quaternions[0] * quaternions[0], axis=-1) - 1.0) < 1e-9
     return ~(still & unit)
