@@ -194,4 +194,88 @@ def test_default_version_keeps_the_shorter_of_versions_3_and_4():
     for stream in (boxed, trained, encode_shape(masks, version=2)[0]):
         assert np.array_equal(decode_shape(stream), masks)
     with pytest.raises(SigncastError, match="version"):
-        encode_shape(masks, version=5)
+        encode_shape(masks, version=6)
+
+
+# ---------------------------------------------------------------------------------- version 5: size conversion
+
+def rendered_signer(frames=8):
+    """(frames, 144, 176) bool signer masks of ASL "AB", rendered by the NumPy backend (label buffer)."""
+    from media.avatar import load_avatar
+    from media.fingerspelling import fingerspell
+    from media.render import AvatarRenderer, RenderSettings
+
+    renderer = AvatarRenderer(load_avatar(), RenderSettings(width=176, height=144, backend="numpy"))
+    labels = []
+    for _, frame_labels in renderer.frames(fingerspell("ase", "AB")):
+        labels.append(frame_labels)
+        if len(labels) == frames:
+            break
+    return np.isin(np.stack(labels), (1, 2, 3, 4))
+
+
+@pytest.fixture(scope="module")
+def signer_masks():
+    return rendered_signer()
+
+
+@pytest.mark.parametrize("shape_error", [0.5, 1.0, 3.0])
+def test_version_5_decodes_to_the_encoders_masks_within_the_stated_error(shape_error):
+    masks = moving_ellipses(frames=12, height=60, width=75, seed=3)   # BABs past the right and bottom edges
+    stream, stats = encode_shape(masks, gop=6, shape_error=shape_error, version=5)
+    assert stream[4] == 5 and stats.cr_counts is not None
+    decoded = decode_shape(stream)
+    assert np.array_equal(decoded, stats.reconstruction)
+    wrong = (decoded != masks).sum(axis=(1, 2))
+    assert int(wrong.sum()) == stats.error_pixels
+    assert np.all(wrong <= np.floor(shape_error / 100 * masks.sum(axis=(1, 2))))
+    assert stats.shape_error <= shape_error
+    coded = stats.mode_counts["intra_cae"] + stats.mode_counts["inter_cae"]
+    assert sum(stats.cr_counts.values()) == coded    # one CR per coded BAB
+
+
+def test_version_5_uses_size_conversion_on_rendered_masks_and_decodes_exactly(signer_masks):
+    for shape_error in (1.0, 3.0):
+        stream, stats = encode_shape(signer_masks, gop=4, shape_error=shape_error, version=5)
+        decoded = decode_shape(stream)
+        assert np.array_equal(decoded, stats.reconstruction)
+        assert 100.0 * (decoded != signer_masks).sum() / signer_masks.sum() <= shape_error
+        assert stats.cr_counts["1/2"] + stats.cr_counts["1/4"] > 0, stats.cr_counts
+    # the default keeps the shortest of versions 3, 4 and 5 when the shape may be lossy
+    chosen = encode_shape(signer_masks, gop=4, shape_error=3.0)[0]
+    assert len(chosen) <= len(stream) and chosen[4] in (3, 4, 5)
+
+
+def test_damaged_version_5_stream_is_rejected(signer_masks):
+    stream, _ = encode_shape(signer_masks[:4], gop=4, shape_error=3.0, version=5)
+    for position in (5, 14, len(stream) // 2, len(stream) - 1):
+        damaged = bytearray(stream)
+        damaged[position] ^= 0x21
+        with pytest.raises(SigncastError, match="CRC|truncated|corrupt"):
+            decode_shape(bytes(damaged))
+    for cut in (10, len(stream) // 2, len(stream) - 1):
+        with pytest.raises(SigncastError, match="truncated"):
+            decode_shape(stream[:cut])
+    # a damaged payload under a recomputed CRC: a SigncastError or masks of the announced size, never a crash
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        damaged = bytearray(stream)
+        damaged[int(rng.integers(22, len(stream)))] ^= int(rng.integers(1, 256))
+        try:
+            decoded = decode_shape(recrc(bytes(damaged)))
+        except SigncastError:
+            continue
+        assert decoded.shape == signer_masks[:4].shape
+
+
+def test_lossless_streams_stay_versions_3_and_4_and_version_5_is_lossy_only():
+    masks = moving_ellipses(frames=6)
+    lossless = encode_shape(masks)[0]
+    assert lossless[4] in (3, 4)
+    assert lossless == min((encode_shape(masks, version=v)[0] for v in (3, 4)), key=len)
+    assert encode_shape(masks, shape_error=0.0)[0] == lossless
+    with pytest.raises(SigncastError, match="version 5 .* lossy shape only"):
+        encode_shape(masks, shape_error=0.0, version=5)
+    # a lossy stream without size conversion (version 4) still reads
+    stream, stats = encode_shape(masks, gop=6, shape_error=1.0, version=4)
+    assert np.array_equal(decode_shape(stream), stats.reconstruction) and stats.cr_counts is None

@@ -15,11 +15,26 @@ intra frame (every `gop` frames) to a prior: in version 4 the pixel contexts' P(
 versions 2-3) a hand-made prior skewed towards "the pixel repeats its neighbours / its motion-compensated
 pixel"; the standard's fixed tables are not reproduced here;
 (2) modes and motion-vector differences are binarised and coded by the same arithmetic coder instead of
-VLCs; (3) one arithmetic codeword covers the whole sequence; (4) no size conversion (CR 1/2, 1/4) and no
-transposed scan; lossy shape is the alpha threshold alone, an encoder's choice under a per-frame budget of
-wrong pixels (encode_shape's shape_error) that the decoder needs no word of; (5) every predicted frame refers to the previous frame in display order.
+VLCs; (3) one arithmetic codeword covers the whole sequence; (4) no transposed scan; lossy shape is the alpha
+threshold, an encoder's choice under a per-frame budget of wrong pixels (encode_shape's shape_error) that the
+decoder needs no word of, and in version 5 also size conversion (below); (5) every predicted frame refers to
+the previous frame in display order.
 
-Stream layout (version 4): a 22-byte header (magic, version, width, height, frames, gop, payload length, then a
+Size conversion (version 5, lossy streams only): every intra / inter CAE BAB codes its conversion ratio (CR 1,
+1/2, 1/4: two adaptive binary decisions, context = intra or inter x the left BAB's CR) before its pixels. At
+CR 1/2 (1/4) the BAB is reduced to 8x8 (4x4), a cell opaque when at least 2 of its 4 (8 of its 16) pixels are,
+as the standard's downsampling; CAE codes the reduced BAB with the full-size templates over a reduced
+neighbourhood (the decoded canvas above and left reduced the same way; in inter mode the motion-compensated
+previous shape reduced the same way) in contexts of their own (CTX_INTRA_LOW, CTX_INTER_LOW, hand-made
+prior), and both ends upsample it back in 2x stages (comparisons/video/shape_cae.py _upsample: a weighted sum
+of the 2x2 reduced pixels towards the output pixel's quadrant, own x 4, others x 2, and the 8 around them x 1,
+opaque above 9 of 18, ties to the own pixel; the ring above and left from the decoded canvas, right and below
+replicated). This upsampler is this coder's own, NOT the standard's (its threshold table
+grgchInterpolationFilterTh is not reproduced). The encoder tries CR 1/4, then 1/2, and takes the first whose
+upsampled BAB passes the alpha threshold test within the frame's budget and whose wrong pixels x CR_LAMBDA
+stay within the bits it is estimated to save (the budget is shared with the uniform / copy decisions).
+
+Stream layout (versions 4 and 5): a 22-byte header (magic, version, width, height, frames, gop, payload length, then a
 CRC-32 of the 18 header bytes before it and of the payload) and the arithmetic-coded payload. Each frame codes a
 presence flag, then its box: in version 3 a predicted frame after a present one first codes whether its box is
 the previous frame's (adaptive context), and only otherwise the four raw fields; version 2 (still read and, on
@@ -61,7 +76,8 @@ __all__ = ["BAB", "COUNT_LIMIT", "MAX_PIXELS", "MAX_SIDE", "MODE_NAMES", "N_CONT
 
 MAGIC = b"SCSH"
 VERSION = 4                            # 2: the CRC covers the header too; 3: predicted frames may reuse the box;
-VERSIONS = (2, 3, 4)                   # 4: trained pixel priors (comparisons/video/shape_priors.py). Read and written
+VERSIONS = (2, 3, 4, 5)                # 4: trained pixel priors (comparisons/video/shape_priors.py); 5: 4 + size
+LOSSY_VERSIONS = (5,)                  # conversion (CR 1/2, 1/4), lossy shape only. Read and written
 _HEADER = struct.Struct(">4sBHHIBII")
 _CRC_OFFSET = _HEADER.size - 4         # the CRC is the header's last field
 MAX_SIDE = 4096                        # pixels, width and height
@@ -69,10 +85,12 @@ MAX_PIXELS = 1 << 28                   # frames x height x width: decoded (T, H,
 PRIOR_WEIGHT = 8                       # initial count of the likely symbol in a pixel context
 TRAINED_WEIGHT = 128                   # version 4: initial zeros + ones of a trained pixel context
 MAX_SHAPE_ERROR = 10.0                 # percent of the object's pixels, the most lossy shape may cost
+CR_LAMBDA = 6.0                        # version 5: bits a wrong pixel of size conversion must save (encoder)
 ALPHA_TH = 3                           # lossy shape: wrong pixels allowed per 4x4 sub-block of a uniform / copied BAB
 
 MODE_NAMES = {TRANSPARENT: "transparent", OPAQUE: "opaque", INTRA_CAE: "intra_cae", INTER_CAE: "inter_cae",
               COPY: "copy"}
+CR_NAMES = {kc.CR_FULL: "1", kc.CR_HALF: "1/2", kc.CR_QUARTER: "1/4"}
 _DECODER_ERRORS = {
     kc.PAYLOAD_ENDS: "corrupt shape stream: the payload ends before the last frame",
     kc.BAD_BOX: "corrupt shape stream: impossible bounding box",
@@ -111,6 +129,7 @@ def _prior_counts(n_contexts: int, trained: bool = False) -> tuple[np.ndarray, n
         else:
             weight = 2
         prior(kc.CTX_INTRA + ctx, likely, weight)
+        prior(kc.CTX_INTRA_LOW + ctx, likely, weight)
     for ctx in range(512):
         bits = [(ctx >> k) & 1 for k in range(9)]
         likely = bits[6]
@@ -121,6 +140,7 @@ def _prior_counts(n_contexts: int, trained: bool = False) -> tuple[np.ndarray, n
         else:
             weight = 2
         prior(kc.CTX_INTER + ctx, likely, weight)
+        prior(kc.CTX_INTER_LOW + ctx, likely, weight)
     if trained:
         from comparisons.video.shape_priors import PIXEL_P0
 
@@ -234,6 +254,7 @@ class ShapeStats:
     error_pixels: int = 0       # decoded pixels unlike the input masks (0: lossless)
     object_pixels: int = 0      # opaque pixels of the input masks, all frames
     reconstruction: np.ndarray | None = None   # (T, H, W) bool: the encoder's decoded masks (lossy coding only)
+    cr_counts: dict[str, int] | None = None    # version 5: coded (intra / inter CAE) BABs per conversion ratio
 
     @property
     def bits_per_frame(self) -> float:
@@ -252,7 +273,7 @@ class _Canvas:
 
     def __init__(self, blocks_y: int, blocks_x: int):
         self.blocks_y, self.blocks_x = blocks_y, blocks_x
-        self.border = SEARCH_RANGE + 2
+        self.border = SEARCH_RANGE + 4      # CR 1/4 reads 4 + 8 (a reduced cell, the vector) outside a BAB
         self.stride = blocks_x * BAB + 2 * self.border
         self.rows = blocks_y * BAB + 2 * self.border
         self.current = np.zeros(self.stride * self.rows, np.uint8)
@@ -263,6 +284,8 @@ class _Canvas:
         self.has_mv = np.zeros((blocks_y, blocks_x), np.uint8)
         self.box = np.zeros(5, np.int64)                                  # previous frame: present, by0, by1, bx0, bx1
         self.counts = np.zeros(len(MODE_NAMES), np.int64)
+        self.crs = np.zeros((blocks_y, blocks_x), np.int64)              # version 5: this frame's CR per BAB
+        self.cr_counts = np.zeros(len(CR_NAMES), np.int64)
 
     def next_frame(self) -> None:
         self.previous, self.current = self.current, self.previous
@@ -270,6 +293,7 @@ class _Canvas:
         self.previous_modes, self.modes = self.modes, self.previous_modes
         self.modes.fill(TRANSPARENT)
         self.has_mv.fill(0)
+        self.crs.fill(kc.CR_FULL)
 
     def to_array(self, height: int, width: int) -> np.ndarray:
         b = self.border
@@ -277,6 +301,9 @@ class _Canvas:
 
     def mode_counts(self) -> dict[str, int]:
         return {MODE_NAMES[mode]: int(self.counts[mode]) for mode in MODE_NAMES}
+
+    def cr_shares(self) -> dict[str, int]:
+        return {CR_NAMES[cr]: int(self.cr_counts[cr]) for cr in CR_NAMES}
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -321,14 +348,17 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
     object pixels, stays <= shape_error %), spent as the standard's alpha threshold: a BAB with at most
     ALPHA_TH wrong pixels in every 4x4 sub-block is coded transparent, opaque or copied from the
     motion-compensated previous shape (at the predicted vector first, then at the searched one), first come
-    first served in scan order. The stream format and the decoder are the lossless ones: lossy shape is an
-    encoder's choice, and stats.shape_error reports what it cost. version None codes versions 3 and 4 and keeps
-    the shorter stream (the trained priors fit rendered masks and can cost a ragged natural outline a few %);
+    first served in scan order (version 5 also reduced CAE BABs). In versions 2-4 the stream format and the
+    decoder are the lossless ones: lossy shape is an encoder's choice, and stats.shape_error reports what it
+    cost. version None codes versions 3 and 4 (and with shape_error > 0 also 5, size conversion) and keeps the
+    shortest stream (the trained priors fit rendered masks and can cost a ragged natural outline a few %);
     2 writes the format without the same-box flag (the bytes of the coder before issue 39), 3 without the
-    trained priors, 4 with them.
+    trained priors, 4 with them, 5 (shape_error > 0 only) version 4 with size conversion (CR 1/2, 1/4: see the
+    module docstring); stats.cr_counts then counts the coded BABs per CR.
     """
     if version is None:
-        return min((encode_shape(masks, gop, shape_error, v) for v in (3, 4)), key=lambda coded: len(coded[0]))
+        candidates = (3, 4, 5) if shape_error > 0 else (3, 4)
+        return min((encode_shape(masks, gop, shape_error, v) for v in candidates), key=lambda coded: len(coded[0]))
     masks = _check_masks(masks)
     if not 1 <= gop <= 255:
         raise SigncastError(f"shape GOP must be 1..255 frames, got {gop}")
@@ -337,6 +367,9 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
     if not 0.0 <= shape_error <= MAX_SHAPE_ERROR:
         raise SigncastError(f"shape error must be 0..{MAX_SHAPE_ERROR} percent of the object's pixels, "
                             f"got {shape_error}")
+    if version in LOSSY_VERSIONS and shape_error <= 0:
+        raise SigncastError(f"shape stream version {version} (size conversion) codes lossy shape only: "
+                            "give shape_error > 0, or version 3 or 4 for lossless shape")
     frames, height, width = masks.shape
     blocks_y, blocks_x = -(-height // BAB), -(-width // BAB)
     padded = np.zeros((frames, blocks_y * BAB, blocks_x * BAB), bool)
@@ -356,7 +389,8 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
         kc.encode_frame(padded[t].view(np.uint8), canvas.current, canvas.previous, canvas.stride, canvas.border,
                         canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv, coder.model.zeros,
                         coder.model.ones, coder.buffer, coder.registers, canvas.counts, inter, costs, words, alpha_th,
-                        int(budgets[t]), canvas.box, int(version >= 3))
+                        int(budgets[t]), canvas.box, int(version >= 3), canvas.crs, canvas.cr_counts,
+                        int(version >= 5), CR_LAMBDA)
         if alpha_th:    # the kernel's budget also counts the padding past the frame's edge; report what is seen
             reconstruction[t] = canvas.to_array(height, width)
             wrong += int(np.count_nonzero(reconstruction[t] != masks[t]))
@@ -364,7 +398,7 @@ def encode_shape(masks: np.ndarray, gop: int = 12, shape_error: float = 0.0,
     fields = _HEADER.pack(MAGIC, version, width, height, frames, gop, len(payload), 0)[:_CRC_OFFSET]
     stream = fields + struct.pack(">I", zlib.crc32(payload, zlib.crc32(fields))) + payload
     return stream, ShapeStats(len(stream), frames, canvas.mode_counts(), int(wrong), int(object_pixels.sum()),
-                              reconstruction)
+                              reconstruction, canvas.cr_shares() if version >= 5 else None)
 
 
 def decode_shape(stream: bytes) -> np.ndarray:
@@ -395,7 +429,7 @@ def decode_shape(stream: bytes) -> np.ndarray:
         coder.check(kc.decode_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
                                     canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
                                     coder.model.zeros, coder.model.ones, canvas.counts, inter, canvas.box,
-                                    int(version >= 3)))
+                                    int(version >= 3), canvas.crs, canvas.cr_counts, int(version >= 5)))
         masks[t] = canvas.to_array(height, width)
     return masks
 
@@ -439,14 +473,15 @@ def shape_bit_account(stream: bytes) -> dict:
         coder.check(kc.account_frame(coder.data, coder.registers, canvas.current, canvas.previous, canvas.stride,
                                      canvas.border, canvas.modes, canvas.previous_modes, canvas.mvs, canvas.has_mv,
                                      coder.model.zeros, coder.model.ones, canvas.counts, inter, canvas.box,
-                                     int(version >= 3), costs, hist, mv_blocks))
+                                     int(version >= 3), costs, hist, mv_blocks, canvas.crs, canvas.cr_counts,
+                                     int(version >= 5)))
     entropy += gop_entropy()
     pixel_counts += hist
     pixel_bits = costs[kc.COST_INTRA] + costs[kc.COST_INTER]
     learning = pixel_bits - entropy
-    names = ("header", "mode", "mv", "intra_cae", "inter_cae")
+    names = ("header", "mode", "mv", "intra_cae", "inter_cae", "cr")
     assert masks.shape[0] == frames
     return {"frames": frames, "total_bits": 8 * len(stream), "modes": canvas.mode_counts(),
             "bits": {name: float(costs[k]) for k, name in enumerate(names)},
-            "mv_blocks": int(mv_blocks[0]), "mv_nonzero": int(mv_blocks[1]), "learning_bits": learning,
+            "crs": canvas.cr_shares(), "mv_blocks": int(mv_blocks[0]), "mv_nonzero": int(mv_blocks[1]), "learning_bits": learning,
             "pixel_counts": pixel_counts}

@@ -45,7 +45,13 @@ CTX_MODE_P = CTX_MODE_I + 81 * 2       # 25 contexts x 4 bins
 CTX_MV = CTX_MODE_P + 25 * 4           # per component: zero, sign, 8 magnitude bins
 CTX_PRESENT = CTX_MV + 2 * 10
 CTX_SAME_BOX = CTX_PRESENT + 1         # version 3: "the previous frame's bounding box" flag of a predicted frame
-N_CONTEXTS = CTX_SAME_BOX + 1
+CTX_CR = CTX_SAME_BOX + 1              # version 5: size conversion, (intra / inter) x left BAB's CR (3) x 2 bins
+CTX_INTRA_LOW = CTX_CR + 2 * 3 * 2     # version 5: 1024 intra pixel contexts of reduced (CR 1/2, 1/4) BABs
+CTX_INTER_LOW = CTX_INTRA_LOW + 1024   # version 5: 512 inter pixel contexts of reduced BABs
+N_CONTEXTS = CTX_INTER_LOW + 512
+CR_FULL, CR_HALF, CR_QUARTER = 0, 1, 2            # version 5: a coded BAB's conversion ratio 1, 1/2, 1/4
+CR_FACTOR = (1, 2, 4)
+UPSAMPLE_TH = 9                        # weighted sum (0..18) above which an upsampled pixel is opaque (= 9: its own)
 
 LOW, HIGH, PENDING, NBITS = range(4)              # encoder registers
 VALUE, POSITION, STATUS = 2, 3, 4                 # decoder registers (LOW, HIGH as the encoder's)
@@ -53,7 +59,7 @@ OK, PAYLOAD_ENDS, BAD_BOX, BAD_MV = range(4)      # decoder status codes
 # bits one coded symbol can add: after renormalisation the range exceeds 2^30, a symbol keeps >= 1/65536 of
 # it (>= 2^14) and each renormalising shift doubles it, so <= 17 shifts (each one output bit, now or pending)
 BITS_PER_SYMBOL = 18
-SYMBOLS_PER_BLOCK = 4 + 2 * 17 + BAB * BAB         # mode bins, two MV components, the pixels
+SYMBOLS_PER_BLOCK = 4 + 2 * 17 + 2 + BAB * BAB     # mode bins, two MV components, the CR bins, the pixels
 SYMBOLS_PER_FRAME = 2 + 4 * 12                     # presence, same-box flag, the box (<= 12 raw bits per field)
 MAX_COUNT = COUNT_LIMIT                            # a context's counts stay in 1..MAX_COUNT - 1
 
@@ -379,8 +385,8 @@ def _bounding_box(frame: np.ndarray) -> tuple[int, int, int, int]:
 
 
 # what the accounting charges (statistics only, see the end of this module)
-COST_HEADER, COST_MODE, COST_MV, COST_INTRA, COST_INTER = 0, 1, 2, 3, 4
-N_COSTS = 5
+COST_HEADER, COST_MODE, COST_MV, COST_INTRA, COST_INTER, COST_CR = 0, 1, 2, 3, 4, 5
+N_COSTS = 6
 
 
 @njit(cache=True)
@@ -445,12 +451,184 @@ def _block_errors(frame: np.ndarray, y0: int, x0: int, prev: np.ndarray, stride:
     return total
 
 
+# ------------------------------------------------------------------- size conversion (version 5: CR 1/2, 1/4)
+# A coded BAB may be coded at CR 1/2 (8x8) or 1/4 (4x4), as MPEG-4's size conversion: a cell of f x f pixels is
+# opaque when at least half of them are (2 of 4, 8 of 16); CAE codes the reduced BAB with templates over a
+# reduced neighbourhood (the decoded canvas above and left reduced the same way; the motion-compensated previous
+# shape too), and both ends upsample it back to 16x16 (_upsample). The upsampler is this coder's own, not the
+# standard's: the standard's threshold table (grgchInterpolationFilterTh) is not reproduced.
+
+@njit(cache=True)
+def _canvas_cell(canvas: np.ndarray, stride: int, border: int, y: int, x: int, f: int) -> int:
+    """1 when at least half of the f x f canvas pixels whose top-left is frame pixel (y, x) are opaque."""
+    s = 0
+    for r in range(f):
+        base = (y + r + border) * stride + x + border
+        for c in range(f):
+            s += I(canvas[base + c])
+    return 1 if 2 * s >= f * f else 0
+
+
+@njit(cache=True)
+def _downsample(frame: np.ndarray, y0: int, x0: int, f: int, small: np.ndarray) -> None:
+    """small[:n, :n] (n = BAB / f): the frame's BAB at (y0, x0) reduced by f (a cell opaque when >= half is)."""
+    n = BAB // f
+    for r in range(n):
+        for c in range(n):
+            s = 0
+            for rr in range(f):
+                for cc in range(f):
+                    s += I(frame[y0 + r * f + rr, x0 + c * f + cc])
+            small[r, c] = 1 if 2 * s >= f * f else 0
+
+
+@njit(cache=True)
+def _reduced_border(cur: np.ndarray, stride: int, border: int, y0: int, x0: int, f: int, grid: np.ndarray,
+                    rows: int) -> None:
+    """The 2 reduced rows above (cells -2..n+1) and the 2 reduced columns left of rows 0..rows-1 of the BAB at
+    (y0, x0), from the decoded canvas reduced by f, into grid[r + 2, c + 2]."""
+    n = BAB // f
+    for r in range(-2, 0):
+        for c in range(-2, n + 2):
+            grid[r + 2, c + 2] = _canvas_cell(cur, stride, border, y0 + r * f, x0 + c * f, f)
+    for r in range(rows):
+        for c in range(-2, 0):
+            grid[r + 2, c + 2] = _canvas_cell(cur, stride, border, y0 + r * f, x0 + c * f, f)
+
+
+@njit(cache=True)
+def _upsample_stage(grid: np.ndarray, m: int, out: np.ndarray) -> None:
+    """out[:2m, :2m] from grid (m + 4, m + 4): an m x m reduced BAB at grid[2:m+2, 2:m+2] with its 2-cell ring
+    (above and left decoded, right and below replicated). Each reduced pixel P gives a 2x2 block; the pixel of
+    quadrant (dy, dx) weighs the 2x2 of reduced pixels towards its quadrant (P x 4, the other three x 2) and the
+    8 pixels around that 2x2 (corners excluded) x 1, and is opaque above UPSAMPLE_TH (ties go to P)."""
+    for i in range(m):
+        for j in range(m):
+            gi, gj = i + 2, j + 2
+            p = grid[gi, gj]
+            for a in range(2):
+                dy = 1 if a else -1
+                for b in range(2):
+                    dx = 1 if b else -1
+                    s = 4 * p + 2 * (grid[gi, gj + dx] + grid[gi + dy, gj] + grid[gi + dy, gj + dx])
+                    s += grid[gi - dy, gj] + grid[gi - dy, gj + dx] + grid[gi + 2 * dy, gj] + grid[gi + 2 * dy, gj + dx]
+                    s += grid[gi, gj - dx] + grid[gi + dy, gj - dx] + grid[gi, gj + 2 * dx] + grid[gi + dy, gj + 2 * dx]
+                    out[2 * i + a, 2 * j + b] = 1 if s > UPSAMPLE_TH or (s == UPSAMPLE_TH and p) else 0
+
+
+@njit(cache=True)
+def _upsample(cur: np.ndarray, stride: int, border: int, y0: int, x0: int, f: int, small: np.ndarray,
+              grid: np.ndarray, half: np.ndarray, up: np.ndarray) -> None:
+    """up (BAB, BAB): the reduced BAB small[:n, :n] (n = BAB / f) upsampled by f, in 2x stages (CR 1/4 twice),
+    each stage's ring above and left read from the decoded canvas reduced to its scale. Scratch: grid
+    (BAB / 2 + 4, BAB / 2 + 4), half (BAB / 2, BAB / 2)."""
+    source = small
+    g = f
+    while g > 1:
+        m = BAB // g
+        _reduced_border(cur, stride, border, y0, x0, g, grid, m)
+        for r in range(m):
+            for c in range(m):
+                grid[r + 2, c + 2] = source[r, c]
+            grid[r + 2, m + 2] = grid[r + 2, m + 3] = source[r, m - 1]
+        for r in range(m + 2, m + 4):
+            for c in range(m + 4):
+                grid[r, c] = grid[m + 1, c]
+        target = up if g == 2 else half
+        _upsample_stage(grid, m, target)
+        source = half
+        g //= 2
+
+
+@njit(cache=True)
+def _up_errors(frame: np.ndarray, y0: int, x0: int, up: np.ndarray, alpha_th: int) -> int:
+    """Pixels of up (BAB, BAB) unlike the frame's BAB at (y0, x0), or -1 when a 4x4 sub-block has more than
+    alpha_th of them."""
+    total = 0
+    for sy in range(0, BAB, 4):
+        for sx in range(0, BAB, 4):
+            errors = 0
+            for r in range(sy, sy + 4):
+                for c in range(sx, sx + 4):
+                    errors += I(up[r, c]) ^ I(frame[y0 + r, x0 + c])
+            if errors > alpha_th:
+                return -1
+            total += errors
+    return total
+
+
+@njit(cache=True)
+def _reduced_prediction(prev: np.ndarray, stride: int, border: int, y0: int, x0: int, mv_x: int, mv_y: int,
+                        f: int, pred: np.ndarray) -> None:
+    """pred[r + 1, c + 1], r, c in -1..n: the motion-compensated previous shape reduced by f (inter CAE at CR < 1)."""
+    n = BAB // f
+    for r in range(-1, n + 1):
+        for c in range(-1, n + 1):
+            pred[r + 1, c + 1] = _canvas_cell(prev, stride, border, y0 + mv_y + r * f, x0 + mv_x + c * f, f)
+
+
+@njit(cache=True)
+def _reduced_context(grid: np.ndarray, pred: np.ndarray, r: int, c: int, mode: int) -> int:
+    """The pixel context of reduced cell (r, c): grid holds the reduced BAB at [r + 2, c + 2] with its ring,
+    pred the reduced motion-compensated shape at [r + 1, c + 1]; the full-size templates, in their own contexts."""
+    wr, wc = r + 2, c + 2
+    if mode == INTRA_CAE:
+        return CTX_INTRA_LOW + (grid[wr, wc - 1] | grid[wr, wc - 2] << 1 | grid[wr - 1, wc + 2] << 2
+                                | grid[wr - 1, wc + 1] << 3 | grid[wr - 1, wc] << 4 | grid[wr - 1, wc - 1] << 5
+                                | grid[wr - 1, wc - 2] << 6 | grid[wr - 2, wc + 1] << 7 | grid[wr - 2, wc] << 8
+                                | grid[wr - 2, wc - 1] << 9)
+    pr, pc = r + 1, c + 1
+    return CTX_INTER_LOW + (grid[wr, wc - 1] | grid[wr - 1, wc + 1] << 1 | grid[wr - 1, wc] << 2
+                            | grid[wr - 1, wc - 1] << 3 | pred[pr + 1, pc] << 4 | pred[pr, pc + 1] << 5
+                            | pred[pr, pc] << 6 | pred[pr, pc - 1] << 7 | pred[pr - 1, pc] << 8)
+
+
+@njit(cache=True)
+def _cae_reduced(buffer: np.ndarray, data: np.ndarray, regs: np.ndarray, zeros: np.ndarray, ones: np.ndarray,
+                 cur: np.ndarray, prev: np.ndarray, stride: int, border: int, y0: int, x0: int, mv_x: int, mv_y: int,
+                 f: int, mode: int, encoding: int, small: np.ndarray, grid: np.ndarray, pred: np.ndarray,
+                 costs: np.ndarray, pixel_hist: np.ndarray, charge: int) -> None:
+    """The (BAB / f)^2 CAE pixels of a reduced BAB: coded from small (encoding) or decoded into it. Pixels right
+    of the reduced BAB that are not decoded yet read as its last decoded column, as at full size."""
+    n = BAB // f
+    category = COST_INTRA if mode == INTRA_CAE else COST_INTER
+    _reduced_border(cur, stride, border, y0, x0, f, grid, n)
+    if mode == INTER_CAE:
+        _reduced_prediction(prev, stride, border, y0, x0, mv_x, mv_y, f, pred)
+    for r in range(n):
+        for c in range(n):
+            ctx = _reduced_context(grid, pred, r, c, mode)
+            if encoding:
+                bit = encode(buffer, regs, zeros, ones, ctx, I(small[r, c]))
+            else:
+                bit = _decode_symbol(data, regs, zeros, ones, ctx, costs, category, charge)
+                small[r, c] = bit
+                if charge:
+                    pixel_hist[bit, ctx] += 1
+            grid[r + 2, c + 2] = bit
+        grid[r + 2, n + 2] = grid[r + 2, n + 3] = grid[r + 2, n + 1]
+
+
+@njit(cache=True)
+def _cr_context(crs: np.ndarray, by: int, bx: int, mode: int) -> int:
+    left = crs[by, bx - 1] if bx > 0 else CR_FULL
+    return CTX_CR + ((1 if mode == INTER_CAE else 0) * 3 + left) * 2
+
+
+@njit(cache=True)
+def _write_block(cur: np.ndarray, stride: int, start: int, up: np.ndarray) -> None:
+    for r in range(BAB):
+        for c in range(BAB):
+            cur[start + r * stride + c] = up[r, c]
+
+
 @njit(cache=True)
 def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int, border: int,
                  modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
                  zeros: np.ndarray, ones: np.ndarray, buffer: np.ndarray, regs: np.ndarray, counts: np.ndarray,
                  inter: int, costs: np.ndarray, words: np.ndarray, alpha_th: int, budget: int,
-                 box: np.ndarray, predict_box: int) -> int:
+                 box: np.ndarray, predict_box: int, crs: np.ndarray, cr_counts: np.ndarray, use_cr: int,
+                 cr_lambda: float) -> int:
     """Code one frame (padded (blocks_y * BAB, blocks_x * BAB) uint8 mask) into buffer, writing the decoded
     result into cur (flat canvas) and modes / mvs / has_mv; counts (5,) gets the modes used. The caller
     leaves room in buffer for BITS_PER_SYMBOL x (SYMBOLS_PER_FRAME + SYMBOLS_PER_BLOCK x blocks) bits.
@@ -458,6 +636,12 @@ def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: i
     when none of its 4x4 sub-blocks has more than alpha_th wrong pixels and the frame's wrong pixels stay
     <= budget. box (5,) int64: (present, by0, by1, bx0, bx1) of the previous frame, replaced by this one's;
     predict_box (version 3): a predicted frame whose box is the previous frame's says so in one flag.
+    use_cr (version 5): every intra / inter CAE BAB codes its conversion ratio (crs (blocks_y, blocks_x) int64
+    gets it, cr_counts (3,) counts them); lossy, the encoder tries CR 1/4, then 1/2, and takes the first whose
+    upsampled BAB passes the alpha threshold test within the frame's budget, as the standard's encoder, and
+    (unlike it) whose wrong pixels x cr_lambda stay within the bits it saves (estimated: the full-size CAE
+    estimate x (1 - 1 / f^2)): the budget is shared with the transparent / opaque / copy decisions, which save
+    more bits per wrong pixel.
     Returns the frame's wrong pixels."""
     blocks_y, blocks_x = modes.shape
     by0, by1, bx0, bx1 = _bounding_box(frame)
@@ -476,6 +660,11 @@ def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: i
     window = np.zeros((BAB + 2, BAB + 4), np.int64)
     bits = np.zeros(BAB * BAB, np.float64)
     no_costs, no_hist = np.zeros(N_COSTS), np.zeros((2, 1), np.int64)
+    small = np.zeros((BAB // 2, BAB // 2), np.int64)
+    half = np.zeros((BAB // 2, BAB // 2), np.int64)
+    grid = np.zeros((BAB // 2 + 4, BAB // 2 + 4), np.int64)
+    pred = np.zeros((BAB // 2 + 2, BAB // 2 + 2), np.int64)
+    up = np.zeros((BAB, BAB), np.int64)
     wrong = 0
     if inter:
         row_words(prev, words)
@@ -543,7 +732,32 @@ def encode_frame(frame: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: i
             modes[by, bx] = mode
             counts[mode] += 1
             shift = mv_y * stride + mv_x
-            if mode == INTRA_CAE or mode == INTER_CAE:
+            cr = CR_FULL
+            if use_cr and (mode == INTRA_CAE or mode == INTER_CAE):
+                if alpha_th > 0:
+                    full_bits = estimate_cae_bits(frame, y0, x0, cur, prev, stride, border,
+                                                  1 if mode == INTER_CAE else 0, mv_x, mv_y, zeros, ones, costs,
+                                                  window, bits)
+                    for candidate in (CR_QUARTER, CR_HALF):
+                        f = CR_FACTOR[candidate]
+                        _downsample(frame, y0, x0, f, small)
+                        _upsample(cur, stride, border, y0, x0, f, small, grid, half, up)
+                        errors = _up_errors(frame, y0, x0, up, alpha_th)
+                        saving = full_bits * (1.0 - 1.0 / (f * f))
+                        if 0 <= errors <= budget - wrong and errors * cr_lambda <= saving:
+                            cr = candidate
+                            wrong += errors
+                            break
+                ctx = _cr_context(crs, by, bx, mode)
+                if encode(buffer, regs, zeros, ones, ctx, 1 if cr != CR_FULL else 0):
+                    encode(buffer, regs, zeros, ones, ctx + 1, 1 if cr == CR_QUARTER else 0)
+                crs[by, bx] = cr
+                cr_counts[cr] += 1
+            if cr != CR_FULL:
+                _cae_reduced(buffer, buffer, regs, zeros, ones, cur, prev, stride, border, y0, x0, mv_x, mv_y,
+                             CR_FACTOR[cr], mode, 1, small, grid, pred, no_costs, no_hist, 0)
+                _write_block(cur, stride, start, up)
+            elif mode == INTRA_CAE or mode == INTER_CAE:
                 _cae_pixels(buffer, buffer, regs, zeros, ones, cur, prev, stride, start, shift, mode, 1, frame, y0, x0,
                             no_costs, no_hist, 0)
             else:
@@ -584,7 +798,7 @@ def _decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.
                   border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
                   zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, box: np.ndarray,
                   predict_box: int, costs: np.ndarray, pixel_hist: np.ndarray, mv_blocks: np.ndarray,
-                  charge: int) -> int:
+                  charge: int, crs: np.ndarray, cr_counts: np.ndarray, use_cr: int) -> int:
     """decode_frame; with charge also account_frame's statistics."""
     blocks_y, blocks_x = modes.shape
     flagged = predict_box != 0 and inter != 0 and box[0] == 1
@@ -608,6 +822,11 @@ def _decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.
     box[0], box[1], box[2], box[3], box[4] = 1, by0, by1, bx0, bx1
     order = _mode_order(inter)
     no_frame = np.zeros((1, 1), np.uint8)
+    small = np.zeros((BAB // 2, BAB // 2), np.int64)
+    half = np.zeros((BAB // 2, BAB // 2), np.int64)
+    grid = np.zeros((BAB // 2 + 4, BAB // 2 + 4), np.int64)
+    pred = np.zeros((BAB // 2 + 2, BAB // 2 + 2), np.int64)
+    up = np.zeros((BAB, BAB), np.int64)
     for by in range(by0, by1 + 1):
         for bx in range(bx0, bx1 + 1):
             y0, x0 = by * BAB, bx * BAB
@@ -637,7 +856,25 @@ def _decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.
             modes[by, bx] = mode
             counts[mode] += 1
             shift = mv_y * stride + mv_x
-            if mode == INTRA_CAE or mode == INTER_CAE:
+            cr = CR_FULL
+            if use_cr and (mode == INTRA_CAE or mode == INTER_CAE):
+                ctx = _cr_context(crs, by, bx, mode)
+                if _decode_symbol(data, regs, zeros, ones, ctx, costs, COST_CR, charge):
+                    cr = CR_QUARTER if _decode_symbol(data, regs, zeros, ones, ctx + 1, costs, COST_CR, charge) \
+                        else CR_HALF
+                if regs[STATUS] != OK:
+                    return regs[STATUS]
+                crs[by, bx] = cr
+                cr_counts[cr] += 1
+            if cr != CR_FULL:
+                f = CR_FACTOR[cr]
+                _cae_reduced(no_frame[0], data, regs, zeros, ones, cur, prev, stride, border, y0, x0, mv_x, mv_y, f,
+                             mode, 0, small, grid, pred, costs, pixel_hist, charge)
+                if regs[STATUS] != OK:
+                    return regs[STATUS]
+                _upsample(cur, stride, border, y0, x0, f, small, grid, half, up)
+                _write_block(cur, stride, start, up)
+            elif mode == INTRA_CAE or mode == INTER_CAE:
                 _cae_pixels(no_frame[0], data, regs, zeros, ones, cur, prev, stride, start, shift, mode, 0, no_frame, 0,
                             0, costs, pixel_hist, charge)
                 if regs[STATUS] != OK:
@@ -651,13 +888,13 @@ def _decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.
 def decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
                  border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
                  zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, box: np.ndarray,
-                 predict_box: int) -> int:
-    """Decode one frame from the payload into cur (flat canvas), modes, mvs, has_mv, box (as encode_frame's);
-    counts (5,) gets the modes. Returns OK, or the first error met: PAYLOAD_ENDS, BAD_BOX, BAD_MV (nothing is
+                 predict_box: int, crs: np.ndarray, cr_counts: np.ndarray, use_cr: int) -> int:
+    """Decode one frame from the payload into cur (flat canvas), modes, mvs, has_mv, box, crs (as encode_frame's);
+    counts (5,) gets the modes, cr_counts (3,) the conversion ratios. Returns OK, or the first error met: PAYLOAD_ENDS, BAD_BOX, BAD_MV (nothing is
     read or written outside the canvas after an error)."""
     return _decode_frame(data, regs, cur, prev, stride, border, modes, previous_modes, mvs, has_mv, zeros, ones,
                          counts, inter, box, predict_box, np.zeros(N_COSTS), np.zeros((2, 1), np.int64),
-                         np.zeros(2, np.int64), 0)
+                         np.zeros(2, np.int64), 0, crs, cr_counts, use_cr)
 
 
 # ------------------------------------------------------------------------------------- accounting (statistics only)
@@ -668,10 +905,11 @@ def decode_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.n
 def account_frame(data: np.ndarray, regs: np.ndarray, cur: np.ndarray, prev: np.ndarray, stride: int,
                   border: int, modes: np.ndarray, previous_modes: np.ndarray, mvs: np.ndarray, has_mv: np.ndarray,
                   zeros: np.ndarray, ones: np.ndarray, counts: np.ndarray, inter: int, box: np.ndarray,
-                  predict_box: int, costs: np.ndarray, pixel_hist: np.ndarray, mv_blocks: np.ndarray) -> int:
+                  predict_box: int, costs: np.ndarray, pixel_hist: np.ndarray, mv_blocks: np.ndarray,
+                  crs: np.ndarray, cr_counts: np.ndarray, use_cr: int) -> int:
     """decode_frame, and: costs (N_COSTS,) float64 gets each symbol's information in bits by category (the box's
     raw bits count 1 each); pixel_hist (2, N_CONTEXTS) int64 counts the decoded pixel values per context (for
     the cost of a model that had known the statistics: the learning cost); mv_blocks (2,) int64 counts the
     blocks with a motion vector and those whose vector differs from its prediction."""
     return _decode_frame(data, regs, cur, prev, stride, border, modes, previous_modes, mvs, has_mv, zeros, ones,
-                         counts, inter, box, predict_box, costs, pixel_hist, mv_blocks, 1)
+                         counts, inter, box, predict_box, costs, pixel_hist, mv_blocks, 1, crs, cr_counts, use_cr)
