@@ -33,7 +33,9 @@ knew each GOP's statistics) and the bits per shape per frame; then the bits per 
 shorter of version 3, where a predicted frame may reuse the previous box, and 4, which adds trained pixel
 priors) and the lossy ones (the alpha threshold, comparisons.video.shape.encode_shape's
 shape_error) at each --shape-error: bits per frame, their ratio to version 2's, and the shape error (wrong pixels
-over the object's pixels) that the decoder's masks really have.
+over the object's pixels) that the decoder's masks really have. Last, size conversion (stream version 5, CR 1/2
+and 1/4 per coded BAB): at each --shape-error, bits per frame x version 2 and the measured shape error without
+CR (the shorter of versions 3 and 4) and with it (version 5), and the share of coded BABs at CR 1, 1/2, 1/4.
 
     python benchmarks/shape_coding.py --bits [--frames 36] [--clip carphone] [--shape-error 0.5,1,2]
 """
@@ -157,6 +159,40 @@ def print_bits(source: str, labels, shape_errors: tuple[float, ...]) -> None:
             measured = 100.0 * wrong / max(1, int(masks.sum()))
             cells.append(f"{8 * len(stream) / len(masks):9.1f} {len(stream) / lossless:5.2f}x {measured:6.2f}%")
         print(f"{name:11} {8 * lossless / len(masks):9.1f} " + " ".join(f"{c:>24}" for c in cells), flush=True)
+    print_size_conversion(labels, shape_errors)
+
+
+def print_size_conversion(labels, shape_errors: tuple[float, ...]) -> None:
+    """Per object and --shape-error: without size conversion (the shorter of versions 3 and 4) and with it
+    (version 5): bits per frame, x version 2, measured shape error, and the CR shares of the coded BABs."""
+    import numpy as np
+
+    from comparisons.video.shape import decode_shape, encode_shape
+
+    print("size conversion: bits/frame, x version 2, measured shape error % without CR (versions 3/4) and with "
+          "CR (version 5); CR shares of coded BABs % (1, 1/2, 1/4)")
+    print(f"{'object':11} {'error':>5} {'version 2':>9} {'without CR':>24} {'with CR':>24} {'CR 1':>6} {'1/2':>6}"
+          f" {'1/4':>6}")
+    for name, parts in BIT_OBJECTS.items():
+        masks = np.isin(labels, parts)
+        if not masks.any():
+            continue
+        base = len(encode_shape(masks, gop=GOP, version=2)[0])
+        pixels = max(1, int(masks.sum()))
+        for error in shape_errors:
+            cells = []
+            for versions in ((3, 4), (5,)):
+                stream, stats = min((encode_shape(masks, gop=GOP, shape_error=error, version=v) for v in versions),
+                                    key=lambda coded: len(coded[0]))
+                decoded = decode_shape(stream)
+                if not np.array_equal(decoded, stats.reconstruction):
+                    raise SystemExit(f"{name}: the decoder's masks are not the encoder's")
+                measured = 100.0 * int(np.count_nonzero(decoded != masks)) / pixels
+                cells.append(f"{8 * len(stream) / len(masks):9.1f} {len(stream) / base:5.2f}x {measured:6.2f}%")
+            shares = stats.cr_counts
+            coded = max(1, sum(shares.values()))
+            print(f"{name:11} {error:5g} {8 * base / len(masks):9.1f} {cells[0]:>24} {cells[1]:>24} "
+                  + " ".join(f"{100 * shares[k] / coded:6.1f}" for k in ("1", "1/2", "1/4")), flush=True)
 
 
 def main() -> None:
