@@ -464,3 +464,23 @@ def test_the_pool_measures_what_a_serial_run_measures():
         for a, b in ((serial["observed"], pooled["observed"]),) if serial["observed"] is not None else ():
             assert all(np.array_equal(a.points[k], b.points[k]) for k in a.points)
     assert results[1][2]["base"]["kbps"] > 0 and len(results[1][2]["draws"]["source video"]) == 2
+
+
+def test_the_pool_streams_the_jobs_each_finished_job_leads_to():
+    """StudyPool.stream: every job a finished one leads to runs, with no barrier, on two workers and here in
+    order; each result reaches follow once, with its own job."""
+    from pipeline.studies import shared
+    seen = {}
+    for workers in (1, 2):
+        finished = []
+
+        def follow(job, result):
+            assert result == abs(job)
+            finished.append(job)
+            return [job - 1] if job > 0 else []       # a chain per start: 3 -> 2 -> 1 -> 0
+
+        with shared.StudyPool(workers, int, ()) as pool:
+            pool.stream(abs, [3, -1, 5], follow)
+        seen[workers] = sorted(finished)
+    assert seen[1] == seen[2] == sorted([3, 2, 1, 0, -1, 5, 4, 3, 2, 1, 0])
+

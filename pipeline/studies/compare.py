@@ -18,11 +18,12 @@ the extractions under sub-pixel shifts, the ceiling, the thresholds and margins,
 coarse-to-fine schedule and its early stop, the pool, the per-extraction matches, equal refresh terms) is
 documented, with its measurements, in docs/comparison.md; the measurement itself lives in comparisons.judging
 (judge, operating, schedule, matching, criteria) and comparisons.video / comparisons.params (the codecs). This
-module orders the work: the scenario, the uncoded references and the anchor, the rounds of points on the pool,
+module orders the work: the scenario, the uncoded references and the anchor, the points streamed on the pool,
 the matches, the frame-rate sweeps, and the files.
 """
 from __future__ import annotations
 
+from collections import Counter
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -371,7 +372,7 @@ FIRST_EXTRACTIONS = 2         # every subject starts with this many extractions;
 @dataclass(frozen=True)
 class PointJob:
     """One point to code, view and extract under the shifts (indices into SHIFTS); quality: also measure image
-    quality (not when extractions are added to a point already measured); stage: what the round is doing."""
+    quality (not when extractions are added to a point already measured); stage: what the job is for."""
     solution: str
     codec: str
     q: int
@@ -532,7 +533,7 @@ class Study:
         self.notify = notify
         self.extraction_s, self.extracted_frames = 0.0, 0   # landmark extraction in the pool's jobs
         self.jobs_cpu_s = 0.0                               # CPU seconds of the pool's jobs (all their threads)
-        self.round_s: list[tuple[str, float, int]] = []     # (round, wall seconds, frames extracted)
+        self.round_s: list[tuple[str, float, int]] = []     # (pool phase, wall seconds, frames extracted)
 
     def series(self) -> list[Series]:
         """Every solution and codec swept. In the video scenario each is matched on the person's message against the
@@ -575,7 +576,7 @@ class Study:
         return [result["observed"] for result in self.run_jobs(jobs, f"{label}: {len(jobs)} extractions")]
 
     # -------------------------------------------------------------------------------------------------------
-    # the execution: independent jobs in rounds on the pool (issue 36)
+    # the execution: independent jobs on the pool (issue 36)
 
     def start_pool(self) -> shared.StudyPool:
         """The pool the points and ceilings run on (settings.workers processes, each with its own Measurer)."""
@@ -586,16 +587,20 @@ class Study:
         return self.pool
 
     def run_jobs(self, jobs: list, desc: str) -> list:
-        """Run jobs (PointJob or CeilingJob) on the pool, with one progress bar whose total is the round's jobs."""
-        started = time.perf_counter()
+        """Run jobs (CeilingJob or ExtractJob) on the pool, with one progress bar whose total is the jobs'."""
+        started, frames_before = time.perf_counter(), self.extracted_frames
         with tqdm(total=len(jobs), desc=desc, unit="job", disable=not self.progress) as bar:
             results = self.pool.run(_run_job, jobs, lambda i, result: bar.update(1))
         for result in results:
-            self.extraction_s += result["extraction_s"]
-            self.extracted_frames += result["extracted_frames"]
-            self.jobs_cpu_s += result["cpu_s"]
-        self.round_s.append((desc, time.perf_counter() - started, sum(r["extracted_frames"] for r in results)))
+            self.account(result)
+        self.round_s.append((desc, time.perf_counter() - started, self.extracted_frames - frames_before))
         return results
+
+    def account(self, result: dict) -> None:
+        """Add a job's landmark-extraction seconds, frames extracted and CPU seconds to the run's."""
+        self.extraction_s += result["extraction_s"]
+        self.extracted_frames += result["extracted_frames"]
+        self.jobs_cpu_s += result["cpu_s"]
 
     def uncoded(self) -> list[dict]:
         """The ceilings: each reference's measured frames re-extracted under every shift (settings.extractions, one
@@ -639,7 +644,7 @@ class Study:
         return record, criteria_of, criteria_of(record)
 
     def next_jobs(self, series: Series, plan: "SeriesPlan") -> list["PointJob"]:
-        """The series' jobs for the next round (none where it is done): the next swept Q (coarse to fine, stopping
+        """The series' jobs to run next (none where it is done): the next swept Q (coarse to fine, stopping
         once the fit has crossed the threshold between neighbours), then the refinements, then more extractions
         for all its Q points where the per-extraction matches disagree, then the frame rates from the highest down
         (comparisons.judging.schedule)."""
@@ -691,27 +696,46 @@ class Study:
         return []
 
     def measure_all(self) -> None:
-        """Every series measured in rounds: each round, every series not done gives its next jobs
-        (`next_jobs`), and the round's jobs run at once on the pool."""
+        """Every series measured on the pool as a stream: each series' first jobs start at once, and when a series'
+        jobs have all finished its next ones (`next_jobs`) are queued at once, without waiting for the other
+        series. A series' jobs depend only on its own points and the thresholds, so the order in which series
+        finish changes nothing that is measured; it keeps both cores busy to the end, where rounds left one idle."""
         first = self.settings.extractions if self.settings.full_schedule else FIRST_EXTRACTIONS
         plans = {series: SeriesPlan(min(first, self.settings.extractions)) for series in self.series()}
         self.announce_cost(plans)
-        n = 0
-        while True:
-            jobs = []
-            for series, plan in plans.items():
-                for job in self.next_jobs(series, plan):
-                    jobs.append(job)
-            if not jobs:
-                break
-            n += 1
-            stages = dict.fromkeys(job.stage for job in jobs)
-            counts = ", ".join(f"{sum(job.stage == stage for job in jobs)} {stage}" for stage in stages)
-            results = self.run_jobs(jobs, f"round {n}: {counts}")
-            for job, result in zip(jobs, results):
+        by_key = {(series.solution, series.codec): series for series in plans}
+        waiting: dict[Series, int] = {}      # a series' jobs still running
+        done = Counter()                      # jobs finished, by stage
+        started, frames_before = time.perf_counter(), self.extracted_frames
+        initial = []
+        for series, plan in plans.items():
+            jobs = self.next_jobs(series, plan)
+            waiting[series] = len(jobs)
+            initial += jobs
+        bound = self.jobs_bound(plans)
+        with tqdm(total=bound, desc="points", unit="job", disable=not self.progress) as bar:
+            def follow(job: PointJob, result: dict) -> list[PointJob]:
+                self.account(result)
                 self.store(job, result, {"refined": True} if job.refined else {})
-            if n == 1:
-                self.announce_estimate(plans)
+                done[job.stage] += 1
+                bar.set_description("points: " + ", ".join(f"{n} {stage}" for stage, n in done.items()))
+                bar.update(1)
+                if sum(done.values()) == len(initial):
+                    self.announce_estimate(plans, time.perf_counter() - started,
+                                           self.extracted_frames - frames_before)
+                series = by_key[(job.solution, job.codec)]
+                waiting[series] -= 1
+                if waiting[series]:
+                    return []
+                jobs = self.next_jobs(series, plans[series])
+                waiting[series] = len(jobs)
+                return jobs
+
+            self.pool.stream(_run_job, initial, follow)
+            bar.total = bar.n              # a bound: the searches stopped early
+            bar.refresh()
+        self.round_s.append(("points: " + ", ".join(f"{n} {stage}" for stage, n in done.items()),
+                             time.perf_counter() - started, self.extracted_frames - frames_before))
 
     def match(self) -> list[dict]:
         """The matched record of every series measured (`measure_all`), with the lowest frame rate holding at its
@@ -756,12 +780,20 @@ class Study:
                   f"(at most {extractions} frame extractions) on {self.pool.workers} process"
                   f"{'es' if self.pool.workers > 1 else ''}")
 
-    def announce_estimate(self, plans: dict) -> None:
-        """The minutes the rest will take at most, from the first round's seconds per frame extracted."""
-        _, seconds, frames = self.round_s[-1]
+    def jobs_bound(self, plans: dict) -> int:
+        """The point jobs at most: per series every swept Q, its refinements and the frame rates, plus one job per
+        swept or refined point where extractions are added."""
+        jobs = 0
+        for series, plan in plans.items():
+            measured = len(self.qs(series)) + self.settings.refinements
+            jobs += measured + len(self.lower_rates()) + (measured if plan.extractions < self.settings.extractions else 0)
+        return jobs
+
+    def announce_estimate(self, plans: dict, seconds: float, frames: int) -> None:
+        """The minutes the rest will take at most, from the first jobs' seconds per frame extracted."""
         if frames:
             _, bound = self.cost_bound(plans)
-            self.note(f"first round: {frames} frame extractions in {seconds:.0f} s; the rest takes at most about "
+            self.note(f"first jobs: {frames} frame extractions in {seconds:.0f} s; the rest takes at most about "
                       f"{max(bound - frames, 0) * seconds / frames / 60:.1f} min")
 
     def matched_record(self, series: Series, found: matching.Match, criteria, fps_holds) -> dict:
@@ -892,7 +924,7 @@ def run(settings: CompareSettings, out_dir: str | Path, *, progress: bool = True
         if settings.anchor:
             with clock.stage("human anchor: the reference coded at Tran et al.'s point"):
                 study.add(study.anchor())
-        with clock.stage("points: Q search, refinements, added extractions, frame rates (rounds on the pool)"):
+        with clock.stage("points: Q search, refinements, added extractions, frame rates (streamed on the pool)"):
             study.measure_all()
             pool.close()
     with clock.stage("matching"):

@@ -15,6 +15,7 @@ unless progress=False.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
@@ -277,7 +278,8 @@ class StudyPool:
     that imported `preload` once; each runs initializer(*initargs) once, with LiteRT set to
     LANDMARK_THREADS_PER_WORKER threads), or, with one worker, here in order (initializer run here too, LiteRT threads
     left as they are). `run(function, jobs, done)` returns function(job) of every job, in the jobs' order, calling
-    done(index, result) as each finishes."""
+    done(index, result) as each finishes; `stream(function, jobs, follow)` also runs the jobs each finished one
+    leads to."""
 
     def __init__(self, workers: int, initializer: Callable, initargs: tuple, preload: tuple[str, ...] = ()):
         self.workers = max(1, int(workers))
@@ -313,6 +315,30 @@ class StudyPool:
                 future.cancel()
             raise
         return results
+
+    def stream(self, function: Callable, jobs: list, follow: Callable[[object, object], list]) -> None:
+        """Run jobs and, as each finishes, the jobs follow(job, function(job)) returns, until none is left: no
+        barrier between a job and the ones it leads to, so both cores stay busy while any work is known. follow is
+        called here, one finished job at a time, in the order they finish (with one worker: first in, first out)."""
+        if self.pool is None:
+            queue = deque(jobs)
+            while queue:
+                job = queue.popleft()
+                queue.extend(follow(job, function(job)))
+            return
+        from concurrent.futures import FIRST_COMPLETED, wait
+        running = {self.pool.submit(function, job): job for job in jobs}
+        try:
+            while running:
+                finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    job = running.pop(future)
+                    for new in follow(job, future.result()):
+                        running[self.pool.submit(function, new)] = new
+        except BaseException:
+            for future in running:
+                future.cancel()
+            raise
 
     @property
     def open(self) -> bool:
