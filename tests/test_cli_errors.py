@@ -319,9 +319,10 @@ def test_video_states_what_video_q_must_contain(tmp_path, capsys):
 
 
 def test_param_q_limits_the_seed_002_coders_alike_in_lab_and_params(tmp_path, capsys):
+    from comparisons.lab.codecs import codec_qs
     from pipeline.studies import lab, params
-    assert lab.codec_qs("dpcm", (2, 31)) == (2,) and lab.codec_qs("fba-pred", (2, 31)) == (2, 31)
-    assert lab.codec_qs("dpcm", None) == tuple(range(1, 8))
+    assert codec_qs("dpcm", (2, 31)) == (2,) and codec_qs("fba-pred", (2, 31)) == (2, 31)
+    assert codec_qs("dpcm", None) == tuple(range(1, 8))
     limited = lab.LabSettings(("ase",), ("dpcm", "fba-pred"), (2, 31), limit_coders=True)
     assert lab.total_points(limited) == 3
     assert lab.total_points(lab.LabSettings(("ase",), ("dpcm", "fba-pred"), (2, 31))) == 7 + 2   # lab's default

@@ -34,7 +34,7 @@ import numpy as np
 from comparisons.params import bap_table
 from comparisons.lab.streams import DEFAULT_STAGE, StreamReader, check_size
 from comparisons.params.fba_mapping import avatar_bap_map, baps_to_motion, motion_to_baps
-from comparisons.lab.settings import EVALUATION_LANGUAGES
+from comparisons.lab.settings import EVALUATION_LANGUAGES, MPEG4_Q
 from comparisons.lab.model import (GestureCoder, HybridCoder, PostureCoder, gesture_coder, hybrid_coder,
                                       load_model_tables, posture_coder)
 from comparisons.lab.vq import (TABLES_DIR, SpatialVQ, TemporalVQ, load_vq_tables, spatial_vq,
@@ -296,3 +296,21 @@ def alphabet_motion(language: str, fps: float = 25.0) -> Motion:
 def training_languages() -> list[str]:
     from media import lexicon
     return [language for language in lexicon.languages() if language not in EVALUATION_LANGUAGES]
+
+
+def codec_qs(name: str, qs: tuple[int, ...] | None) -> tuple[int, ...]:
+    """The Q values --param-q gives codec name, the same in params, lab and compare: qs for FBA/BBA; for a seed-002
+    coder, whose q is its operating point 1..N (1 = lowest rate), those of qs up to N (qs None: all N)."""
+    if name not in WAVEFORM_NAMES + MODEL_NAMES:
+        return tuple(MPEG4_Q if qs is None else qs)
+    count = len(LabCodec(name).settings())
+    return tuple(range(1, count + 1)) if qs is None else tuple(q for q in qs if 1 <= q <= count)
+
+
+def check_codec_qs(codecs, qs: tuple[int, ...] | None) -> None:
+    """Refuse a --param-q that leaves a codec nothing to measure."""
+    for name in codecs:
+        if not codec_qs(name, qs):
+            count = len(LabCodec(name).settings())
+            raise SigncastError(f"--param-q {','.join(map(str, qs))} holds none of {name}'s operating points 1..{count} "
+                                f"(a seed-002 coder's q is its operating point, 1 = lowest rate)")

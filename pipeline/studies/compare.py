@@ -61,7 +61,7 @@ from media.tiling import tile_videos
 from media.video_io import frame_indices_at_rate, write_video
 from pipeline.stages import StageClock
 from pipeline.studies import shared
-from pipeline.studies.session_cost import session_costs
+from pipeline.live.session_cost import session_costs
 from pipeline.studies.shared import DISPLAY_FPS, Scenario, ScenarioSettings, fit_length, render_frames, renderers
 
 __all__ = ["CompareSettings", "run", "check", "LOSSLESS", "SOURCE", "UNCODED_SUBJECTS", "PCK_MARGIN", "LETTER_MARGIN",

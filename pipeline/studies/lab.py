@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Callable
 
 from comparisons.reports.lab import charts, operating_ranges, points_rows, ranges_rows
-from comparisons.lab.codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec, alphabet_motion
+from comparisons.lab.codecs import MODEL_NAMES, WAVEFORM_NAMES, LabCodec, alphabet_motion, check_codec_qs, codec_qs
 from comparisons.lab.settings import DEFAULT_CODECS, EVALUATION_LANGUAGES, FPS, MPEG4_Q
 from comparisons.params.codecs import get_codec
 from comparisons.params.study import measure_point
@@ -33,24 +33,6 @@ class LabSettings:
     codecs: tuple[str, ...] = DEFAULT_CODECS
     mpeg4_q: tuple[int, ...] = MPEG4_Q
     limit_coders: bool = False
-
-
-def codec_qs(name: str, qs: tuple[int, ...] | None) -> tuple[int, ...]:
-    """The Q values --param-q gives codec name, the same in params, lab and compare: qs for FBA/BBA; for a seed-002
-    coder, whose q is its operating point 1..N (1 = lowest rate), those of qs up to N (qs None: all N)."""
-    if name not in WAVEFORM_NAMES + MODEL_NAMES:
-        return tuple(MPEG4_Q if qs is None else qs)
-    count = len(LabCodec(name).settings())
-    return tuple(range(1, count + 1)) if qs is None else tuple(q for q in qs if 1 <= q <= count)
-
-
-def check_codec_qs(codecs, qs: tuple[int, ...] | None) -> None:
-    """Refuse a --param-q that leaves a codec nothing to measure."""
-    for name in codecs:
-        if not codec_qs(name, qs):
-            count = len(LabCodec(name).settings())
-            raise SigncastError(f"--param-q {','.join(map(str, qs))} holds none of {name}'s operating points 1..{count} "
-                                f"(a seed-002 coder's q is its operating point, 1 = lowest rate)")
 
 
 def check(settings: LabSettings) -> None:

@@ -54,20 +54,20 @@ def check(settings: ParamsSettings) -> None:
         raise SigncastError(f"no codec given; known: {', '.join(codec_names())}")
     for name in settings.codecs:
         get_codec(name)
-    from pipeline.studies.lab import check_codec_qs
+    from comparisons.lab.codecs import check_codec_qs
     check_codec_qs(settings.codecs, settings.qs)
     settings.units()
 
 
 def count_points(settings: ParamsSettings) -> int:
-    from pipeline.studies.lab import codec_qs
+    from comparisons.lab.codecs import codec_qs
     return len(settings.units()) * sum(len(codec_qs(name, settings.qs)) for name in settings.codecs)
 
 
 def run(settings: ParamsSettings, out: str | Path, *, progress: Callable[[int], object] | None = None) -> list[dict]:
     """Measure every (letter, codec, Q); write the records, the table, the plots and the .bap files to out.
     progress: called with 1 after each point."""
-    from pipeline.studies.lab import codec_qs
+    from comparisons.lab.codecs import codec_qs
     check(settings)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
