@@ -53,3 +53,15 @@ def test_a_study_imports_no_other_study():
             if parts[:2] == ["pipeline", "studies"] and len(parts) > 2 and parts[2] in studies - {"shared", name}:
                 wrong.append(f"{name} imports {module}")
     assert not wrong, wrong
+
+
+def test_kernels_holds_what_its_docstring_lists():
+    """kernels/ is deform and raster: each of its public modules is named in kernels/__init__'s list (the Warp
+    twins, kernels/*_warp.py, and the errors module are covered by its closing lines)."""
+    import kernels
+    listed = kernels.__doc__
+    public = {path.stem for path in (ROOT / "kernels").glob("*.py")
+              if not path.stem.startswith("_") and not path.stem.endswith("_warp") and path.stem != "errors"}
+    assert {"skinning", "raster", "muscles"} <= public
+    assert not [stem for stem in sorted(public) if f"kernels.{stem}" not in listed]
+    assert "kernels/*_warp.py" in listed and "KernelError" in listed
