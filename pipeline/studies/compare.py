@@ -23,8 +23,8 @@ the matches, the frame-rate sweeps, and the files.
 """
 from __future__ import annotations
 
-from collections import Counter
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -713,12 +713,16 @@ class Study:
             waiting[series] = len(jobs)
             initial += jobs
         bound = self.jobs_bound(plans)
+
+        def finished() -> str:
+            return "points: " + ", ".join(f"{n} {stage}" for stage, n in done.items())
+
         with tqdm(total=bound, desc="points", unit="job", disable=not self.progress) as bar:
             def follow(job: PointJob, result: dict) -> list[PointJob]:
                 self.account(result)
                 self.store(job, result, {"refined": True} if job.refined else {})
                 done[job.stage] += 1
-                bar.set_description("points: " + ", ".join(f"{n} {stage}" for stage, n in done.items()))
+                bar.set_description(finished())
                 bar.update(1)
                 if sum(done.values()) == len(initial):
                     self.announce_estimate(plans, time.perf_counter() - started,
@@ -734,8 +738,7 @@ class Study:
             self.pool.stream(_run_job, initial, follow)
             bar.total = bar.n              # a bound: the searches stopped early
             bar.refresh()
-        self.round_s.append(("points: " + ", ".join(f"{n} {stage}" for stage, n in done.items()),
-                             time.perf_counter() - started, self.extracted_frames - frames_before))
+        self.round_s.append((finished(), time.perf_counter() - started, self.extracted_frames - frames_before))
 
     def match(self) -> list[dict]:
         """The matched record of every series measured (`measure_all`), with the lowest frame rate holding at its
