@@ -279,3 +279,21 @@ def test_the_answer_gives_one_plain_sentence_per_solution():
     assert "not readable at any swept point (best point 415.0 kbit/s as MPEG-4 Part 2, below the threshold)" in items[2]
     assert "readable from 9.6 kbit/s as fba-pred." in items[3]
     assert solution_lines([]) == ""
+
+
+def test_ceiling_tied_thresholds_are_listed_once_each_with_their_margins_in_order():
+    """A face-only threshold is the same at every margin: one line names all margins, in order, and "1 point" is
+    singular; thresholds that differ get a line each."""
+    import html
+
+    from comparisons.reports.headline import _thresholds, threshold_label
+    face = "aligned face error (interocular) <= 0.02372"
+    sens = [{"kind": "sensitivity", "threshold_name": "ceiling-tied", "pck_margin": m, "threshold": face}
+            for m in (2.0, 1.0, 3.0, 4.0)]
+    text = html.unescape(_thresholds(sens))
+    assert text.count(face) == 1 and "1, 2, 3, 4 points: " + face in text
+    hands = [{"kind": "sensitivity", "threshold_name": "ceiling-tied", "pck_margin": m,
+              "threshold": f"hand PCK@0.2 % >= {90 - m:g}"} for m in (2.0, 1.0)]
+    text = html.unescape(_thresholds(hands))
+    assert text.index("1 point: hand PCK@0.2 % >= 89") < text.index("2 points: hand PCK@0.2 % >= 88")
+    assert threshold_label({"threshold_name": "ceiling-tied", "pck_margin": 1.0}) == "ceiling-tied, 1 point"

@@ -38,7 +38,12 @@ def _finite(value) -> bool:
 def threshold_label(row: dict) -> str:
     """"human-anchored" or "ceiling-tied, 2 points"."""
     margin = row.get("pck_margin")
-    return row["threshold_name"] if margin is None else f"{row['threshold_name']}, {margin:g} points"
+    return row["threshold_name"] if margin is None else f"{row['threshold_name']}, {_points([margin])}"
+
+
+def _points(margins) -> str:
+    """PCK margins in percentage points as text: "2 points", "1 point", "1, 2, 3, 4 points"."""
+    return ", ".join(f"{m:g}" for m in margins) + (" point" if list(margins) == [1] else " points")
 
 
 def best_rates(rows: list[dict]) -> list[dict]:
@@ -241,7 +246,12 @@ def _thresholds(records: list[dict]) -> str:
                      "(ASSETS 2013; TACCESS 2015), read by the same extractor under the same shifts: "
                      + html.escape("; ".join(texts)) + ".")
     sens = [r for r in records if r.get("kind") == "sensitivity" and r.get("threshold_name") == "ceiling-tied"]
-    ceiling = list(dict.fromkeys(f"{r['pck_margin']:g} points: {r['threshold']}" for r in sens))
+    margins_of: dict[str, list[float]] = {}     # one line per distinct threshold (a face-only one is every margin's)
+    for r in sorted(sens, key=lambda r: r["pck_margin"]):
+        margins = margins_of.setdefault(r["threshold"], [])
+        if r["pck_margin"] not in margins:
+            margins.append(r["pck_margin"])
+    ceiling = [f"{_points(margins)}: {threshold}" for threshold, margins in margins_of.items()]
     if ceiling:
         lines.append("<strong>Ceiling-tied</strong> (the uncoded reference re-extracted, minus a margin): "
                      + html.escape("; ".join(ceiling)) + ".")
