@@ -77,6 +77,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -489,7 +490,7 @@ def write_stream(stream: BBAStream, skeleton: Skeleton | None = None) -> bytes:
         values = np.array([list(itertools.chain.from_iterable(map(frame.values.__getitem__, layout.bones)))
                            for frame in frames], dtype=np.int64).reshape(len(frames), len(layout.keys))
         kfi = np.array([frame.kfi for frame in frames], dtype=np.int64)
-        return _write_arrays(stream.header, frames[0].bones, kfi, values, skeleton)
+        return _write_arrays(stream.header, _MaskSet(frames[0].bones, skeleton), kfi, values, skeleton)
     units = _units(stream)
     intra_flags = _intra_flags(stream, units)
     bones = sorted({b for f in frames for b in f.bones})
@@ -546,7 +547,7 @@ def _range_choice(by_key: np.ndarray, carried: np.ndarray | None, intra: np.ndar
         fields = np.zeros((4, by_key.shape[1]), dtype=np.int64)
         fields[0], fields[1] = pc.range_fields(by_key[intra], q)
         fields[2], fields[3] = pc.range_fields(by_key[~intra], q)
-    if not np.all(fields <= pc.DEFAULT_RANGE_FIELD):
+    if fields.max(initial=0) > pc.DEFAULT_RANGE_FIELD:
         return fields, True
     default = np.full_like(fields, pc.DEFAULT_RANGE_FIELD)
     if carried is None:
@@ -599,7 +600,48 @@ def _array_tables(masks: tuple[tuple[int, int], ...], exponents: tuple[tuple[int
                         _bone_table_bits(masks, exponents))
 
 
-def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, values: np.ndarray,
+class _MaskSet(Mapping):
+    """A stream's one set of bone masks: boneID -> mask, read-only, in the order it was given (the encoder's: by each
+    bone's first sent value), with what `_write_arrays` derives from it for a skeleton: masks, the sorted (boneID,
+    mask) pairs, their `_Layout` and `_ArrayTables`. SigncastError for a boneID outside 0..1023."""
+
+    def __init__(self, bones: Mapping[int, int], skeleton: Skeleton) -> None:
+        self._bones = dict(bones)
+        if self._bones and (min(self._bones) < 0 or max(self._bones) > 1023):
+            raise SigncastError(f"boneID {next(b for b in self._bones if not 0 <= b <= 1023)} outside 0..1023")
+        self.masks = tuple(sorted(self._bones.items()))
+        exponents = _exponent_items(skeleton)
+        self.layout = _layout(self.masks, exponents)
+        self.tables = _array_tables(self.masks, exponents)
+
+    def __getitem__(self, bone: int) -> int:
+        return self._bones[bone]
+
+    def __iter__(self):
+        return iter(self._bones)
+
+    def __len__(self) -> int:
+        return len(self._bones)
+
+
+_MASK_SETS: dict[tuple[bytes, bytes], tuple[Skeleton, _MaskSet]] = {}
+
+
+def _mask_set_of(bone_ids: np.ndarray, masks: np.ndarray, skeleton: Skeleton) -> _MaskSet:
+    """The `_MaskSet` of bone_ids (M,) int64 with masks (M,) int64, in that order (cached: an encoder meets the same
+    few sets again and again, and hashing their bytes is cheaper than building the set)."""
+    key = (bone_ids.tobytes(), masks.tobytes())
+    cached = _MASK_SETS.get(key)
+    if cached is not None and cached[0] is skeleton:
+        return cached[1]
+    made = _MaskSet(dict(zip(bone_ids.tolist(), masks.tolist())), skeleton)
+    if len(_MASK_SETS) >= 256:
+        _MASK_SETS.clear()
+    _MASK_SETS[key] = (skeleton, made)
+    return made
+
+
+def _write_arrays(header: BBAHeader, bones: _MaskSet, kfi: np.ndarray, values: np.ndarray,
                   skeleton: Skeleton) -> bytes:
     """write_stream of a stream whose frames all carry the bone masks `bones` and no muscles, given as
     arrays: kfi (F,) int64 KeyFrameIndex of each frame, values (F, P) int64 in stream order (bones
@@ -616,15 +658,11 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
         raise SigncastError(f"KeyFrameIndex {int(kfi[bad])} outside 0..31")
     if header.coding == "dct" and any_kfi:
         raise SigncastError("the DCT BBA coder carries neither key frames nor muscles")
-    if bones and (min(bones) < 0 or max(bones) > 1023):
-        raise SigncastError(f"boneID {next(b for b in bones if not 0 <= b <= 1023)} outside 0..1023")
-    masks = tuple(sorted(bones.items()))
-    layout = _layout(masks, _exponent_items(skeleton))
+    masks, layout, mask_tables = bones.masks, bones.layout, bones.tables
     _check_size(int(numbers[-1]) + 1, len(layout.keys))
     if largest > VALUE_LIMIT:
         shown = "2**63 or more" if largest == np.iinfo(np.int64).max else largest
         raise SigncastError(f"a BBA bone value of magnitude {shown} is beyond +-{VALUE_LIMIT}")
-    mask_tables = _array_tables(masks, _exponent_items(skeleton))
     list_bits = mask_tables.list_bits
     q = header.q
     n_display = int(numbers[-1]) + 1
@@ -632,15 +670,14 @@ def _write_arrays(header: BBAHeader, bones: dict[int, int], kfi: np.ndarray, val
         intra = np.arange(n) % header.intra_period == 0
         levels = _predictive_levels(q, layout, values, intra)
         fields, tight = _range_choice(levels, None, intra, q)
-        low_i, high_i = pc.alphabet(fields[0], fields[1], q)
-        low_p, high_p = pc.alphabet(fields[2], fields[3], q)
-        sizes_i, sizes_p = high_i - low_i + 1, high_p - low_p + 1
-        for sizes in (sizes_i, sizes_p):                    # pc.make_models' checks
-            if np.any(sizes < 1):
-                raise SigncastError(f"an alphabet needs at least one symbol, got {int(sizes.min())}")
-            if np.any(sizes > pc.MAX_TOTAL // 2):
-                raise SigncastError(f"alphabet of {int(sizes.max())} symbols is too large for a frequency "
-                                    f"limit of {pc.MAX_TOTAL}")
+        lows, highs = pc.alphabet(fields[0::2], fields[1::2], q)        # (2, P): intra, predicted
+        sizes = highs - lows + 1
+        smallest, largest_size = int(sizes.min(initial=1)), int(sizes.max(initial=1))     # pc.make_models' checks
+        if smallest < 1:
+            raise SigncastError(f"an alphabet needs at least one symbol, got {smallest}")
+        if largest_size > pc.MAX_TOTAL // 2:
+            raise SigncastError(f"alphabet of {largest_size} symbols is too large for a frequency limit of {pc.MAX_TOTAL}")
+        low_i, low_p, sizes_i, sizes_p = lows[0], lows[1], sizes[0], sizes[1]
         header_bits = _bit_array(*_header_bits(header, n_display, len(masks), mask_tables.bone_table, tight))
         detail = np.zeros(4, dtype=np.int64)
         room = (2 * (len(header_bits) + 8 * fields.size) + len(list_bits) + 4 * 32 * (len(layout.keys) + 1) + 256)
@@ -1370,8 +1407,8 @@ def _to_euler(q: np.ndarray, order: str) -> np.ndarray:
 
 def _motion_arrays(motion: Motion, q: int, coding: str, keyframes: bool, threshold_rad: float | None,
                    intra_period: int | None, rotation_order: int, header_period: int, name: str,
-                   skeleton: Skeleton) -> tuple[BBAHeader, dict[int, int], np.ndarray, np.ndarray]:
-    """motion_to_stream's analysis as arrays: (header, boneID -> mask of every frame, kfi (K,) int64,
+                   skeleton: Skeleton) -> tuple[BBAHeader, _MaskSet, np.ndarray, np.ndarray]:
+    """motion_to_stream's analysis as arrays: (header, boneID -> mask of every frame (`_MaskSet`), kfi (K,) int64,
     values (K, P) int64 in stream order: bones sorted, bits ascending). The values and the mask are
     comparisons/params/bba_values.py `motion_values` (`_motion_arrays_numpy` is the same in NumPy; tests compare them)."""
     q = pc.check_q(q)
@@ -1390,9 +1427,9 @@ def _motion_arrays(motion: Motion, q: int, coding: str, keyframes: bool, thresho
     values, bones, masks, first_sent = split_kernel.motion_values(
         angles, np.ascontiguousarray(translation, dtype=np.float64), plan[1], plan[2], plan[3], q,
         bap_table.ROTATION_UNIT_RAD, bap_table.TRANSLATION_UNIT_M, ANGLE_PERIOD, *plan[5:])
-    # the mask dict in the order the NumPy form fills it (by each bone's first sent column)
+    # the masks in the order the NumPy form fills its dict (by each bone's first sent column)
     ranked = np.argsort(first_sent, kind="stable")
-    mask = dict(zip(bones[ranked].tolist(), masks[ranked].tolist()))
+    mask = _mask_set_of(bones[ranked], masks[ranked], skeleton)
     if intra_period is None:
         intra_period = DEFAULT_INTRA_PERIOD if coding == "pred" else DEFAULT_INTRA_SEGMENTS
     header = BBAHeader(name, motion.fps, coding, q, intra_period, keyframes, rotation_order, header_period)
