@@ -1,8 +1,6 @@
 """Numba kernels of the FAPs -> face-bone path (media/face_rig.py `face_bone_rotations`), as few calls per
-clip: `face_targets` (every bone's displacement from the FAP values), `turn_directions`, `turn_sides` and
-`turn_quaternions` (the jaw's and lids' turns around NumPy's arctan2 / arccos and arm products, which stay
-NumPy calls on the same arrays) and `eye_rotations`: compiled for speed (one pass over frames instead of dozens
-of small NumPy calls). tests/test_face_rig_speed.py compares them with the NumPy rig (media/face_rig.py
+clip: `face_targets` (every bone's displacement from the FAP values), `turns` (the lids' turns) and
+`eye_rotations`: compiled for speed (one pass over frames instead of dozens of small NumPy calls). tests/test_face_rig_speed.py compares them with the NumPy rig (media/face_rig.py
 `_face_bone_rotations_numpy`) on real FAPs of several languages within 1e-12 per quaternion component.
 """
 import math
@@ -106,66 +104,28 @@ def eye_rotations(eye_angles):
 
 
 @njit(cache=True)
-def turn_directions(displacements):
-    """media/face_rig.py `_turns`' first step: displacements (N, T, 3) metres -> (distance (N, T), unit direction
-    (N, T, 3)); distance |displacement|, direction the displacement
-    divided by max(distance, 1e-300)."""
+def turns(arms, reach, displacements):
+    """media/face_rig.py `_turns` compiled: the turns about each pivot that move the point at arms (N, 3) metres
+    from it (reach (N,) their lengths) by displacements (N, T, 3) metres -> (N, T, 4) quaternions (w, x, y, z). Per
+    frame: the direction d of the displacement (its length floored at 1e-300), along = d . arm, across = |arm -
+    along d|, the angle atan2(across, along) - arccos(clip((|displacement| + along) / reach, -1, 1)) about the
+    unit axis arm x d (the identity where they are parallel)."""
     n, m = displacements.shape[0], displacements.shape[1]
-    distance = np.empty((n, m))
-    direction = np.empty((n, m, 3))
-    for a in range(n):
-        for t in range(m):
-            x, y, z = displacements[a, t, 0], displacements[a, t, 1], displacements[a, t, 2]
-            d = math.sqrt(x * x + y * y + z * z)
-            distance[a, t] = d
-            d = max(d, 1e-300)
-            direction[a, t, 0], direction[a, t, 1], direction[a, t, 2] = x / d, y / d, z / d
-    return distance, direction
-
-
-@njit(cache=True)
-def turn_along(arms, direction):
-    """`_turns`' dot products: along (N, T) = (d0 a0 + d1 a1) + d2 a2 of each arm (N, 3) and its directions
-    (N, T, 3)."""
-    n, m = direction.shape[0], direction.shape[1]
-    along = np.empty((n, m))
-    for a in range(n):
-        for t in range(m):
-            along[a, t] = (direction[a, t, 0] * arms[a, 0] + direction[a, t, 1] * arms[a, 1]) + direction[a, t, 2] * arms[a, 2]
-    return along
-
-
-@njit(cache=True)
-def turn_sides(arms, direction, along, distance, reach):
-    """`_turns`' second step: across (N, T) = |arm - along direction| (the arm's part across the displacement)
-    and the clipped cosine (N, T) clip((distance + along) / reach, -1, 1), the arccos argument; arms (N, 3),
-    direction (N, T, 3), along and distance (N, T), reach (N,) (each arm's length)."""
-    n, m = direction.shape[0], direction.shape[1]
-    across = np.empty((n, m))
-    ratio = np.empty((n, m))
-    for a in range(n):
-        for t in range(m):
-            x = arms[a, 0] - along[a, t] * direction[a, t, 0]
-            y = arms[a, 1] - along[a, t] * direction[a, t, 1]
-            z = arms[a, 2] - along[a, t] * direction[a, t, 2]
-            across[a, t] = math.sqrt(x * x + y * y + z * z)
-            ratio[a, t] = min(max((distance[a, t] + along[a, t]) / reach[a], -1.0), 1.0)
-    return across, ratio
-
-
-@njit(cache=True)
-def turn_quaternions(arms, direction, angle):
-    """`_turns`' last step: (N, T, 4) quaternions (w, x, y, z) of the turns by angle (N, T) radians about
-    the unit axis arm x direction (the identity where they are parallel)."""
-    n, m = direction.shape[0], direction.shape[1]
     rotvec = np.empty((n * m, 3))
     for a in range(n):
         a0, a1, a2 = arms[a, 0], arms[a, 1], arms[a, 2]
         for t in range(m):
-            b0, b1, b2 = direction[a, t, 0], direction[a, t, 1], direction[a, t, 2]
+            x, y, z = displacements[a, t, 0], displacements[a, t, 1], displacements[a, t, 2]
+            distance = math.sqrt(x * x + y * y + z * z)
+            floor = max(distance, 1e-300)
+            b0, b1, b2 = x / floor, y / floor, z / floor
+            along = (b0 * a0 + b1 * a1) + b2 * a2
+            c0, c1, c2 = a0 - along * b0, a1 - along * b1, a2 - along * b2
+            across = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+            ratio = min(max((distance + along) / reach[a], -1.0), 1.0)
+            angle = math.atan2(across, along) - math.acos(ratio)
             x, y, z = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
             norm = max(math.sqrt(x * x + y * y + z * z), 1e-300)
             row = a * m + t
-            g = angle[a, t]
-            rotvec[row, 0], rotvec[row, 1], rotvec[row, 2] = x / norm * g, y / norm * g, z / norm * g
+            rotvec[row, 0], rotvec[row, 1], rotvec[row, 2] = x / norm * angle, y / norm * angle, z / norm * angle
     return from_rotvec(rotvec).reshape((n, m, 4))

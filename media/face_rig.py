@@ -205,8 +205,8 @@ def face_bone_rotations(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> dic
 
     faps: (T, 68) integers, index = FAP id - 1, in FAPU (or 1e-5 rad). skeleton: the MakeHuman rig at rest.
     fapu: this face's units (`avatar_fapu`). Returns bone name -> (T, 4) float64 unit quaternions (w, x, y, z);
-    all-zero FAPs give identity rotations. The displacements, turns and eyes are compiled (media/face_bones.py;
-    arctan2, arccos and the arms' products stay NumPy's); `_face_bone_rotations_numpy` is the NumPy form.
+    all-zero FAPs give identity rotations. The displacements, turns and eyes are compiled (media/face_bones.py);
+    `_face_bone_rotations_numpy` is the NumPy form.
     """
     names, quaternions = _face_bone_quaternions(faps, skeleton, fapu)
     return {name: quaternions[:, k] for k, name in enumerate(names)}
@@ -221,10 +221,7 @@ def _face_bone_quaternions(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> 
     values = np.ascontiguousarray(faps, dtype=np.float64)          # integers: exact
     turned, eye_angles, head, tail, jaw = bones_kernel.face_targets(
         values, _TARGET_COLUMNS, rig.units, rig.shares, ANGLE_UNIT_RAD)
-    distance, direction = bones_kernel.turn_directions(turned)
-    along = bones_kernel.turn_along(rig.arms, direction)
-    across, ratio = bones_kernel.turn_sides(rig.arms, direction, along, distance, rig.reach)
-    lids = bones_kernel.turn_quaternions(rig.arms, direction, np.arctan2(across, along) - np.arccos(ratio))
+    lids = bones_kernel.turns(rig.arms, rig.reach, turned)
     quaternions = np.empty((len(faps), len(rig.names), 4))
     quaternions[:, _LID_COLUMNS] = lids.swapaxes(0, 1)
     quaternions[:, _EYE_COLUMNS] = bones_kernel.eye_rotations(eye_angles).swapaxes(0, 1)
@@ -235,7 +232,7 @@ def _face_bone_quaternions(faps: np.ndarray, skeleton: Skeleton, fapu: Fapu) -> 
 
 # The turned bones' columns in `_face_bone_quaternions`: the jaw, then per side (L, R) the lids and the eye.
 _TURNED_NAMES = ("jaw",) + tuple(f"{bone}.{side}" for side in SIDES for bone in ("orbicularis03", "orbicularis04", "eye"))
-_LID_COLUMNS = np.array([0, 1, 2, 4, 5])          # media/face_bones.py turn_quaternions' order
+_LID_COLUMNS = np.array([0, 1, 2, 4, 5])          # media/face_bones.py turns' order
 _EYE_COLUMNS = np.array([3, 6])
 
 
