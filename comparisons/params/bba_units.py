@@ -220,13 +220,14 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
                                                                    animatable, bone_ids, bone_masks, scratch)
         if status:
             return FALLBACK
+        # one call site of the windowed decoder, `fresh` a run-time flag: a literal True and False would compile it
+        # twice, and inline it twice here
+        windowed = False
         if intra:
             sparse = True                          # fresh predicted models
             for p in range(n_values):
                 totals[p], used[p] = sizes_p[p], 0
-            if coded_i:                            # fresh intra models, each coding one level
-                status, pos, run, _ = decode_frame_window(data, end_bit, pos, run, 0, counts_p, tree_p, scalars_i,
-                                                         offsets_p, members, levels, 0, True)
+            windowed = coded_i                     # fresh intra models, each coding one level
         elif coded_p:
             if sparse:
                 for p in range(n_values):
@@ -242,8 +243,12 @@ def read_predictive_units(data, starts, ends, group_start, animatable, bone_ids,
                 status, pos, run = _sparse_window(data, end_bit, pos, run, sizes_p, totals, keys, extra, used, limit,
                                                   levels)
             else:
-                status, pos, run, _ = decode_frame_window(data, end_bit, pos, run, 0, counts_p, tree_p, scalars_p,
-                                                         offsets_p, members, levels, 0, False)
+                windowed = True
+        if windowed:
+            fresh = intra != 0
+            status, pos, run, _ = decode_frame_window(data, end_bit, pos, run, 0, counts_p, tree_p,
+                                                     scalars_i if fresh else scalars_p, offsets_p, members, levels, 0,
+                                                     fresh)
         if status:
             return FALLBACK
         if not (coded_i if intra else coded_p):

@@ -205,12 +205,12 @@ def write_predictive_stream(buffer, header_bits, tight: bool, fields, range_bits
             return STATUS_FULL
         pos, run, start, n_intra = _unit_head(buffer, pos, header_bits, tight, fields, range_bits, header_period,
                                               n_intra, intra[u], numbers[u], kfi[u], 0, list_bits)
-        if intra[u]:
+        fresh = intra[u] != 0                     # a run-time flag: a literal True and False compile twice
+        if fresh:
             n_coded[:] = 0
-            if coded_i:
-                pos, run = _encode_levels(buffer, pos, run, levels, u, low_i, sizes_i, True, coded, n_coded)
-        elif coded_p:
-            pos, run = _encode_levels(buffer, pos, run, levels, u, low_p, sizes_p, False, coded, n_coded)
+        if coded_i if fresh else coded_p:
+            pos, run = _encode_levels(buffer, pos, run, levels, u, low_i if fresh else low_p,
+                                      sizes_i if fresh else sizes_p, fresh, coded, n_coded)
         pos = _unit_tail(buffer, pos, run, start)
     return _start_code(buffer, pos, END_CODE)
 
