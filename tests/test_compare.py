@@ -140,12 +140,13 @@ def test_each_solution_is_matched_between_its_bracketing_points(result):
     operating = {r["solution"] for r in result.operating}
     assert operating == SOLUTIONS
     stages = [r for r in result.records if r.get("kind") == "stage"]
-    # the stages are the run: their times add up to the fixture's wall time, none empty (measured 21.7 of 23.1 s idle; what
-    # follows the last stage, records.jsonl and the report, took 1.4 s: the page cannot time itself, since `signcast
-    # report` remakes the same page from the records)
+    # the stages are the run: none empty, their times within the fixture's wall time and most of it. What follows the
+    # last stage, records.jsonl and the report, is not a stage (the page cannot time itself, since `signcast report`
+    # remakes the same page from the records): measured 1.4 of 23.1 s idle, 2.5 of 24.8 s on a loaded CI machine, so
+    # the bound leaves it room on a slow one.
     total = sum(s["wall_s"] for s in stages)
     assert len(stages) >= 5 and all(s["wall_s"] > 0 for s in stages)
-    assert 0.9 * RUN_WALL_S["compare"] <= total <= RUN_WALL_S["compare"]
+    assert 0.75 * RUN_WALL_S["compare"] <= total <= RUN_WALL_S["compare"]
 
 
 @pytest.mark.slow
