@@ -1,7 +1,8 @@
 """Numba kernels of the FAPs -> face-bone path (media/face_rig.py `face_bone_rotations`), as few calls per
 clip: `face_targets` (every bone's displacement from the FAP values), `turns` (the lids' turns) and
-`eye_rotations`: compiled for speed (one pass over frames instead of dozens of small NumPy calls). tests/test_face_rig_speed.py compares them with the NumPy rig (media/face_rig.py
-`_face_bone_rotations_numpy`) on real FAPs of several languages within 1e-12 per quaternion component.
+`eye_rotations`: compiled for speed (one pass over frames instead of dozens of small NumPy calls).
+tests/test_face_rig_speed.py compares them with the NumPy rig (media/face_rig.py `_face_bone_rotations_numpy`) on
+real FAPs of several languages within 1e-12 per quaternion component.
 """
 import math
 
